@@ -1,0 +1,11 @@
+//! Command layer: one function per subcommand, joining the stages and turning their reports into
+//! an exit code. Stages never call each other; this layer does.
+
+use std::process::ExitCode;
+
+use crate::cli::Cli;
+
+/// Run one parsed command line.
+pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    match cli.command {}
+}

@@ -1,0 +1,12 @@
+//! The PAC2002 / Magic Formula 5.2 tire model: coefficients, steady-state evaluation in ISO-W
+//! axes, derivatives with respect to the coefficients, and the `.tir` property-file format.
+//!
+//! Pure code: no file system, no serde, no Arrow. Reading a `.tir` takes a `&str`.
+
+pub mod pac2002;
+pub mod params;
+pub mod real;
+
+pub use pac2002::{Evaluation, Mode, Pac2002, SlipInput, TrailPeak};
+pub use params::{Coef, Coefs, Section};
+pub use real::{Dual, Real};
