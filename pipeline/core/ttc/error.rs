@@ -142,3 +142,10 @@ pub(crate) fn excerpt(bytes: &[u8], max: usize) -> String {
     }
     out
 }
+
+/// A name from the file made safe for a one-line message: control characters escaped, at most
+/// 40 characters.
+pub(crate) fn printable(text: &str) -> String {
+    let escaped: String = text.chars().flat_map(char::escape_debug).collect();
+    excerpt(escaped.as_bytes(), 40)
+}

@@ -191,6 +191,23 @@ impl Unit {
         }
     }
 
+    /// The inverse of [`Unit::to_canonical`]: a canonical value expressed in this unit (what a
+    /// writer of US customary files needs).
+    pub fn from_canonical(self, value: f64) -> f64 {
+        match self {
+            Unit::Second | Unit::Kph | Unit::Rpm | Unit::KiloPascal => value,
+            Unit::Newton | Unit::NewtonMetre | Unit::DegC | Unit::Dimensionless => value,
+            Unit::Mph => value / MPH_TO_KPH,
+            Unit::Degree => value / DEG_TO_RAD,
+            Unit::Inch => value / INCH_TO_M,
+            Unit::Centimetre => value / CM_TO_M,
+            Unit::Psi => value / PSI_TO_KPA,
+            Unit::PoundForce => value / LBF_TO_N,
+            Unit::FootPound => value / FT_LBF_TO_NM,
+            Unit::DegF => value * (9.0 / 5.0) + 32.0,
+        }
+    }
+
     /// Convert a whole column in place to the canonical unit.
     pub fn convert_in_place(self, column: &mut [f64]) {
         if self.is_canonical() {
@@ -249,6 +266,16 @@ mod tests {
         assert!(close(Unit::DegF.to_canonical(212.0), 100.0));
         assert!(close(Unit::DegF.to_canonical(-40.0), -40.0));
         assert!(close(Unit::Degree.to_canonical(180.0), PI));
+    }
+
+    #[test]
+    fn from_canonical_inverts_to_canonical() {
+        for (_, unit) in Unit::spellings() {
+            for value in [-273.0, -1.5, 0.0, 0.25, 98.6, 1557.0] {
+                let back = unit.to_canonical(unit.from_canonical(value));
+                assert!((back - value).abs() <= 1e-12 * value.abs().max(1.0), "{unit:?} {value}");
+            }
+        }
     }
 
     #[test]

@@ -16,6 +16,7 @@ pub use write::{Compression, MatWriteError, MatWriter};
 
 use super::build::{SourceColumn, build};
 use super::dat::checked_unit;
+use super::error::printable;
 use super::{Channel, ColumnInfo, RunMeta, RunTable, SourceFormat, TtcError, Unit};
 
 /// The class a numeric array had in MATLAB (storage may use a smaller type; values are `f64`).
@@ -201,7 +202,7 @@ fn run_from_variables(
 ) -> Result<RunTable, TtcError> {
     let variable_error = |name: &str, message: String| TtcError::MatVariable {
         source_name: source_name.to_string(),
-        name: name.to_string(),
+        name: printable(name),
         message,
     };
     let mut meta = RunMeta {
@@ -279,7 +280,7 @@ fn run_from_variables(
                 let unit = checked_unit(channel, &entry.unit).map_err(|message| TtcError::Unit {
                     source_name: source_name.to_string(),
                     location: format!("variable channel, units{{{}}}", entry.index + 1),
-                    channel: name.clone(),
+                    channel: printable(&name),
                     message,
                 })?;
                 (entry.unit.clone(), Some(unit))

@@ -11,7 +11,7 @@ use flate2::{Decompress, FlushDecompress, Status};
 
 use super::{MatValue, MatVariable, NumericClass};
 use crate::ttc::TtcError;
-use crate::ttc::error::excerpt;
+use crate::ttc::error::{excerpt, printable};
 
 /// Size of the MAT-file header.
 pub(super) const HEADER_LEN: usize = 128;
@@ -146,8 +146,8 @@ impl Context<'_> {
             source_name: self.source_name.to_string(),
             element: self
                 .name
-                .clone()
-                .unwrap_or_else(|| format!("#{}", self.index)),
+                .as_deref()
+                .map_or_else(|| format!("#{}", self.index), printable),
             offset: self.offset,
             message,
         }
@@ -155,18 +155,32 @@ impl Context<'_> {
 }
 
 /// One top-level element (`miMATRIX`, or `miCOMPRESSED` holding one); returns the variable and
-/// the bytes consumed including padding.
+/// the bytes consumed including padding. On failure before the array name was read, the name
+/// is recovered from whatever bytes are there, so the error can still name the variable.
 fn top_level_element(
     rest: &[u8],
     big_endian: bool,
     context: &mut Context,
 ) -> Result<(MatVariable, usize), String> {
+    let result = decode_top_level(rest, big_endian, &mut context.name);
+    if result.is_err() && context.name.is_none() {
+        context.name = peek_name(rest, big_endian);
+    }
+    result
+}
+
+fn decode_top_level(
+    rest: &[u8],
+    big_endian: bool,
+    name: &mut Option<String>,
+) -> Result<(MatVariable, usize), String> {
     let mut cursor = Cursor::new(rest, big_endian);
     let (data_type, data) = cursor.element("top-level element")?;
     let variable = match data_type {
-        MI_MATRIX => matrix(data, big_endian, 0, &mut context.name)?,
+        MI_MATRIX => matrix(data, big_endian, 0, name)?,
         MI_COMPRESSED => {
-            let inflated = inflate(data)?;
+            let (inflated, status) = inflate(data);
+            status?;
             let mut inner = Cursor::new(&inflated, big_endian);
             let (inner_type, inner_data) = inner.element("compressed element")?;
             if inner_type != MI_MATRIX {
@@ -175,7 +189,7 @@ fn top_level_element(
                     type_name(inner_type)
                 ));
             }
-            matrix(inner_data, big_endian, 0, &mut context.name)?
+            matrix(inner_data, big_endian, 0, name)?
         }
         other => {
             return Err(format!(
@@ -193,8 +207,30 @@ fn top_level_element(
     Ok((variable, consumed))
 }
 
-/// Inflate a zlib stream, insisting on its end marker.
-fn inflate(data: &[u8]) -> Result<Vec<u8>, String> {
+/// Best-effort array name of a damaged top-level element (for error messages only).
+fn peek_name(rest: &[u8], big_endian: bool) -> Option<String> {
+    let head = Cursor::new(rest.get(..8)?, big_endian);
+    let available = &rest[8..];
+    let body = match head.u32_at(0) {
+        MI_MATRIX => available.to_vec(),
+        MI_COMPRESSED => {
+            let declared = head.u32_at(4) as usize;
+            let (inflated, _) = inflate(&available[..declared.min(available.len())]);
+            inflated.get(8..)?.to_vec()
+        }
+        _ => return None,
+    };
+    let mut cursor = Cursor::new(&body, big_endian);
+    cursor.element("array flags").ok()?;
+    cursor.element("dimensions").ok()?;
+    let (data_type, name) = cursor.element("array name").ok()?;
+    (matches!(data_type, MI_INT8 | MI_UINT8 | MI_UTF8) && !name.is_empty())
+        .then(|| String::from_utf8_lossy(name).into_owned())
+}
+
+/// Inflate a zlib stream, insisting on its end marker. Returns what was inflated even on
+/// failure (used to recover a variable name for the message).
+fn inflate(data: &[u8]) -> (Vec<u8>, Result<(), String>) {
     let mut decoder = Decompress::new(true);
     let mut out: Vec<u8> = Vec::with_capacity(data.len().saturating_mul(4).max(64));
     loop {
@@ -203,19 +239,22 @@ fn inflate(data: &[u8]) -> Result<Vec<u8>, String> {
         }
         let (in_before, out_before) = (decoder.total_in(), decoder.total_out());
         let consumed = usize::try_from(in_before).unwrap_or(usize::MAX).min(data.len());
-        let status = decoder
-            .decompress_vec(&data[consumed..], &mut out, FlushDecompress::None)
-            .map_err(|e| format!("zlib stream is corrupt: {e}"))?;
+        let status = match decoder.decompress_vec(&data[consumed..], &mut out, FlushDecompress::None)
+        {
+            Ok(status) => status,
+            Err(e) => return (out, Err(format!("zlib stream is corrupt: {e}"))),
+        };
         if status == Status::StreamEnd {
-            return Ok(out);
+            return (out, Ok(()));
         }
         let progressed = decoder.total_in() != in_before || decoder.total_out() != out_before;
         if !progressed && out.len() < out.capacity() {
-            return Err(format!(
+            let message = format!(
                 "zlib stream ends before its end marker after {} of {} bytes (truncated?)",
                 decoder.total_in(),
                 data.len()
-            ));
+            );
+            return (out, Err(message));
         }
     }
 }
