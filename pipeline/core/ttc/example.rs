@@ -45,13 +45,43 @@ impl RoundStyle {
         let uscs = matches!(self, RoundStyle::R4Uscs | RoundStyle::R8Uscs);
         let r4 = matches!(self, RoundStyle::R4Uscs | RoundStyle::R4Si);
         match channel {
-            Channel::Et => if r4 { "sec" } else { "s" },
-            Channel::V => if uscs { "mph" } else { "kph" },
+            Channel::Et => {
+                if r4 {
+                    "sec"
+                } else {
+                    "s"
+                }
+            }
+            Channel::V => {
+                if uscs {
+                    "mph"
+                } else {
+                    "kph"
+                }
+            }
             Channel::N => "rpm",
             Channel::Sa | Channel::Ia => "deg",
-            Channel::Rl | Channel::Re => if uscs { "in" } else { "cm" },
-            Channel::P => if uscs { "psi" } else { "kPa" },
-            Channel::Fx | Channel::Fy | Channel::Fz => if uscs { "lb" } else { "N" },
+            Channel::Rl | Channel::Re => {
+                if uscs {
+                    "in"
+                } else {
+                    "cm"
+                }
+            }
+            Channel::P => {
+                if uscs {
+                    "psi"
+                } else {
+                    "kPa"
+                }
+            }
+            Channel::Fx | Channel::Fy | Channel::Fz => {
+                if uscs {
+                    "lb"
+                } else {
+                    "N"
+                }
+            }
             Channel::Mx | Channel::Mz => match self {
                 RoundStyle::R9Si => "Nm",
                 RoundStyle::R4Si => "N-m",
@@ -69,7 +99,13 @@ impl RoundStyle {
                 RoundStyle::R8Uscs => "deg f",
                 RoundStyle::R9Si => "deg c",
             },
-            Channel::Sr => if r4 { "none" } else { "SAE" },
+            Channel::Sr => {
+                if r4 {
+                    "none"
+                } else {
+                    "SAE"
+                }
+            }
             Channel::Sl => "SAE",
         }
     }
@@ -118,7 +154,7 @@ pub fn example_value(channel: Channel, i: usize, rate_hz: f64) -> f64 {
     let t = i as f64 / rate_hz;
     let sa_deg = 12.0 * (t * 0.5).sin();
     let fz = -1112.06 + 30.0 * (t * 3.0).sin();
-    let fy = 2.4 * fz * (sa_deg.to_radians() * 8.0).atan().sin() * -1.0;
+    let fy = -2.4 * fz * (sa_deg.to_radians() * 8.0).atan().sin();
     let fx = 40.0 * (t * 0.7).cos();
     match channel {
         Channel::Et => 26.84 + t,
@@ -186,25 +222,49 @@ pub fn example_mat(rows: usize, compression: Compression) -> Vec<u8> {
         let rounded: Vec<f64> = column
             .values
             .iter()
-            .map(|v| format!("{:.*}", column.decimals, v).parse().expect("number"))
+            .map(|v| {
+                format!("{:.*}", column.decimals, v)
+                    .parse()
+                    .expect("number")
+            })
             .collect();
-        let name = if column.name == "AmbTmp" { "AMBTMP" } else { &column.name };
+        let name = if column.name == "AmbTmp" {
+            "AMBTMP"
+        } else {
+            &column.name
+        };
         writer
             .push_column(name, &rounded, compression)
             .expect("valid column");
     }
     let run: Vec<u8> = vec![7; rows];
-    writer.push_uint8_column("RUN", &run, compression).expect("valid RUN");
+    writer
+        .push_uint8_column("RUN", &run, compression)
+        .expect("valid RUN");
     let names: Vec<&str> = columns
         .iter()
-        .map(|c| if c.name == "AmbTmp" { "AMBTMP" } else { c.name.as_str() })
+        .map(|c| {
+            if c.name == "AmbTmp" {
+                "AMBTMP"
+            } else {
+                c.name.as_str()
+            }
+        })
         .collect();
     let units: Vec<&str> = columns.iter().map(|c| c.unit.as_str()).collect();
     writer
-        .push_struct_of_text_cells("channel", &[("name", &names), ("units", &units)], compression)
+        .push_struct_of_text_cells(
+            "channel",
+            &[("name", &names), ("units", &units)],
+            compression,
+        )
         .expect("valid channel struct");
-    writer.push_text("source", "example", compression).expect("valid text");
-    writer.push_text("testid", "Cornering", compression).expect("valid text");
+    writer
+        .push_text("source", "example", compression)
+        .expect("valid text");
+    writer
+        .push_text("testid", "Cornering", compression)
+        .expect("valid text");
     writer
         .push_text("tireid", "Example 18.0x6.0-10 R20, 7 inch rim", compression)
         .expect("valid text");

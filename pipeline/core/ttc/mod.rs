@@ -34,10 +34,10 @@
 //!   a warning. A short row anywhere else is an error.
 
 mod build;
-pub mod example;
 pub mod channel;
 pub mod dat;
 pub mod error;
+pub mod example;
 pub mod float;
 pub mod mat;
 pub mod units;

@@ -75,9 +75,16 @@ fn every_round_style_reads_back_in_si_and_iso_w() {
                 }
             }
             let fz_mean = run.tire.fz_n.iter().sum::<f64>() / rows as f64;
-            assert!(fz_mean > 1000.0, "{style:?}: ISO-W Fz must be positive, mean {fz_mean}");
+            assert!(
+                fz_mean > 1000.0,
+                "{style:?}: ISO-W Fz must be positive, mean {fz_mean}"
+            );
             assert_close("sample rate", run.meta.sample_rate_hz.unwrap(), rate, 1e-6);
-            let expected_kappa = if with_sl { KappaSource::Sl } else { KappaSource::NoSl };
+            let expected_kappa = if with_sl {
+                KappaSource::Sl
+            } else {
+                KappaSource::NoSl
+            };
             assert_eq!(run.meta.kappa_source, Some(expected_kappa));
             if with_sl {
                 assert_eq!(run.tire.kappa, run.sl.clone().unwrap());
@@ -92,7 +99,11 @@ fn every_round_style_reads_back_in_si_and_iso_w() {
 
 #[test]
 fn header_fields_and_unit_systems_per_round() {
-    let r4 = read_dat(&example_dat(RoundStyle::R4Uscs, 5, false), "A1320run125.dat").unwrap();
+    let r4 = read_dat(
+        &example_dat(RoundStyle::R4Uscs, 5, false),
+        "A1320run125.dat",
+    )
+    .unwrap();
     assert_eq!((r4.meta.project, r4.meta.run), (Some(1320), Some(125)));
     assert_eq!(r4.meta.iso_flag, None);
     assert_eq!(r4.meta.unit_system(), Some(UnitSystem::Uscs));
@@ -101,9 +112,22 @@ fn header_fields_and_unit_systems_per_round() {
     // Round-4 SI: every unit SI except AMBTMP in deg F -> mixed, and per-column systems say so.
     let r4si = read_dat(&example_dat(RoundStyle::R4Si, 5, false), "B1320run125.dat").unwrap();
     assert_eq!(r4si.meta.unit_system(), None);
-    let amb = r4si.meta.columns.iter().find(|c| c.name == "AMBTMP").unwrap();
-    assert_eq!((amb.unit, amb.system), (Some(Unit::DegF), Some(UnitSystem::Uscs)));
-    assert_close("AMBTMP degC", r4si.ambient_temp_c.as_ref().unwrap()[0], 24.0, 0.003);
+    let amb = r4si
+        .meta
+        .columns
+        .iter()
+        .find(|c| c.name == "AMBTMP")
+        .unwrap();
+    assert_eq!(
+        (amb.unit, amb.system),
+        (Some(Unit::DegF), Some(UnitSystem::Uscs))
+    );
+    assert_close(
+        "AMBTMP degC",
+        r4si.ambient_temp_c.as_ref().unwrap()[0],
+        24.0,
+        0.003,
+    );
 
     let r8 = read_dat(&example_dat(RoundStyle::R8Uscs, 5, false), "x.dat").unwrap();
     assert_eq!((r8.meta.project, r8.meta.run), (Some(1965), Some(51)));
@@ -114,7 +138,10 @@ fn header_fields_and_unit_systems_per_round() {
     assert!(r8.meta.columns.iter().any(|c| c.name == "AmbTmp"));
 
     let r9 = read_dat(&example_dat(RoundStyle::R9Si, 5, false), "x.dat").unwrap();
-    assert_eq!(r9.meta.tire_name.as_deref(), Some("Example 16.0X7.5-10, R20, C2000"));
+    assert_eq!(
+        r9.meta.tire_name.as_deref(),
+        Some("Example 16.0X7.5-10, R20, C2000")
+    );
     assert_eq!(r9.meta.rim_width_in, Some(7.0));
     assert_eq!(r9.meta.unit_system(), Some(UnitSystem::Si));
 }
@@ -130,7 +157,7 @@ sec\tmph\trpm\tdeg\tdeg\tin\tin\tpsi\tlb\tlb\tlb\tft-lb\tft-lb\tnone\tnone\tdeg 
 fn us_customary_values_convert_to_si_iso_w() {
     let run = read_dat(R4_USCS_TWO_ROWS.as_bytes(), "A1320run125.dat").unwrap();
     let t = &run.tire;
-    assert_close("Fz 250 lb", t.fz_n[0], 1112.055_403_815_125, 1e-9);
+    assert_close("Fz 250 lb", t.fz_n[0], 1_112.055_403_815_125, 1e-9);
     assert_close("Fy", t.fy_n[0], 150.0 * 4.448_221_615_260_5, 1e-9);
     assert_close("Fx", t.fx_n[0], 3.0 * 4.448_221_615_260_5, 1e-9);
     assert_close("Mx", t.mx_nm[0], 10.0 * 1.355_817_948_331_400_4, 1e-9);
@@ -139,9 +166,24 @@ fn us_customary_values_convert_to_si_iso_w() {
     assert_close("gamma = IA", t.gamma_rad[0], 2f64.to_radians(), 1e-15);
     assert_close("V", run.speed_kph[0], 40.2336, 1e-9);
     assert_close("P", run.pressure_kpa[0], 82.737_087_518_020_33, 1e-9);
-    assert_close("RL", run.loaded_radius_m.as_ref().unwrap()[0], 0.2159, 1e-12);
-    assert_close("TSTC", run.tread_centre_temp_c.as_ref().unwrap()[0], 57.222_222_222, 1e-6);
-    assert_close("AMBTMP", run.ambient_temp_c.as_ref().unwrap()[0], 25.0, 1e-12);
+    assert_close(
+        "RL",
+        run.loaded_radius_m.as_ref().unwrap()[0],
+        0.2159,
+        1e-12,
+    );
+    assert_close(
+        "TSTC",
+        run.tread_centre_temp_c.as_ref().unwrap()[0],
+        57.222_222_222,
+        1e-6,
+    );
+    assert_close(
+        "AMBTMP",
+        run.ambient_temp_c.as_ref().unwrap()[0],
+        25.0,
+        1e-12,
+    );
     assert_close("ET start", run.et_s[0], 26.84, 1e-12);
     assert_eq!(run.meta.kappa_source, Some(KappaSource::NoSl));
     assert!(t.my_nm.is_empty());
@@ -157,13 +199,22 @@ fn iso_true_file_is_taken_as_iso_w_without_flipping() {
         .replace("-250.00", "250.00");
     let run = read_dat(text.as_bytes(), "iso.dat").unwrap();
     assert_eq!(run.meta.iso_flag, Some(true));
-    assert_close("Fz kept", run.tire.fz_n[0], 1112.055_403_815_125, 1e-9);
-    assert_close("alpha kept", run.tire.alpha_rad[0], -4f64.to_radians(), 1e-15);
+    assert_close("Fz kept", run.tire.fz_n[0], 1_112.055_403_815_125, 1e-9);
+    assert_close(
+        "alpha kept",
+        run.tire.alpha_rad[0],
+        -4f64.to_radians(),
+        1e-15,
+    );
     assert!(run.meta.warnings.is_empty(), "{:?}", run.meta.warnings);
     // The same file flagged ISO but with SAE loads is suspicious, and says so.
     let wrong = R4_USCS_TWO_ROWS.replace("Run 125", "Run 125; ISO True");
     let run = read_dat(wrong.as_bytes(), "iso.dat").unwrap();
-    assert!(run.meta.warnings.iter().any(|w| w.contains("FZ")), "{:?}", run.meta.warnings);
+    assert!(
+        run.meta.warnings.iter().any(|w| w.contains("FZ")),
+        "{:?}",
+        run.meta.warnings
+    );
 }
 
 #[test]
@@ -183,7 +234,13 @@ fn spreadsheet_damage_crlf_bom_and_missing_final_newline_are_accepted() {
                     let t = cell.trim_end_matches('0');
                     t.strip_suffix('.').unwrap_or(t).to_string()
                 })
-                .map(|c| if c.is_empty() || c == "-" { "0".to_string() } else { c })
+                .map(|c| {
+                    if c.is_empty() || c == "-" {
+                        "0".to_string()
+                    } else {
+                        c
+                    }
+                })
                 .collect::<Vec<_>>()
                 .join("\t"),
         })
@@ -251,7 +308,11 @@ fn truncated_last_line_is_dropped_with_a_warning_and_elsewhere_is_an_error() {
     let short = &lines[12][..lines[12].len() - 20];
     lines.insert(6, short);
     let err = read_dat(lines.join("\n").as_bytes(), "t.dat").unwrap_err();
-    assert!(err.to_string().starts_with("t.dat: line 7: expected 21 cells, found"), "{err}");
+    assert!(
+        err.to_string()
+            .starts_with("t.dat: line 7: expected 21 cells, found"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -270,6 +331,65 @@ fn file_name_fills_project_and_run_when_line1_lacks_them() {
     assert_eq!((run.meta.project, run.meta.run), (Some(1464), Some(7)));
     let name = run.meta.file_name.unwrap();
     assert_eq!((name.prefix, name.raw), (Some('B'), true));
+}
+
+mod cell_exactness {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A numeric cell as TIRF or a spreadsheet might write it: fixed decimals, a bare integer,
+    /// a leading `+`, an exponent, or a long mantissa.
+    fn cell() -> impl Strategy<Value = String> {
+        prop_oneof![
+            8 => (any::<bool>(), 0u64..100_000, 0u32..6, any::<u64>()).prop_map(|(neg, int, dec, frac)| {
+                let sign = if neg { "-" } else { "" };
+                if dec == 0 {
+                    format!("{sign}{int}")
+                } else {
+                    let frac = frac % 10u64.pow(dec);
+                    format!("{sign}{int}.{frac:0width$}", width = dec as usize)
+                }
+            }),
+            1 => any::<f64>().prop_filter("finite", |v| v.is_finite()).prop_map(|v| format!("{v:e}")),
+            1 => any::<f64>().prop_filter("finite", |v| v.is_finite()).prop_map(|v| format!("+{}", v.abs())),
+            1 => "[0-9]{15,25}\\.[0-9]{1,10}",
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+
+        /// Every cell of a file (kept unconverted as an extra channel) is bit-identical to
+        /// `str::parse::<f64>` of its text.
+        #[test]
+        fn every_cell_equals_std_parse(
+            cells in proptest::collection::vec(proptest::collection::vec(cell(), 6), 1..40),
+        ) {
+            let required = "ET\tV\tP\tSA\tIA\tFX\tFY\tFZ\tMX\tMZ";
+            let units = "s\tkph\tkPa\tdeg\tdeg\tN\tN\tN\tNm\tNm";
+            let mut text = format!(
+                "TIRF Data File: Project 1; Run 1\n{required}\tX1\tX2\tX3\tX4\tX5\tX6\n\
+                 {units}\tnone\tnone\tnone\tnone\tnone\tnone\n"
+            );
+            for row in &cells {
+                text.push_str("0.010\t40.0\t83.0\t1.0\t0.0\t1.0\t2.0\t-3.0\t4.0\t5.0");
+                for cell in row {
+                    text.push('\t');
+                    text.push_str(cell);
+                }
+                text.push('\n');
+            }
+            let run = read_dat(text.as_bytes(), "p.dat").map_err(|e| TestCaseError::fail(e.to_string()))?;
+            prop_assert_eq!(run.extras.len(), 6);
+            for (r, row) in cells.iter().enumerate() {
+                for (c, cell) in row.iter().enumerate() {
+                    let want: f64 = cell.parse().unwrap();
+                    let got = run.extras[c].values[r];
+                    prop_assert_eq!(got.to_bits(), want.to_bits(), "cell {:?}", cell);
+                }
+            }
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -328,13 +448,20 @@ fn mat_writer_round_trips_through_the_reader() {
         }
         let bytes = writer.finish();
         let file = parse_mat(&bytes, "rt.mat").unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(file.header_text, "MATLAB 5.0 MAT-file, Platform: tirebase test");
+        assert_eq!(
+            file.header_text,
+            "MATLAB 5.0 MAT-file, Platform: tirebase test"
+        );
         assert!(!file.big_endian);
         assert_eq!(file.variables.len(), values.len());
         for (k, (variable, value)) in file.variables.iter().zip(&values).enumerate() {
             assert_eq!(variable.name, format!("v{k}"));
             // Bit-exact (including -0.0): compare the f64 bit patterns.
-            assert_eq!(format!("{:?}", variable.value), format!("{value:?}"), "v{k}");
+            assert_eq!(
+                format!("{:?}", variable.value),
+                format!("{value:?}"),
+                "v{k}"
+            );
             assert_eq!(&variable.value, value, "v{k}");
         }
     }
@@ -345,13 +472,19 @@ fn mat_writer_is_deterministic_and_validates() {
     let make = || {
         let mut writer = MatWriter::new("MATLAB 5.0 MAT-file");
         for (k, value) in sample_values().iter().enumerate() {
-            writer.push(&format!("v{k}"), value, Compression::Zlib).unwrap();
+            writer
+                .push(&format!("v{k}"), value, Compression::Zlib)
+                .unwrap();
         }
         writer.finish()
     };
     assert_eq!(make(), make());
     let mut writer = MatWriter::new("MATLAB 5.0 MAT-file");
-    assert!(writer.push("1bad", &MatValue::text("x"), Compression::None).is_err());
+    assert!(
+        writer
+            .push("1bad", &MatValue::text("x"), Compression::None)
+            .is_err()
+    );
     assert!(writer.push_column("ET", &[1.0], Compression::None).is_ok());
     assert!(writer.push_column("ET", &[1.0], Compression::None).is_err());
     let out_of_range = MatValue::Numeric {
@@ -359,7 +492,9 @@ fn mat_writer_is_deterministic_and_validates() {
         dims: vec![1, 1],
         data: vec![256.0],
     };
-    let err = writer.push("RUN", &out_of_range, Compression::None).unwrap_err();
+    let err = writer
+        .push("RUN", &out_of_range, Compression::None)
+        .unwrap_err();
     assert!(err.to_string().contains("does not fit uint8"), "{err}");
     let wrong_dims = MatValue::Numeric {
         class: NumericClass::Double,
@@ -382,7 +517,10 @@ fn mat_run_equals_the_dat_run_of_the_same_data() {
         assert_eq!(mat.sl, dat.sl);
         assert_eq!(mat.sr, dat.sr);
         assert_eq!(mat.meta.testid.as_deref(), Some("Cornering"));
-        assert_eq!(mat.meta.tire_name.as_deref(), Some("Example 18.0x6.0-10 R20"));
+        assert_eq!(
+            mat.meta.tire_name.as_deref(),
+            Some("Example 18.0x6.0-10 R20")
+        );
         assert_eq!(mat.meta.rim_width_in, Some(7.0));
         assert_eq!(mat.meta.source.as_deref(), Some("example"));
         assert_eq!((mat.meta.project, mat.meta.run), (Some(1320), Some(125)));
@@ -404,9 +542,15 @@ fn mat_without_channel_struct_falls_back_to_si_and_says_so() {
     let mut writer = MatWriter::new("MATLAB 5.0 MAT-file");
     for channel in Channel::ALL {
         let values: Vec<f64> = (0..5)
-            .map(|i| channel.si_fallback_unit().from_canonical(example_value(channel, i, 100.0)))
+            .map(|i| {
+                channel
+                    .si_fallback_unit()
+                    .from_canonical(example_value(channel, i, 100.0))
+            })
             .collect();
-        writer.push_column(channel.name(), &values, Compression::None).unwrap();
+        writer
+            .push_column(channel.name(), &values, Compression::None)
+            .unwrap();
     }
     let run = read_mat(&writer.finish(), "nounits.mat").unwrap();
     assert!(run.meta.columns.iter().all(|c| !c.unit_from_file));
@@ -424,10 +568,14 @@ fn mat_sl_all_zero_means_kappa_not_measured() {
         let values: Vec<f64> = (0..5)
             .map(|i| match channel {
                 Channel::Sl => 0.0,
-                _ => channel.si_fallback_unit().from_canonical(example_value(channel, i, 100.0)),
+                _ => channel
+                    .si_fallback_unit()
+                    .from_canonical(example_value(channel, i, 100.0)),
             })
             .collect();
-        writer.push_column(channel.name(), &values, Compression::Zlib).unwrap();
+        writer
+            .push_column(channel.name(), &values, Compression::Zlib)
+            .unwrap();
     }
     let run = read_mat(&writer.finish(), "cornering.mat").unwrap();
     assert_eq!(run.meta.kappa_source, Some(KappaSource::SlAllZero));
@@ -479,14 +627,27 @@ fn files_from_the_independent_python_encoder_read_correctly() {
     for name in ["B1320run15.mat", "B1320run16_compressed.mat"] {
         let mat = read_path(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(mat.len(), 12, "{name}");
-        assert_eq!(mat.meta.tire_name.as_deref(), Some("Example 18.0x6.0-10 R20"));
+        assert_eq!(
+            mat.meta.tire_name.as_deref(),
+            Some("Example 18.0x6.0-10 R20")
+        );
         assert_eq!(mat.meta.kappa_source, Some(KappaSource::SlAllZero));
         assert_eq!(mat.extras[0].name, "RUN");
         // The same signal as the .dat, written in SI: agreement to the written decimals.
         for i in 0..12 {
-            assert_close("Fz", mat.tire.fz_n[i], dat.tire.fz_n[i], 0.005 + 0.005 * 4.45);
+            assert_close(
+                "Fz",
+                mat.tire.fz_n[i],
+                dat.tire.fz_n[i],
+                0.005 + 0.005 * 4.45,
+            );
             assert_close("alpha", mat.tire.alpha_rad[i], dat.tire.alpha_rad[i], 1e-5);
-            assert_close("amb", mat.ambient_temp_c.as_ref().unwrap()[i], 23.888_9, 1e-3);
+            assert_close(
+                "amb",
+                mat.ambient_temp_c.as_ref().unwrap()[i],
+                23.888_9,
+                1e-3,
+            );
         }
     }
 }
@@ -533,7 +694,10 @@ fn bad_corpus_every_file_gives_its_documented_outcome() {
                 let message = e.to_string();
                 println!("{message}");
                 assert!(!message.contains('\n'), "{message}");
-                assert!(message.starts_with(&format!("{source_name}: ")), "{message}");
+                assert!(
+                    message.starts_with(&format!("{source_name}: ")),
+                    "{message}"
+                );
                 assert!(
                     message.contains(&case.expected),
                     "{}: message {message:?} lacks {:?}",
@@ -543,7 +707,12 @@ fn bad_corpus_every_file_gives_its_documented_outcome() {
             }
             ("qc", Ok(run)) => {
                 assert!(run.len() >= 10, "{}", case.file);
-                assert!(run.meta.warnings.is_empty(), "{}: {:?}", case.file, run.meta.warnings);
+                assert!(
+                    run.meta.warnings.is_empty(),
+                    "{}: {:?}",
+                    case.file,
+                    run.meta.warnings
+                );
             }
             ("warning", Ok(run)) => {
                 assert!(
@@ -601,7 +770,9 @@ impl SplitMix {
 /// truncate, duplicate a span.
 fn mutate(seed: &[u8], rng: &mut SplitMix) -> Vec<u8> {
     let mut bytes = seed.to_vec();
-    let interesting = [0u8, 0xFF, 0x7F, 0x80, b'\t', b'\n', b'-', b'.', b'0', b'9', b'e', 14, 15];
+    let interesting = [
+        0u8, 0xFF, 0x7F, 0x80, b'\t', b'\n', b'-', b'.', b'0', b'9', b'e', 14, 15,
+    ];
     for _ in 0..1 + rng.below(4) {
         if bytes.is_empty() {
             bytes.push(rng.next() as u8);

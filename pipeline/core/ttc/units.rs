@@ -83,7 +83,7 @@ pub enum Unit {
 }
 
 impl Unit {
-    /// Every spelling the readers accept, after lower-casing and collapsing blanks.
+    /// Every spelling the readers accept (matched ignoring case, blanks collapsed).
     const SPELLINGS: &'static [(&'static str, Unit)] = &[
         ("s", Unit::Second),
         ("sec", Unit::Second),
@@ -96,28 +96,28 @@ impl Unit {
         ("in", Unit::Inch),
         ("cm", Unit::Centimetre),
         ("psi", Unit::Psi),
-        ("kpa", Unit::KiloPascal),
+        ("kPa", Unit::KiloPascal),
         ("lb", Unit::PoundForce),
         ("lbf", Unit::PoundForce),
-        ("n", Unit::Newton),
+        ("N", Unit::Newton),
         ("ft-lb", Unit::FootPound),
         ("ft-lbf", Unit::FootPound),
         ("lb-ft", Unit::FootPound),
         ("lbf-ft", Unit::FootPound),
-        ("n-m", Unit::NewtonMetre),
-        ("nm", Unit::NewtonMetre),
-        ("n m", Unit::NewtonMetre),
-        ("n*m", Unit::NewtonMetre),
-        ("deg c", Unit::DegC),
-        ("degc", Unit::DegC),
-        ("deg f", Unit::DegF),
-        ("degf", Unit::DegF),
+        ("N-m", Unit::NewtonMetre),
+        ("Nm", Unit::NewtonMetre),
+        ("N m", Unit::NewtonMetre),
+        ("N*m", Unit::NewtonMetre),
+        ("deg C", Unit::DegC),
+        ("degC", Unit::DegC),
+        ("deg F", Unit::DegF),
+        ("degF", Unit::DegF),
         ("none", Unit::Dimensionless),
-        ("sae", Unit::Dimensionless),
+        ("SAE", Unit::Dimensionless),
         ("-", Unit::Dimensionless),
     ];
 
-    /// Every accepted spelling (lower case) with its unit.
+    /// Every accepted spelling with its unit.
     pub fn spellings() -> impl Iterator<Item = (&'static str, Unit)> {
         Self::SPELLINGS.iter().copied()
     }
@@ -132,14 +132,10 @@ impl Unit {
     /// assert_eq!(Unit::parse("furlong"), None);
     /// ```
     pub fn parse(text: &str) -> Option<Unit> {
-        let normal = text
-            .split_whitespace()
-            .collect::<Vec<_>>()
-            .join(" ")
-            .to_ascii_lowercase();
+        let normal = text.split_whitespace().collect::<Vec<_>>().join(" ");
         Self::SPELLINGS
             .iter()
-            .find(|(spelling, _)| *spelling == normal)
+            .find(|(spelling, _)| spelling.eq_ignore_ascii_case(&normal))
             .map(|&(_, unit)| unit)
     }
 
@@ -162,9 +158,12 @@ impl Unit {
     /// The unit system this unit belongs to.
     pub fn system(self) -> UnitSystem {
         match self {
-            Unit::Mph | Unit::Inch | Unit::Psi | Unit::PoundForce | Unit::FootPound | Unit::DegF => {
-                UnitSystem::Uscs
-            }
+            Unit::Mph
+            | Unit::Inch
+            | Unit::Psi
+            | Unit::PoundForce
+            | Unit::FootPound
+            | Unit::DegF => UnitSystem::Uscs,
             Unit::Kph
             | Unit::Centimetre
             | Unit::KiloPascal
@@ -257,12 +256,18 @@ mod tests {
     #[test]
     fn conversions_hit_known_values() {
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
-        assert!(close(Unit::PoundForce.to_canonical(250.0), 1112.055_403_815_125));
+        assert!(close(
+            Unit::PoundForce.to_canonical(250.0),
+            1_112.055_403_815_125
+        ));
         assert!(close(Unit::Psi.to_canonical(12.0), 82.737_087_518_020_33));
         assert!(close(Unit::Mph.to_canonical(25.0), 40.2336));
         assert!(close(Unit::Inch.to_canonical(10.0), 0.254));
         assert!(close(Unit::Centimetre.to_canonical(22.5), 0.225));
-        assert!(close(Unit::FootPound.to_canonical(1.0), 1.355_817_948_331_400_4));
+        assert!(close(
+            Unit::FootPound.to_canonical(1.0),
+            1.355_817_948_331_400_4
+        ));
         assert!(close(Unit::DegF.to_canonical(212.0), 100.0));
         assert!(close(Unit::DegF.to_canonical(-40.0), -40.0));
         assert!(close(Unit::Degree.to_canonical(180.0), PI));
@@ -273,7 +278,10 @@ mod tests {
         for (_, unit) in Unit::spellings() {
             for value in [-273.0, -1.5, 0.0, 0.25, 98.6, 1557.0] {
                 let back = unit.to_canonical(unit.from_canonical(value));
-                assert!((back - value).abs() <= 1e-12 * value.abs().max(1.0), "{unit:?} {value}");
+                assert!(
+                    (back - value).abs() <= 1e-12 * value.abs().max(1.0),
+                    "{unit:?} {value}"
+                );
             }
         }
     }

@@ -19,7 +19,7 @@ pub use write::{DatColumn, Line1, render_dat};
 
 use super::build::{SourceColumn, build};
 use super::error::{excerpt, printable};
-use super::float::parse_f64;
+use super::float::{parse_f64, scan_fixed_decimal};
 use super::{Channel, ColumnInfo, RunMeta, RunTable, SourceFormat, TtcError, Unit};
 
 /// Line 1 must start with this (case-insensitive).
@@ -66,12 +66,10 @@ pub fn read_dat(bytes: &[u8], source_name: &str) -> Result<RunTable, TtcError> {
 /// Read everything from `reader`, then [`read_dat`].
 pub fn read_dat_from(mut reader: impl Read, source_name: &str) -> Result<RunTable, TtcError> {
     let mut bytes = Vec::new();
-    reader
-        .read_to_end(&mut bytes)
-        .map_err(|e| TtcError::Io {
-            source_name: source_name.to_string(),
-            message: e.to_string(),
-        })?;
+    reader.read_to_end(&mut bytes).map_err(|e| TtcError::Io {
+        source_name: source_name.to_string(),
+        message: e.to_string(),
+    })?;
     read_dat(&bytes, source_name)
 }
 
@@ -194,7 +192,10 @@ fn parse_names(line: &[u8], source_name: &str) -> Result<Vec<String>, TtcError> 
     }
     for (index, name) in names.iter().enumerate() {
         if name.is_empty() {
-            return Err(header_error(format!("column {} has no channel name", index + 1)));
+            return Err(header_error(format!(
+                "column {} has no channel name",
+                index + 1
+            )));
         }
         if let Some(first) = names[..index]
             .iter()
@@ -263,17 +264,18 @@ fn parse_units(
         .enumerate()
         .map(|(index, (name, unit_raw))| {
             let channel = Channel::from_name(name);
-            let unit = match channel {
-                Some(channel) => Some(
-                    checked_unit(channel, &unit_raw).map_err(|message| TtcError::Unit {
-                        source_name: source_name.to_string(),
-                        location: format!("line 3, column {}", index + 1),
-                        channel: printable(name),
-                        message,
-                    })?,
-                ),
-                None => Unit::parse(&unit_raw),
-            };
+            let unit =
+                match channel {
+                    Some(channel) => Some(checked_unit(channel, &unit_raw).map_err(|message| {
+                        TtcError::Unit {
+                            source_name: source_name.to_string(),
+                            location: format!("line 3, column {}", index + 1),
+                            channel: printable(name),
+                            message,
+                        }
+                    })?),
+                    None => Unit::parse(&unit_raw),
+                };
             Ok(ColumnInfo {
                 name: name.clone(),
                 channel,
@@ -338,25 +340,26 @@ fn parse_rows(
     let mut line_no = 3;
     while pos < body.len() {
         line_no += 1;
-        let end = find_byte(body, pos, b'\n').unwrap_or(body.len());
-        let line = strip_cr(&body[pos..end]);
-        let next = end + 1;
-        let is_last = || body.get(next..).is_none_or(|r| r.iter().all(u8::is_ascii_whitespace));
-        match parse_row(line, &mut columns) {
-            Ok(()) => {}
-            Err(RowProblem::Blank) if is_last() => break,
-            Err(problem) if is_last() && problem.looks_truncated(line, width) => {
-                let cells = line.split(|b| *b == b'\t').count();
-                warnings.push(format!(
-                    "line {line_no}: truncated last line ({cells} of {width} cells) dropped"
-                ));
-                break;
-            }
+        match parse_row(body, pos, &mut columns) {
+            Ok(line_end) => pos = line_end + 1,
             Err(problem) => {
-                return Err(problem.into_error(source_name, line_no, line, names));
+                let end = find_byte(body, pos, b'\n').unwrap_or(body.len());
+                let line = strip_cr(&body[pos..end]);
+                let rest = body.get(end + 1..).unwrap_or_default();
+                let is_last = rest.iter().all(u8::is_ascii_whitespace);
+                match problem {
+                    RowProblem::Blank if is_last => break,
+                    problem if is_last && problem.looks_truncated(line, width) => {
+                        let cells = line.split(|b| *b == b'\t').count();
+                        warnings.push(format!(
+                            "line {line_no}: truncated last line ({cells} of {width} cells) dropped"
+                        ));
+                        break;
+                    }
+                    problem => return Err(problem.into_error(source_name, line_no, line, names)),
+                }
             }
         }
-        pos = next;
     }
     Ok(columns)
 }
@@ -375,47 +378,116 @@ enum RowProblem {
     NonFinite { column: usize },
 }
 
-/// Parse one row into the columns; on any problem, leave the columns as they were.
+/// Parse the row starting at `body[start]` into the columns and return the index of its line
+/// end (the LF, or `body.len()`). One pass: cells are parsed while they are scanned. On any
+/// problem the columns are left as they were.
 #[inline]
-fn parse_row(line: &[u8], columns: &mut [Vec<f64>]) -> Result<(), RowProblem> {
+fn parse_row(body: &[u8], start: usize, columns: &mut [Vec<f64>]) -> Result<usize, RowProblem> {
     let width = columns.len();
-    if line.iter().all(|b| *b == b' ' || *b == b'\t') {
-        return Err(RowProblem::Blank);
-    }
     let mut column = 0;
-    let mut start = 0;
+    let mut pos = start;
     let result = loop {
-        let end = find_byte(line, start, b'\t').unwrap_or(line.len());
-        let cell = trim_blanks(&line[start..end]);
-        if column < width {
-            if cell.is_empty() {
-                break Err(RowProblem::Truncated { cells: column });
+        let (mut end, fast) = scan_fixed_decimal(body, pos);
+        let value = match fast {
+            Some(value) if !is_lone_cr(body, end) => Ok(value),
+            _ => {
+                end = cell_end(body, end);
+                slow_cell(&body[pos..end])
             }
-            match parse_f64(cell) {
-                Some(v) if v.is_finite() => columns[column].push(v),
-                Some(_) => break Err(RowProblem::NonFinite { column }),
-                None => break Err(RowProblem::NotANumber { column }),
+        };
+        if column >= width {
+            // Only empty padding cells may follow the last channel.
+            if !matches!(value, Err(SlowCell::Empty)) {
+                break Err(RowProblem::TooLong {
+                    cells: width + 1 + count_cells_after(body, end),
+                });
             }
-            column += 1;
-        } else if !cell.is_empty() {
-            let cells = width + 1 + line[end..].split(|b| *b == b'\t').skip(1).count();
-            break Err(RowProblem::TooLong { cells });
+        } else {
+            match value {
+                Ok(value) => {
+                    columns[column].push(value);
+                    column += 1;
+                }
+                Err(SlowCell::Empty) if column == 0 && is_blank_line(body, pos) => {
+                    break Err(RowProblem::Blank);
+                }
+                Err(SlowCell::Empty) => break Err(RowProblem::Truncated { cells: column }),
+                Err(SlowCell::NonFinite) => break Err(RowProblem::NonFinite { column }),
+                Err(SlowCell::NotANumber) => break Err(RowProblem::NotANumber { column }),
+            }
         }
-        if end >= line.len() {
-            break if column == width {
-                Ok(())
-            } else {
-                Err(RowProblem::Truncated { cells: column })
-            };
+        match body.get(end) {
+            Some(b'\t') => pos = end + 1,
+            Some(b'\r') => break finish_row(column, width, end + 1),
+            _ => break finish_row(column, width, end),
         }
-        start = end + 1;
     };
     if result.is_err() {
-        for pushed in &mut columns[..column] {
+        for pushed in &mut columns[..column.min(width)] {
             pushed.pop();
         }
     }
     result
+}
+
+fn finish_row(column: usize, width: usize, line_end: usize) -> Result<usize, RowProblem> {
+    if column == width {
+        Ok(line_end)
+    } else {
+        Err(RowProblem::Truncated { cells: column })
+    }
+}
+
+/// What the slow path found in a cell the scanner could not take.
+enum SlowCell {
+    Empty,
+    NotANumber,
+    NonFinite,
+}
+
+/// A cell with blanks, an exponent, a `+`, many digits, garbage, or nothing.
+#[cold]
+fn slow_cell(cell: &[u8]) -> Result<f64, SlowCell> {
+    let cell = trim_blanks(cell);
+    if cell.is_empty() {
+        return Err(SlowCell::Empty);
+    }
+    match parse_f64(cell) {
+        Some(v) if v.is_finite() => Ok(v),
+        Some(_) => Err(SlowCell::NonFinite),
+        None => Err(SlowCell::NotANumber),
+    }
+}
+
+/// A CR that is not part of a CRLF line end (it belongs to the cell, which is then not a number).
+fn is_lone_cr(body: &[u8], at: usize) -> bool {
+    body.get(at) == Some(&b'\r') && !matches!(body.get(at + 1), None | Some(b'\n'))
+}
+
+/// End of the cell containing `from`: the next tab, LF, CR-before-LF/end, or the end of input.
+fn cell_end(body: &[u8], from: usize) -> usize {
+    let mut i = from;
+    while i < body.len() {
+        match body[i] {
+            b'\t' | b'\n' => return i,
+            b'\r' if matches!(body.get(i + 1), None | Some(b'\n')) => return i,
+            _ => i += 1,
+        }
+    }
+    i
+}
+
+/// Tabs after `from` up to the line end (cells beyond the current one).
+fn count_cells_after(body: &[u8], from: usize) -> usize {
+    let end = find_byte(body, from, b'\n').unwrap_or(body.len());
+    body[from..end].iter().filter(|b| **b == b'\t').count()
+}
+
+fn is_blank_line(body: &[u8], from: usize) -> bool {
+    body[from..]
+        .iter()
+        .take_while(|b| **b != b'\n')
+        .all(|b| matches!(b, b' ' | b'\t' | b'\r'))
 }
 
 impl RowProblem {
@@ -430,7 +502,13 @@ impl RowProblem {
         }
     }
 
-    fn into_error(self, source_name: &str, line_no: usize, line: &[u8], names: &[String]) -> TtcError {
+    fn into_error(
+        self,
+        source_name: &str,
+        line_no: usize,
+        line: &[u8],
+        names: &[String],
+    ) -> TtcError {
         let source_name = source_name.to_string();
         let cell_text = |column: usize| {
             let cell = line.split(|b| *b == b'\t').nth(column).unwrap_or_default();
@@ -502,6 +580,9 @@ fn strip_cr(line: &[u8]) -> &[u8] {
 #[inline]
 fn trim_blanks(cell: &[u8]) -> &[u8] {
     let start = cell.iter().position(|b| *b != b' ').unwrap_or(cell.len());
-    let end = cell.iter().rposition(|b| *b != b' ').map_or(start, |i| i + 1);
+    let end = cell
+        .iter()
+        .rposition(|b| *b != b' ')
+        .map_or(start, |i| i + 1);
     &cell[start..end]
 }

@@ -25,7 +25,11 @@ pub struct Line1 {
 
 impl std::fmt::Display for Line1 {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "TIRF Data File: Project {}; Run {:03}", self.project, self.run)?;
+        write!(
+            f,
+            "TIRF Data File: Project {}; Run {:03}",
+            self.project, self.run
+        )?;
         if let Some(date) = &self.date {
             write!(f, "; Date {date}")?;
         }
