@@ -652,6 +652,46 @@ fn files_from_the_independent_python_encoder_read_correctly() {
     }
 }
 
+/// Files written by scipy.io.savemat (an encoder we share nothing with); see
+/// tests/fixtures/ttc/README.md for the script.
+#[test]
+fn files_written_by_scipy_decode() {
+    let dir = repo_root().join("tests/fixtures/ttc");
+    let bytes = std::fs::read(dir.join("scipy_savemat_compressed.mat")).unwrap();
+    let file = parse_mat(&bytes, "scipy.mat").unwrap_or_else(|e| panic!("{e}"));
+    let get = |name: &str| {
+        &file
+            .variables
+            .iter()
+            .find(|v| v.name == name)
+            .unwrap()
+            .value
+    };
+    assert_eq!(get("ET").as_vector(), Some(&[0.0, 1.0, 2.0, 3.0, 4.0][..]));
+    assert!(matches!(
+        get("RUN"),
+        MatValue::Numeric {
+            class: NumericClass::Uint8,
+            ..
+        }
+    ));
+    assert_eq!(get("RUN").as_vector(), Some(&[3.0; 5][..]));
+    assert_eq!(
+        get("tireid").as_text().as_deref(),
+        Some("Hoosier X, 7 inch rim")
+    );
+    let channel = get("channel");
+    let MatValue::Cell { items, .. } = channel.field("units").unwrap() else {
+        panic!("units is not a cell: {channel:?}");
+    };
+    assert_eq!(items[0].as_text().as_deref(), Some("sec"));
+
+    let bytes = std::fs::read(dir.join("scipy_savemat_plain.mat")).unwrap();
+    let file = parse_mat(&bytes, "scipy.mat").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(file.variables.len(), 2);
+    assert_eq!(file.variables[1].value, MatValue::text_cells(&["ET", "FZ"]));
+}
+
 // ---------------------------------------------------------------------------------------------
 // The malformed corpus
 
