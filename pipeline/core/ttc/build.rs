@@ -78,7 +78,7 @@ pub(crate) fn build(
     };
 
     meta.rows = rows;
-    meta.kappa_source = Some(kappa_source);
+    meta.kappa_source = kappa_source;
     meta.sample_rate_hz = estimate_sample_rate_hz(&et_s);
     meta.file_name = TtcFileName::parse(&meta.source_name);
     if let Some(name) = &meta.file_name {

@@ -4,6 +4,7 @@
 //! case-insensitively, so `AmbTmp` is `AMBTMP`). Deliberately not here: units (see `units.rs`)
 //! and what the readers do with unknown names (they keep them as extra channels).
 
+use super::error::printable;
 use super::units::{Quantity, Unit};
 
 /// A channel Calspan TIRF records.
@@ -140,6 +141,35 @@ impl Channel {
     /// Whether a run file must contain this channel.
     pub fn is_required(self) -> bool {
         Channel::REQUIRED.contains(&self)
+    }
+
+    /// Parse a unit string written for this channel: it must be a known spelling of a unit of
+    /// the channel's quantity. The error text lists the accepted spellings.
+    ///
+    /// ```
+    /// use tirebase_core::ttc::{Channel, Unit};
+    /// assert_eq!(Channel::Fz.parse_unit("lb"), Ok(Unit::PoundForce));
+    /// assert!(Channel::Fz.parse_unit("psi").unwrap_err().contains("measures Pressure"));
+    /// ```
+    pub fn parse_unit(self, unit_raw: &str) -> Result<Unit, String> {
+        let expected = self.quantity();
+        let known: Vec<&str> = Unit::spellings()
+            .filter(|(_, u)| u.quantity() == expected)
+            .map(|(s, _)| s)
+            .collect();
+        match Unit::parse(unit_raw) {
+            Some(unit) if unit.quantity() == expected => Ok(unit),
+            Some(unit) => Err(format!(
+                "unit {unit_raw:?} measures {:?}, the channel needs {expected:?} (one of: {})",
+                unit.quantity(),
+                known.join(", ")
+            )),
+            None => Err(format!(
+                "unknown unit string {:?} (expected one of: {})",
+                printable(unit_raw),
+                known.join(", ")
+            )),
+        }
     }
 
     /// The unit assumed when a `.mat` file carries no `channel.units` entry for this channel:

@@ -99,12 +99,12 @@ pub struct ColumnInfo {
 }
 
 /// Everything known about a run besides its samples.
-#[derive(Clone, Debug, PartialEq, Default)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RunMeta {
     /// The name the caller gave the reader (usually the path).
     pub source_name: String,
-    /// `.dat` or `.mat` (`None` only in a default value).
-    pub format: Option<SourceFormat>,
+    /// `.dat` or `.mat`.
+    pub format: SourceFormat,
     /// Calspan project number (line 1 `Project`, else the file name `B1320run15`).
     pub project: Option<u32>,
     /// Run number (line 1 `Run`, else the file name).
@@ -136,13 +136,38 @@ pub struct RunMeta {
     /// `1 / median(positive ET steps)`, Hz; `None` with fewer than two distinct times.
     pub sample_rate_hz: Option<f64>,
     /// Where `kappa` comes from.
-    pub kappa_source: Option<KappaSource>,
+    pub kappa_source: KappaSource,
     /// Recoverable oddities, one line each (truncated last line dropped, ignored variables,
     /// assumed units, suspicious FZ sign, ...).
     pub warnings: Vec<String>,
 }
 
 impl RunMeta {
+    /// Metadata with nothing known yet but the source (what a reader starts from).
+    pub fn new(source_name: &str, format: SourceFormat) -> RunMeta {
+        RunMeta {
+            source_name: source_name.to_string(),
+            format,
+            project: None,
+            run: None,
+            date: None,
+            time: None,
+            tire_name: None,
+            rim_width_in: None,
+            iso_flag: None,
+            id: None,
+            source: None,
+            testid: None,
+            tireid: None,
+            file_name: None,
+            columns: Vec::new(),
+            rows: 0,
+            sample_rate_hz: None,
+            kappa_source: KappaSource::NoSl,
+            warnings: Vec::new(),
+        }
+    }
+
     /// The file's overall unit system: `Si` or `Uscs` when every unit-bearing column agrees
     /// (neutral columns ignored), `None` when columns mix systems (e.g. the round-4 SI files
     /// whose AMBTMP is in deg F report `None` here; see [`ColumnInfo::system`]).

@@ -85,7 +85,7 @@ fn every_round_style_reads_back_in_si_and_iso_w() {
             } else {
                 KappaSource::NoSl
             };
-            assert_eq!(run.meta.kappa_source, Some(expected_kappa));
+            assert_eq!(run.meta.kappa_source, expected_kappa);
             if with_sl {
                 assert_eq!(run.tire.kappa, run.sl.clone().unwrap());
             } else {
@@ -107,7 +107,7 @@ fn header_fields_and_unit_systems_per_round() {
     assert_eq!((r4.meta.project, r4.meta.run), (Some(1320), Some(125)));
     assert_eq!(r4.meta.iso_flag, None);
     assert_eq!(r4.meta.unit_system(), Some(UnitSystem::Uscs));
-    assert_eq!(r4.meta.format, Some(SourceFormat::Dat));
+    assert_eq!(r4.meta.format, SourceFormat::Dat);
 
     // Round-4 SI: every unit SI except AMBTMP in deg F -> mixed, and per-column systems say so.
     let r4si = read_dat(&example_dat(RoundStyle::R4Si, 5, false), "B1320run125.dat").unwrap();
@@ -185,7 +185,7 @@ fn us_customary_values_convert_to_si_iso_w() {
         1e-12,
     );
     assert_close("ET start", run.et_s[0], 26.84, 1e-12);
-    assert_eq!(run.meta.kappa_source, Some(KappaSource::NoSl));
+    assert_eq!(run.meta.kappa_source, KappaSource::NoSl);
     assert!(t.my_nm.is_empty());
     // NFX, NFY and SR stay as measured.
     assert_eq!(run.nfy.as_ref().unwrap()[0], 0.6);
@@ -510,7 +510,7 @@ fn mat_run_equals_the_dat_run_of_the_same_data() {
     for compression in [Compression::None, Compression::Zlib] {
         let mat = read_mat(&example_mat(400, compression), "B1320run125.mat")
             .unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(mat.meta.format, Some(SourceFormat::Mat));
+        assert_eq!(mat.meta.format, SourceFormat::Mat);
         assert_eq!(mat.tire, dat.tire);
         assert_eq!(mat.et_s, dat.et_s);
         assert_eq!(mat.ambient_temp_c, dat.ambient_temp_c);
@@ -557,7 +557,7 @@ fn mat_without_channel_struct_falls_back_to_si_and_says_so() {
     assert_eq!(run.meta.unit_system(), Some(UnitSystem::Si));
     assert!(run.meta.warnings[0].contains("assumed the SI .mat spellings"));
     // SL present but all zero would give SlAllZero; here it is the example slip, so Sl.
-    assert_eq!(run.meta.kappa_source, Some(KappaSource::Sl));
+    assert_eq!(run.meta.kappa_source, KappaSource::Sl);
     assert_close("Fz", run.tire.fz_n[0], 1112.06, 1e-9);
 }
 
@@ -578,8 +578,8 @@ fn mat_sl_all_zero_means_kappa_not_measured() {
             .unwrap();
     }
     let run = read_mat(&writer.finish(), "cornering.mat").unwrap();
-    assert_eq!(run.meta.kappa_source, Some(KappaSource::SlAllZero));
-    assert!(!run.meta.kappa_source.unwrap().is_measured());
+    assert_eq!(run.meta.kappa_source, KappaSource::SlAllZero);
+    assert!(!run.meta.kappa_source.is_measured());
     assert!(run.tire.kappa.iter().all(|k| *k == 0.0));
     // SR is not used as kappa even though it is non-zero.
     assert!(run.sr.as_ref().unwrap().iter().any(|s| *s != 0.0));
@@ -631,7 +631,7 @@ fn files_from_the_independent_python_encoder_read_correctly() {
             mat.meta.tire_name.as_deref(),
             Some("Example 18.0x6.0-10 R20")
         );
-        assert_eq!(mat.meta.kappa_source, Some(KappaSource::SlAllZero));
+        assert_eq!(mat.meta.kappa_source, KappaSource::SlAllZero);
         assert_eq!(mat.extras[0].name, "RUN");
         // The same signal as the .dat, written in SI: agreement to the written decimals.
         for i in 0..12 {

@@ -36,11 +36,7 @@ pub fn read_dat(bytes: &[u8], source_name: &str) -> Result<RunTable, TtcError> {
             source_name: source_name.to_string(),
         });
     }
-    let mut meta = RunMeta {
-        source_name: source_name.to_string(),
-        format: Some(SourceFormat::Dat),
-        ..RunMeta::default()
-    };
+    let mut meta = RunMeta::new(source_name, SourceFormat::Dat);
     let line1_end = find_byte(bytes, 0, b'\n').unwrap_or(bytes.len());
     parse_line1(strip_cr(&bytes[..line1_end]), &mut meta)?;
     let lines = HeaderLines::split(bytes, source_name)?;
@@ -264,18 +260,21 @@ fn parse_units(
         .enumerate()
         .map(|(index, (name, unit_raw))| {
             let channel = Channel::from_name(name);
-            let unit =
-                match channel {
-                    Some(channel) => Some(checked_unit(channel, &unit_raw).map_err(|message| {
-                        TtcError::Unit {
-                            source_name: source_name.to_string(),
-                            location: format!("line 3, column {}", index + 1),
-                            channel: printable(name),
-                            message,
-                        }
-                    })?),
-                    None => Unit::parse(&unit_raw),
-                };
+            let unit = match channel {
+                Some(channel) => {
+                    Some(
+                        channel
+                            .parse_unit(&unit_raw)
+                            .map_err(|message| TtcError::Unit {
+                                source_name: source_name.to_string(),
+                                location: format!("line 3, column {}", index + 1),
+                                channel: printable(name),
+                                message,
+                            })?,
+                    )
+                }
+                None => Unit::parse(&unit_raw),
+            };
             Ok(ColumnInfo {
                 name: name.clone(),
                 channel,
@@ -286,28 +285,6 @@ fn parse_units(
             })
         })
         .collect()
-}
-
-/// The unit of a known channel, or why it is not acceptable (shared with the `.mat` reader).
-pub(crate) fn checked_unit(channel: Channel, unit_raw: &str) -> Result<Unit, String> {
-    let expected = channel.quantity();
-    let known: Vec<&str> = Unit::spellings()
-        .filter(|(_, u)| u.quantity() == expected)
-        .map(|(s, _)| s)
-        .collect();
-    match Unit::parse(unit_raw) {
-        Some(unit) if unit.quantity() == expected => Ok(unit),
-        Some(unit) => Err(format!(
-            "unit {unit_raw:?} measures {:?}, the channel needs {expected:?} (one of: {})",
-            unit.quantity(),
-            known.join(", ")
-        )),
-        None => Err(format!(
-            "unknown unit string {:?} (expected one of: {})",
-            excerpt(unit_raw.as_bytes(), EXCERPT_CHARS),
-            known.join(", ")
-        )),
-    }
 }
 
 /// Tab-separated cells of a header line, trimmed, without trailing empty cells.

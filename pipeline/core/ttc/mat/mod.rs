@@ -15,7 +15,6 @@ pub use read::{MatFile, looks_like_mat, parse_mat};
 pub use write::{Compression, MatWriteError, MatWriter};
 
 use super::build::{SourceColumn, build};
-use super::dat::checked_unit;
 use super::error::printable;
 use super::{Channel, ColumnInfo, RunMeta, RunTable, SourceFormat, TtcError, Unit};
 
@@ -205,11 +204,7 @@ fn run_from_variables(
         name: printable(name),
         message,
     };
-    let mut meta = RunMeta {
-        source_name: source_name.to_string(),
-        format: Some(SourceFormat::Mat),
-        ..RunMeta::default()
-    };
+    let mut meta = RunMeta::new(source_name, SourceFormat::Mat);
     let units = channel_units(&variables, source_name)?;
     let text_of = |name: &str| {
         variables
@@ -281,8 +276,9 @@ fn run_from_variables(
         let from_file = units.iter().find(|u| u.name.eq_ignore_ascii_case(&name));
         let (unit_raw, unit) = match (channel, from_file) {
             (Some(channel), Some(entry)) => {
-                let unit =
-                    checked_unit(channel, &entry.unit).map_err(|message| TtcError::Unit {
+                let unit = channel
+                    .parse_unit(&entry.unit)
+                    .map_err(|message| TtcError::Unit {
                         source_name: source_name.to_string(),
                         location: format!("variable channel, units{{{}}}", entry.index + 1),
                         channel: printable(&name),

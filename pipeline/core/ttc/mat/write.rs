@@ -56,8 +56,15 @@ impl MatWriter {
     /// Start a file. `header_text` (ASCII, at most 116 bytes are kept) should start with
     /// `MATLAB 5.0 MAT-file`; MATLAB itself writes `MATLAB 5.0 MAT-file, Platform: PCWIN64,
     /// Created on: Mon Aug  1 19:19:00 2018`.
+    /// Text not starting with `MATLAB` gets `MATLAB 5.0 MAT-file, ` put in front (readers
+    /// require it).
     pub fn new(header_text: &str) -> MatWriter {
         let mut bytes = Vec::with_capacity(1 << 16);
+        let header_text = if header_text.starts_with("MATLAB") {
+            header_text.to_string()
+        } else {
+            format!("MATLAB 5.0 MAT-file, {header_text}")
+        };
         let text: Vec<u8> = header_text
             .bytes()
             .map(|b| if b.is_ascii() && b >= b' ' { b } else { b'?' })
