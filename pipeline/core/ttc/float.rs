@@ -68,7 +68,7 @@ pub fn parse_fixed_decimal(cell: &[u8]) -> Option<f64> {
 /// slow path on this cell": the caller finds the real end of the cell (the next tab or line
 /// end) and calls [`parse_f64`] on it.
 ///
-/// With at least [`SWAR_LOOKAHEAD`] bytes left, the digit runs before and after the point are
+/// With at least 24 bytes left, the digit runs before and after the point are
 /// found and converted eight bytes at a time (SIMD within a register); near the end of the
 /// input, or for runs of eight or more digits, a byte loop does the same.
 #[inline(always)]

@@ -853,6 +853,11 @@ fn check_no_panic_and_sane(bytes: &[u8], name: &str) {
             assert_eq!(run.tire.fz_n.len(), n);
             assert_eq!(run.tire.kappa.len(), n);
             assert!(run.extras.iter().all(|e| e.values.len() == n));
+            assert!(
+                run.meta.warnings.iter().all(|w| !w.contains('\n')),
+                "{:?}",
+                run.meta.warnings
+            );
             assert!(run.et_s.iter().all(|v| v.is_finite()) || name.ends_with(".mat"));
         }
         Err(e) => {

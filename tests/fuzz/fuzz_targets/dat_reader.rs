@@ -14,6 +14,7 @@ fuzz_target!(|bytes: &[u8]| {
             Ok(run) => {
                 assert!(run.len() > 0);
                 assert_eq!(run.tire.fz_n.len(), run.len());
+                assert!(run.meta.warnings.iter().all(|w| !w.contains('\n')));
             }
             Err(e) => {
                 let message = e.to_string();

@@ -14,7 +14,10 @@ fuzz_target!(|bytes: &[u8]| {
         assert!(message.starts_with("fuzz.mat: ") && !message.contains('\n'));
     }
     match read_mat(bytes, "fuzz.mat") {
-        Ok(run) => assert_eq!(run.tire.fz_n.len(), run.len()),
+        Ok(run) => {
+            assert_eq!(run.tire.fz_n.len(), run.len());
+            assert!(run.meta.warnings.iter().all(|w| !w.contains('\n')));
+        }
         Err(e) => {
             let message = e.to_string();
             assert!(message.starts_with("fuzz.mat: ") && !message.contains('\n'));

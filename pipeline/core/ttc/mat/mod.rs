@@ -260,7 +260,8 @@ fn run_from_variables(
                 ));
             }
             meta.warnings.push(format!(
-                "variable {name} ({found}) ignored: not a {rows} x 1 vector"
+                "variable {} ({found}) ignored: not a {rows} x 1 vector",
+                printable(&name)
             ));
             continue;
         };
@@ -270,7 +271,10 @@ fn run_from_variables(
         {
             return Err(variable_error(
                 &name,
-                format!("channel given twice (also variable {})", other.info.name),
+                format!(
+                    "channel given twice (also variable {})",
+                    printable(&other.info.name)
+                ),
             ));
         }
         let from_file = units.iter().find(|u| u.name.eq_ignore_ascii_case(&name));

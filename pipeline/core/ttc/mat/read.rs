@@ -486,7 +486,11 @@ fn structure(
     let mut values = Vec::with_capacity(total.min(cursor.bytes.len() / 8));
     for k in 0..total {
         let field = &fields[k % fields.len()];
-        values.push(nested_matrix(cursor, depth, &format!("field {field}"))?);
+        values.push(nested_matrix(
+            cursor,
+            depth,
+            &format!("field {}", printable(field)),
+        )?);
     }
     Ok(MatValue::Struct {
         dims,
