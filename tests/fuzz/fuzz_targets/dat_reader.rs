@@ -12,7 +12,7 @@ fuzz_target!(|bytes: &[u8]| {
     for result in [read_dat(bytes, "fuzz.dat"), read_run(bytes, "fuzz.dat")] {
         match result {
             Ok(run) => {
-                assert!(run.len() > 0);
+                assert!(!run.is_empty());
                 assert_eq!(run.tire.fz_n.len(), run.len());
                 assert!(run.meta.warnings.iter().all(|w| !w.contains('\n')));
             }
