@@ -633,37 +633,11 @@ impl Collected {
         }
     }
 
-    /// Is this a PAC2002 / MF 5.2 file?
+    /// Is this a PAC2002 / MF 5.2 file? `FITTYP` decides when present (it is the version
+    /// switch MFeval and MF-Tyre use); `PROPERTY_FILE_FORMAT` otherwise.
     fn check_declaration(&mut self) -> Result<Declaration, TirReadError> {
         let pff = self.property_file_format.clone();
         let fittyp = self.fittyp;
-        if let Some((name, line)) = &pff {
-            let norm: String = name
-                .to_ascii_uppercase()
-                .chars()
-                .filter(|c| c.is_ascii_alphanumeric())
-                .collect();
-            let rejected = [
-                "MF61", "MF62", "MF6", "MFTYRE61", "MFTYRE62", "PAC89", "PAC94", "PACMC",
-                "PACTIME", "FIALA", "UA", "UATIRE", "FTIRE", "SWIFT", "MFSWIFT", "5PT",
-            ];
-            if rejected.contains(&norm.as_str()) {
-                return Err(TirReadError::Unsupported {
-                    line: *line,
-                    what: format!("PROPERTY_FILE_FORMAT '{name}'"),
-                });
-            }
-            let accepted = [
-                "PAC2002", "MF05", "MF5", "MF52", "MFTYRE", "MFTYRE52", "MFTYRE5",
-            ];
-            if !accepted.contains(&norm.as_str()) && fittyp.is_none() {
-                let line = *line;
-                self.warn(
-                    line,
-                    format!("PROPERTY_FILE_FORMAT '{name}' is not known and there is no FITTYP; read as PAC2002"),
-                );
-            }
-        }
         match fittyp {
             Some((6 | 21, _)) => {}
             Some((v @ (5 | 52), line)) => self.warn(
@@ -690,6 +664,35 @@ impl Collected {
                 );
             }
             None => {}
+        }
+        if let Some((name, line)) = &pff {
+            let norm: String = name
+                .to_ascii_uppercase()
+                .chars()
+                .filter(|c| c.is_ascii_alphanumeric())
+                .collect();
+            let rejected = [
+                "MF61", "MF62", "MF6", "MFTYRE61", "MFTYRE62", "PAC89", "PAC94", "PACMC",
+                "PACTIME", "FIALA", "UA", "UATIRE", "FTIRE", "SWIFT", "MFSWIFT", "5PT",
+            ];
+            if rejected.contains(&norm.as_str()) {
+                return Err(TirReadError::Unsupported {
+                    line: *line,
+                    what: format!("PROPERTY_FILE_FORMAT '{name}'"),
+                });
+            }
+            let accepted = [
+                "PAC2002", "MF05", "MF5", "MF52", "MFTYRE", "MFTYRE52", "MFTYRE5",
+            ];
+            if !accepted.contains(&norm.as_str()) && fittyp.is_none() {
+                let line = *line;
+                self.warn(
+                    line,
+                    format!(
+                        "PROPERTY_FILE_FORMAT '{name}' is not known and there is no FITTYP; read as PAC2002"
+                    ),
+                );
+            }
         }
         Ok(Declaration {
             property_file_format: pff.map(|(s, _)| s),

@@ -257,8 +257,8 @@ fn bad_files_give_one_line_errors_naming_the_line() {
     let t = fixture!("tir/bad/fittyp62.tir");
     assert_bad(
         t.as_bytes(),
-        line_of(t, "'MF62'"),
-        "PROPERTY_FILE_FORMAT 'MF62'",
+        line_of(t, "=  62"),
+        "FITTYP 62 (MF 6.2): not supported",
     );
     let t = fixture!("tir/bad/missing_fnomin.tir");
     assert_bad(t.as_bytes(), line_of(t, "[VERTICAL]"), "no FNOMIN");
