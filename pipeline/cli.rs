@@ -45,7 +45,9 @@ pub enum TirCommand {
     /// Samples Fz, inclination, kappa and alpha over the file's range sections and reports
     /// errors (e.g. C <= 0, Gxa or Gyk <= 0, oscillating Fx/Fy, FNOMIN <= 0, a coefficient
     /// family missing for the declared USE_MODE) and warnings (e.g. E > 1 before clamping,
-    /// |RHX1| large). Findings go to stdout as `FILE: severity[code]: message`.
+    /// |RHX1| large). Findings go to stdout as `FILE: severity[code]: message`. The file is
+    /// read in SI units (its [UNITS] converted) and ISO-W axes; findings state loads in N and
+    /// angles in degrees.
     ///
     /// Exit code: 0 no errors (warnings printed), 1 lint errors found, 2 the file cannot be
     /// read (a one-line reason naming the line).

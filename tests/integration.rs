@@ -1,1 +1,4 @@
-//! Integration tests.
+//! Integration tests: one test binary, one module per command, each driving the real
+//! `tirebase` binary in temp dirs.
+
+mod tir;

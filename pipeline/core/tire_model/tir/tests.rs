@@ -344,7 +344,7 @@ fn written_file_layout() {
     assert!(!text.contains('\r'));
     assert!(text.starts_with("[MDI_HEADER]\n"));
     assert!(text.contains("PROPERTY_FILE_FORMAT     = 'PAC2002'"));
-    assert!(text.contains("\nFITTYP                   = 6 "));
+    assert!(text.contains("\nFITTYP                   =  6 "));
     let sections: Vec<&str> = text.lines().filter(|l| l.starts_with('[')).collect();
     assert_eq!(
         sections,

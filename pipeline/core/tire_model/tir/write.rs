@@ -262,10 +262,11 @@ fn header(out: &mut Out, tir: &TirFile) -> Result<(), TirWriteError> {
 fn model(out: &mut Out, tir: &TirFile) -> Result<(), TirWriteError> {
     out.section("MODEL");
     out.pair("PROPERTY_FILE_FORMAT", "'PAC2002'", "Tyre model");
-    out.pair("FITTYP", "6", "Magic Formula version number (6 = MF 5.2)");
+    out.pair("FITTYP", " 6", "Magic Formula version number (6 = MF 5.2)");
+    let use_mode = tir.use_mode.unwrap_or(4);
     out.pair(
         "USE_MODE",
-        &tir.use_mode.unwrap_or(4).to_string(),
+        &format!("{}{use_mode}", if use_mode < 0 { "" } else { " " }),
         "Tyre use switch (IUSED)",
     );
     for c in Coef::ALL.iter().filter(|c| c.section() == Section::Model) {
