@@ -147,10 +147,16 @@ impl Units {
 
     /// A file value of dimension `dim` in SI (placeholders `|x| >= 1e20` unchanged).
     pub fn to_si(&self, x: f64, dim: Dim) -> f64 {
+        let f = self.factor(dim);
+        let inverse = 1.0 / f;
         if x.abs() >= PLACEHOLDER {
             x
+        } else if f < 1.0 && (inverse - inverse.round()).abs() < 1e-9 * inverse {
+            // mm, cm, ms, ...: dividing by the exact integer gives the correctly rounded
+            // value (204.5 mm -> 0.2045 m, not 0.20450000000000002).
+            x / inverse.round()
         } else {
-            x * self.factor(dim)
+            x * f
         }
     }
 }
@@ -241,6 +247,7 @@ mod tests {
         assert!((u.factor(Dim::Angle) - 0.017453292519943295).abs() < 1e-18);
         assert!(!u.is_si());
         assert_eq!(u.to_si(1e30, Dim::Force), 1e30);
+        assert_eq!(u.to_si(204.5, Dim::Length), 0.2045);
         assert!(Units::SI.is_si());
     }
 
