@@ -859,6 +859,29 @@ mod tests {
         }
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 24, ..Default::default() })]
+
+        /// Any finite coefficient vector lints without panicking, and every finding is one line.
+        #[test]
+        fn random_coefficients_never_panic(
+            values in proptest::collection::vec(
+                proptest::prop_oneof![-1e3..1e3f64, proptest::num::f64::NORMAL],
+                crate::tire_model::params::N_COEFS,
+            ),
+            use_mode in -15i64..15,
+        ) {
+            let mut coefs = Coefs::defaults();
+            coefs.0.copy_from_slice(&values);
+            let mut file = TirFile::from_coefs(coefs);
+            file.use_mode = Some(use_mode);
+            let report = lint(&file);
+            for f in &report.findings {
+                proptest::prop_assert!(!f.to_string().contains('\n'), "{}", f);
+            }
+        }
+    }
+
     #[test]
     fn use_mode_decides_the_families() {
         // A USE_MODE 2 file (Fy + Mz) with every Fx coefficient zero is fine.

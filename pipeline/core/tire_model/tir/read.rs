@@ -245,6 +245,15 @@ fn lex_error(e: LexError, line: usize) -> TirReadError {
     }
 }
 
+/// `[MODEL]` keys that are not coefficients.
+const MODEL_STRING_KEYS: [&str; 5] = [
+    "PROPERTY_FILE_FORMAT",
+    "FITTYP",
+    "USE_MODE",
+    "TYRESIDE",
+    "TIRESIDE",
+];
+
 /// A key made of letters, digits and underscores.
 fn valid_key(key: &str) -> bool {
     !key.is_empty() && key.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_')
@@ -386,6 +395,16 @@ impl Collected {
     ) -> Result<(), TirReadError> {
         match kind {
             Kind::Preamble => self.warn(line, format!("{key} before the first [SECTION]; ignored")),
+            Kind::Header if Coef::from_name(key).is_some() || MODEL_STRING_KEYS.contains(&key) => {
+                self.warn(
+                    line,
+                    format!("{key} in [MDI_HEADER]; used as if in its own section"),
+                );
+                match Coef::from_name(key) {
+                    Some(c) => self.coefficient(c.section(), key, value, line)?,
+                    None => self.model_key(key, value, line)?,
+                }
+            }
             Kind::Header => {
                 if !matches!(key, "FILE_TYPE" | "FILE_VERSION" | "FILE_FORMAT") {
                     let entry = Entry {

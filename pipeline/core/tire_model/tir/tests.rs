@@ -316,6 +316,10 @@ fn tolerated_oddities_warn_but_read() {
         .replace(
             "LONGVL                   =  11.176",
             "LONGVL = 11.176\nFZMIN = 100.0",
+        )
+        .replace(
+            "FILE_FORMAT              = 'ASCII'",
+            "FILE_FORMAT = 'ASCII'\nTYRESIDE = 'Left'",
         );
     let (f, w) = read(&odd);
     assert_eq!(f.coefs[Coef::FNOMIN], 1100.0);
@@ -326,6 +330,13 @@ fn tolerated_oddities_warn_but_read() {
     assert!(has("QCZ1 repeated"), "{text:?}");
     assert!(has("FZMIN belongs in [VERTICAL_FORCE_RANGE]"), "{text:?}");
     assert!(has("wrapped end of a comment"), "{text:?}");
+    assert!(has("TYRESIDE in [MDI_HEADER]"), "{text:?}");
+    assert_eq!(
+        f.tyre_side.as_deref(),
+        Some("Right"),
+        "the later [MODEL] value wins"
+    );
+    assert!(f.header.is_empty(), "{:?}", f.header);
 }
 
 #[test]
