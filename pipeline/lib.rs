@@ -19,3 +19,5 @@ pub use tirebase_core as core;
 
 pub mod cli;
 pub mod commands;
+pub mod schema;
+pub mod store;
