@@ -19,5 +19,6 @@ pub use tirebase_core as core;
 
 pub mod cli;
 pub mod commands;
+pub mod progress;
 pub mod schema;
 pub mod store;
