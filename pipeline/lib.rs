@@ -20,5 +20,6 @@ pub use tirebase_core as core;
 pub mod cli;
 pub mod commands;
 pub mod progress;
+pub mod query;
 pub mod schema;
 pub mod store;

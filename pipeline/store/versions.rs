@@ -9,9 +9,9 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use super::files::{ensure_dir, sync_dir};
-use super::layout::{parse_version_dir, version_dir, VERSIONS_DIR};
 use super::StoreError;
+use super::files::{ensure_dir, sync_dir};
+use super::layout::{VERSIONS_DIR, parse_version_dir, version_dir};
 
 /// Published versions under `root`, ascending: (number, absolute directory).
 pub fn list(root: &Path) -> Result<Vec<(u32, PathBuf)>, StoreError> {
@@ -49,7 +49,10 @@ pub fn remove_incomplete(root: &Path) -> Result<usize, StoreError> {
     let mut removed = 0;
     for entry in entries.flatten() {
         let name = entry.file_name();
-        if name.to_str().is_some_and(|n| n.starts_with('.') && n.contains(".building")) {
+        if name
+            .to_str()
+            .is_some_and(|n| n.starts_with('.') && n.contains(".building"))
+        {
             fs::remove_dir_all(entry.path()).map_err(|e| StoreError::io(&entry.path(), e))?;
             removed += 1;
         }
@@ -72,10 +75,9 @@ impl VersionBuilder {
     pub fn begin(root: &Path) -> Result<VersionBuilder, StoreError> {
         let number = latest(root)?.map_or(1, |(n, _)| n + 1);
         let target = root.join(version_dir(number));
-        let staging = root.join(VERSIONS_DIR).join(format!(
-            ".v{number:06}.building-{}",
-            std::process::id()
-        ));
+        let staging = root
+            .join(VERSIONS_DIR)
+            .join(format!(".v{number:06}.building-{}", std::process::id()));
         if staging.exists() {
             fs::remove_dir_all(&staging).map_err(|e| StoreError::io(&staging, e))?;
         }
@@ -151,8 +153,13 @@ mod tests {
         assert_eq!(b.number(), 2);
         drop(b);
         assert_eq!(list(root.path()).unwrap().len(), 1);
-        let staging_left = fs::read_dir(root.path().join(VERSIONS_DIR)).unwrap().count();
-        assert_eq!(staging_left, 1, "an abandoned build must not leave its directory");
+        let staging_left = fs::read_dir(root.path().join(VERSIONS_DIR))
+            .unwrap()
+            .count();
+        assert_eq!(
+            staging_left, 1,
+            "an abandoned build must not leave its directory"
+        );
     }
 
     #[test]
