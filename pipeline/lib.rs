@@ -17,6 +17,7 @@
 
 pub use tirebase_core as core;
 
+pub mod catalog;
 pub mod cli;
 pub mod commands;
 pub mod progress;
