@@ -25,10 +25,10 @@ pub fn list(root: &Path) -> Result<Vec<(u32, PathBuf)>, StoreError> {
     for entry in entries {
         let entry = entry.map_err(|e| StoreError::io(&dir, e))?;
         let name = entry.file_name();
-        if let Some(n) = name.to_str().and_then(parse_version_dir) {
-            if entry.path().is_dir() {
-                out.push((n, entry.path()));
-            }
+        if let Some(n) = name.to_str().and_then(parse_version_dir)
+            && entry.path().is_dir()
+        {
+            out.push((n, entry.path()));
         }
     }
     out.sort();
