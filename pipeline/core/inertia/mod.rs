@@ -24,6 +24,9 @@ pub mod trifilar;
 pub mod uncertainty;
 pub mod yaw;
 
+#[cfg(test)]
+mod validation;
+
 use crate::numerics::NumericsError;
 
 /// A measured input: value and standard uncertainty (k = 1) in the same unit.
