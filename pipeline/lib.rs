@@ -19,3 +19,4 @@ pub use tirebase_core as core;
 
 pub mod cli;
 pub mod commands;
+pub mod schemas;

@@ -13,8 +13,8 @@ use std::f64::consts::PI;
 use super::encoder;
 use super::pendulum::{self, TiltConfig, ZeroOffset};
 use super::session::{
-    AmplitudeCorrection, CsvTable, FrictionMethod, PendulumKind, Rig, Role, RunSpec, Session, SessionError, TiltOffset,
-    YawModel,
+    AmplitudeCorrection, CsvTable, FrictionMethod, PendulumKind, Rig, Role, RunSpec, Session,
+    SessionError, TiltOffset, YawModel,
 };
 use super::swing::{self, PeriodMethod, SignalKind, SwingOptions, SwingPeriod};
 use super::trifilar::TrifilarRig;
@@ -61,11 +61,25 @@ struct Ctx<'a> {
 
 impl Ctx<'_> {
     fn fail(&mut self, run: &str, message: impl std::fmt::Display) {
-        self.errors.push(RunError { session: self.s.id.clone(), run: run.into(), message: message.to_string() });
+        self.errors.push(RunError {
+            session: self.s.id.clone(),
+            run: run.into(),
+            message: message.to_string(),
+        });
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn row(&mut self, run: &str, object: &str, axis: &str, quantity: &str, method: &str, value: (f64, f64), units: &str, diagnostics: String) {
+    fn row(
+        &mut self,
+        run: &str,
+        object: &str,
+        axis: &str,
+        quantity: &str,
+        method: &str,
+        value: (f64, f64),
+        units: &str,
+        diagnostics: String,
+    ) {
         self.results.push(InertiaResult {
             session: self.s.id.clone(),
             run: run.into(),
@@ -85,7 +99,10 @@ impl Ctx<'_> {
             Propagation::Linear => Propagation::Linear,
             Propagation::MonteCarlo { samples, seed } => {
                 self.mc_counter += 1;
-                Propagation::MonteCarlo { samples, seed: seed.wrapping_add(self.mc_counter) }
+                Propagation::MonteCarlo {
+                    samples,
+                    seed: seed.wrapping_add(self.mc_counter),
+                }
             }
         }
     }
@@ -99,7 +116,10 @@ impl Ctx<'_> {
 
     fn object(&self, spec: &RunSpec) -> String {
         match spec.role {
-            Role::Vehicle => spec.object.clone().unwrap_or_else(|| self.s.vehicle_id.clone()),
+            Role::Vehicle => spec
+                .object
+                .clone()
+                .unwrap_or_else(|| self.s.vehicle_id.clone()),
             Role::Calibration => spec.calibration_body.clone().unwrap_or_default(),
             Role::Tare if spec.rig == Rig::YawTable => "table".into(),
             Role::Tare => "platform".into(),
@@ -108,8 +128,16 @@ impl Ctx<'_> {
 }
 
 /// Analyses every run of a session and combines them per rig.
-pub fn analyze_session(session: &Session, read: &dyn Fn(&str) -> Result<String, SessionError>) -> SessionOutcome {
-    let mut ctx = Ctx { s: session, results: Vec::new(), errors: Vec::new(), mc_counter: 0 };
+pub fn analyze_session(
+    session: &Session,
+    read: &dyn Fn(&str) -> Result<String, SessionError>,
+) -> SessionOutcome {
+    let mut ctx = Ctx {
+        s: session,
+        results: Vec::new(),
+        errors: Vec::new(),
+        mc_counter: 0,
+    };
     let mut measured: Vec<(RunSpec, Measurement)> = Vec::new();
     for (id, spec) in &session.runs {
         match spec {
@@ -123,10 +151,19 @@ pub fn analyze_session(session: &Session, read: &dyn Fn(&str) -> Result<String, 
     combine_yaw(&mut ctx, &measured);
     combine_trifilar(&mut ctx, &measured);
     combine_pendulum(&mut ctx, &measured);
-    SessionOutcome { session: session.id.clone(), results: ctx.results, errors: ctx.errors, runs: session.runs.len() }
+    SessionOutcome {
+        session: session.id.clone(),
+        results: ctx.results,
+        errors: ctx.errors,
+        runs: session.runs.len(),
+    }
 }
 
-fn measure_run(ctx: &mut Ctx, spec: &RunSpec, read: &dyn Fn(&str) -> Result<String, SessionError>) -> Result<Measurement, String> {
+fn measure_run(
+    ctx: &mut Ctx,
+    spec: &RunSpec,
+    read: &dyn Fn(&str) -> Result<String, SessionError>,
+) -> Result<Measurement, String> {
     let s = ctx.s;
     // the rig's constants must be valid before the file is worth reading
     match spec.rig {
@@ -146,7 +183,11 @@ fn measure_run(ctx: &mut Ctx, spec: &RunSpec, read: &dyn Fn(&str) -> Result<Stri
     }
     if let Some(body) = &spec.calibration_body {
         match s.calibration_bodies.get(body) {
-            None => return Err(format!("calibration_body {body:?} is not declared in [[calibration_body]]")),
+            None => {
+                return Err(format!(
+                    "calibration_body {body:?} is not declared in [[calibration_body]]"
+                ));
+            }
             Some(Err(e)) => return Err(e.to_string()),
             Some(Ok(_)) => {}
         }
@@ -172,9 +213,17 @@ fn measure_yaw(ctx: &mut Ctx, spec: &RunSpec, table: &CsvTable) -> Result<Measur
         let ev = encoder::index_events(&edges, min_events).map_err(|e| e.to_string())?;
         (ev.times_s, ev.index, ev.bounces_removed, ev.missed_edges)
     } else if table.has("index") {
-        let idx: Vec<i64> = table.numeric("index").map_err(e)?.iter().map(|v| v.round() as i64).collect();
+        let idx: Vec<i64> = table
+            .numeric("index")
+            .map_err(e)?
+            .iter()
+            .map(|v| v.round() as i64)
+            .collect();
         if idx.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(format!("{}: column index must increase strictly", spec.file));
+            return Err(format!(
+                "{}: column index must increase strictly",
+                spec.file
+            ));
         }
         (t, idx, 0, 0)
     } else {
@@ -190,21 +239,40 @@ fn measure_yaw(ctx: &mut Ctx, spec: &RunSpec, table: &CsvTable) -> Result<Measur
         times.truncate(keep);
     }
     if times.len() < min_events {
-        return Err(MethodError::TooFewEdges { found: times.len(), needed: min_events }.to_string());
+        return Err(MethodError::TooFewEdges {
+            found: times.len(),
+            needed: min_events,
+        }
+        .to_string());
     }
     let quad = yaw::fit_constant_alpha(&times, &angles).map_err(|e| e.to_string())?;
     if quad.alpha_rad_s2 <= 0.0 {
-        return Err(MethodError::NonPhysical { reason: format!("fitted acceleration {:.3e} rad/s^2 is not positive", quad.alpha_rad_s2) }.to_string());
+        return Err(MethodError::NonPhysical {
+            reason: format!(
+                "fitted acceleration {:.3e} rad/s^2 is not positive",
+                quad.alpha_rad_s2
+            ),
+        }
+        .to_string());
     }
     let fit = match s.analysis.yaw_model {
         YawModel::ConstAlpha => quad,
         YawModel::AeroLnCosh => yaw::fit_lncosh(&times, &angles).map_err(|e| e.to_string())?,
         YawModel::Auto => match yaw::fit_lncosh(&times, &angles) {
-            Ok(f) if f.drag_c_per_rad > 5.0 * f.u_drag_c_per_rad && f.drag_c_per_rad * angles[angles.len() - 1] > 1e-4 => f,
+            Ok(f)
+                if f.drag_c_per_rad > 5.0 * f.u_drag_c_per_rad
+                    && f.drag_c_per_rad * angles[angles.len() - 1] > 1e-4 =>
+            {
+                f
+            }
             _ => quad,
         },
     };
-    let method = if fit.drag_c_per_rad > 0.0 { "ln_cosh" } else { "quadratic" };
+    let method = if fit.drag_c_per_rad > 0.0 {
+        "ln_cosh"
+    } else {
+        "quadratic"
+    };
     let object = ctx.object(spec);
     let d = diag(&[
         ("events", fit.events.to_string()),
@@ -212,10 +280,22 @@ fn measure_yaw(ctx: &mut Ctx, spec: &RunSpec, table: &CsvTable) -> Result<Measur
         ("missed_edges", missed.to_string()),
         ("residual_rms_rad", format!("{:.3e}", fit.residual_rms_rad)),
         ("peak_omega_rad_s", format!("{:.4}", fit.peak_omega_rad_s)),
-        ("alpha_slope_vs_omega2_per_rad", format!("{:.3e}", fit.alpha_slope_vs_omega2)),
+        (
+            "alpha_slope_vs_omega2_per_rad",
+            format!("{:.3e}", fit.alpha_slope_vs_omega2),
+        ),
         ("drag_c_per_rad", format!("{:.4e}", fit.drag_c_per_rad)),
     ]);
-    ctx.row(&spec.id, &object, "yaw", "angular_acceleration", method, (fit.alpha_rad_s2, fit.u_alpha_rad_s2), "rad/s^2", d);
+    ctx.row(
+        &spec.id,
+        &object,
+        "yaw",
+        "angular_acceleration",
+        method,
+        (fit.alpha_rad_s2, fit.u_alpha_rad_s2),
+        "rad/s^2",
+        d,
+    );
     Ok(Measurement::Yaw(fit))
 }
 
@@ -225,7 +305,12 @@ fn swing_signal(spec: &RunSpec, table: &CsvTable) -> Result<(Vec<f64>, Vec<f64>)
         SignalKind::Angle => "angle_deg",
         SignalKind::Rate => "rate_deg_s",
     };
-    let x: Vec<f64> = table.numeric(column).map_err(|e| e.to_string())?.into_iter().map(f64::to_radians).collect();
+    let x: Vec<f64> = table
+        .numeric(column)
+        .map_err(|e| e.to_string())?
+        .into_iter()
+        .map(f64::to_radians)
+        .collect();
     Ok((t, x))
 }
 
@@ -259,7 +344,9 @@ fn measure_swing(ctx: &mut Ctx, spec: &RunSpec, table: &CsvTable) -> Result<Meas
         (Rig::Trifilar, AmplitudeCorrection::Auto) => AmplitudeCorrection::Trifilar,
         (Rig::Pendulum, AmplitudeCorrection::Auto) => AmplitudeCorrection::AgmWindowed,
         (Rig::Pendulum, AmplitudeCorrection::Trifilar) => {
-            return Err("analysis.amplitude_correction = \"trifilar\" applies to trifilar runs only".into());
+            return Err(
+                "analysis.amplitude_correction = \"trifilar\" applies to trifilar runs only".into(),
+            );
         }
         (_, c) => c,
     };
@@ -276,7 +363,11 @@ fn measure_swing(ctx: &mut Ctx, spec: &RunSpec, table: &CsvTable) -> Result<Meas
         PeriodMethod::ZeroCrossing => "zero_crossing",
     };
     let axis = match spec.rig {
-        Rig::Pendulum => s.pendulum.as_ref().map(|p| p.axis.name()).unwrap_or("pitch"),
+        Rig::Pendulum => s
+            .pendulum
+            .as_ref()
+            .map(|p| p.axis.name())
+            .unwrap_or("pitch"),
         _ => "yaw",
     };
     let correction_name = match correction {
@@ -287,17 +378,41 @@ fn measure_swing(ctx: &mut Ctx, spec: &RunSpec, table: &CsvTable) -> Result<Meas
     };
     let d = diag(&[
         ("amplitude_correction", correction_name.into()),
-        ("period_uncorrected_s", format!("{:.9}", period.period_uncorrected_s)),
+        (
+            "period_uncorrected_s",
+            format!("{:.9}", period.period_uncorrected_s),
+        ),
         ("cycles", format!("{:.1}", period.cycles)),
         ("windows", period.windows.to_string()),
-        ("amplitude_start_deg", format!("{:.3}", period.amplitude_start_rad.to_degrees())),
-        ("amplitude_end_deg", format!("{:.3}", period.amplitude_end_rad.to_degrees())),
+        (
+            "amplitude_start_deg",
+            format!("{:.3}", period.amplitude_start_rad.to_degrees()),
+        ),
+        (
+            "amplitude_end_deg",
+            format!("{:.3}", period.amplitude_end_rad.to_degrees()),
+        ),
         ("zeta", format!("{:.5}", period.zeta)),
-        ("backbone_slope_per_rad2", format!("{:.4}", period.backbone_slope_per_rad2)),
-        ("residual_rms_deg", format!("{:.2e}", period.residual_rms.to_degrees())),
+        (
+            "backbone_slope_per_rad2",
+            format!("{:.4}", period.backbone_slope_per_rad2),
+        ),
+        (
+            "residual_rms_deg",
+            format!("{:.2e}", period.residual_rms.to_degrees()),
+        ),
     ]);
     let object = ctx.object(spec);
-    ctx.row(&spec.id, &object, axis, "period_natural", method, (period.period_s, period.u_period_s), "s", d);
+    ctx.row(
+        &spec.id,
+        &object,
+        axis,
+        "period_natural",
+        method,
+        (period.period_s, period.u_period_s),
+        "s",
+        d,
+    );
     Ok(Measurement::Swing(period))
 }
 
@@ -310,25 +425,42 @@ fn measure_static(ctx: &mut Ctx, spec: &RunSpec, table: &CsvTable) -> Result<Mea
     let xs = table.numeric("x_m").map_err(e)?;
     let ys = table.numeric("y_m").map_err(e)?;
     let tilt_deg = table.numeric("tilt_deg").map_err(e)?;
-    let sd = if table.has("tilt_sd_deg") { Some(table.numeric("tilt_sd_deg").map_err(e)?) } else { None };
+    let sd = if table.has("tilt_sd_deg") {
+        Some(table.numeric("tilt_sd_deg").map_err(e)?)
+    } else {
+        None
+    };
     let mut order: Vec<String> = Vec::new();
     let mut configs: Vec<StaticConfig> = Vec::new();
     for i in 0..names.len() {
         if dm[i] < 0.0 {
-            return Err(format!("{}: row {} (config {}): added_mass_kg = {} is negative", spec.file, i + 1, names[i], dm[i]));
+            return Err(format!(
+                "{}: row {} (config {}): added_mass_kg = {} is negative",
+                spec.file,
+                i + 1,
+                names[i],
+                dm[i]
+            ));
         }
         let reading = tilt.scale * tilt_deg[i].to_radians();
         let u = sd.as_ref().map_or(tilt.noise_rad, |s| s[i].to_radians());
         let k = match order.iter().position(|n| *n == names[i]) {
             Some(k) => {
                 if (configs[k].reading_rad - reading).abs() > 1e-12 {
-                    return Err(format!("{}: config {} has rows with different tilt_deg", spec.file, names[i]));
+                    return Err(format!(
+                        "{}: config {} has rows with different tilt_deg",
+                        spec.file, names[i]
+                    ));
                 }
                 k
             }
             None => {
                 order.push(names[i].clone());
-                configs.push(StaticConfig { masses: Vec::new(), reading_rad: reading, u_reading_rad: u });
+                configs.push(StaticConfig {
+                    masses: Vec::new(),
+                    reading_rad: reading,
+                    u_reading_rad: u,
+                });
                 configs.len() - 1
             }
         };
@@ -340,15 +472,31 @@ fn measure_static(ctx: &mut Ctx, spec: &RunSpec, table: &CsvTable) -> Result<Mea
         TiltOffset::Estimate => ZeroOffset::Estimate,
         TiltOffset::Known(m) => ZeroOffset::Known(m.value),
     };
-    let solution = pendulum::solve_first_moment(&tilt_configs(&configs), offset).map_err(|e| e.to_string())?;
+    let solution =
+        pendulum::solve_first_moment(&tilt_configs(&configs), offset).map_err(|e| e.to_string())?;
     let object = ctx.object(spec);
-    let axis = s.pendulum.as_ref().map(|p| p.axis.name()).unwrap_or("pitch");
+    let axis = s
+        .pendulum
+        .as_ref()
+        .map(|p| p.axis.name())
+        .unwrap_or("pitch");
     let d = diag(&[
         ("configs", solution.configs.to_string()),
-        ("residual_rms_deg", format!("{:.2e}", solution.residual_rms_rad.to_degrees())),
-        ("offset_deg", format!("{:.5}", solution.offset_rad.to_degrees())),
+        (
+            "residual_rms_deg",
+            format!("{:.2e}", solution.residual_rms_rad.to_degrees()),
+        ),
+        (
+            "offset_deg",
+            format!("{:.5}", solution.offset_rad.to_degrees()),
+        ),
     ]);
-    let inputs = static_inputs(&configs, s.pendulum.as_ref().map_or((0.0, 0.0), |p| (p.added_mass_u_kg, p.added_position_u_m)));
+    let inputs = static_inputs(
+        &configs,
+        s.pendulum
+            .as_ref()
+            .map_or((0.0, 0.0), |p| (p.added_mass_u_kg, p.added_position_u_m)),
+    );
     let offset_input = offset_measured(s);
     let mut all = inputs.clone();
     all.push(offset_input);
@@ -360,9 +508,36 @@ fn measure_static(ctx: &mut Ctx, spec: &RunSpec, table: &CsvTable) -> Result<Mea
     };
     let how = ctx.propagation();
     let out = propagate(&all, &f, how).map_err(|e| e.to_string())?;
-    ctx.row(&spec.id, &object, axis, "first_moment_x", "static_tilt_ls", out[0], "kg*m", d.clone());
-    ctx.row(&spec.id, &object, axis, "first_moment_y", "static_tilt_ls", out[1], "kg*m", d.clone());
-    ctx.row(&spec.id, &object, axis, "inclinometer_offset", "static_tilt_ls", out[2], "rad", d);
+    ctx.row(
+        &spec.id,
+        &object,
+        axis,
+        "first_moment_x",
+        "static_tilt_ls",
+        out[0],
+        "kg*m",
+        d.clone(),
+    );
+    ctx.row(
+        &spec.id,
+        &object,
+        axis,
+        "first_moment_y",
+        "static_tilt_ls",
+        out[1],
+        "kg*m",
+        d.clone(),
+    );
+    ctx.row(
+        &spec.id,
+        &object,
+        axis,
+        "inclinometer_offset",
+        "static_tilt_ls",
+        out[2],
+        "rad",
+        d,
+    );
     Ok(Measurement::Static(configs))
 }
 
@@ -418,18 +593,28 @@ fn rebuild_configs<'x>(shape: &[StaticConfig], x: &'x [f64]) -> (Vec<TiltConfig>
             sy += x[k] * x[k + 2];
             k += 3;
         }
-        out.push(TiltConfig { added_sx_kg_m: sx, added_sy_kg_m: sy, reading_rad: reading });
+        out.push(TiltConfig {
+            added_sx_kg_m: sx,
+            added_sy_kg_m: sy,
+            reading_rad: reading,
+        });
     }
     (out, &x[k..])
 }
 
 fn join_ids(specs: &[&RunSpec]) -> String {
-    specs.iter().map(|s| s.id.as_str()).collect::<Vec<_>>().join("+")
+    specs
+        .iter()
+        .map(|s| s.id.as_str())
+        .collect::<Vec<_>>()
+        .join("+")
 }
 
 fn combine_yaw(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
     let s = ctx.s;
-    let Ok(yaw) = s.yaw_table.as_ref() else { return };
+    let Ok(yaw) = s.yaw_table.as_ref() else {
+        return;
+    };
     let pick = |role: Role| -> Vec<(&RunSpec, &AccelerationFit)> {
         measured
             .iter()
@@ -439,8 +624,18 @@ fn combine_yaw(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
             })
             .collect()
     };
-    let (tares, cals, vehicles) = (pick(Role::Tare), pick(Role::Calibration), pick(Role::Vehicle));
-    let vehicle_ids: Vec<String> = s.runs.iter().filter_map(|(_, r)| r.as_ref().ok()).filter(|r| r.rig == Rig::YawTable && r.role == Role::Vehicle).map(|r| r.id.clone()).collect();
+    let (tares, cals, vehicles) = (
+        pick(Role::Tare),
+        pick(Role::Calibration),
+        pick(Role::Vehicle),
+    );
+    let vehicle_ids: Vec<String> = s
+        .runs
+        .iter()
+        .filter_map(|(_, r)| r.as_ref().ok())
+        .filter(|r| r.rig == Rig::YawTable && r.role == Role::Vehicle)
+        .map(|r| r.id.clone())
+        .collect();
     if vehicles.is_empty() && tares.is_empty() && cals.is_empty() {
         return;
     }
@@ -465,8 +660,13 @@ fn combine_yaw(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
         FrictionMethod::Given => {
             let tau = match (yaw.friction_n_m, yaw.drag_mass_kg) {
                 (Some(t), _) => t,
-                (None, Some(m)) => Measured::new(m.value * g.value * yaw.radius_m.value, m.u * g.value * yaw.radius_m.value),
-                (None, None) => return fail_all(ctx, need("yaw_table.friction_torque_n_m or drag_mass_kg")),
+                (None, Some(m)) => Measured::new(
+                    m.value * g.value * yaw.radius_m.value,
+                    m.u * g.value * yaw.radius_m.value,
+                ),
+                (None, None) => {
+                    return fail_all(ctx, need("yaw_table.friction_torque_n_m or drag_mass_kg"));
+                }
             };
             base.push(tau);
             match yaw.table_inertia_kg_m2 {
@@ -477,24 +677,58 @@ fn combine_yaw(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
                 }
                 None => {
                     let Some((spec, fit)) = tares.first() else {
-                        return fail_all(ctx, need("a successful yaw tare run or yaw_table.table_inertia_kg_m2"));
+                        return fail_all(
+                            ctx,
+                            need("a successful yaw tare run or yaw_table.table_inertia_kg_m2"),
+                        );
                     };
                     base.push(m_of(spec));
                     base.push(alpha_of(fit));
                     ident_runs = vec![spec];
-                    ident = Box::new(|x: &[f64]| Ok((yaw::rotating_inertia_exact(x[4], x[1], x[0], x[5], x[3], x[2]), x[3], 1.0)));
+                    ident = Box::new(|x: &[f64]| {
+                        Ok((
+                            yaw::rotating_inertia_exact(x[4], x[1], x[0], x[5], x[3], x[2]),
+                            x[3],
+                            1.0,
+                        ))
+                    });
                 }
             }
         }
         FrictionMethod::TareCalibration => {
             let (Some((ts, tf)), Some((cs, cf))) = (tares.first(), cals.first()) else {
-                return fail_all(ctx, need("a successful tare run and a successful calibration run"));
+                return fail_all(
+                    ctx,
+                    need("a successful tare run and a successful calibration run"),
+                );
             };
-            let body = s.calibration_bodies[cs.calibration_body.as_ref().expect("validated")].as_ref().expect("checked").clone();
-            base.extend([m_of(ts), alpha_of(tf), m_of(cs), alpha_of(cf), body.inertia_kg_m2]);
+            let body = s.calibration_bodies[cs.calibration_body.as_ref().expect("validated")]
+                .as_ref()
+                .expect("checked")
+                .clone();
+            base.extend([
+                m_of(ts),
+                alpha_of(tf),
+                m_of(cs),
+                alpha_of(cf),
+                body.inertia_kg_m2,
+            ]);
             ident_runs = vec![ts, cs];
             ident = Box::new(|x: &[f64]| {
-                let (it, tau) = yaw::tare_and_friction(DropRun { mass_kg: x[3], alpha_rad_s2: x[4] }, DropRun { mass_kg: x[5], alpha_rad_s2: x[6] }, x[7], x[1], x[0], x[2])?;
+                let (it, tau) = yaw::tare_and_friction(
+                    DropRun {
+                        mass_kg: x[3],
+                        alpha_rad_s2: x[4],
+                    },
+                    DropRun {
+                        mass_kg: x[5],
+                        alpha_rad_s2: x[6],
+                    },
+                    x[7],
+                    x[1],
+                    x[0],
+                    x[2],
+                )?;
                 Ok((it, tau, 1.0))
             });
         }
@@ -503,7 +737,10 @@ fn combine_yaw(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
                 return fail_all(ctx, need("yaw_table.table_inertia_kg_m2 (a value)"));
             };
             if vehicles.len() < 2 {
-                return fail_all(ctx, need("at least 2 successful vehicle runs with different masses"));
+                return fail_all(
+                    ctx,
+                    need("at least 2 successful vehicle runs with different masses"),
+                );
             }
             base.push(it);
             for (spec, fit) in &vehicles {
@@ -513,20 +750,41 @@ fn combine_yaw(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
             ident_runs = vehicles.iter().map(|(s, _)| *s).collect();
             let n = vehicles.len();
             ident = Box::new(move |x: &[f64]| {
-                let runs: Vec<DropRun> = (0..n).map(|j| DropRun { mass_kg: x[4 + 2 * j], alpha_rad_s2: x[5 + 2 * j] }).collect();
+                let runs: Vec<DropRun> = (0..n)
+                    .map(|j| DropRun {
+                        mass_kg: x[4 + 2 * j],
+                        alpha_rad_s2: x[5 + 2 * j],
+                    })
+                    .collect();
                 let (itot, tau) = yaw::multi_mass(&runs, x[1], x[0], x[2])?;
                 Ok((x[3], tau, itot))
             });
         }
         FrictionMethod::CalibrationFactor => {
             let (Some(it), Some((cs, cf))) = (yaw.table_inertia_kg_m2, cals.first()) else {
-                return fail_all(ctx, need("yaw_table.table_inertia_kg_m2 and a successful calibration run"));
+                return fail_all(
+                    ctx,
+                    need("yaw_table.table_inertia_kg_m2 and a successful calibration run"),
+                );
             };
-            let body = s.calibration_bodies[cs.calibration_body.as_ref().expect("validated")].as_ref().expect("checked").clone();
+            let body = s.calibration_bodies[cs.calibration_body.as_ref().expect("validated")]
+                .as_ref()
+                .expect("checked")
+                .clone();
             base.extend([it, m_of(cs), alpha_of(cf), body.inertia_kg_m2]);
             ident_runs = vec![cs];
             ident = Box::new(|x: &[f64]| {
-                let k = yaw::calibration_factor(DropRun { mass_kg: x[4], alpha_rad_s2: x[5] }, x[6], x[3], x[1], x[0], x[2]);
+                let k = yaw::calibration_factor(
+                    DropRun {
+                        mass_kg: x[4],
+                        alpha_rad_s2: x[5],
+                    },
+                    x[6],
+                    x[3],
+                    x[1],
+                    x[0],
+                    x[2],
+                );
                 Ok((x[3], 0.0, k))
             });
         }
@@ -546,20 +804,68 @@ fn combine_yaw(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
         match propagate(&base, &f, how) {
             Ok(out) => {
                 let run = join_ids(&ident_runs);
-                let d = diag(&[("friction_method", method_name.into()), ("uncertainty", prop.into())]);
+                let d = diag(&[
+                    ("friction_method", method_name.into()),
+                    ("uncertainty", prop.into()),
+                ]);
                 if method == FrictionMethod::MultiMass {
-                    ctx.row(&run, &s.vehicle_id, "yaw", "rotating_inertia", "falling_mass_multi_mass", out[2], "kg*m^2", d.clone());
+                    ctx.row(
+                        &run,
+                        &s.vehicle_id,
+                        "yaw",
+                        "rotating_inertia",
+                        "falling_mass_multi_mass",
+                        out[2],
+                        "kg*m^2",
+                        d.clone(),
+                    );
                     let fv = |x: &[f64]| ident(x).map(|(it, _, itot)| vec![itot - it]);
                     if let Ok(v) = propagate(&base, &fv, ctx.propagation()) {
-                        ctx.row(&run, &s.vehicle_id, "yaw", "inertia", "falling_mass_multi_mass", v[0], "kg*m^2", d.clone());
+                        ctx.row(
+                            &run,
+                            &s.vehicle_id,
+                            "yaw",
+                            "inertia",
+                            "falling_mass_multi_mass",
+                            v[0],
+                            "kg*m^2",
+                            d.clone(),
+                        );
                     }
                 } else if method != FrictionMethod::CalibrationFactor {
-                    ctx.row(&run, "table", "yaw", "inertia", &format!("falling_mass_{method_name}"), out[0], "kg*m^2", d.clone());
+                    ctx.row(
+                        &run,
+                        "table",
+                        "yaw",
+                        "inertia",
+                        &format!("falling_mass_{method_name}"),
+                        out[0],
+                        "kg*m^2",
+                        d.clone(),
+                    );
                 }
                 if method != FrictionMethod::CalibrationFactor {
-                    ctx.row(&run, "table", "yaw", "friction_torque", &format!("falling_mass_{method_name}"), out[1], "N*m", d);
+                    ctx.row(
+                        &run,
+                        "table",
+                        "yaw",
+                        "friction_torque",
+                        &format!("falling_mass_{method_name}"),
+                        out[1],
+                        "N*m",
+                        d,
+                    );
                 } else {
-                    ctx.row(&run, "table", "yaw", "calibration_factor", "thesis_calibration_factor", out[2], "1", d);
+                    ctx.row(
+                        &run,
+                        "table",
+                        "yaw",
+                        "calibration_factor",
+                        "thesis_calibration_factor",
+                        out[2],
+                        "1",
+                        d,
+                    );
                 }
             }
             Err(e) => {
@@ -579,7 +885,11 @@ fn combine_yaw(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
             let (it, tau, k) = ident(&x[..nb])?;
             let (g, r, ieq, m, a) = (x[0], x[1], x[2], x[nb], x[nb + 1]);
             let loaded = yaw::rotating_inertia_exact(m, r, g, a, tau, ieq);
-            let exact = if method == FrictionMethod::CalibrationFactor { k * (loaded - it) } else { loaded - it };
+            let exact = if method == FrictionMethod::CalibrationFactor {
+                k * (loaded - it)
+            } else {
+                loaded - it
+            };
             let thesis = yaw::rotating_inertia_thesis(m, tau / (g * r), r, g, a) - it;
             let j = (m * g * r - tau) / a;
             Ok(vec![exact, thesis, c * j])
@@ -590,21 +900,49 @@ fn combine_yaw(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
                 let object = ctx.object(spec);
                 let mut pairs = vec![
                     ("friction_method", method_name.to_string()),
-                    ("acceleration_model", if c > 0.0 { "ln_cosh" } else { "quadratic" }.to_string()),
+                    (
+                        "acceleration_model",
+                        if c > 0.0 { "ln_cosh" } else { "quadratic" }.to_string(),
+                    ),
                     ("uncertainty", prop.to_string()),
                 ];
                 if method == FrictionMethod::CalibrationFactor {
                     pairs.push(("warning", "multiplicative calibration factor is biased when the vehicle's acceleration differs from the calibration body's (methods 2.4)".into()));
                 }
                 if out[0].0 <= 0.0 {
-                    pairs.push(("warning", "non-positive inertia: check tare, friction and units".into()));
+                    pairs.push((
+                        "warning",
+                        "non-positive inertia: check tare, friction and units".into(),
+                    ));
                 }
                 let d = diag(&pairs);
-                let exact_method = if method == FrictionMethod::CalibrationFactor { "thesis_calibration_factor" } else { "falling_mass_exact" };
-                ctx.row(&spec.id, &object, "yaw", "inertia", exact_method, out[0], "kg*m^2", d.clone());
+                let exact_method = if method == FrictionMethod::CalibrationFactor {
+                    "thesis_calibration_factor"
+                } else {
+                    "falling_mass_exact"
+                };
+                ctx.row(
+                    &spec.id,
+                    &object,
+                    "yaw",
+                    "inertia",
+                    exact_method,
+                    out[0],
+                    "kg*m^2",
+                    d.clone(),
+                );
                 ctx.row(&spec.id, &object, "yaw", "inertia", "thesis_simplified", out[1], "kg*m^2", diag(&[("note", "r g (m - m_drag)/alpha - I_table: string tension taken as m g (high by m r^2)".into())]));
                 if c > 0.0 {
-                    ctx.row(&spec.id, &object, "yaw", "aero_drag_coefficient", "ln_cosh", out[2], "N*m*s^2", d);
+                    ctx.row(
+                        &spec.id,
+                        &object,
+                        "yaw",
+                        "aero_drag_coefficient",
+                        "ln_cosh",
+                        out[2],
+                        "N*m*s^2",
+                        d,
+                    );
                 }
             }
             Err(e) => ctx.fail(&spec.id, e),
@@ -612,7 +950,11 @@ fn combine_yaw(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
     }
 }
 
-fn pick_swings(measured: &[(RunSpec, Measurement)], rig: Rig, role: Role) -> Vec<(&RunSpec, &SwingPeriod)> {
+fn pick_swings(
+    measured: &[(RunSpec, Measurement)],
+    rig: Rig,
+    role: Role,
+) -> Vec<(&RunSpec, &SwingPeriod)> {
     measured
         .iter()
         .filter_map(|(spec, m)| match m {
@@ -626,23 +968,47 @@ fn pick_swings(measured: &[(RunSpec, Measurement)], rig: Rig, role: Role) -> Vec
 fn mean_period(runs: &[(&RunSpec, &SwingPeriod)]) -> Measured {
     let n = runs.len() as f64;
     let mean = runs.iter().map(|(_, p)| p.period_s).sum::<f64>() / n;
-    let u = runs.iter().map(|(_, p)| p.u_period_s.powi(2)).sum::<f64>().sqrt() / n;
+    let u = runs
+        .iter()
+        .map(|(_, p)| p.u_period_s.powi(2))
+        .sum::<f64>()
+        .sqrt()
+        / n;
     Measured::new(mean, u)
 }
 
 fn combine_trifilar(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
     let s = ctx.s;
-    let (tares, vehicles) = (pick_swings(measured, Rig::Trifilar, Role::Tare), pick_swings(measured, Rig::Trifilar, Role::Vehicle));
+    let (tares, vehicles) = (
+        pick_swings(measured, Rig::Trifilar, Role::Tare),
+        pick_swings(measured, Rig::Trifilar, Role::Vehicle),
+    );
     if tares.is_empty() && vehicles.is_empty() {
         return;
     }
-    let Ok((_, spec_t)) = trifilar_rig(s) else { return };
+    let Ok((_, spec_t)) = trifilar_rig(s) else {
+        return;
+    };
     let prop = ctx.propagation_name();
-    let base = vec![s.g_m_s2, spec_t.radius_top_m, spec_t.radius_bottom_m, spec_t.length_m, spec_t.platform_mass_kg];
-    let k = |x: &[f64]| TrifilarRig { g_m_s2: x[0], radius_top_m: x[1], radius_bottom_m: x[2], length_m: x[3] };
+    let base = vec![
+        s.g_m_s2,
+        spec_t.radius_top_m,
+        spec_t.radius_bottom_m,
+        spec_t.length_m,
+        spec_t.platform_mass_kg,
+    ];
+    let k = |x: &[f64]| TrifilarRig {
+        g_m_s2: x[0],
+        radius_top_m: x[1],
+        radius_bottom_m: x[2],
+        length_m: x[3],
+    };
     if tares.is_empty() {
         for (spec, _) in &vehicles {
-            ctx.fail(&spec.id, "trifilar vehicle run needs a successful platform (role = \"tare\") run");
+            ctx.fail(
+                &spec.id,
+                "trifilar vehicle run needs a successful platform (role = \"tare\") run",
+            );
         }
         return;
     }
@@ -651,14 +1017,34 @@ fn combine_trifilar(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
     let mut inputs = base.clone();
     inputs.push(tp);
     let how = ctx.propagation();
-    if let Ok(out) = propagate(&inputs, &|x: &[f64]| -> Result<Vec<f64>, MethodError> { Ok(vec![k(x).system_inertia(x[4], x[5])]) }, how) {
-        ctx.row(&join_ids(&tare_ids), "platform", "yaw", "inertia", "trifilar", out[0], "kg*m^2", diag(&[("uncertainty", prop.into())]));
+    if let Ok(out) = propagate(
+        &inputs,
+        &|x: &[f64]| -> Result<Vec<f64>, MethodError> { Ok(vec![k(x).system_inertia(x[4], x[5])]) },
+        how,
+    ) {
+        ctx.row(
+            &join_ids(&tare_ids),
+            "platform",
+            "yaw",
+            "inertia",
+            "trifilar",
+            out[0],
+            "kg*m^2",
+            diag(&[("uncertainty", prop.into())]),
+        );
     }
     for (spec, period) in &vehicles {
-        let m_o = match spec.object_mass_kg.map(Ok).unwrap_or_else(|| s.vehicle_mass_kg.clone()) {
+        let m_o = match spec
+            .object_mass_kg
+            .map(Ok)
+            .unwrap_or_else(|| s.vehicle_mass_kg.clone())
+        {
             Ok(m) => m,
             Err(e) => {
-                ctx.fail(&spec.id, format!("object mass: set run object_mass_kg or [vehicle] mass_kg ({e})"));
+                ctx.fail(
+                    &spec.id,
+                    format!("object mass: set run object_mass_kg or [vehicle] mass_kg ({e})"),
+                );
                 continue;
             }
         };
@@ -680,9 +1066,16 @@ fn combine_trifilar(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
                     ("tare_amplification", format!("{:.3}", out[1].0 / out[0].0)),
                     ("uncertainty", prop.into()),
                 ]);
-                ctx.row(&spec.id, &object, "yaw", "inertia", "trifilar", out[0], "kg*m^2", d);
+                ctx.row(
+                    &spec.id, &object, "yaw", "inertia", "trifilar", out[0], "kg*m^2", d,
+                );
             }
-            Ok(out) => ctx.fail(&spec.id, MethodError::NonPhysical { reason: format!("object inertia {:.4} kg m^2 <= 0", out[0].0) }),
+            Ok(out) => ctx.fail(
+                &spec.id,
+                MethodError::NonPhysical {
+                    reason: format!("object inertia {:.4} kg m^2 <= 0", out[0].0),
+                },
+            ),
             Err(e) => ctx.fail(&spec.id, e),
         }
     }
@@ -690,7 +1083,9 @@ fn combine_trifilar(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
 
 fn combine_pendulum(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
     let s = ctx.s;
-    let Ok(pend) = s.pendulum.as_ref() else { return };
+    let Ok(pend) = s.pendulum.as_ref() else {
+        return;
+    };
     let statics = |role: Role| -> Vec<(&RunSpec, &Vec<StaticConfig>)> {
         measured
             .iter()
@@ -701,7 +1096,10 @@ fn combine_pendulum(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
             .collect()
     };
     let (plat_static, veh_static) = (statics(Role::Tare), statics(Role::Vehicle));
-    let (plat_swing, veh_swing) = (pick_swings(measured, Rig::Pendulum, Role::Tare), pick_swings(measured, Rig::Pendulum, Role::Vehicle));
+    let (plat_swing, veh_swing) = (
+        pick_swings(measured, Rig::Pendulum, Role::Tare),
+        pick_swings(measured, Rig::Pendulum, Role::Vehicle),
+    );
     let axis = pend.axis.name();
     let prop = ctx.propagation_name();
     let offset = match s.tilt.as_ref().map(|t| t.offset) {
@@ -724,14 +1122,27 @@ fn combine_pendulum(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
         if let Ok(out) = propagate(&inputs, &f, how) {
             let mut ids: Vec<&RunSpec> = vec![ps];
             ids.extend(plat_swing.iter().map(|(s, _)| *s));
-            ctx.row(&join_ids(&ids), "platform", axis, "inertia_pivot", "compound_pendulum", out[0], "kg*m^2", diag(&[("uncertainty", prop.into())]));
+            ctx.row(
+                &join_ids(&ids),
+                "platform",
+                axis,
+                "inertia_pivot",
+                "compound_pendulum",
+                out[0],
+                "kg*m^2",
+                diag(&[("uncertainty", prop.into())]),
+            );
         }
     }
     let vehicle_runs: Vec<&RunSpec> = s
         .runs
         .iter()
         .filter_map(|(_, r)| r.as_ref().ok())
-        .filter(|r| r.rig == Rig::Pendulum && r.role == Role::Vehicle && measured.iter().any(|(m, _)| m.id == r.id))
+        .filter(|r| {
+            r.rig == Rig::Pendulum
+                && r.role == Role::Vehicle
+                && measured.iter().any(|(m, _)| m.id == r.id)
+        })
         .collect();
     if vehicle_runs.is_empty() {
         return;
@@ -752,7 +1163,10 @@ fn combine_pendulum(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
     };
     if !missing.is_empty() {
         for r in &vehicle_runs {
-            ctx.fail(&r.id, format!("pendulum results need {}", missing.join(", ")));
+            ctx.fail(
+                &r.id,
+                format!("pendulum results need {}", missing.join(", ")),
+            );
         }
         return;
     }
@@ -769,10 +1183,30 @@ fn combine_pendulum(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
         let sv = pendulum::solve_first_moment(&cv, offset_from(offset, x[4]))?;
         let ip_p = pendulum::pivot_inertia(x[0], sp.magnitude(), x[5]);
         let ip_t = pendulum::pivot_inertia(x[0], sv.magnitude(), x[6]);
-        let v = pendulum::vehicle_properties((sv.sx_kg_m, sv.sy_kg_m), (sp.sx_kg_m, sp.sy_kg_m), ip_t, ip_p, x[1], x[2], x[3]);
-        Ok(vec![v.x_cg_m, v.z_cg_m, v.inertia_cg_kg_m2, v.inertia_pivot_kg_m2, ip_t])
+        let v = pendulum::vehicle_properties(
+            (sv.sx_kg_m, sv.sy_kg_m),
+            (sp.sx_kg_m, sp.sy_kg_m),
+            ip_t,
+            ip_p,
+            x[1],
+            x[2],
+            x[3],
+        );
+        Ok(vec![
+            v.x_cg_m,
+            v.z_cg_m,
+            v.inertia_cg_kg_m2,
+            v.inertia_pivot_kg_m2,
+            ip_t,
+        ])
     };
-    let mut base = vec![s.g_m_s2, m_v, pend.pivot_to_deck_m, pend.knife_tip_radius_m, offset_measured(s)];
+    let mut base = vec![
+        s.g_m_s2,
+        m_v,
+        pend.pivot_to_deck_m,
+        pend.knife_tip_radius_m,
+        offset_measured(s),
+    ];
     // CG from statics alone (periods irrelevant: fixed at 1 s).
     {
         let mut inputs = base.clone();
@@ -784,9 +1218,34 @@ fn combine_pendulum(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
             Ok(out) => {
                 let run = join_ids(&[ps, vs]);
                 let object = ctx.object(vs);
-                let d = diag(&[("uncertainty", prop.into()), ("x_axis", "platform x from the pivot plane (forward for pitch, lateral for roll)".into())]);
-                ctx.row(&run, &object, axis, "cg_height", "static_tilt_ls", out[1], "m", d.clone());
-                ctx.row(&run, &object, axis, "cg_offset_x", "static_tilt_ls", out[0], "m", d);
+                let d = diag(&[
+                    ("uncertainty", prop.into()),
+                    (
+                        "x_axis",
+                        "platform x from the pivot plane (forward for pitch, lateral for roll)"
+                            .into(),
+                    ),
+                ]);
+                ctx.row(
+                    &run,
+                    &object,
+                    axis,
+                    "cg_height",
+                    "static_tilt_ls",
+                    out[1],
+                    "m",
+                    d.clone(),
+                );
+                ctx.row(
+                    &run,
+                    &object,
+                    axis,
+                    "cg_offset_x",
+                    "static_tilt_ls",
+                    out[0],
+                    "m",
+                    d,
+                );
             }
             Err(e) => ctx.fail(&vs.id, e),
         }
@@ -796,7 +1255,10 @@ fn combine_pendulum(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
     }
     if plat_swing.is_empty() {
         for (spec, _) in &veh_swing {
-            ctx.fail(&spec.id, "pendulum vehicle swing needs a successful platform swing run");
+            ctx.fail(
+                &spec.id,
+                "pendulum vehicle swing needs a successful platform swing run",
+            );
         }
         return;
     }
@@ -826,9 +1288,23 @@ fn combine_pendulum(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
                     ("dI_dh_pct_per_mm", format!("{sens:.3}")),
                     ("uncertainty", prop.into()),
                 ]);
-                ctx.row(&spec.id, &object, axis, "inertia_cg", "compound_pendulum", out[2], "kg*m^2", d);
+                ctx.row(
+                    &spec.id,
+                    &object,
+                    axis,
+                    "inertia_cg",
+                    "compound_pendulum",
+                    out[2],
+                    "kg*m^2",
+                    d,
+                );
             }
-            Ok(out) => ctx.fail(&spec.id, MethodError::NonPhysical { reason: format!("inertia about the CG {:.4} kg m^2 <= 0", out[2].0) }),
+            Ok(out) => ctx.fail(
+                &spec.id,
+                MethodError::NonPhysical {
+                    reason: format!("inertia about the CG {:.4} kg m^2 <= 0", out[2].0),
+                },
+            ),
             Err(e) => ctx.fail(&spec.id, e),
         }
     }

@@ -29,7 +29,10 @@ pub struct IndexedEvents {
 /// been below `low`, and is timed where it crosses the mid level.
 pub fn rising_edges(t_s: &[f64], signal_v: &[f64]) -> Result<Vec<f64>, MethodError> {
     if t_s.len() < 3 {
-        return Err(MethodError::TooFewEdges { found: 0, needed: 3 });
+        return Err(MethodError::TooFewEdges {
+            found: 0,
+            needed: 3,
+        });
     }
     let mut sorted = signal_v.to_vec();
     sorted.sort_by(f64::total_cmp);
@@ -37,7 +40,10 @@ pub fn rising_edges(t_s: &[f64], signal_v: &[f64]) -> Result<Vec<f64>, MethodErr
     let (p5, p95) = (q(0.05), q(0.95));
     let swing = p95 - p5;
     if swing.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-        return Err(MethodError::TooFewEdges { found: 0, needed: 3 });
+        return Err(MethodError::TooFewEdges {
+            found: 0,
+            needed: 3,
+        });
     }
     let (low, mid, high) = (p5 + 0.35 * swing, p5 + 0.5 * swing, p5 + 0.65 * swing);
     let mut armed = false;
@@ -56,7 +62,11 @@ pub fn rising_edges(t_s: &[f64], signal_v: &[f64]) -> Result<Vec<f64>, MethodErr
                 k += 1;
             }
             let (a, b) = (signal_v[k], signal_v[k + 1]);
-            let frac = if b > a { ((mid - a) / (b - a)).clamp(0.0, 1.0) } else { 0.5 };
+            let frac = if b > a {
+                ((mid - a) / (b - a)).clamp(0.0, 1.0)
+            } else {
+                0.5
+            };
             edges.push(t_s[k] + frac * (t_s[k + 1] - t_s[k]));
         }
     }
@@ -71,7 +81,10 @@ pub fn index_events(times_s: &[f64], min_events: usize) -> Result<IndexedEvents,
     let mut times: Vec<f64> = times_s.to_vec();
     times.sort_by(f64::total_cmp);
     if times.len() < min_events {
-        return Err(MethodError::TooFewEdges { found: times.len(), needed: min_events });
+        return Err(MethodError::TooFewEdges {
+            found: times.len(),
+            needed: min_events,
+        });
     }
     let mut gaps: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
     gaps.sort_by(f64::total_cmp);
@@ -84,7 +97,10 @@ pub fn index_events(times_s: &[f64], min_events: usize) -> Result<IndexedEvents,
     }
     let bounces_removed = times.len() - kept.len();
     if kept.len() < min_events {
-        return Err(MethodError::TooFewEdges { found: kept.len(), needed: min_events });
+        return Err(MethodError::TooFewEdges {
+            found: kept.len(),
+            needed: min_events,
+        });
     }
     // First pass: step counts from the extrapolated single-band interval.
     let mut index = vec![0i64];
@@ -92,9 +108,17 @@ pub fn index_events(times_s: &[f64], min_events: usize) -> Result<IndexedEvents,
     let mut step_prev2 = step_prev;
     for k in 1..kept.len() {
         let gap = kept[k] - kept[k - 1];
-        let ratio = if k >= 2 { (step_prev / step_prev2).clamp(0.5, 1.5) } else { 1.0 };
+        let ratio = if k >= 2 {
+            (step_prev / step_prev2).clamp(0.5, 1.5)
+        } else {
+            1.0
+        };
         let predicted = step_prev * ratio;
-        let n = if k == 1 { 1 } else { (gap / predicted).round().max(1.0) as i64 };
+        let n = if k == 1 {
+            1
+        } else {
+            (gap / predicted).round().max(1.0) as i64
+        };
         index.push(index[k - 1] + n);
         step_prev2 = step_prev;
         step_prev = gap / n as f64;
@@ -104,7 +128,10 @@ pub fn index_events(times_s: &[f64], min_events: usize) -> Result<IndexedEvents,
         let idx_f: Vec<f64> = index.iter().map(|&i| i as f64).collect();
         let fit = polyfit_centered(&kept, &idx_f, 2)?;
         let base = fit.eval(kept[0]);
-        let new: Vec<i64> = kept.iter().map(|&t| (fit.eval(t) - base).round() as i64).collect();
+        let new: Vec<i64> = kept
+            .iter()
+            .map(|&t| (fit.eval(t) - base).round() as i64)
+            .collect();
         let worst = kept
             .iter()
             .zip(&index)
@@ -113,7 +140,9 @@ pub fn index_events(times_s: &[f64], min_events: usize) -> Result<IndexedEvents,
         if new == index {
             if worst > 0.25 {
                 return Err(MethodError::InconsistentEvents {
-                    reason: format!("worst event is {worst:.2} bands off a constant-acceleration fit"),
+                    reason: format!(
+                        "worst event is {worst:.2} bands off a constant-acceleration fit"
+                    ),
                 });
             }
             break;
@@ -126,7 +155,12 @@ pub fn index_events(times_s: &[f64], min_events: usize) -> Result<IndexedEvents,
         index = new;
     }
     let missed_edges = (index[index.len() - 1] - index[0]) as usize + 1 - index.len();
-    Ok(IndexedEvents { times_s: kept, index, bounces_removed, missed_edges })
+    Ok(IndexedEvents {
+        times_s: kept,
+        index,
+        bounces_removed,
+        missed_edges,
+    })
 }
 
 #[cfg(test)]
@@ -136,7 +170,9 @@ mod tests {
     fn event_times(n: usize) -> Vec<f64> {
         let alpha = 0.0744;
         let delta = 4f64.to_radians();
-        (0..n).map(|k| 0.35 + (2.0 * (0.013 + k as f64 * delta) / alpha).sqrt()).collect()
+        (0..n)
+            .map(|k| 0.35 + (2.0 * (0.013 + k as f64 * delta) / alpha).sqrt())
+            .collect()
     }
 
     #[test]
@@ -160,7 +196,13 @@ mod tests {
 
     #[test]
     fn too_few_edges_is_an_error() {
-        assert!(matches!(index_events(&event_times(5), 10), Err(MethodError::TooFewEdges { found: 5, needed: 10 })));
+        assert!(matches!(
+            index_events(&event_times(5), 10),
+            Err(MethodError::TooFewEdges {
+                found: 5,
+                needed: 10
+            })
+        ));
     }
 
     #[test]

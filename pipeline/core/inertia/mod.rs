@@ -111,5 +111,9 @@ pub struct RunError {
 
 /// Formats diagnostics as `key=value; key=value`.
 pub(crate) fn diag(pairs: &[(&str, String)]) -> String {
-    pairs.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join("; ")
+    pairs
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join("; ")
 }

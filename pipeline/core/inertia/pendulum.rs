@@ -77,7 +77,9 @@ impl LeastSquaresModel for Static<'_> {
         let (sx, sy, off) = self.unpack(p);
         DVector::from_iterator(
             self.configs.len(),
-            self.configs.iter().map(|c| predicted_reading(sx, sy, off, c) - c.reading_rad),
+            self.configs
+                .iter()
+                .map(|c| predicted_reading(sx, sy, off, c) - c.reading_rad),
         )
     }
     fn jacobian(&self, p: &DVector<f64>) -> DMatrix<f64> {
@@ -97,8 +99,15 @@ impl LeastSquaresModel for Static<'_> {
 
 /// Least-squares first moment (and zero offset) from static tilt configurations: linear LS with
 /// the offset at its start value seeds a Gauss-Newton/LM refinement (2 to 3 iterations).
-pub fn solve_first_moment(configs: &[TiltConfig], offset: ZeroOffset) -> Result<FirstMoment, MethodError> {
-    let needed = if matches!(offset, ZeroOffset::Estimate) { 3 } else { 2 };
+pub fn solve_first_moment(
+    configs: &[TiltConfig],
+    offset: ZeroOffset,
+) -> Result<FirstMoment, MethodError> {
+    let needed = if matches!(offset, ZeroOffset::Estimate) {
+        3
+    } else {
+        2
+    };
     if configs.len() < needed {
         return Err(MethodError::StaticUnderdetermined {
             reason: format!("{} configurations, need at least {needed}", configs.len()),
@@ -138,7 +147,10 @@ pub fn solve_first_moment(configs: &[TiltConfig], offset: ZeroOffset) -> Result<
     if known_offset.is_none() {
         p0.push(off0);
     }
-    let model = Static { configs, known_offset };
+    let model = Static {
+        configs,
+        known_offset,
+    };
     let out = levmar::minimize(&model, DVector::from_vec(p0), LmOptions::default());
     let (sx, sy, off) = model.unpack(&out.params);
     if !(sy > 0.0) {
@@ -146,7 +158,13 @@ pub fn solve_first_moment(configs: &[TiltConfig], offset: ZeroOffset) -> Result<
             reason: format!("first moment S_y = {sy:.4} kg m: CG not below the pivot"),
         });
     }
-    Ok(FirstMoment { sx_kg_m: sx, sy_kg_m: sy, offset_rad: off, residual_rms_rad: out.rmse, configs: configs.len() })
+    Ok(FirstMoment {
+        sx_kg_m: sx,
+        sy_kg_m: sy,
+        offset_rad: off,
+        residual_rms_rad: out.rmse,
+        configs: configs.len(),
+    })
 }
 
 /// Inertia about the pivot axis, `g |S| T0^2 / (4 pi^2)` (kg m^2).
@@ -218,16 +236,41 @@ mod tests {
         let plat = solve_first_moment(&v4_configs(false), ZeroOffset::Estimate).unwrap();
         let tot = solve_first_moment(&v4_configs(true), ZeroOffset::Estimate).unwrap();
         // The table's readings are rounded to 1e-6 deg, so tolerances follow that rounding.
-        assert!((plat.sy_kg_m - 57.0).abs() < 2e-3 && plat.sx_kg_m.abs() < 2e-3, "{plat:?}");
-        assert!((tot.sy_kg_m - 307.0).abs() < 5e-3 && (tot.sx_kg_m - 1.25).abs() < 2e-3, "{tot:?}");
+        assert!(
+            (plat.sy_kg_m - 57.0).abs() < 2e-3 && plat.sx_kg_m.abs() < 2e-3,
+            "{plat:?}"
+        );
+        assert!(
+            (tot.sy_kg_m - 307.0).abs() < 5e-3 && (tot.sx_kg_m - 1.25).abs() < 2e-3,
+            "{tot:?}"
+        );
         assert!((plat.offset_rad.to_degrees() - 0.05).abs() < 1e-5);
-        let v = vehicle_properties((tot.sx_kg_m, tot.sy_kg_m), (plat.sx_kg_m, plat.sy_kg_m), 424.15625, 74.15, 250.0, 1.3, 0.0);
-        assert!((v.z_cg_m - 0.3).abs() < 2e-5 && (v.x_cg_m - 0.005).abs() < 1e-5, "{v:?}");
+        let v = vehicle_properties(
+            (tot.sx_kg_m, tot.sy_kg_m),
+            (plat.sx_kg_m, plat.sy_kg_m),
+            424.15625,
+            74.15,
+            250.0,
+            1.3,
+            0.0,
+        );
+        assert!(
+            (v.z_cg_m - 0.3).abs() < 2e-5 && (v.x_cg_m - 0.005).abs() < 1e-5,
+            "{v:?}"
+        );
     }
 
     #[test]
     fn v4_vehicle_inertia_from_pivot_inertias() {
-        let v = vehicle_properties((1.25, 307.0), (0.0, 57.0), 424.15625, 74.15, 250.0, 1.3, 0.0);
+        let v = vehicle_properties(
+            (1.25, 307.0),
+            (0.0, 57.0),
+            424.15625,
+            74.15,
+            250.0,
+            1.3,
+            0.0,
+        );
         assert!((v.inertia_cg_kg_m2 - 100.0).abs() < 1e-9, "{v:?}");
         let i_tot = pivot_inertia(9.80665, 1.25f64.hypot(307.0), 2.358367483);
         assert!((i_tot - 424.15625).abs() < 1e-5, "{i_tot}");

@@ -29,19 +29,35 @@ pub enum SessionError {
     Toml { path: String, message: String },
     /// A field is missing, out of range or inconsistent.
     #[error("{path}: {key}: {message}")]
-    Field { path: String, key: String, message: String },
+    Field {
+        path: String,
+        key: String,
+        message: String,
+    },
     /// A CSV line is malformed.
     #[error("{path}: line {line}: {message}")]
-    Csv { path: String, line: usize, message: String },
+    Csv {
+        path: String,
+        line: usize,
+        message: String,
+    },
     /// A required CSV column is absent (often a wrong unit suffix).
     #[error("{path}: missing column `{column}` (found: {found})")]
-    MissingColumn { path: String, column: String, found: String },
+    MissingColumn {
+        path: String,
+        column: String,
+        found: String,
+    },
 }
 
 const SESSION_FILE: &str = "session.toml";
 
 fn field(key: impl Into<String>, message: impl Into<String>) -> SessionError {
-    SessionError::Field { path: SESSION_FILE.into(), key: key.into(), message: message.into() }
+    SessionError::Field {
+        path: SESSION_FILE.into(),
+        key: key.into(),
+        message: message.into(),
+    }
 }
 
 /// A number, or `{ v, u }`.
@@ -66,7 +82,13 @@ impl RawMeasured {
             RawMeasured::Full(ValueU { v, u }) => Measured::new(v, u),
         };
         if !m.value.is_finite() || !m.u.is_finite() || m.u < 0.0 {
-            return Err(field(key, format!("value {} with uncertainty {} is not a finite value with u >= 0", m.value, m.u)));
+            return Err(field(
+                key,
+                format!(
+                    "value {} with uncertainty {} is not a finite value with u >= 0",
+                    m.value, m.u
+                ),
+            ));
         }
         Ok(m)
     }
@@ -262,8 +284,12 @@ struct RawRun {
 }
 
 /// Deserialises a section table, naming it in the error.
-fn section<T: serde::de::DeserializeOwned>(value: &toml::Value, name: &str) -> Result<T, SessionError> {
-    T::deserialize(value.clone()).map_err(|e| field(format!("[{name}]"), e.to_string().trim().replace('\n', " ")))
+fn section<T: serde::de::DeserializeOwned>(
+    value: &toml::Value,
+    name: &str,
+) -> Result<T, SessionError> {
+    T::deserialize(value.clone())
+        .map_err(|e| field(format!("[{name}]"), e.to_string().trim().replace('\n', " ")))
 }
 
 /// Yaw-table constants.
@@ -518,15 +544,30 @@ pub struct Session {
 }
 
 fn missing(name: &str) -> SessionError {
-    field(format!("[{name}]"), "section is required by this run but absent")
+    field(
+        format!("[{name}]"),
+        "section is required by this run but absent",
+    )
 }
 
-fn choose<T: Copy>(key: &str, value: Option<&str>, default: T, options: &[(&str, T)]) -> Result<T, SessionError> {
+fn choose<T: Copy>(
+    key: &str,
+    value: Option<&str>,
+    default: T,
+    options: &[(&str, T)],
+) -> Result<T, SessionError> {
     let Some(v) = value else { return Ok(default) };
-    options.iter().find(|(name, _)| *name == v).map(|(_, t)| *t).ok_or_else(|| {
-        let names: Vec<&str> = options.iter().map(|(n, _)| *n).collect();
-        field(key, format!("unknown value {v:?}, expected one of {names:?}"))
-    })
+    options
+        .iter()
+        .find(|(name, _)| *name == v)
+        .map(|(_, t)| *t)
+        .ok_or_else(|| {
+            let names: Vec<&str> = options.iter().map(|(n, _)| *n).collect();
+            field(
+                key,
+                format!("unknown value {v:?}, expected one of {names:?}"),
+            )
+        })
 }
 
 impl Session {
@@ -538,23 +579,55 @@ impl Session {
             message: e.to_string().trim().replace('\n', " "),
         })?;
         if raw.format != "rig-inertia-session" {
-            return Err(field("format", format!("expected \"rig-inertia-session\", got {:?}", raw.format)));
+            return Err(field(
+                "format",
+                format!("expected \"rig-inertia-session\", got {:?}", raw.format),
+            ));
         }
         if raw.format_version != 1 {
-            return Err(field("format_version", format!("unsupported version {} (this tool reads 1)", raw.format_version)));
+            return Err(field(
+                "format_version",
+                format!(
+                    "unsupported version {} (this tool reads 1)",
+                    raw.format_version
+                ),
+            ));
         }
-        let _ = (&raw.session.date, &raw.session.operator, &raw.session.vehicle_config, &raw.session.notes);
+        let _ = (
+            &raw.session.date,
+            &raw.session.operator,
+            &raw.session.vehicle_config,
+            &raw.session.notes,
+        );
         let site: RawSite = section(&raw.site, "site")?;
-        let _ = (site.latitude_deg, site.altitude_m, site.air_temperature_c, site.air_pressure_pa);
+        let _ = (
+            site.latitude_deg,
+            site.altitude_m,
+            site.air_temperature_c,
+            site.air_pressure_pa,
+        );
         let g = site.g_m_s2.positive("site.g_m_s2")?;
         if !(9.7..=9.9).contains(&g.value) {
-            return Err(field("site.g_m_s2", format!("{} m/s^2 is not a terrestrial gravity value (units are m/s^2)", g.value)));
+            return Err(field(
+                "site.g_m_s2",
+                format!(
+                    "{} m/s^2 is not a terrestrial gravity value (units are m/s^2)",
+                    g.value
+                ),
+            ));
         }
         let analysis = parse_analysis(raw.analysis.as_ref())?;
         let vehicle_mass_kg = match &raw.vehicle {
             None => Err(missing("vehicle")),
             Some(v) => section::<RawVehicle>(v, "vehicle").and_then(|v| {
-                let _ = (&v.mass_source, v.wheelbase_m, v.track_front_m, v.track_rear_m, v.suspension_locked, &v.reference);
+                let _ = (
+                    &v.mass_source,
+                    v.wheelbase_m,
+                    v.track_front_m,
+                    v.track_rear_m,
+                    v.suspension_locked,
+                    &v.reference,
+                );
                 v.mass_kg.positive("vehicle.mass_kg")
             }),
         };
@@ -564,12 +637,21 @@ impl Session {
             Some(v) => section::<RawEncoder>(v, "sensors.encoder").and_then(|e| {
                 let _ = (e.band_width_deg, e.timer_resolution_s);
                 if let Some(edges) = e.edges.as_deref().filter(|s| *s != "rising") {
-                    return Err(field("sensors.encoder.edges", format!("{edges:?} is not supported; only \"rising\" edges are used")));
+                    return Err(field(
+                        "sensors.encoder.edges",
+                        format!("{edges:?} is not supported; only \"rising\" edges are used"),
+                    ));
                 }
                 if !(e.event_spacing_deg > 0.0 && e.event_spacing_deg < 90.0) {
-                    return Err(field("sensors.encoder.event_spacing_deg", format!("must be in (0, 90) degrees, got {}", e.event_spacing_deg)));
+                    return Err(field(
+                        "sensors.encoder.event_spacing_deg",
+                        format!("must be in (0, 90) degrees, got {}", e.event_spacing_deg),
+                    ));
                 }
-                Ok((e.event_spacing_deg.to_radians(), e.min_events.unwrap_or(10).max(4)))
+                Ok((
+                    e.event_spacing_deg.to_radians(),
+                    e.min_events.unwrap_or(10).max(4),
+                ))
             }),
         };
         let tilt = parse_tilt(sensors.and_then(|s| s.tilt.as_ref()));
@@ -577,7 +659,10 @@ impl Session {
             let r: RawRate = section(rate, "sensors.rate")?;
             let _ = (&r.kind, r.sample_rate_hz, &r.bias_deg_s);
             if r.scale.is_some_and(|s| (s - 1.0).abs() > 0.0) {
-                return Err(field("sensors.rate.scale", "only scale = 1.0 is supported: store rate_deg_s already scaled"));
+                return Err(field(
+                    "sensors.rate.scale",
+                    "only scale = 1.0 is supported: store rate_deg_s already scaled",
+                ));
             }
         }
         let mut calibration_bodies = BTreeMap::new();
@@ -591,8 +676,12 @@ impl Session {
                 let _ = (&b.shape, b.radius_m, b.thickness_m);
                 Ok(CalibrationBody {
                     id: b.id.clone(),
-                    mass_kg: b.mass_kg.positive(&format!("calibration_body.{}.mass_kg", b.id))?,
-                    inertia_kg_m2: b.inertia_kg_m2.positive(&format!("calibration_body.{}.inertia_kg_m2", b.id))?,
+                    mass_kg: b
+                        .mass_kg
+                        .positive(&format!("calibration_body.{}.mass_kg", b.id))?,
+                    inertia_kg_m2: b
+                        .inertia_kg_m2
+                        .positive(&format!("calibration_body.{}.inertia_kg_m2", b.id))?,
                 })
             });
             calibration_bodies.insert(id, value);
@@ -602,7 +691,11 @@ impl Session {
             .iter()
             .enumerate()
             .map(|(i, r)| {
-                let id = r.get("id").and_then(|v| v.as_str()).map(str::to_owned).unwrap_or_else(|| format!("run[{i}]"));
+                let id = r
+                    .get("id")
+                    .and_then(|v| v.as_str())
+                    .map(str::to_owned)
+                    .unwrap_or_else(|| format!("run[{i}]"));
                 let spec = section::<RawRun>(r, &format!("run {id}")).and_then(|r| parse_run(r));
                 (id, spec)
             })
@@ -615,15 +708,28 @@ impl Session {
         }
         Ok(Session {
             id: raw.session.id.clone(),
-            vehicle_id: raw.session.vehicle_id.clone().unwrap_or_else(|| "vehicle".into()),
+            vehicle_id: raw
+                .session
+                .vehicle_id
+                .clone()
+                .unwrap_or_else(|| "vehicle".into()),
             g_m_s2: g,
             vehicle_mass_kg,
             encoder,
             tilt,
             calibration_bodies,
-            yaw_table: raw.yaw_table.as_ref().map_or(Err(missing("yaw_table")), parse_yaw),
-            trifilar: raw.trifilar.as_ref().map_or(Err(missing("trifilar")), parse_trifilar),
-            pendulum: raw.pendulum.as_ref().map_or(Err(missing("pendulum")), parse_pendulum),
+            yaw_table: raw
+                .yaw_table
+                .as_ref()
+                .map_or(Err(missing("yaw_table")), parse_yaw),
+            trifilar: raw
+                .trifilar
+                .as_ref()
+                .map_or(Err(missing("trifilar")), parse_trifilar),
+            pendulum: raw
+                .pendulum
+                .as_ref()
+                .map_or(Err(missing("pendulum")), parse_pendulum),
             analysis,
             runs,
         })
@@ -639,7 +745,10 @@ fn parse_analysis(value: Option<&toml::Value>) -> Result<AnalysisSpec, SessionEr
         "analysis.period_method",
         a.period_method.as_deref(),
         PeriodMethod::Nls,
-        &[("nls", PeriodMethod::Nls), ("zero_crossing", PeriodMethod::ZeroCrossing)],
+        &[
+            ("nls", PeriodMethod::Nls),
+            ("zero_crossing", PeriodMethod::ZeroCrossing),
+        ],
     )?;
     let amplitude_correction = choose(
         "analysis.amplitude_correction",
@@ -657,7 +766,11 @@ fn parse_analysis(value: Option<&toml::Value>) -> Result<AnalysisSpec, SessionEr
         "analysis.yaw_model",
         a.yaw_model.as_deref(),
         YawModel::Auto,
-        &[("const_alpha", YawModel::ConstAlpha), ("aero_lncosh", YawModel::AeroLnCosh), ("auto", YawModel::Auto)],
+        &[
+            ("const_alpha", YawModel::ConstAlpha),
+            ("aero_lncosh", YawModel::AeroLnCosh),
+            ("auto", YawModel::Auto),
+        ],
     )?;
     let friction_method: Option<FrictionMethod> = choose(
         "analysis.friction_method",
@@ -669,7 +782,10 @@ fn parse_analysis(value: Option<&toml::Value>) -> Result<AnalysisSpec, SessionEr
             ("drag_mass", Some(FrictionMethod::Given)),
             ("tare_calibration", Some(FrictionMethod::TareCalibration)),
             ("multi_mass", Some(FrictionMethod::MultiMass)),
-            ("calibration_factor", Some(FrictionMethod::CalibrationFactor)),
+            (
+                "calibration_factor",
+                Some(FrictionMethod::CalibrationFactor),
+            ),
         ],
     )?;
     let propagation = match a.uncertainty.as_deref() {
@@ -678,13 +794,21 @@ fn parse_analysis(value: Option<&toml::Value>) -> Result<AnalysisSpec, SessionEr
             samples: a.monte_carlo_samples.unwrap_or(2000).max(10),
             seed: a.seed.unwrap_or(0),
         },
-        Some(other) => return Err(field("analysis.uncertainty", format!("unknown value {other:?}, expected \"linear\" or \"monte_carlo\""))),
+        Some(other) => {
+            return Err(field(
+                "analysis.uncertainty",
+                format!("unknown value {other:?}, expected \"linear\" or \"monte_carlo\""),
+            ));
+        }
     };
     let window_cycles = a.window_cycles.unwrap_or(3.0);
     let min_cycles = a.min_cycles.unwrap_or(10.0);
     let discard = a.discard_initial_cycles.unwrap_or(1.0);
     if !(window_cycles >= 1.0) || !(min_cycles >= 2.0) || !(discard >= 0.0) {
-        return Err(field("analysis", "window_cycles >= 1, min_cycles >= 2 and discard_initial_cycles >= 0 are required"));
+        return Err(field(
+            "analysis",
+            "window_cycles >= 1, min_cycles >= 2 and discard_initial_cycles >= 0 are required",
+        ));
     }
     Ok(AnalysisSpec {
         period_method,
@@ -715,13 +839,24 @@ impl Session {
 fn parse_tilt(value: Option<&toml::Value>) -> Result<TiltSensor, SessionError> {
     let t: RawTilt = match value {
         Some(v) => section(v, "sensors.tilt")?,
-        None => RawTilt { kind: None, scale: None, offset_deg: None, noise_deg: None, mount_below_pivot_m: None },
+        None => RawTilt {
+            kind: None,
+            scale: None,
+            offset_deg: None,
+            noise_deg: None,
+            mount_below_pivot_m: None,
+        },
     };
     let _ = (&t.kind, t.mount_below_pivot_m);
     let offset = match t.offset_deg {
         None => TiltOffset::Estimate,
         Some(ValueOrKeyword::Keyword(k)) if k == "estimate" => TiltOffset::Estimate,
-        Some(ValueOrKeyword::Keyword(k)) => return Err(field("sensors.tilt.offset_deg", format!("unknown keyword {k:?}, expected \"estimate\" or a value"))),
+        Some(ValueOrKeyword::Keyword(k)) => {
+            return Err(field(
+                "sensors.tilt.offset_deg",
+                format!("unknown keyword {k:?}, expected \"estimate\" or a value"),
+            ));
+        }
         Some(ValueOrKeyword::Value(v)) => {
             let m = v.resolve("sensors.tilt.offset_deg")?;
             TiltOffset::Known(Measured::new(m.value.to_radians(), m.u.to_radians()))
@@ -729,15 +864,29 @@ fn parse_tilt(value: Option<&toml::Value>) -> Result<TiltSensor, SessionError> {
     };
     let noise = t.noise_deg.unwrap_or(0.0);
     if !(noise >= 0.0) {
-        return Err(field("sensors.tilt.noise_deg", format!("must be >= 0, got {noise}")));
+        return Err(field(
+            "sensors.tilt.noise_deg",
+            format!("must be >= 0, got {noise}"),
+        ));
     }
-    Ok(TiltSensor { scale: t.scale.unwrap_or(1.0), offset, noise_rad: noise.to_radians() })
+    Ok(TiltSensor {
+        scale: t.scale.unwrap_or(1.0),
+        offset,
+        noise_rad: noise.to_radians(),
+    })
 }
 
-fn keyword_or_value(v: ValueOrKeyword, key: &str, keyword: &str) -> Result<Option<Measured>, SessionError> {
+fn keyword_or_value(
+    v: ValueOrKeyword,
+    key: &str,
+    keyword: &str,
+) -> Result<Option<Measured>, SessionError> {
     match v {
         ValueOrKeyword::Keyword(k) if k == keyword => Ok(None),
-        ValueOrKeyword::Keyword(k) => Err(field(key, format!("unknown keyword {k:?}, expected {keyword:?} or a value"))),
+        ValueOrKeyword::Keyword(k) => Err(field(
+            key,
+            format!("unknown keyword {k:?}, expected {keyword:?} or a value"),
+        )),
         ValueOrKeyword::Value(m) => m.non_negative(key).map(Some),
     }
 }
@@ -746,39 +895,76 @@ fn parse_yaw(value: &toml::Value) -> Result<YawTableSpec, SessionError> {
     let y: RawYaw = section(value, "yaw_table")?;
     let _ = (y.radius_includes_string, y.string_diameter_m);
     let radius = y.drum_radius_m.positive("yaw_table.drum_radius_m")?;
-    let i_pu = y.idler_pulley_inertia_kg_m2.map(|m| m.non_negative("yaw_table.idler_pulley_inertia_kg_m2")).transpose()?;
+    let i_pu = y
+        .idler_pulley_inertia_kg_m2
+        .map(|m| m.non_negative("yaw_table.idler_pulley_inertia_kg_m2"))
+        .transpose()?;
     let i_eq = match (i_pu, y.idler_pulley_radius_m) {
         (Some(i), Some(r_pu)) if i.value > 0.0 => {
             if r_pu <= 0.0 {
-                return Err(field("yaw_table.idler_pulley_radius_m", "must be > 0 when a pulley inertia is given"));
+                return Err(field(
+                    "yaw_table.idler_pulley_radius_m",
+                    "must be > 0 when a pulley inertia is given",
+                ));
             }
             let s = (radius.value / r_pu).powi(2);
             Measured::new(i.value * s, i.u * s)
         }
-        (Some(i), None) if i.value > 0.0 => return Err(field("yaw_table.idler_pulley_radius_m", "required with idler_pulley_inertia_kg_m2")),
+        (Some(i), None) if i.value > 0.0 => {
+            return Err(field(
+                "yaw_table.idler_pulley_radius_m",
+                "required with idler_pulley_inertia_kg_m2",
+            ));
+        }
         _ => Measured::exact(0.0),
     };
-    let table = keyword_or_value(y.table_inertia_kg_m2, "yaw_table.table_inertia_kg_m2", "from_runs")?;
-    let drag_mass = y.drag_mass_kg.map(|m| m.non_negative("yaw_table.drag_mass_kg")).transpose()?;
+    let table = keyword_or_value(
+        y.table_inertia_kg_m2,
+        "yaw_table.table_inertia_kg_m2",
+        "from_runs",
+    )?;
+    let drag_mass = y
+        .drag_mass_kg
+        .map(|m| m.non_negative("yaw_table.drag_mass_kg"))
+        .transpose()?;
     let friction = match (y.friction_torque_n_m, y.drag_mass_kg) {
-        (Some(_), Some(_)) => return Err(field("yaw_table.drag_mass_kg", "give either friction_torque_n_m or drag_mass_kg, not both")),
+        (Some(_), Some(_)) => {
+            return Err(field(
+                "yaw_table.drag_mass_kg",
+                "give either friction_torque_n_m or drag_mass_kg, not both",
+            ));
+        }
         (Some(f), None) => keyword_or_value(f, "yaw_table.friction_torque_n_m", "from_runs")?,
         (None, Some(_)) => None,
         (None, None) => None,
     };
     if let Some(d) = y.max_drop_m {
         if !(d > 0.0) {
-            return Err(field("yaw_table.max_drop_m", format!("must be > 0, got {d}")));
+            return Err(field(
+                "yaw_table.max_drop_m",
+                format!("must be > 0, got {d}"),
+            ));
         }
     }
-    Ok(YawTableSpec { radius_m: radius, i_eq_kg_m2: i_eq, table_inertia_kg_m2: table, friction_n_m: friction, drag_mass_kg: drag_mass, max_drop_m: y.max_drop_m })
+    Ok(YawTableSpec {
+        radius_m: radius,
+        i_eq_kg_m2: i_eq,
+        table_inertia_kg_m2: table,
+        friction_n_m: friction,
+        drag_mass_kg: drag_mass,
+        max_drop_m: y.max_drop_m,
+    })
 }
 
 fn parse_trifilar(value: &toml::Value) -> Result<TrifilarSpec, SessionError> {
     let t: RawTrifilar = section(value, "trifilar")?;
     Ok(TrifilarSpec {
-        radius_top_m: t.attach_radius_top_m.positive("trifilar.attach_radius_top_m")?,
-        radius_bottom_m: t.attach_radius_bottom_m.positive("trifilar.attach_radius_bottom_m")?,
+        radius_top_m: t
+            .attach_radius_top_m
+            .positive("trifilar.attach_radius_top_m")?,
+        radius_bottom_m: t
+            .attach_radius_bottom_m
+            .positive("trifilar.attach_radius_bottom_m")?,
         length_m: t.vertical_length_m.positive("trifilar.vertical_length_m")?,
         platform_mass_kg: t.platform_mass_kg.positive("trifilar.platform_mass_kg")?,
     })
@@ -786,9 +972,19 @@ fn parse_trifilar(value: &toml::Value) -> Result<TrifilarSpec, SessionError> {
 
 fn parse_pendulum(value: &toml::Value) -> Result<PendulumSpec, SessionError> {
     let p: RawPendulum = section(value, "pendulum")?;
-    let axis = choose("pendulum.axis", Some(p.axis.as_str()), PendulumAxis::Pitch, &[("pitch", PendulumAxis::Pitch), ("roll", PendulumAxis::Roll)])?;
+    let axis = choose(
+        "pendulum.axis",
+        Some(p.axis.as_str()),
+        PendulumAxis::Pitch,
+        &[("pitch", PendulumAxis::Pitch), ("roll", PendulumAxis::Roll)],
+    )?;
     if let Some(pivot) = p.pivot.as_deref() {
-        choose("pendulum.pivot", Some(pivot), (), &[("knife_edge", ()), ("bearing", ()), ("flexure", ())])?;
+        choose(
+            "pendulum.pivot",
+            Some(pivot),
+            (),
+            &[("knife_edge", ()), ("bearing", ()), ("flexure", ())],
+        )?;
     }
     if let Some(m) = p.platform_mass_kg {
         m.positive("pendulum.platform_mass_kg")?;
@@ -796,11 +992,18 @@ fn parse_pendulum(value: &toml::Value) -> Result<PendulumSpec, SessionError> {
     let u_m = p.added_mass_u_kg.unwrap_or(0.0);
     let u_x = p.added_position_u_m.unwrap_or(0.0);
     if !(u_m >= 0.0 && u_x >= 0.0) {
-        return Err(field("pendulum.added_mass_u_kg", "uncertainties must be >= 0"));
+        return Err(field(
+            "pendulum.added_mass_u_kg",
+            "uncertainties must be >= 0",
+        ));
     }
     Ok(PendulumSpec {
         axis,
-        knife_tip_radius_m: p.knife_tip_radius_m.map(|m| m.non_negative("pendulum.knife_tip_radius_m")).transpose()?.unwrap_or(Measured::exact(0.0)),
+        knife_tip_radius_m: p
+            .knife_tip_radius_m
+            .map(|m| m.non_negative("pendulum.knife_tip_radius_m"))
+            .transpose()?
+            .unwrap_or(Measured::exact(0.0)),
         pivot_to_deck_m: p.pivot_to_deck_m.positive("pendulum.pivot_to_deck_m")?,
         added_mass_u_kg: u_m,
         added_position_u_m: u_x,
@@ -808,32 +1011,96 @@ fn parse_pendulum(value: &toml::Value) -> Result<PendulumSpec, SessionError> {
 }
 
 fn parse_run(r: RawRun) -> Result<RunSpec, SessionError> {
-    let key = |k: &str| format!("run {}: {k}", r.id);
-    let rig = choose(&key("rig"), Some(r.rig.as_str()), Rig::YawTable, &[("yaw_table", Rig::YawTable), ("trifilar", Rig::Trifilar), ("pendulum", Rig::Pendulum)])?;
-    let role = choose(&key("role"), Some(r.role.as_str()), Role::Tare, &[("tare", Role::Tare), ("calibration", Role::Calibration), ("vehicle", Role::Vehicle)])?;
+    // the run id is named by the RunError that carries this message
+    let key = |k: &str| k.to_string();
+    let rig = choose(
+        &key("rig"),
+        Some(r.rig.as_str()),
+        Rig::YawTable,
+        &[
+            ("yaw_table", Rig::YawTable),
+            ("trifilar", Rig::Trifilar),
+            ("pendulum", Rig::Pendulum),
+        ],
+    )?;
+    let role = choose(
+        &key("role"),
+        Some(r.role.as_str()),
+        Role::Tare,
+        &[
+            ("tare", Role::Tare),
+            ("calibration", Role::Calibration),
+            ("vehicle", Role::Vehicle),
+        ],
+    )?;
     let kind = r
         .kind
         .as_deref()
-        .map(|k| choose(&key("kind"), Some(k), PendulumKind::Swing, &[("static", PendulumKind::Static), ("swing", PendulumKind::Swing)]))
+        .map(|k| {
+            choose(
+                &key("kind"),
+                Some(k),
+                PendulumKind::Swing,
+                &[
+                    ("static", PendulumKind::Static),
+                    ("swing", PendulumKind::Swing),
+                ],
+            )
+        })
         .transpose()?;
-    let signal = choose(&key("signal"), r.signal.as_deref(), SignalKind::Angle, &[("angle_deg", SignalKind::Angle), ("rate_deg_s", SignalKind::Rate)])?;
+    let signal = choose(
+        &key("signal"),
+        r.signal.as_deref(),
+        SignalKind::Angle,
+        &[
+            ("angle_deg", SignalKind::Angle),
+            ("rate_deg_s", SignalKind::Rate),
+        ],
+    )?;
     let _ = (r.started_from_rest, r.release_amplitude_deg);
-    let falling = r.falling_mass_kg.map(|m| m.positive(&key("falling_mass_kg"))).transpose()?;
-    let object_mass = r.object_mass_kg.map(|m| m.positive(&key("object_mass_kg"))).transpose()?;
+    let falling = r
+        .falling_mass_kg
+        .map(|m| m.positive(&key("falling_mass_kg")))
+        .transpose()?;
+    let object_mass = r
+        .object_mass_kg
+        .map(|m| m.positive(&key("object_mass_kg")))
+        .transpose()?;
     match rig {
-        Rig::YawTable if falling.is_none() => return Err(field(key("falling_mass_kg"), "required for yaw_table runs")),
-        Rig::Pendulum if kind.is_none() => return Err(field(key("kind"), "required for pendulum runs (\"static\" or \"swing\")")),
-        Rig::YawTable | Rig::Trifilar if kind.is_some() => return Err(field(key("kind"), "only pendulum runs have a kind")),
+        Rig::YawTable if falling.is_none() => {
+            return Err(field(key("falling_mass_kg"), "required for yaw_table runs"));
+        }
+        Rig::Pendulum if kind.is_none() => {
+            return Err(field(
+                key("kind"),
+                "required for pendulum runs (\"static\" or \"swing\")",
+            ));
+        }
+        Rig::YawTable | Rig::Trifilar if kind.is_some() => {
+            return Err(field(key("kind"), "only pendulum runs have a kind"));
+        }
         _ => {}
     }
     if role == Role::Calibration && rig != Rig::YawTable {
-        return Err(field(key("role"), "calibration runs are supported on the yaw table only"));
+        return Err(field(
+            key("role"),
+            "calibration runs are supported on the yaw table only",
+        ));
     }
     if role == Role::Calibration && r.calibration_body.is_none() {
-        return Err(field(key("calibration_body"), "required for calibration runs"));
+        return Err(field(
+            key("calibration_body"),
+            "required for calibration runs",
+        ));
     }
     if r.file.is_empty() || Path::new(&r.file).is_absolute() || r.file.contains("..") {
-        return Err(field(key("file"), format!("{:?} must be a relative path inside the session directory", r.file)));
+        return Err(field(
+            key("file"),
+            format!(
+                "{:?} must be a relative path inside the session directory",
+                r.file
+            ),
+        ));
     }
     Ok(RunSpec {
         id: r.id.clone(),
@@ -881,8 +1148,16 @@ impl CsvTable {
                 Some(_) => rows.push((i + 1, cells)),
             }
         }
-        let headers = headers.ok_or_else(|| SessionError::Csv { path: path.into(), line: 1, message: "no header row".into() })?;
-        Ok(CsvTable { path: path.into(), headers, rows })
+        let headers = headers.ok_or_else(|| SessionError::Csv {
+            path: path.into(),
+            line: 1,
+            message: "no header row".into(),
+        })?;
+        Ok(CsvTable {
+            path: path.into(),
+            headers,
+            rows,
+        })
     }
 
     /// True when the column exists.
@@ -901,11 +1176,14 @@ impl CsvTable {
     }
 
     fn column_index(&self, column: &str) -> Result<usize, SessionError> {
-        self.headers.iter().position(|h| h == column).ok_or_else(|| SessionError::MissingColumn {
-            path: self.path.clone(),
-            column: column.into(),
-            found: self.headers.join(", "),
-        })
+        self.headers
+            .iter()
+            .position(|h| h == column)
+            .ok_or_else(|| SessionError::MissingColumn {
+                path: self.path.clone(),
+                column: column.into(),
+                found: self.headers.join(", "),
+            })
     }
 
     /// A numeric column; errors name the line of a non-numeric or non-finite cell.
@@ -914,11 +1192,15 @@ impl CsvTable {
         self.rows
             .iter()
             .map(|(line, cells)| {
-                cells[k].parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| SessionError::Csv {
-                    path: self.path.clone(),
-                    line: *line,
-                    message: format!("column {column}: {:?} is not a finite number", cells[k]),
-                })
+                cells[k]
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| SessionError::Csv {
+                        path: self.path.clone(),
+                        line: *line,
+                        message: format!("column {column}: {:?} is not a finite number", cells[k]),
+                    })
             })
             .collect()
     }
@@ -937,7 +1219,10 @@ impl CsvTable {
                 return Err(SessionError::Csv {
                     path: self.path.clone(),
                     line: self.rows[k + 1].0,
-                    message: format!("{column} is not strictly increasing ({} after {})", w[1], w[0]),
+                    message: format!(
+                        "{column} is not strictly increasing ({} after {})",
+                        w[1], w[0]
+                    ),
                 });
             }
         }
@@ -954,13 +1239,19 @@ impl CsvTable {
 pub fn load_dir_reader(dir: &Path) -> impl Fn(&str) -> Result<String, SessionError> + Sync + '_ {
     move |rel: &str| {
         let path: PathBuf = dir.join(rel);
-        std::fs::read_to_string(&path).map_err(|e| SessionError::Io { path: path.display().to_string(), message: e.to_string() })
+        std::fs::read_to_string(&path).map_err(|e| SessionError::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })
     }
 }
 
 /// Reads and parses `DIR/session.toml`.
 pub fn load_session(dir: &Path) -> Result<Session, SessionError> {
     let path = dir.join(SESSION_FILE);
-    let text = std::fs::read_to_string(&path).map_err(|e| SessionError::Io { path: path.display().to_string(), message: e.to_string() })?;
+    let text = std::fs::read_to_string(&path).map_err(|e| SessionError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
     Session::parse(&text)
 }

@@ -97,7 +97,9 @@ pub struct SwingPeriod {
 }
 
 fn not_found(reason: impl Into<String>) -> MethodError {
-    MethodError::PeriodNotFound { reason: reason.into() }
+    MethodError::PeriodNotFound {
+        reason: reason.into(),
+    }
 }
 
 fn amplitude_rad(fit: &DampedSineFit, t: f64, kind: SignalKind) -> f64 {
@@ -125,7 +127,10 @@ pub fn analyze(
     ratio: &dyn Fn(f64, f64) -> f64,
 ) -> Result<SwingPeriod, MethodError> {
     if t_s.len() < 20 {
-        return Err(not_found(format!("{} samples, need at least 20", t_s.len())));
+        return Err(not_found(format!(
+            "{} samples, need at least 20",
+            t_s.len()
+        )));
     }
     let omega_seed = period::seed_omega(t_s, signal).map_err(|e| not_found(e.to_string()))?;
     let t_start = t_s[0] + opts.discard_initial_cycles * TAU / omega_seed;
@@ -134,10 +139,14 @@ pub fn analyze(
     let duration = t.last().copied().unwrap_or(t_start) - t_start;
     let cycles = duration * omega_seed / TAU;
     if cycles < opts.min_cycles {
-        return Err(not_found(format!("only {cycles:.1} cycles after the first {} discarded, need {}", opts.discard_initial_cycles, opts.min_cycles)));
+        return Err(not_found(format!(
+            "only {cycles:.1} cycles after the first {} discarded, need {}",
+            opts.discard_initial_cycles, opts.min_cycles
+        )));
     }
     let t_mid = 0.5 * (t[0] + t[t.len() - 1]);
-    let whole = damped_sine::fit(t, x, t_mid, omega_seed, 0.0, false).map_err(|e| not_found(e.to_string()))?;
+    let whole = damped_sine::fit(t, x, t_mid, omega_seed, 0.0, false)
+        .map_err(|e| not_found(e.to_string()))?;
     let mean = x.iter().sum::<f64>() / x.len() as f64;
     let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / x.len() as f64;
     let explained = 1.0 - whole.rmse * whole.rmse / var.max(1e-300);
@@ -153,7 +162,10 @@ pub fn analyze(
     let u_whole = tn_whole * whole.u_omega_n() / omega_n;
     let a_start = amplitude_rad(&whole, t[0], kind);
     let a_end = amplitude_rad(&whole, t[t.len() - 1], kind);
-    let a_rms = (x.len() as f64).recip() * t.iter().map(|&ti| amplitude_rad(&whole, ti, kind).powi(2)).sum::<f64>();
+    let a_rms = (x.len() as f64).recip()
+        * t.iter()
+            .map(|&ti| amplitude_rad(&whole, ti, kind).powi(2))
+            .sum::<f64>();
     let a_rms = a_rms.sqrt();
     let mut out = SwingPeriod {
         period_s: tn_whole,
@@ -169,7 +181,8 @@ pub fn analyze(
     };
     if opts.method == PeriodMethod::ZeroCrossing {
         let hyst = 0.2 * amplitude_rad(&whole, t[t.len() - 1], SignalKind::Angle);
-        let (td, u_td) = period::zero_crossing_period(t, x, whole.offset(), hyst).map_err(|e| not_found(e.to_string()))?;
+        let (td, u_td) = period::zero_crossing_period(t, x, whole.offset(), hyst)
+            .map_err(|e| not_found(e.to_string()))?;
         let damping = (1.0 - out.zeta * out.zeta).sqrt();
         out.period_uncorrected_s = td * damping;
         out.u_period_s = u_td * damping;
@@ -184,8 +197,12 @@ pub fn analyze(
         CorrectionScope::Whole => out.period_s = correct(tn_whole, a_rms, ratio),
         CorrectionScope::Windowed => {
             let window_s = opts.window_cycles * TAU / whole.omega_d();
-            let windows = damped_sine::fit_windows(t, x, window_s, &whole, false).map_err(|e| not_found(e.to_string()))?;
-            let windows: Vec<&DampedSineFit> = windows.iter().filter(|w| w.converged && w.omega_n() > 0.0).collect();
+            let windows = damped_sine::fit_windows(t, x, window_s, &whole, false)
+                .map_err(|e| not_found(e.to_string()))?;
+            let windows: Vec<&DampedSineFit> = windows
+                .iter()
+                .filter(|w| w.converged && w.omega_n() > 0.0)
+                .collect();
             if windows.len() < 2 {
                 out.period_s = correct(tn_whole, a_rms, ratio);
             } else {
@@ -207,7 +224,9 @@ pub fn analyze(
                 let t0 = num / den;
                 let n = t0s.len() as f64;
                 let mean = t0s.iter().sum::<f64>() / n;
-                let spread = (t0s.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() / n.sqrt();
+                let spread = (t0s.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0))
+                    .sqrt()
+                    / n.sqrt();
                 out.period_s = t0;
                 out.u_period_s = u_whole.max(spread).max(den.recip().sqrt());
                 out.windows = windows.len();

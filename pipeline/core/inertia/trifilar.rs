@@ -35,8 +35,15 @@ impl TrifilarRig {
 
     /// Object inertia with the platform tare subtracted:
     /// `K (m_total T_total^2 - m_platform T_platform^2)`.
-    pub fn object_inertia(&self, platform_mass_kg: f64, platform_period_s: f64, total_mass_kg: f64, total_period_s: f64) -> f64 {
-        self.system_inertia(total_mass_kg, total_period_s) - self.system_inertia(platform_mass_kg, platform_period_s)
+    pub fn object_inertia(
+        &self,
+        platform_mass_kg: f64,
+        platform_period_s: f64,
+        total_mass_kg: f64,
+        total_period_s: f64,
+    ) -> f64 {
+        self.system_inertia(total_mass_kg, total_period_s)
+            - self.system_inertia(platform_mass_kg, platform_period_s)
     }
 
     /// Period ratio `T(phi0) / T0` for swing amplitude `amplitude_rad` of a system whose
@@ -56,7 +63,12 @@ mod tests {
 
     /// Validation case V3 (inertia-methods.md section 9): R = 0.45 m, h = 2 m.
     fn v3() -> TrifilarRig {
-        TrifilarRig { radius_top_m: 0.45, radius_bottom_m: 0.45, length_m: 2.0, g_m_s2: 9.80665 }
+        TrifilarRig {
+            radius_top_m: 0.45,
+            radius_bottom_m: 0.45,
+            length_m: 2.0,
+            g_m_s2: 9.80665,
+        }
     }
 
     #[test]
@@ -84,15 +96,34 @@ mod tests {
     /// included) and the platform's own inertia is subtracted, with the imperial dimensions and
     /// g = 9.80665 (the value in the thesis's scripts). The tolerance is the worst-case effect of
     /// rounding every published input to its last digit (half a unit), plus half a unit of J.
-    pub(crate) const THESIS_TABLE_10: [(&str, f64, f64, f64); 3] =
-        [("platform", 1.487, 46.0, 9.1), ("2008 car", 2.137, 238.0, 88.4), ("2008 car + driver", 1.984, 350.0, 114.4)];
+    pub(crate) const THESIS_TABLE_10: [(&str, f64, f64, f64); 3] = [
+        ("platform", 1.487, 46.0, 9.1),
+        ("2008 car", 2.137, 238.0, 88.4),
+        ("2008 car + driver", 1.984, 350.0, 114.4),
+    ];
 
     pub(crate) fn thesis_rig() -> TrifilarRig {
-        TrifilarRig { radius_top_m: 48.0 * 0.0254, radius_bottom_m: 48.0 * 0.0254, length_m: 13.5 * 0.3048, g_m_s2: 9.80665 }
+        TrifilarRig {
+            radius_top_m: 48.0 * 0.0254,
+            radius_bottom_m: 48.0 * 0.0254,
+            length_m: 13.5 * 0.3048,
+            g_m_s2: 9.80665,
+        }
     }
 
-    fn thesis_inertia(rig: &TrifilarRig, t_p: f64, m_p: f64, t: f64, m: f64, is_platform: bool) -> f64 {
-        if is_platform { rig.system_inertia(m_p, t_p) } else { rig.object_inertia(m_p, t_p, m, t) }
+    fn thesis_inertia(
+        rig: &TrifilarRig,
+        t_p: f64,
+        m_p: f64,
+        t: f64,
+        m: f64,
+        is_platform: bool,
+    ) -> f64 {
+        if is_platform {
+            rig.system_inertia(m_p, t_p)
+        } else {
+            rig.object_inertia(m_p, t_p, m, t)
+        }
     }
 
     #[test]
@@ -104,15 +135,36 @@ mod tests {
             let j = thesis_inertia(&rig, t_p, m_p, t, m, plat);
             // worst-case rounding: periods +-0.0005 s, masses +-0.5 kg, J +-0.05
             let mut bound = 0.05;
-            for (dt, dm, dtp, dmp) in [(5e-4, 0.0, 0.0, 0.0), (0.0, 0.5, 0.0, 0.0), (0.0, 0.0, 5e-4, 0.0), (0.0, 0.0, 0.0, 0.5)] {
-                let (tt, mm) = if plat { (t + dt + dtp, m + dm + dmp) } else { (t + dt, m + dm) };
+            for (dt, dm, dtp, dmp) in [
+                (5e-4, 0.0, 0.0, 0.0),
+                (0.0, 0.5, 0.0, 0.0),
+                (0.0, 0.0, 5e-4, 0.0),
+                (0.0, 0.0, 0.0, 0.5),
+            ] {
+                let (tt, mm) = if plat {
+                    (t + dt + dtp, m + dm + dmp)
+                } else {
+                    (t + dt, m + dm)
+                };
                 bound += (thesis_inertia(&rig, t_p + dtp, m_p + dmp, tt, mm, plat) - j).abs();
             }
-            println!("thesis Table 10 {name}: computed {j:.3} kg m^2, published {published}, diff {:+.3} ({:+.2} %), rounding bound {bound:.3}", j - published, 100.0 * (j - published) / published);
-            assert!((j - published).abs() <= bound, "{name}: {j} vs {published} (bound {bound})");
+            println!(
+                "thesis Table 10 {name}: computed {j:.3} kg m^2, published {published}, diff {:+.3} ({:+.2} %), rounding bound {bound:.3}",
+                j - published,
+                100.0 * (j - published) / published
+            );
+            assert!(
+                (j - published).abs() <= bound,
+                "{name}: {j} vs {published} (bound {bound})"
+            );
         }
         // The metric dimensions quoted beside them (1.22 m, 4.11 m) reproduce the table worse.
-        let metric = TrifilarRig { radius_top_m: 1.22, radius_bottom_m: 1.22, length_m: 4.11, g_m_s2: 9.80665 };
+        let metric = TrifilarRig {
+            radius_top_m: 1.22,
+            radius_bottom_m: 1.22,
+            length_m: 4.11,
+            g_m_s2: 9.80665,
+        };
         let err = |r: &TrifilarRig| (thesis_inertia(r, t_p, m_p, 2.137, 238.0, false) - 88.4).abs();
         assert!(err(&metric) > 2.0 * err(&rig));
     }
@@ -127,8 +179,23 @@ mod tests {
         let period_of = |t_true: f64| {
             let t: Vec<f64> = (0..9000).map(|i| i as f64 * dt).collect();
             let wn = 2.0 * PI / t_true;
-            let x: Vec<f64> = t.iter().map(|&ti| 1f64.to_radians() * (-0.002 * wn * ti).exp() * (wn * (1.0 - 4e-6f64).sqrt() * ti + 0.3).sin()).collect();
-            swing::analyze(&t, &x, SignalKind::Angle, &SwingOptions::default(), &|a, t0| rig.period_ratio(a, t0)).unwrap().period_s
+            let x: Vec<f64> = t
+                .iter()
+                .map(|&ti| {
+                    1f64.to_radians()
+                        * (-0.002 * wn * ti).exp()
+                        * (wn * (1.0 - 4e-6f64).sqrt() * ti + 0.3).sin()
+                })
+                .collect();
+            swing::analyze(
+                &t,
+                &x,
+                SignalKind::Angle,
+                &SwingOptions::default(),
+                &|a, t0| rig.period_ratio(a, t0),
+            )
+            .unwrap()
+            .period_s
         };
         let (_, t_p, m_p, _) = THESIS_TABLE_10[0];
         let tp_fit = period_of(t_p);
@@ -137,7 +204,10 @@ mod tests {
             let via_signal = rig.object_inertia(m_p, tp_fit, m, period_of(t));
             // the trifilar amplitude correction applied to this linear 1-degree signal shifts
             // the periods by ~2e-5 relative; stated tolerance 0.02 % of J
-            assert!((via_signal - direct).abs() < 2e-4 * direct, "{name}: {via_signal} vs {direct}");
+            assert!(
+                (via_signal - direct).abs() < 2e-4 * direct,
+                "{name}: {via_signal} vs {direct}"
+            );
         }
     }
 }

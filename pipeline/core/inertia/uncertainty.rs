@@ -20,7 +20,11 @@ pub enum Propagation {
 
 /// Value and standard uncertainty of each output of `f`. Evaluations that fail inside the Monte
 /// Carlo loop are skipped; if more than 10 % fail the uncertainty is NaN.
-pub fn propagate<E>(inputs: &[Measured], f: &dyn Fn(&[f64]) -> Result<Vec<f64>, E>, how: Propagation) -> Result<Vec<(f64, f64)>, E> {
+pub fn propagate<E>(
+    inputs: &[Measured],
+    f: &dyn Fn(&[f64]) -> Result<Vec<f64>, E>,
+    how: Propagation,
+) -> Result<Vec<(f64, f64)>, E> {
     let nominal: Vec<f64> = inputs.iter().map(|m| m.value).collect();
     let y0 = f(&nominal)?;
     let mut var = vec![0.0; y0.len()];
@@ -71,7 +75,11 @@ pub fn propagate<E>(inputs: &[Measured], f: &dyn Fn(&[f64]) -> Result<Vec<f64>, 
             }
         }
     }
-    Ok(y0.into_iter().zip(var).map(|(v, s2)| (v, s2.max(0.0).sqrt())).collect())
+    Ok(y0
+        .into_iter()
+        .zip(var)
+        .map(|(v, s2)| (v, s2.max(0.0).sqrt()))
+        .collect())
 }
 
 #[cfg(test)]
@@ -85,7 +93,15 @@ mod tests {
         let lin = propagate(&inputs, &f, Propagation::Linear).unwrap();
         let expected = (3.0f64 * 0.01).hypot(2.0 * 0.02);
         assert!((lin[0].1 - expected).abs() < 1e-9);
-        let mc = propagate(&inputs, &f, Propagation::MonteCarlo { samples: 20_000, seed: 7 }).unwrap();
+        let mc = propagate(
+            &inputs,
+            &f,
+            Propagation::MonteCarlo {
+                samples: 20_000,
+                seed: 7,
+            },
+        )
+        .unwrap();
         assert!((mc[0].1 / expected - 1.0).abs() < 0.03, "{}", mc[0].1);
         assert_eq!(mc[0].0, 6.0);
     }

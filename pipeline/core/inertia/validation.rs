@@ -16,14 +16,24 @@ pub(crate) fn run(s: &SyntheticSession) -> SessionOutcome {
 /// Checks every expectation; returns a report line per expectation.
 pub(crate) fn check(s: &SyntheticSession) -> Vec<String> {
     let out = run(s);
-    assert!(out.errors.is_empty(), "{}: unexpected errors: {:#?}", s.name, out.errors);
+    assert!(
+        out.errors.is_empty(),
+        "{}: unexpected errors: {:#?}",
+        s.name,
+        out.errors
+    );
     let mut lines = Vec::new();
     for e in &s.expected {
         let row = out
             .results
             .iter()
             .find(|r| r.run == e.run && r.quantity == e.quantity && r.method == e.method)
-            .unwrap_or_else(|| panic!("{}: no row {}/{}/{} in {:#?}", s.name, e.run, e.quantity, e.method, out.results));
+            .unwrap_or_else(|| {
+                panic!(
+                    "{}: no row {}/{}/{} in {:#?}",
+                    s.name, e.run, e.quantity, e.method, out.results
+                )
+            });
         let err = row.value - e.value;
         lines.push(format!(
             "{:40} {:22} {:28} value {:>14.9} truth {:>12.6} err {:+.3e} ({:+.5} %) tol {:.1e} u {:.2e}",
@@ -37,7 +47,17 @@ pub(crate) fn check(s: &SyntheticSession) -> Vec<String> {
             e.tolerance,
             row.uncertainty
         ));
-        assert!(err.abs() <= e.tolerance, "{}: {} {} = {} vs {} +- {} ({})", s.name, e.quantity, e.method, row.value, e.value, e.tolerance, e.note);
+        assert!(
+            err.abs() <= e.tolerance,
+            "{}: {} {} = {} vs {} +- {} ({})",
+            s.name,
+            e.quantity,
+            e.method,
+            row.value,
+            e.value,
+            e.tolerance,
+            e.note
+        );
     }
     lines
 }
@@ -62,12 +82,23 @@ fn v1_time_shift_leaves_alpha_unchanged() {
         .map(|(p, c)| {
             let body: Vec<String> = c
                 .lines()
-                .map(|l| l.parse::<f64>().map(|t| format!("{:.9}", t + 7.3)).unwrap_or_else(|_| l.to_string()))
+                .map(|l| {
+                    l.parse::<f64>()
+                        .map(|t| format!("{:.9}", t + 7.3))
+                        .unwrap_or_else(|_| l.to_string())
+                })
                 .collect();
             (p.clone(), body.join("\n"))
         })
         .collect();
-    let alpha = |s: &SyntheticSession| run(s).results.iter().find(|r| r.quantity == "angular_acceleration").unwrap().value;
+    let alpha = |s: &SyntheticSession| {
+        run(s)
+            .results
+            .iter()
+            .find(|r| r.quantity == "angular_acceleration")
+            .unwrap()
+            .value
+    };
     let (a, b) = (alpha(&s), alpha(&shifted));
     assert!(((a - b) / a).abs() < 1e-9, "{a} vs {b}");
 }
@@ -77,19 +108,34 @@ fn v2c_default_friction_path_is_not_the_calibration_factor() {
     // Same runs as V2c but with the default friction method: tare + calibration, exact result.
     let s = synth::v2a(false, 1);
     let out = run(&s);
-    let veh: Vec<_> = out.results.iter().filter(|r| r.run == "yaw-veh" && r.quantity == "inertia").collect();
+    let veh: Vec<_> = out
+        .results
+        .iter()
+        .filter(|r| r.run == "yaw-veh" && r.quantity == "inertia")
+        .collect();
     assert!(veh.iter().all(|r| r.method != "thesis_calibration_factor"));
-    let exact = veh.iter().find(|r| r.method == "falling_mass_exact").unwrap();
+    let exact = veh
+        .iter()
+        .find(|r| r.method == "falling_mass_exact")
+        .unwrap();
     assert!((exact.value - 110.0).abs() < 1e-6 && (exact.value - 109.713).abs() > 0.2);
 }
 
 #[test]
 fn v5_uncorrected_bias_exceeds_two_tenths_percent_in_inertia() {
     let out = run(&synth::v5(true, "none", 3));
-    let row = out.results.iter().find(|r| r.run == "pitch-veh-swing" && r.quantity == "period_natural").unwrap();
+    let row = out
+        .results
+        .iter()
+        .find(|r| r.run == "pitch-veh-swing" && r.quantity == "period_natural")
+        .unwrap();
     let tn = 2.358367483;
     let bias_i = (row.value / tn).powi(2) - 1.0;
-    assert!(bias_i > 0.002, "uncorrected bias in I_p only {:.4} %", 100.0 * bias_i);
+    assert!(
+        bias_i > 0.002,
+        "uncorrected bias in I_p only {:.4} %",
+        100.0 * bias_i
+    );
 }
 
 /// Monte Carlo spread of the noisy cases over seeds (prints mean and sd of the error); the
@@ -98,7 +144,10 @@ fn v5_uncorrected_bias_exceeds_two_tenths_percent_in_inertia() {
 #[test]
 #[ignore]
 fn monte_carlo_spread() {
-    let n: u64 = std::env::var("MC_SEEDS").ok().and_then(|v| v.parse().ok()).unwrap_or(40);
+    let n: u64 = std::env::var("MC_SEEDS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(40);
     let cases: Vec<(&str, fn(u64) -> SyntheticSession)> = vec![
         ("v1b", |k| synth::v1(true, k)),
         ("v2a_noisy", |k| synth::v2a(true, k)),
@@ -118,19 +167,33 @@ fn monte_carlo_spread() {
             let out = run(&s);
             assert!(out.errors.is_empty(), "{name} seed {k}: {:?}", out.errors);
             for (j, e) in s.expected.iter().enumerate() {
-                let row = out.results.iter().find(|r| r.run == e.run && r.quantity == e.quantity && r.method == e.method).unwrap();
+                let row = out
+                    .results
+                    .iter()
+                    .find(|r| r.run == e.run && r.quantity == e.quantity && r.method == e.method)
+                    .unwrap();
                 if errs.len() <= j {
                     errs.push(Vec::new());
-                    labels.push(format!("{} {} (tol {:.2e})", e.quantity, e.method, e.tolerance));
+                    labels.push(format!(
+                        "{} {} (tol {:.2e})",
+                        e.quantity, e.method, e.tolerance
+                    ));
                 }
                 errs[j].push((row.value - e.value) / e.value);
             }
         }
         for (j, v) in errs.iter().enumerate() {
             let m = v.iter().sum::<f64>() / v.len() as f64;
-            let sd = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() as f64 - 1.0)).sqrt();
+            let sd =
+                (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() as f64 - 1.0)).sqrt();
             let worst = v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-            println!("{name:22} {:60} mean {:+.5} % sd {:.5} % worst {:.5} % ({n} seeds)", labels[j], 100.0 * m, 100.0 * sd, 100.0 * worst);
+            println!(
+                "{name:22} {:60} mean {:+.5} % sd {:.5} % worst {:.5} % ({n} seeds)",
+                labels[j],
+                100.0 * m,
+                100.0 * sd,
+                100.0 * worst
+            );
         }
     }
 }
@@ -140,7 +203,9 @@ mod random_sessions {
     //! within the validation tolerances of the methods document.
 
     use super::*;
-    use crate::synth::inertia::{EncoderOutput, PendulumParams, TrifilarParams, YawParams, YawRunParams};
+    use crate::synth::inertia::{
+        EncoderOutput, PendulumParams, TrifilarParams, YawParams, YawRunParams,
+    };
     use proptest::prelude::*;
 
     fn row(out: &SessionOutcome, run: &str, quantity: &str, method: &str) -> (f64, f64) {

@@ -38,15 +38,24 @@ pub struct AccelerationFit {
 
 /// Event angles (rad) from band indices.
 pub fn event_angles(index: &[i64], spacing_rad: f64) -> Vec<f64> {
-    index.iter().map(|&k| (k - index[0]) as f64 * spacing_rad).collect()
+    index
+        .iter()
+        .map(|&k| (k - index[0]) as f64 * spacing_rad)
+        .collect()
 }
 
 /// Constant-acceleration fit `theta = a tau^2 + b tau + c`, `tau = t - mean(t)`, `alpha = 2a`.
 /// The quadratic space is shift invariant, so no time-offset search is needed (section 2.2).
-pub fn fit_constant_alpha(times_s: &[f64], angles_rad: &[f64]) -> Result<AccelerationFit, MethodError> {
+pub fn fit_constant_alpha(
+    times_s: &[f64],
+    angles_rad: &[f64],
+) -> Result<AccelerationFit, MethodError> {
     let fit = polyfit_centered(times_s, angles_rad, 2)?;
     let alpha = 2.0 * fit.coeffs[2];
-    let peak = times_s.iter().map(|&t| fit.derivative(t).abs()).fold(0.0, f64::max);
+    let peak = times_s
+        .iter()
+        .map(|&t| fit.derivative(t).abs())
+        .fold(0.0, f64::max);
     Ok(AccelerationFit {
         alpha_rad_s2: alpha,
         u_alpha_rad_s2: 2.0 * fit.fit.std_err(2),
@@ -115,7 +124,10 @@ impl LeastSquaresModel for LnCosh<'_> {
     fn residuals(&self, p: &DVector<f64>) -> DVector<f64> {
         DVector::from_iterator(
             self.t.len(),
-            self.t.iter().zip(self.theta).map(|(&t, &th)| lncosh_angle(t, p[0], p[1], p[2], p[3]) - th),
+            self.t
+                .iter()
+                .zip(self.theta)
+                .map(|(&t, &th)| lncosh_angle(t, p[0], p[1], p[2], p[3]) - th),
         )
     }
     fn jacobian(&self, p: &DVector<f64>) -> DMatrix<f64> {
@@ -150,23 +162,42 @@ pub fn fit_lncosh(times_s: &[f64], angles_rad: &[f64]) -> Result<AccelerationFit
     let quad = polyfit_centered(times_s, angles_rad, 2)?;
     let (a, b, c0) = (quad.coeffs[2], quad.coeffs[1], quad.coeffs[0]);
     if a <= 0.0 {
-        return Err(MethodError::NonPhysical { reason: "table is not accelerating".into() });
+        return Err(MethodError::NonPhysical {
+            reason: "table is not accelerating".into(),
+        });
     }
     let t1 = quad.t_center - b / (2.0 * a);
     let theta1 = c0 - b * b / (4.0 * a);
     let span = angles_rad.iter().copied().fold(0.0, f64::max).max(1e-3);
     let p0 = DVector::from_vec(vec![theta1, t1, 2.0 * a, 0.01 / span]);
-    let model = LnCosh { t: times_s, theta: angles_rad, scale: [1.0, 1.0, 2.0 * a, 1e-3 / span] };
-    let out = levmar::minimize(&model, p0, LmOptions { max_iterations: 500, ..LmOptions::default() });
+    let model = LnCosh {
+        t: times_s,
+        theta: angles_rad,
+        scale: [1.0, 1.0, 2.0 * a, 1e-3 / span],
+    };
+    let out = levmar::minimize(
+        &model,
+        p0,
+        LmOptions {
+            max_iterations: 500,
+            ..LmOptions::default()
+        },
+    );
     if !out.params.iter().all(|v| v.is_finite()) {
-        return Err(MethodError::NonPhysical { reason: "ln cosh fit diverged".into() });
+        return Err(MethodError::NonPhysical {
+            reason: "ln cosh fit diverged".into(),
+        });
     }
     let p = &out.params;
     let peak = times_s
         .iter()
         .map(|&t| {
             let s = (p[2] * p[3]).sqrt();
-            if s > 0.0 { (p[2] / p[3]).sqrt() * (s * (t - p[1])).tanh() } else { p[2] * (t - p[1]) }
+            if s > 0.0 {
+                (p[2] / p[3]).sqrt() * (s * (t - p[1])).tanh()
+            } else {
+                p[2] * (t - p[1])
+            }
         })
         .fold(0.0, f64::max);
     Ok(AccelerationFit {
@@ -188,13 +219,26 @@ pub fn string_torque(mass_kg: f64, radius_m: f64, g: f64, alpha: f64) -> f64 {
 
 /// Exact torque balance: everything rotating with the table (table + load), excluding an idler
 /// pulley's reflected inertia `i_eq`: `(m r (g - r alpha) - tau_f) / alpha - i_eq`.
-pub fn rotating_inertia_exact(mass_kg: f64, radius_m: f64, g: f64, alpha: f64, friction_n_m: f64, i_eq: f64) -> f64 {
+pub fn rotating_inertia_exact(
+    mass_kg: f64,
+    radius_m: f64,
+    g: f64,
+    alpha: f64,
+    friction_n_m: f64,
+    i_eq: f64,
+) -> f64 {
     (string_torque(mass_kg, radius_m, g, alpha) - friction_n_m) / alpha - i_eq
 }
 
 /// The thesis's simplified formula (Appendix A.2): `r g (m - m_drag) / alpha`, string tension
 /// taken as the static weight. Too high by exactly `m r^2` (plus `I_eq`).
-pub fn rotating_inertia_thesis(mass_kg: f64, drag_mass_kg: f64, radius_m: f64, g: f64, alpha: f64) -> f64 {
+pub fn rotating_inertia_thesis(
+    mass_kg: f64,
+    drag_mass_kg: f64,
+    radius_m: f64,
+    g: f64,
+    alpha: f64,
+) -> f64 {
     radius_m * g * (mass_kg - drag_mass_kg) / alpha
 }
 
@@ -231,14 +275,24 @@ pub fn tare_and_friction(
 
 /// Multi-mass regression on one loaded table (section 2.4, option 3): `F_j r = J alpha_j + tau_f`.
 /// Returns `(I_tot, tau_f)` with `I_tot = J - i_eq` (table plus load).
-pub fn multi_mass(runs: &[DropRun], radius_m: f64, g: f64, i_eq: f64) -> Result<(f64, f64), MethodError> {
+pub fn multi_mass(
+    runs: &[DropRun],
+    radius_m: f64,
+    g: f64,
+    i_eq: f64,
+) -> Result<(f64, f64), MethodError> {
     if runs.len() < 2 {
-        return Err(MethodError::NonPhysical { reason: format!("multi-mass needs >= 2 runs, got {}", runs.len()) });
+        return Err(MethodError::NonPhysical {
+            reason: format!("multi-mass needs >= 2 runs, got {}", runs.len()),
+        });
     }
-    let design = DMatrix::from_fn(runs.len(), 2, |i, k| if k == 0 { runs[i].alpha_rad_s2 } else { 1.0 });
+    let design = DMatrix::from_fn(runs.len(), 2, |i, k| {
+        if k == 0 { runs[i].alpha_rad_s2 } else { 1.0 }
+    });
     let torque = DVector::from_iterator(
         runs.len(),
-        runs.iter().map(|r| string_torque(r.mass_kg, radius_m, g, r.alpha_rad_s2)),
+        runs.iter()
+            .map(|r| string_torque(r.mass_kg, radius_m, g, r.alpha_rad_s2)),
     );
     let fit = least_squares::solve(&design, &torque)?;
     Ok((fit.params[0] - i_eq, fit.params[1]))
@@ -247,8 +301,22 @@ pub fn multi_mass(runs: &[DropRun], radius_m: f64, g: f64, i_eq: f64) -> Result<
 /// The thesis's multiplicative correction (section 2.4, option 5), kept only as a flagged
 /// comparison: `k = I_cal / I_cal,raw` where raw ignores friction. Biased when the calibration
 /// body's acceleration differs from the vehicle's.
-pub fn calibration_factor(calibration: DropRun, calibration_inertia: f64, table_inertia: f64, radius_m: f64, g: f64, i_eq: f64) -> f64 {
-    let raw = rotating_inertia_exact(calibration.mass_kg, radius_m, g, calibration.alpha_rad_s2, 0.0, i_eq) - table_inertia;
+pub fn calibration_factor(
+    calibration: DropRun,
+    calibration_inertia: f64,
+    table_inertia: f64,
+    radius_m: f64,
+    g: f64,
+    i_eq: f64,
+) -> f64 {
+    let raw = rotating_inertia_exact(
+        calibration.mass_kg,
+        radius_m,
+        g,
+        calibration.alpha_rad_s2,
+        0.0,
+        i_eq,
+    ) - table_inertia;
     calibration_inertia / raw
 }
 
@@ -258,12 +326,19 @@ mod tests {
 
     #[test]
     fn lncosh_series_and_closed_form_agree() {
-        for &(alpha0, c, x) in &[(0.0744f64, 1e-9f64, 10.0f64), (0.0744, 1e-10, 8.0), (0.5, 1e-10, 3.0)] {
+        for &(alpha0, c, x) in &[
+            (0.0744f64, 1e-9f64, 10.0f64),
+            (0.0744, 1e-10, 8.0),
+            (0.5, 1e-10, 3.0),
+        ] {
             let u = alpha0 * c * x * x;
             let closed = ln_cosh(u.sqrt()) / c;
             let series = 0.5 * alpha0 * x * x * (1.0 - u / 6.0 + 2.0 * u * u / 45.0);
             assert!((closed - lncosh_angle(x, 0.0, 0.0, alpha0, c)).abs() <= 1e-12 * closed.abs());
-            assert!((closed - series).abs() <= 1e-12 * closed.abs(), "{closed} {series} (u = {u})");
+            assert!(
+                (closed - series).abs() <= 1e-12 * closed.abs(),
+                "{closed} {series} (u = {u})"
+            );
         }
     }
 

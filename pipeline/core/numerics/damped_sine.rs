@@ -39,7 +39,13 @@ impl Model<'_> {
 
 impl LeastSquaresModel for Model<'_> {
     fn residuals(&self, p: &DVector<f64>) -> DVector<f64> {
-        DVector::from_iterator(self.t.len(), self.t.iter().zip(self.x).map(|(&t, &x)| self.value(p, t) - x))
+        DVector::from_iterator(
+            self.t.len(),
+            self.t
+                .iter()
+                .zip(self.x)
+                .map(|(&t, &x)| self.value(p, t) - x),
+        )
     }
 
     fn jacobian(&self, p: &DVector<f64>) -> DMatrix<f64> {
@@ -102,7 +108,9 @@ impl DampedSineFit {
         let (w, s, wn) = (self.omega_d(), self.sigma(), self.omega_n());
         let (gw, gs) = (w / wn, s / wn);
         let c = &self.covariance;
-        (gw * gw * c[(OMEGA, OMEGA)] + gs * gs * c[(SIGMA, SIGMA)] + 2.0 * gw * gs * c[(OMEGA, SIGMA)])
+        (gw * gw * c[(OMEGA, OMEGA)]
+            + gs * gs * c[(SIGMA, SIGMA)]
+            + 2.0 * gw * gs * c[(OMEGA, SIGMA)])
             .max(0.0)
             .sqrt()
     }
@@ -116,7 +124,12 @@ impl DampedSineFit {
     }
     /// Model value at `t`.
     pub fn eval(&self, t: f64) -> f64 {
-        let m = Model { t: &[], x: &[], t_ref: self.t_ref, drift: self.params.len() > DRIFT };
+        let m = Model {
+            t: &[],
+            x: &[],
+            t_ref: self.t_ref,
+            drift: self.params.len() > DRIFT,
+        };
         m.value(&self.params, t)
     }
 }
@@ -132,11 +145,19 @@ pub fn fit(
     drift: bool,
 ) -> Result<DampedSineFit, NumericsError> {
     if t.len() != x.len() {
-        return Err(NumericsError::LengthMismatch { what: "damped sine fit", left: t.len(), right: x.len() });
+        return Err(NumericsError::LengthMismatch {
+            what: "damped sine fit",
+            left: t.len(),
+            right: x.len(),
+        });
     }
     let n_par = if drift { 6 } else { 5 };
     if t.len() < 2 * n_par {
-        return Err(NumericsError::TooFewPoints { what: "damped sine fit", needed: 2 * n_par, found: t.len() });
+        return Err(NumericsError::TooFewPoints {
+            what: "damped sine fit",
+            needed: 2 * n_par,
+            found: t.len(),
+        });
     }
     check_finite("damped sine samples", x)?;
     check_finite("damped sine times", t)?;
@@ -196,7 +217,14 @@ pub fn fit_windows(
             break;
         }
         let stop = start + t[start..].partition_point(|&ti| ti < t0 + window_s);
-        let fit = fit(&t[start..stop], &x[start..stop], t0 + 0.5 * window_s, seed.omega_d(), seed.sigma(), drift)?;
+        let fit = fit(
+            &t[start..stop],
+            &x[start..stop],
+            t0 + 0.5 * window_s,
+            seed.omega_d(),
+            seed.sigma(),
+            drift,
+        )?;
         out.push(fit);
         start = stop;
     }
@@ -209,7 +237,10 @@ mod tests {
 
     fn synth(n: usize, dt: f64, wd: f64, sigma: f64) -> (Vec<f64>, Vec<f64>) {
         let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
-        let x = t.iter().map(|t| 0.1 + (-sigma * t).exp() * (2.0 * (wd * t + 0.7).sin())).collect();
+        let x = t
+            .iter()
+            .map(|t| 0.1 + (-sigma * t).exp() * (2.0 * (wd * t + 0.7).sin()))
+            .collect();
         (t, x)
     }
 
@@ -227,7 +258,12 @@ mod tests {
     #[test]
     fn analytic_jacobian_matches_finite_differences() {
         let (t, x) = synth(300, 0.02, 3.0, 0.05);
-        let model = Model { t: &t, x: &x, t_ref: 3.0, drift: true };
+        let model = Model {
+            t: &t,
+            x: &x,
+            t_ref: 3.0,
+            drift: true,
+        };
         let p = DVector::from_vec(vec![0.1, 1.2, -0.4, 3.1, 0.04, 0.01]);
         let fd = levmar::finite_difference_jacobian(&model, &p, 1e-6);
         let an = model.jacobian(&p);

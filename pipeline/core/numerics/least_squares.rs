@@ -33,7 +33,11 @@ impl LinearFit {
     /// Root-mean-square residual.
     pub fn rms(&self) -> f64 {
         let n = self.dof + self.params.len();
-        if n == 0 { 0.0 } else { (self.rss / n as f64).sqrt() }
+        if n == 0 {
+            0.0
+        } else {
+            (self.rss / n as f64).sqrt()
+        }
     }
 }
 
@@ -75,9 +79,10 @@ pub fn solve(design: &DMatrix<f64>, y: &DVector<f64>) -> Result<LinearFit, Numer
             reason: format!("design is rank deficient (condition number > 1e13, {cols} columns)"),
         });
     }
-    let solution = svd
-        .solve(y, 0.0)
-        .map_err(|e| NumericsError::Degenerate { what: "least squares", reason: e.to_string() })?;
+    let solution = svd.solve(y, 0.0).map_err(|e| NumericsError::Degenerate {
+        what: "least squares",
+        reason: e.to_string(),
+    })?;
     let residual = &scaled * &solution - y;
     let rss = residual.norm_squared();
     let dof = rows - cols;
@@ -97,7 +102,12 @@ pub fn solve(design: &DMatrix<f64>, y: &DVector<f64>) -> Result<LinearFit, Numer
             covariance[(i, j)] /= scale[i] * scale[j];
         }
     }
-    Ok(LinearFit { params, covariance, rss, dof })
+    Ok(LinearFit {
+        params,
+        covariance,
+        rss,
+        dof,
+    })
 }
 
 /// A polynomial `sum_k coeffs[k] * (t - t_center)^k` fitted by least squares.
@@ -149,7 +159,11 @@ pub fn polyfit_centered(t: &[f64], y: &[f64], degree: usize) -> Result<PolyFit, 
     let t_center = t.iter().sum::<f64>() / t.len() as f64;
     let design = DMatrix::from_fn(t.len(), degree + 1, |i, k| (t[i] - t_center).powi(k as i32));
     let fit = solve(&design, &DVector::from_column_slice(y))?;
-    Ok(PolyFit { coeffs: fit.params.iter().copied().collect(), t_center, fit })
+    Ok(PolyFit {
+        coeffs: fit.params.iter().copied().collect(),
+        t_center,
+        fit,
+    })
 }
 
 #[cfg(test)]
@@ -158,8 +172,13 @@ mod tests {
 
     #[test]
     fn quadratic_recovered_exactly_and_shift_invariant() {
-        let t: Vec<f64> = (0..144).map(|k| 0.35 + (2.0 * (0.013 + k as f64 * 0.0698) / 0.0744).sqrt()).collect();
-        let y: Vec<f64> = t.iter().map(|ti| 0.0372 * (ti - 0.35) * (ti - 0.35) + 0.013).collect();
+        let t: Vec<f64> = (0..144)
+            .map(|k| 0.35 + (2.0 * (0.013 + k as f64 * 0.0698) / 0.0744).sqrt())
+            .collect();
+        let y: Vec<f64> = t
+            .iter()
+            .map(|ti| 0.0372 * (ti - 0.35) * (ti - 0.35) + 0.013)
+            .collect();
         let fit = polyfit_centered(&t, &y, 2).unwrap();
         assert!((fit.coeffs[2] - 0.0372).abs() < 1e-14, "{}", fit.coeffs[2]);
         let shifted: Vec<f64> = t.iter().map(|ti| ti + 7.3).collect();
@@ -171,7 +190,11 @@ mod tests {
     fn covariance_matches_textbook_line_fit() {
         // y = 1 + 2 x + e with alternating residuals +-0.1 on x = 0..9.
         let x: Vec<f64> = (0..10).map(f64::from).collect();
-        let y: Vec<f64> = x.iter().enumerate().map(|(i, xi)| 1.0 + 2.0 * xi + if i % 2 == 0 { 0.1 } else { -0.1 }).collect();
+        let y: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(i, xi)| 1.0 + 2.0 * xi + if i % 2 == 0 { 0.1 } else { -0.1 })
+            .collect();
         let design = DMatrix::from_fn(10, 2, |i, j| if j == 0 { 1.0 } else { x[i] });
         let fit = solve(&design, &DVector::from_vec(y)).unwrap();
         let sxx: f64 = x.iter().map(|xi| (xi - 4.5).powi(2)).sum();
@@ -182,6 +205,9 @@ mod tests {
     #[test]
     fn rank_deficient_design_is_an_error() {
         let design = DMatrix::from_fn(5, 2, |i, _| i as f64);
-        assert!(matches!(solve(&design, &DVector::zeros(5)), Err(NumericsError::Degenerate { .. })));
+        assert!(matches!(
+            solve(&design, &DVector::zeros(5)),
+            Err(NumericsError::Degenerate { .. })
+        ));
     }
 }

@@ -33,7 +33,11 @@ pub struct LmOptions {
 
 impl Default for LmOptions {
     fn default() -> Self {
-        Self { max_iterations: 200, xtol: 1e-12, ftol: 1e-15 }
+        Self {
+            max_iterations: 200,
+            xtol: 1e-12,
+            ftol: 1e-15,
+        }
     }
 }
 
@@ -72,7 +76,10 @@ pub struct FitOutcome {
 impl FitOutcome {
     /// True when a stopping test (not the budget) ended the iteration.
     pub fn converged(&self) -> bool {
-        !matches!(self.termination, Termination::MaxIterations | Termination::Stalled)
+        !matches!(
+            self.termination,
+            Termination::MaxIterations | Termination::Stalled
+        )
     }
 
     /// Standard uncertainty of parameter `i`.
@@ -144,7 +151,11 @@ pub fn minimize(model: &impl LeastSquaresModel, p0: DVector<f64>, opts: LmOption
     let j = model.jacobian(&p);
     let n = r.len();
     let k = p.len();
-    let s2 = if n > k { 2.0 * cost / (n - k) as f64 } else { 0.0 };
+    let s2 = if n > k {
+        2.0 * cost / (n - k) as f64
+    } else {
+        0.0
+    };
     let covariance = (j.transpose() * &j)
         .try_inverse()
         .map(|inv| inv * s2)
@@ -164,7 +175,11 @@ pub fn minimize(model: &impl LeastSquaresModel, p0: DVector<f64>, opts: LmOption
 }
 
 /// Central finite-difference Jacobian of `residuals`, for testing analytic Jacobians.
-pub fn finite_difference_jacobian(model: &impl LeastSquaresModel, p: &DVector<f64>, rel_step: f64) -> DMatrix<f64> {
+pub fn finite_difference_jacobian(
+    model: &impl LeastSquaresModel,
+    p: &DVector<f64>,
+    rel_step: f64,
+) -> DMatrix<f64> {
     let r0 = model.residuals(p);
     let mut jac = DMatrix::zeros(r0.len(), p.len());
     for k in 0..p.len() {
@@ -191,7 +206,13 @@ mod tests {
 
     impl LeastSquaresModel for Exp {
         fn residuals(&self, p: &DVector<f64>) -> DVector<f64> {
-            DVector::from_iterator(self.x.len(), self.x.iter().zip(&self.y).map(|(x, y)| p[0] * (p[1] * x).exp() - y))
+            DVector::from_iterator(
+                self.x.len(),
+                self.x
+                    .iter()
+                    .zip(&self.y)
+                    .map(|(x, y)| p[0] * (p[1] * x).exp() - y),
+            )
         }
         fn jacobian(&self, p: &DVector<f64>) -> DMatrix<f64> {
             DMatrix::from_fn(self.x.len(), 2, |i, k| {
@@ -206,9 +227,17 @@ mod tests {
         let x: Vec<f64> = (0..30).map(|i| i as f64 * 0.1).collect();
         let y = x.iter().map(|x| 2.5 * (-0.7 * x).exp()).collect();
         let model = Exp { x, y };
-        let out = minimize(&model, DVector::from_vec(vec![1.0, 0.0]), LmOptions::default());
+        let out = minimize(
+            &model,
+            DVector::from_vec(vec![1.0, 0.0]),
+            LmOptions::default(),
+        );
         assert!(out.converged(), "{:?}", out.termination);
-        assert!((out.params[0] - 2.5).abs() < 1e-10 && (out.params[1] + 0.7).abs() < 1e-10, "{}", out.params);
+        assert!(
+            (out.params[0] - 2.5).abs() < 1e-10 && (out.params[1] + 0.7).abs() < 1e-10,
+            "{}",
+            out.params
+        );
         let fd = finite_difference_jacobian(&model, &out.params, 1e-6);
         assert!((fd - model.jacobian(&out.params)).amax() < 1e-7);
     }

@@ -34,10 +34,7 @@ pub enum NumericsError {
     NotFinite { what: &'static str, index: usize },
     /// The problem has no unique solution (rank-deficient design, flat signal).
     #[error("{what}: {reason}")]
-    Degenerate {
-        what: &'static str,
-        reason: String,
-    },
+    Degenerate { what: &'static str, reason: String },
 }
 
 /// Checks that every value is finite; `what` names the input in the error.

@@ -59,7 +59,14 @@ mod tests {
     #[test]
     fn harmonic_oscillator_keeps_phase() {
         let w = 2.0;
-        let states = integrate_sampled(|_, y: &[f64; 2]| [y[1], -w * w * y[0]], 0.0, [1.0, 0.0], 0.01, 1001, 10);
+        let states = integrate_sampled(
+            |_, y: &[f64; 2]| [y[1], -w * w * y[0]],
+            0.0,
+            [1.0, 0.0],
+            0.01,
+            1001,
+            10,
+        );
         let last = states[1000];
         assert!((last[0] - (w * 10.0_f64).cos()).abs() < 1e-9, "{}", last[0]);
     }

@@ -55,7 +55,11 @@ pub fn zero_crossings(t: &[f64], x: &[f64], level: f64, hysteresis: f64) -> Vec<
                     k += 1;
                 }
                 let (a, b) = (x[k] - level, x[k + 1] - level);
-                let frac = if (b - a).abs() > 0.0 { -a / (b - a) } else { 0.5 };
+                let frac = if (b - a).abs() > 0.0 {
+                    -a / (b - a)
+                } else {
+                    0.5
+                };
                 out.push(t[k] + frac * (t[k + 1] - t[k]));
             }
             state = side;
@@ -74,15 +78,26 @@ pub fn seed_omega(t: &[f64], x: &[f64]) -> Result<f64, NumericsError> {
     sorted.sort_by(f64::total_cmp);
     let q = |p: f64| sorted[((sorted.len() - 1) as f64 * p).round() as usize];
     if sorted.is_empty() {
-        return Err(NumericsError::TooFewPoints { what: "oscillation signal", needed: 8, found: 0 });
+        return Err(NumericsError::TooFewPoints {
+            what: "oscillation signal",
+            needed: 8,
+            found: 0,
+        });
     }
     let half_range = 0.5 * (q(0.99) - q(0.01));
     if half_range <= 0.0 {
-        return Err(NumericsError::Degenerate { what: "oscillation signal", reason: "signal is flat".into() });
+        return Err(NumericsError::Degenerate {
+            what: "oscillation signal",
+            reason: "signal is flat".into(),
+        });
     }
     let crossings = zero_crossings(t, x, mean, 0.1 * half_range);
     if crossings.len() < 4 {
-        return Err(NumericsError::TooFewPoints { what: "zero crossings", needed: 4, found: crossings.len() });
+        return Err(NumericsError::TooFewPoints {
+            what: "zero crossings",
+            needed: 4,
+            found: crossings.len(),
+        });
     }
     let span = crossings[crossings.len() - 1] - crossings[0];
     let half_period = span / (crossings.len() - 1) as f64;
@@ -91,10 +106,19 @@ pub fn seed_omega(t: &[f64], x: &[f64]) -> Result<f64, NumericsError> {
 
 /// Zero-crossing period estimate: twice the least-squares slope of crossing time against
 /// crossing index, about `level`. Returns `(period_s, standard uncertainty_s)`.
-pub fn zero_crossing_period(t: &[f64], x: &[f64], level: f64, hysteresis: f64) -> Result<(f64, f64), NumericsError> {
+pub fn zero_crossing_period(
+    t: &[f64],
+    x: &[f64],
+    level: f64,
+    hysteresis: f64,
+) -> Result<(f64, f64), NumericsError> {
     let crossings = zero_crossings(t, x, level, hysteresis);
     if crossings.len() < 4 {
-        return Err(NumericsError::TooFewPoints { what: "zero crossings", needed: 4, found: crossings.len() });
+        return Err(NumericsError::TooFewPoints {
+            what: "zero crossings",
+            needed: 4,
+            found: crossings.len(),
+        });
     }
     let idx: Vec<f64> = (0..crossings.len()).map(|i| i as f64).collect();
     let fit = least_squares::polyfit_centered(&idx, &crossings, 1)?;

@@ -59,13 +59,17 @@ impl SyntheticSession {
                 .iter()
                 .find(|(p, _)| p == rel)
                 .map(|(_, c)| c.clone())
-                .ok_or_else(|| SessionError::Io { path: rel.into(), message: "no such file".into() })
+                .ok_or_else(|| SessionError::Io {
+                    path: rel.into(),
+                    message: "no such file".into(),
+                })
         }
     }
 
     /// `expected.toml`: one `[[expected]]` table per expected row.
     pub fn expected_toml(&self) -> String {
-        let mut s = String::from("# Known answers of this synthetic session (tirebase synth inertia).\n");
+        let mut s =
+            String::from("# Known answers of this synthetic session (tirebase synth inertia).\n");
         for e in &self.expected {
             let _ = write!(
                 s,
@@ -76,7 +80,15 @@ impl SyntheticSession {
         s
     }
 
-    fn expect(&mut self, run: &str, quantity: &str, method: &str, value: f64, tolerance: f64, note: &str) {
+    fn expect(
+        &mut self,
+        run: &str,
+        quantity: &str,
+        method: &str,
+        value: f64,
+        tolerance: f64,
+        note: &str,
+    ) {
         self.expected.push(Expected {
             run: run.into(),
             quantity: quantity.into(),
@@ -101,7 +113,9 @@ fn header(id: &str, vehicle_mass: Option<f64>) -> String {
 }
 
 fn run_entry(id: &str, rig: &str, role: &str, file: &str, extra: &str) -> String {
-    format!("\n[[run]]\nid = \"{id}\"\nrig = \"{rig}\"\nrole = \"{role}\"\nfile = \"{file}\"\n{extra}")
+    format!(
+        "\n[[run]]\nid = \"{id}\"\nrig = \"{rig}\"\nrole = \"{role}\"\nfile = \"{file}\"\n{extra}"
+    )
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -223,10 +237,14 @@ fn yaw_csv(p: &YawParams, run: &YawRunParams, rng: &mut SplitMix64) -> String {
     let theta_max = p.drop_m / p.radius_m;
     let n_events = ((theta_max - p.phi0_rad) / spacing).floor() as usize + 1;
     match &p.output {
-        EncoderOutput::Events { jitter_s, band_error_deg } => {
+        EncoderOutput::Events {
+            jitter_s,
+            band_error_deg,
+        } => {
             let mut s = String::from("# yaw table encoder events: one row per rising edge\nt_s\n");
             for k in 0..n_events {
-                let theta = p.phi0_rad + k as f64 * spacing + rng.normal(band_error_deg.to_radians());
+                let theta =
+                    p.phi0_rad + k as f64 * spacing + rng.normal(band_error_deg.to_radians());
                 let t = p.time_at(run, theta) + rng.normal(*jitter_s);
                 let _ = writeln!(s, "{t}");
             }
@@ -237,7 +255,13 @@ fn yaw_csv(p: &YawParams, run: &YawRunParams, rng: &mut SplitMix64) -> String {
 }
 
 /// Exact first-order response between target changes, sampled uniformly.
-fn raw_voltage_csv(p: &YawParams, run: &YawRunParams, raw: &RawEncoder, n_bands: usize, rng: &mut SplitMix64) -> String {
+fn raw_voltage_csv(
+    p: &YawParams,
+    run: &YawRunParams,
+    raw: &RawEncoder,
+    n_bands: usize,
+    rng: &mut SplitMix64,
+) -> String {
     let spacing = SPACING_DEG.to_radians();
     let band = BAND_DEG.to_radians();
     // (time, new target level) for every band edge and bounce
@@ -245,9 +269,16 @@ fn raw_voltage_csv(p: &YawParams, run: &YawRunParams, raw: &RawEncoder, n_bands:
     for k in 0..n_bands + 1 {
         let rise = p.time_at(run, p.phi0_rad + k as f64 * spacing);
         let fall = p.time_at(run, p.phi0_rad + k as f64 * spacing + band);
-        let level = if raw.weak_bands.contains(&k) { 0.25 } else { 1.0 };
+        let level = if raw.weak_bands.contains(&k) {
+            0.25
+        } else {
+            1.0
+        };
         changes.push((rise, level));
-        if raw.bounce_every > 0 && k % raw.bounce_every == raw.bounce_every - 1 && fall - rise > 2e-3 {
+        if raw.bounce_every > 0
+            && k % raw.bounce_every == raw.bounce_every - 1
+            && fall - rise > 2e-3
+        {
             changes.push((rise + 6e-4, 0.0));
             changes.push((rise + 1.0e-3, level));
         }
@@ -295,7 +326,10 @@ pub fn yaw_session(name: &str, p: &YawParams, seed: u64) -> SyntheticSession {
         );
     }
     let (table, friction) = if p.constants_given {
-        (format!("{{ v = {}, u = 0.0 }}", p.table_inertia), format!("{{ v = {}, u = 0.0 }}", p.friction_n_m))
+        (
+            format!("{{ v = {}, u = 0.0 }}", p.table_inertia),
+            format!("{{ v = {}, u = 0.0 }}", p.friction_n_m),
+        )
     } else {
         ("\"from_runs\"".to_string(), "\"from_runs\"".to_string())
     };
@@ -315,7 +349,12 @@ pub fn yaw_session(name: &str, p: &YawParams, seed: u64) -> SyntheticSession {
         toml.push_str(&run_entry(&run.id, "yaw_table", &run.role, &file, &extra));
         files.push((file, yaw_csv(p, run, &mut rng)));
     }
-    SyntheticSession { name: name.into(), session_toml: toml, files, expected: Vec::new() }
+    SyntheticSession {
+        name: name.into(),
+        session_toml: toml,
+        files,
+        expected: Vec::new(),
+    }
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -326,13 +365,26 @@ fn swing_csv(t0: f64, dt: f64, angles_rad: &[f64], noise_deg: f64, rng: &mut Spl
     let mut s = String::with_capacity(angles_rad.len() * 24);
     s.push_str("t_s,angle_deg\n");
     for (i, a) in angles_rad.iter().enumerate() {
-        let _ = writeln!(s, "{:.4},{:.7}", t0 + i as f64 * dt, a.to_degrees() + rng.normal(noise_deg));
+        let _ = writeln!(
+            s,
+            "{:.4},{:.7}",
+            t0 + i as f64 * dt,
+            a.to_degrees() + rng.normal(noise_deg)
+        );
     }
     s
 }
 
 /// Linear damped oscillation `offset + A e^{-zeta wn t} sin(wd t + phase)` (V3a).
-pub fn linear_swing(period_s: f64, amplitude_rad: f64, zeta: f64, offset_rad: f64, phase: f64, dt: f64, n: usize) -> Vec<f64> {
+pub fn linear_swing(
+    period_s: f64,
+    amplitude_rad: f64,
+    zeta: f64,
+    offset_rad: f64,
+    phase: f64,
+    dt: f64,
+    n: usize,
+) -> Vec<f64> {
     let wn = 2.0 * PI / period_s;
     let wd = wn * (1.0 - zeta * zeta).sqrt();
     (0..n)
@@ -347,7 +399,12 @@ pub fn linear_swing(period_s: f64, amplitude_rad: f64, zeta: f64, offset_rad: f6
 pub fn pendulum_swing(omega_n: f64, zeta: f64, psi0_rad: f64, dt: f64, n: usize) -> Vec<f64> {
     let substeps = (dt / 1e-3).ceil() as usize;
     integrate_sampled(
-        |_, y: &[f64; 2]| [y[1], -2.0 * zeta * omega_n * y[1] - omega_n * omega_n * y[0].sin()],
+        |_, y: &[f64; 2]| {
+            [
+                y[1],
+                -2.0 * zeta * omega_n * y[1] - omega_n * omega_n * y[0].sin(),
+            ]
+        },
         0.0,
         [psi0_rad, 0.0],
         dt,
@@ -361,16 +418,30 @@ pub fn pendulum_swing(omega_n: f64, zeta: f64, psi0_rad: f64, dt: f64, n: usize)
 
 /// Exact undamped trifilar (equal radii `r`, length `h`) of inertia `i` and mass `m` from rest
 /// at `phi0` (RK4, 1 ms): `(I + m z'^2) phi'' = -m z' z'' phi'^2 + m g z'`.
-pub fn trifilar_swing(i: f64, m: f64, r: f64, h: f64, phi0_rad: f64, dt: f64, n: usize) -> Vec<f64> {
+pub fn trifilar_swing(
+    i: f64,
+    m: f64,
+    r: f64,
+    h: f64,
+    phi0_rad: f64,
+    dt: f64,
+    n: usize,
+) -> Vec<f64> {
     let substeps = (dt / 1e-3).ceil() as usize;
     let rhs = move |_: f64, y: &[f64; 2]| {
         let phi = y[0];
         let z = (h * h - 4.0 * r * r * (0.5 * phi).sin().powi(2)).sqrt();
         let z1 = -r * r * phi.sin() / z;
         let z2 = -r * r * phi.cos() / z - r.powi(4) * phi.sin().powi(2) / z.powi(3);
-        [y[1], (-m * z1 * z2 * y[1] * y[1] + m * G * z1) / (i + m * z1 * z1)]
+        [
+            y[1],
+            (-m * z1 * z2 * y[1] * y[1] + m * G * z1) / (i + m * z1 * z1),
+        ]
     };
-    integrate_sampled(rhs, 0.0, [phi0_rad, 0.0], dt, n, substeps).into_iter().map(|y| y[0]).collect()
+    integrate_sampled(rhs, 0.0, [phi0_rad, 0.0], dt, n, substeps)
+        .into_iter()
+        .map(|y| y[0])
+        .collect()
 }
 
 /// A trifilar session: platform alone, then platform plus object.
@@ -427,18 +498,42 @@ pub fn trifilar_session(name: &str, p: &TrifilarParams, seed: u64) -> SyntheticS
     let mut files = Vec::new();
     for (id, role, m, i) in [
         ("trifilar-platform", "tare", p.platform.0, p.platform.1),
-        ("trifilar-object", "vehicle", p.platform.0 + p.object.0, p.platform.1 + p.object.1),
+        (
+            "trifilar-object",
+            "vehicle",
+            p.platform.0 + p.object.0,
+            p.platform.1 + p.object.1,
+        ),
     ] {
         let angles = if p.nonlinear {
             trifilar_swing(i, m, p.radius_m, p.length_m, p.amplitude_rad, dt, n)
         } else {
-            linear_swing(p.period(m, i), p.amplitude_rad, p.zeta, 0.1f64.to_radians(), 0.7, dt, n)
+            linear_swing(
+                p.period(m, i),
+                p.amplitude_rad,
+                p.zeta,
+                0.1f64.to_radians(),
+                0.7,
+                dt,
+                n,
+            )
         };
         let file = format!("trifilar/{id}.csv");
-        toml.push_str(&run_entry(id, "trifilar", role, &file, "signal = \"angle_deg\"\n"));
+        toml.push_str(&run_entry(
+            id,
+            "trifilar",
+            role,
+            &file,
+            "signal = \"angle_deg\"\n",
+        ));
         files.push((file, swing_csv(0.0, dt, &angles, p.noise_deg, &mut rng)));
     }
-    SyntheticSession { name: name.into(), session_toml: toml, files, expected: Vec::new() }
+    SyntheticSession {
+        name: name.into(),
+        session_toml: toml,
+        files,
+        expected: Vec::new(),
+    }
 }
 
 /// A compound-pendulum session (V4 geometry by default).
@@ -490,18 +585,36 @@ impl PendulumParams {
     pub fn omegas(&self) -> (f64, f64) {
         let ((sx0, sy0), (sx1, sy1)) = self.first_moments();
         let (ip, it) = self.pivot_inertias();
-        ((G * sx0.hypot(sy0) / ip).sqrt(), (G * sx1.hypot(sy1) / it).sqrt())
+        (
+            (G * sx0.hypot(sy0) / ip).sqrt(),
+            (G * sx1.hypot(sy1) / it).sqrt(),
+        )
     }
 }
 
-fn static_csv(s: (f64, f64), dm: f64, y_a: f64, offset_deg: f64, noise_deg: f64, rng: &mut SplitMix64) -> String {
+fn static_csv(
+    s: (f64, f64),
+    dm: f64,
+    y_a: f64,
+    offset_deg: f64,
+    noise_deg: f64,
+    rng: &mut SplitMix64,
+) -> String {
     let mut out = String::from("config,added_mass_kg,x_m,y_m,tilt_deg\n");
-    for (name, x) in [("base", None), ("xp1", Some(1.0)), ("xm1", Some(-1.0)), ("xp05", Some(0.5)), ("xm05", Some(-0.5))] {
+    for (name, x) in [
+        ("base", None),
+        ("xp1", Some(1.0)),
+        ("xm1", Some(-1.0)),
+        ("xp05", Some(0.5)),
+        ("xm05", Some(-0.5)),
+    ] {
         let (m, xa) = match x {
             None => (0.0, 0.0),
             Some(x) => (dm, x),
         };
-        let reading = (-(s.0 + m * xa)).atan2(s.1 + m * y_a).to_degrees() + offset_deg + rng.normal(noise_deg);
+        let reading = (-(s.0 + m * xa)).atan2(s.1 + m * y_a).to_degrees()
+            + offset_deg
+            + rng.normal(noise_deg);
         let y = if m > 0.0 { y_a } else { 0.0 };
         let _ = writeln!(out, "{name},{m},{xa},{y},{reading:.9}");
     }
@@ -528,8 +641,32 @@ pub fn pendulum_session(name: &str, p: &PendulumParams, seed: u64) -> SyntheticS
     let dt = 1.0 / p.sampling.0;
     let mut files = Vec::new();
     let specs: [(&str, &str, &str, String); 4] = [
-        ("pitch-plat-static", "tare", "static", static_csv(s_plat, p.added_mass_kg.0, p.added_y_m, p.offset_deg, p.static_noise_deg, &mut rng)),
-        ("pitch-veh-static", "vehicle", "static", static_csv(s_tot, p.added_mass_kg.1, p.added_y_m, p.offset_deg, p.static_noise_deg, &mut rng)),
+        (
+            "pitch-plat-static",
+            "tare",
+            "static",
+            static_csv(
+                s_plat,
+                p.added_mass_kg.0,
+                p.added_y_m,
+                p.offset_deg,
+                p.static_noise_deg,
+                &mut rng,
+            ),
+        ),
+        (
+            "pitch-veh-static",
+            "vehicle",
+            "static",
+            static_csv(
+                s_tot,
+                p.added_mass_kg.1,
+                p.added_y_m,
+                p.offset_deg,
+                p.static_noise_deg,
+                &mut rng,
+            ),
+        ),
         ("pitch-plat-swing", "tare", "swing", {
             let n = (p.sampling.1 * p.sampling.0).round() as usize;
             let psi = pendulum_swing(w_plat, p.zeta, p.amplitude_rad.0, dt, n);
@@ -545,11 +682,20 @@ pub fn pendulum_session(name: &str, p: &PendulumParams, seed: u64) -> SyntheticS
     ];
     for (id, role, kind, csv) in specs {
         let file = format!("pendulum/{id}.csv");
-        let extra = if kind == "swing" { "kind = \"swing\"\nsignal = \"angle_deg\"\n" } else { "kind = \"static\"\n" };
+        let extra = if kind == "swing" {
+            "kind = \"swing\"\nsignal = \"angle_deg\"\n"
+        } else {
+            "kind = \"static\"\n"
+        };
         toml.push_str(&run_entry(id, "pendulum", role, &file, extra));
         files.push((file, csv));
     }
-    SyntheticSession { name: name.into(), session_toml: toml, files, expected: Vec::new() }
+    SyntheticSession {
+        name: name.into(),
+        session_toml: toml,
+        files,
+        expected: Vec::new(),
+    }
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -564,13 +710,25 @@ fn v1_params(noisy: bool) -> YawParams {
         phi0_rad: 0.013,
         drop_m: 1.5,
         calibration_inertia: 0.0,
-        runs: vec![YawRunParams { id: "yaw-veh".into(), role: "vehicle".into(), load_inertia: 110.0, mass_kg: 6.0, aero_k: 0.0 }],
+        runs: vec![YawRunParams {
+            id: "yaw-veh".into(),
+            role: "vehicle".into(),
+            load_inertia: 110.0,
+            mass_kg: 6.0,
+            aero_k: 0.0,
+        }],
         constants_given: true,
         analysis: "friction_method = \"given\"\nyaw_model = \"const_alpha\"".into(),
         output: if noisy {
-            EncoderOutput::Events { jitter_s: 20e-6, band_error_deg: 0.02 }
+            EncoderOutput::Events {
+                jitter_s: 20e-6,
+                band_error_deg: 0.02,
+            }
         } else {
-            EncoderOutput::Events { jitter_s: 0.0, band_error_deg: 0.0 }
+            EncoderOutput::Events {
+                jitter_s: 0.0,
+                band_error_deg: 0.0,
+            }
         },
     }
 }
@@ -580,11 +738,39 @@ pub fn v1(noisy: bool, seed: u64) -> SyntheticSession {
     let name = if noisy { "v1b_yaw_noisy" } else { "v1_yaw" };
     let mut s = yaw_session(name, &v1_params(noisy), seed);
     if noisy {
-        s.expect("yaw-veh", "inertia", "falling_mass_exact", 110.0, 110.0 * 3e-4, "V1b: 110.000 +-0.03 %");
+        s.expect(
+            "yaw-veh",
+            "inertia",
+            "falling_mass_exact",
+            110.0,
+            110.0 * 3e-4,
+            "V1b: 110.000 +-0.03 %",
+        );
     } else {
-        s.expect("yaw-veh", "inertia", "falling_mass_exact", 110.0, 1e-6, "V1: 110.000, |err| < 1e-6");
-        s.expect("yaw-veh", "inertia", "thesis_simplified", 110.135, 1e-6, "V1: thesis formula 110.135 (+m r^2)");
-        s.expect("yaw-veh", "angular_acceleration", "quadratic", 0.07437241291742, 0.07437241291742 * 1e-12, "V1: alpha rel 1e-12");
+        s.expect(
+            "yaw-veh",
+            "inertia",
+            "falling_mass_exact",
+            110.0,
+            1e-6,
+            "V1: 110.000, |err| < 1e-6",
+        );
+        s.expect(
+            "yaw-veh",
+            "inertia",
+            "thesis_simplified",
+            110.135,
+            1e-6,
+            "V1: thesis formula 110.135 (+m r^2)",
+        );
+        s.expect(
+            "yaw-veh",
+            "angular_acceleration",
+            "quadratic",
+            0.07437241291742,
+            0.07437241291742 * 1e-12,
+            "V1: alpha rel 1e-12",
+        );
     }
     s
 }
@@ -593,9 +779,27 @@ fn three_run_yaw(output: EncoderOutput, analysis: &str) -> YawParams {
     YawParams {
         calibration_inertia: 12.5,
         runs: vec![
-            YawRunParams { id: "yaw-empty".into(), role: "tare".into(), load_inertia: 0.0, mass_kg: 6.0, aero_k: 0.0 },
-            YawRunParams { id: "yaw-cal".into(), role: "calibration".into(), load_inertia: 12.5, mass_kg: 6.0, aero_k: 0.0 },
-            YawRunParams { id: "yaw-veh".into(), role: "vehicle".into(), load_inertia: 110.0, mass_kg: 6.0, aero_k: 0.0 },
+            YawRunParams {
+                id: "yaw-empty".into(),
+                role: "tare".into(),
+                load_inertia: 0.0,
+                mass_kg: 6.0,
+                aero_k: 0.0,
+            },
+            YawRunParams {
+                id: "yaw-cal".into(),
+                role: "calibration".into(),
+                load_inertia: 12.5,
+                mass_kg: 6.0,
+                aero_k: 0.0,
+            },
+            YawRunParams {
+                id: "yaw-veh".into(),
+                role: "vehicle".into(),
+                load_inertia: 110.0,
+                mass_kg: 6.0,
+                aero_k: 0.0,
+            },
         ],
         constants_given: false,
         analysis: analysis.into(),
@@ -607,19 +811,61 @@ fn three_run_yaw(output: EncoderOutput, analysis: &str) -> YawParams {
 /// V2a: tare plus calibration body identifies table inertia and friction.
 pub fn v2a(noisy: bool, seed: u64) -> SyntheticSession {
     let out = if noisy {
-        EncoderOutput::Events { jitter_s: 20e-6, band_error_deg: 0.02 }
+        EncoderOutput::Events {
+            jitter_s: 20e-6,
+            band_error_deg: 0.02,
+        }
     } else {
-        EncoderOutput::Events { jitter_s: 0.0, band_error_deg: 0.0 }
+        EncoderOutput::Events {
+            jitter_s: 0.0,
+            band_error_deg: 0.0,
+        }
     };
-    let name = if noisy { "v2a_yaw_tare_calibration_noisy" } else { "v2a_yaw_tare_calibration" };
-    let mut s = yaw_session(name, &three_run_yaw(out, "yaw_model = \"const_alpha\""), seed);
+    let name = if noisy {
+        "v2a_yaw_tare_calibration_noisy"
+    } else {
+        "v2a_yaw_tare_calibration"
+    };
+    let mut s = yaw_session(
+        name,
+        &three_run_yaw(out, "yaw_model = \"const_alpha\""),
+        seed,
+    );
     if noisy {
         // 5 sd of a 40-seed Monte Carlo of this case (sd 0.0101 % on I_veh).
-        s.expect("yaw-veh", "inertia", "falling_mass_exact", 110.0, 110.0 * 5.1e-4, "V2a + V1b noise: 5 sd (0.0101 %) of a 40-seed Monte Carlo");
+        s.expect(
+            "yaw-veh",
+            "inertia",
+            "falling_mass_exact",
+            110.0,
+            110.0 * 5.1e-4,
+            "V2a + V1b noise: 5 sd (0.0101 %) of a 40-seed Monte Carlo",
+        );
     } else {
-        s.expect("yaw-veh", "inertia", "falling_mass_exact", 110.0, 110.0 * 1e-9, "V2a: rel 1e-9");
-        s.expect("yaw-empty+yaw-cal", "inertia", "falling_mass_tare_calibration", 8.0, 8.0 * 1e-9, "V2a: I_table 8.000");
-        s.expect("yaw-empty+yaw-cal", "friction_torque", "falling_mass_tare_calibration", 0.04, 0.04 * 1e-7, "V2a: tau_f 0.0400");
+        s.expect(
+            "yaw-veh",
+            "inertia",
+            "falling_mass_exact",
+            110.0,
+            110.0 * 1e-9,
+            "V2a: rel 1e-9",
+        );
+        s.expect(
+            "yaw-empty+yaw-cal",
+            "inertia",
+            "falling_mass_tare_calibration",
+            8.0,
+            8.0 * 1e-9,
+            "V2a: I_table 8.000",
+        );
+        s.expect(
+            "yaw-empty+yaw-cal",
+            "friction_torque",
+            "falling_mass_tare_calibration",
+            0.04,
+            0.04 * 1e-7,
+            "V2a: tau_f 0.0400",
+        );
     }
     s
 }
@@ -628,12 +874,22 @@ pub fn v2a(noisy: bool, seed: u64) -> SyntheticSession {
 pub fn v2a_raw(seed: u64) -> SyntheticSession {
     let mut s = yaw_session(
         "v2a_yaw_raw_encoder",
-        &three_run_yaw(EncoderOutput::Raw(RawEncoder::default()), "yaw_model = \"const_alpha\""),
+        &three_run_yaw(
+            EncoderOutput::Raw(RawEncoder::default()),
+            "yaw_model = \"const_alpha\"",
+        ),
         seed,
     );
     // 40-seed Monte Carlo: bias +0.0028 %, sd 0.0001 %. The bias is real: a fixed-threshold edge
     // detector's crossing delay changes as the baseline drifts (0.2 V here), which warps time.
-    s.expect("yaw-veh", "inertia", "falling_mass_exact", 110.0, 110.0 * 1e-4, "raw encoder: +0.0028 % drift bias, sd 0.0001 %; tolerance 0.01 %");
+    s.expect(
+        "yaw-veh",
+        "inertia",
+        "falling_mass_exact",
+        110.0,
+        110.0 * 1e-4,
+        "raw encoder: +0.0028 % drift bias, sd 0.0001 %; tolerance 0.01 %",
+    );
     s
 }
 
@@ -642,24 +898,64 @@ pub fn v2b(seed: u64) -> SyntheticSession {
     let mut p = v1_params(false);
     p.runs = [3.0, 6.0, 9.0]
         .iter()
-        .map(|&m| YawRunParams { id: format!("yaw-veh-m{m}"), role: "vehicle".into(), load_inertia: 110.0, mass_kg: m, aero_k: 0.0 })
+        .map(|&m| YawRunParams {
+            id: format!("yaw-veh-m{m}"),
+            role: "vehicle".into(),
+            load_inertia: 110.0,
+            mass_kg: m,
+            aero_k: 0.0,
+        })
         .collect();
     p.analysis = "friction_method = \"multi_mass\"\nyaw_model = \"const_alpha\"".into();
     let mut s = yaw_session("v2b_yaw_multi_mass", &p, seed);
     let run = "yaw-veh-m3+yaw-veh-m6+yaw-veh-m9";
-    s.expect(run, "rotating_inertia", "falling_mass_multi_mass", 118.0, 118.0 * 1e-9, "V2b: I_tot 118.000");
-    s.expect(run, "friction_torque", "falling_mass_multi_mass", 0.04, 1e-8, "V2b: tau_f 0.0400");
-    s.expect(run, "inertia", "falling_mass_multi_mass", 110.0, 110.0 * 1e-9, "V2b: I_veh 110.000");
+    s.expect(
+        run,
+        "rotating_inertia",
+        "falling_mass_multi_mass",
+        118.0,
+        118.0 * 1e-9,
+        "V2b: I_tot 118.000",
+    );
+    s.expect(
+        run,
+        "friction_torque",
+        "falling_mass_multi_mass",
+        0.04,
+        1e-8,
+        "V2b: tau_f 0.0400",
+    );
+    s.expect(
+        run,
+        "inertia",
+        "falling_mass_multi_mass",
+        110.0,
+        110.0 * 1e-9,
+        "V2b: I_veh 110.000",
+    );
     s
 }
 
 /// V2c: the thesis's multiplicative calibration factor, requested explicitly, is biased -0.26 %.
 pub fn v2c(seed: u64) -> SyntheticSession {
-    let mut p = three_run_yaw(EncoderOutput::Events { jitter_s: 0.0, band_error_deg: 0.0 }, "friction_method = \"calibration_factor\"\nyaw_model = \"const_alpha\"");
+    let mut p = three_run_yaw(
+        EncoderOutput::Events {
+            jitter_s: 0.0,
+            band_error_deg: 0.0,
+        },
+        "friction_method = \"calibration_factor\"\nyaw_model = \"const_alpha\"",
+    );
     p.runs.retain(|r| r.role != "tare");
     p.constants_given = true;
     let mut s = yaw_session("v2c_yaw_calibration_factor", &p, seed);
-    s.expect("yaw-veh", "inertia", "thesis_calibration_factor", 109.713, 0.0005, "V2c: negative control, 109.713 (-0.26 %)");
+    s.expect(
+        "yaw-veh",
+        "inertia",
+        "thesis_calibration_factor",
+        109.713,
+        0.0005,
+        "V2c: negative control, 109.713 (-0.26 %)",
+    );
     s
 }
 
@@ -668,17 +964,45 @@ pub fn v2d(noisy: bool, seed: u64) -> SyntheticSession {
     let mut p = v1_params(false);
     if noisy {
         // the methods document's V2d noise figure is for 20 us timing jitter alone
-        p.output = EncoderOutput::Events { jitter_s: 20e-6, band_error_deg: 0.0 };
+        p.output = EncoderOutput::Events {
+            jitter_s: 20e-6,
+            band_error_deg: 0.0,
+        };
     }
     p.runs[0].aero_k = 0.2;
     p.analysis = "friction_method = \"given\"\nyaw_model = \"auto\"".into();
-    let name = if noisy { "v2d_yaw_aero_noisy" } else { "v2d_yaw_aero" };
+    let name = if noisy {
+        "v2d_yaw_aero_noisy"
+    } else {
+        "v2d_yaw_aero"
+    };
     let mut s = yaw_session(name, &p, seed);
     if noisy {
-        s.expect("yaw-veh", "inertia", "falling_mass_exact", 110.0, 0.005, "V2d + V1b noise: 5 x the 0.001 sd quoted for 20 us jitter");
+        s.expect(
+            "yaw-veh",
+            "inertia",
+            "falling_mass_exact",
+            110.0,
+            0.005,
+            "V2d + V1b noise: 5 x the 0.001 sd quoted for 20 us jitter",
+        );
     } else {
-        s.expect("yaw-veh", "inertia", "falling_mass_exact", 110.0, 0.001, "V2d: ln cosh 110.000 +- 0.001");
-        s.expect("yaw-veh", "aero_drag_coefficient", "ln_cosh", 0.2, 0.0005, "V2d: k_a 0.200");
+        s.expect(
+            "yaw-veh",
+            "inertia",
+            "falling_mass_exact",
+            110.0,
+            0.001,
+            "V2d: ln cosh 110.000 +- 0.001",
+        );
+        s.expect(
+            "yaw-veh",
+            "aero_drag_coefficient",
+            "ln_cosh",
+            0.2,
+            0.0005,
+            "V2d: k_a 0.200",
+        );
     }
     s
 }
@@ -689,7 +1013,14 @@ pub fn v2d_quadratic(seed: u64) -> SyntheticSession {
     p.runs[0].aero_k = 0.2;
     p.analysis = "friction_method = \"given\"\nyaw_model = \"const_alpha\"".into();
     let mut s = yaw_session("v2d_yaw_aero_quadratic_fit", &p, seed);
-    s.expect("yaw-veh", "inertia", "falling_mass_exact", 111.42, 0.01, "V2d: quadratic fit is biased to 111.42 (+1.29 %)");
+    s.expect(
+        "yaw-veh",
+        "inertia",
+        "falling_mass_exact",
+        111.42,
+        0.01,
+        "V2d: quadratic fit is biased to 111.42 (+1.29 %)",
+    );
     s
 }
 
@@ -699,7 +1030,11 @@ fn v3_params(nonlinear: bool, noisy: bool, correction: &str) -> TrifilarParams {
         length_m: 2.0,
         platform: (8.0, 0.6),
         object: (20.0, 2.5),
-        amplitude_rad: if nonlinear { 10f64.to_radians() } else { 2f64.to_radians() },
+        amplitude_rad: if nonlinear {
+            10f64.to_radians()
+        } else {
+            2f64.to_radians()
+        },
         zeta: if nonlinear { 0.0 } else { 0.002 },
         nonlinear,
         noise_deg: if noisy { 0.005 } else { 0.0 },
@@ -710,16 +1045,37 @@ fn v3_params(nonlinear: bool, noisy: bool, correction: &str) -> TrifilarParams {
 
 /// V3a: linear damped trifilar records, 2 degrees.
 pub fn v3a(noisy: bool, seed: u64) -> SyntheticSession {
-    let name = if noisy { "v3a_trifilar_noisy" } else { "v3a_trifilar" };
+    let name = if noisy {
+        "v3a_trifilar_noisy"
+    } else {
+        "v3a_trifilar"
+    };
     let mut s = trifilar_session(name, &v3_params(false, noisy, "trifilar"), seed);
-    s.expect("trifilar-object", "inertia", "trifilar", 2.5, 2.5 * 5e-4, "V3a: 2.5000 +-0.05 %");
-    s.expect("trifilar-platform", "period_natural", "damped_sine_nls", 1.726842172, 1.726842172 * 2.5e-4, "V3a: T_p");
+    s.expect(
+        "trifilar-object",
+        "inertia",
+        "trifilar",
+        2.5,
+        2.5 * 5e-4,
+        "V3a: 2.5000 +-0.05 %",
+    );
+    s.expect(
+        "trifilar-platform",
+        "period_natural",
+        "damped_sine_nls",
+        1.726842172,
+        1.726842172 * 2.5e-4,
+        "V3a: T_p",
+    );
     s
 }
 
 /// V3b: exact nonlinear trifilar at 10 degrees with the chosen amplitude correction.
 pub fn v3b(correction: &str, noisy: bool, seed: u64) -> SyntheticSession {
-    let name = format!("v3b_trifilar_10deg_{correction}{}", if noisy { "_noisy" } else { "" });
+    let name = format!(
+        "v3b_trifilar_10deg_{correction}{}",
+        if noisy { "_noisy" } else { "" }
+    );
     let mut s = trifilar_session(&name, &v3_params(true, noisy, correction), seed);
     let (value, tol, note) = match correction {
         "trifilar" if noisy => (2.5, 2.5 * 5e-4, "V3b noisy: V3a tolerance 0.05 %"),
@@ -760,14 +1116,56 @@ pub fn v4(variant: char, seed: u64) -> SyntheticSession {
     let cg = "pitch-plat-static+pitch-veh-static";
     match variant {
         'a' => {
-            s.expect(cg, "cg_height", "static_tilt_ls", 0.3, 1e-6, "V4a: z_cg 0.300000 m, 1 um");
-            s.expect(cg, "cg_offset_x", "static_tilt_ls", 0.005, 1e-6, "V4a: x_cg 0.005000 m, 1 um");
-            s.expect("pitch-veh-swing", "inertia_cg", "compound_pendulum", 100.0, 0.02, "V4a: I_yy 100.000 +-0.02 %");
+            s.expect(
+                cg,
+                "cg_height",
+                "static_tilt_ls",
+                0.3,
+                1e-6,
+                "V4a: z_cg 0.300000 m, 1 um",
+            );
+            s.expect(
+                cg,
+                "cg_offset_x",
+                "static_tilt_ls",
+                0.005,
+                1e-6,
+                "V4a: x_cg 0.005000 m, 1 um",
+            );
+            s.expect(
+                "pitch-veh-swing",
+                "inertia_cg",
+                "compound_pendulum",
+                100.0,
+                0.02,
+                "V4a: I_yy 100.000 +-0.02 %",
+            );
         }
-        'b' => s.expect("pitch-veh-swing", "inertia_cg", "compound_pendulum", 100.0, 0.1, "V4b: I_yy +-0.1 %"),
+        'b' => s.expect(
+            "pitch-veh-swing",
+            "inertia_cg",
+            "compound_pendulum",
+            100.0,
+            0.1,
+            "V4b: I_yy +-0.1 %",
+        ),
         _ => {
-            s.expect(cg, "cg_height", "static_tilt_ls", 0.3, 1.5e-3, "V4c: z_cg +-1.5 mm (single seed)");
-            s.expect("pitch-veh-swing", "inertia_cg", "compound_pendulum", 100.0, 0.25, "V4c: I_yy +-0.25 %");
+            s.expect(
+                cg,
+                "cg_height",
+                "static_tilt_ls",
+                0.3,
+                1.5e-3,
+                "V4c: z_cg +-1.5 mm (single seed)",
+            );
+            s.expect(
+                "pitch-veh-swing",
+                "inertia_cg",
+                "compound_pendulum",
+                100.0,
+                0.25,
+                "V4c: I_yy +-0.25 %",
+            );
         }
     }
     s
@@ -778,7 +1176,14 @@ pub fn v4_uncorrected(seed: u64) -> SyntheticSession {
     let mut p = v4_params();
     p.analysis = "amplitude_correction = \"none\"".into();
     let mut s = pendulum_session("v4a_pendulum_no_amplitude_correction", &p, seed);
-    s.expect("pitch-veh-swing", "inertia_cg", "compound_pendulum", 100.08, 0.03, "V4 guard: +0.08 % without amplitude correction");
+    s.expect(
+        "pitch-veh-swing",
+        "inertia_cg",
+        "compound_pendulum",
+        100.08,
+        0.03,
+        "V4 guard: +0.08 % without amplitude correction",
+    );
     s
 }
 
@@ -790,15 +1195,32 @@ pub fn v5(noisy: bool, correction: &str, seed: u64) -> SyntheticSession {
     p.swing_noise_deg = if noisy { 0.01 } else { 0.0 };
     p.sampling.2 = 30.0;
     p.analysis = format!("amplitude_correction = \"{correction}\"");
-    let name = format!("v5_pendulum_12deg_{correction}{}", if noisy { "_noisy" } else { "" });
+    let name = format!(
+        "v5_pendulum_12deg_{correction}{}",
+        if noisy { "_noisy" } else { "" }
+    );
     let mut s = pendulum_session(&name, &p, seed);
     let (_, w_tot) = p.omegas();
     let tn = 2.0 * PI / w_tot;
     if correction == "none" {
-        s.expect("pitch-veh-swing", "period_natural", "damped_sine_nls", tn * 1.0015, tn * 0.0007, "V5 guard: uncorrected T biased > +0.1 % (I > +0.2 %)");
+        s.expect(
+            "pitch-veh-swing",
+            "period_natural",
+            "damped_sine_nls",
+            tn * 1.0015,
+            tn * 0.0007,
+            "V5 guard: uncorrected T biased > +0.1 % (I > +0.2 %)",
+        );
     } else {
         // I_p within 0.02 % means T within 0.01 %
-        s.expect("pitch-veh-swing", "period_natural", "damped_sine_nls", tn, tn * 1e-4, "V5: I_p (T_n) +-0.02 %");
+        s.expect(
+            "pitch-veh-swing",
+            "period_natural",
+            "damped_sine_nls",
+            tn,
+            tn * 1e-4,
+            "V5: I_p (T_n) +-0.02 %",
+        );
     }
     s
 }
