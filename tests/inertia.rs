@@ -383,7 +383,7 @@ fn malformed_sessions_give_one_clear_error_per_run_and_others_continue() {
         "yaw-empty",
         "angular_acceleration"
     ));
-    assert!(present("v1_yaw", "yaw-veh", "inertia") == false);
+    assert!(!present("v1_yaw", "yaw-veh", "inertia"));
     assert!(present(
         "v3a_trifilar_noisy",
         "trifilar-platform",

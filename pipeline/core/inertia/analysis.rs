@@ -610,6 +610,10 @@ fn join_ids(specs: &[&RunSpec]) -> String {
         .join("+")
 }
 
+/// Rig-level yaw identification from the base inputs: `(I_table, tau_f, extra)` where extra is
+/// the multi-mass `I_tot` or the calibration factor.
+type Identification = dyn Fn(&[f64]) -> Result<(f64, f64, f64), MethodError>;
+
 fn combine_yaw(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
     let s = ctx.s;
     let Ok(yaw) = s.yaw_table.as_ref() else {
@@ -646,7 +650,7 @@ fn combine_yaw(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
     // Common inputs: g, r, i_eq; then the identification inputs; run inputs are appended last.
     let mut base = vec![g, yaw.radius_m, yaw.i_eq_kg_m2];
     let ident_runs: Vec<&RunSpec>;
-    let ident: Box<dyn Fn(&[f64]) -> Result<(f64, f64, f64), MethodError>>;
+    let ident: Box<Identification>;
     // returns (I_table, tau_f, factor) from base inputs
     let need = |what: &str| format!("friction method {method:?} needs {what}");
     let fail_all = |ctx: &mut Ctx, msg: String| {

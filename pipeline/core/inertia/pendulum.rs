@@ -153,7 +153,7 @@ pub fn solve_first_moment(
     };
     let out = levmar::minimize(&model, DVector::from_vec(p0), LmOptions::default());
     let (sx, sy, off) = model.unpack(&out.params);
-    if !(sy > 0.0) {
+    if sy.is_nan() || sy <= 0.0 {
         return Err(MethodError::NonPhysical {
             reason: format!("first moment S_y = {sy:.4} kg m: CG not below the pivot"),
         });

@@ -696,7 +696,7 @@ impl Session {
                     .and_then(|v| v.as_str())
                     .map(str::to_owned)
                     .unwrap_or_else(|| format!("run[{i}]"));
-                let spec = section::<RawRun>(r, &format!("run {id}")).and_then(|r| parse_run(r));
+                let spec = section::<RawRun>(r, &format!("run {id}")).and_then(parse_run);
                 (id, spec)
             })
             .collect::<Vec<_>>();
@@ -804,7 +804,8 @@ fn parse_analysis(value: Option<&toml::Value>) -> Result<AnalysisSpec, SessionEr
     let window_cycles = a.window_cycles.unwrap_or(3.0);
     let min_cycles = a.min_cycles.unwrap_or(10.0);
     let discard = a.discard_initial_cycles.unwrap_or(1.0);
-    if !(window_cycles >= 1.0) || !(min_cycles >= 2.0) || !(discard >= 0.0) {
+    let below = |v: f64, min: f64| v.is_nan() || v < min;
+    if below(window_cycles, 1.0) || below(min_cycles, 2.0) || below(discard, 0.0) {
         return Err(field(
             "analysis",
             "window_cycles >= 1, min_cycles >= 2 and discard_initial_cycles >= 0 are required",
@@ -863,7 +864,7 @@ fn parse_tilt(value: Option<&toml::Value>) -> Result<TiltSensor, SessionError> {
         }
     };
     let noise = t.noise_deg.unwrap_or(0.0);
-    if !(noise >= 0.0) {
+    if noise.is_nan() || noise < 0.0 {
         return Err(field(
             "sensors.tilt.noise_deg",
             format!("must be >= 0, got {noise}"),
@@ -938,8 +939,10 @@ fn parse_yaw(value: &toml::Value) -> Result<YawTableSpec, SessionError> {
         (None, Some(_)) => None,
         (None, None) => None,
     };
-    if let Some(d) = y.max_drop_m {
-        if !(d > 0.0) {
+    if let Some(d) = y.max_drop_m
+        && (d.is_nan() || d <= 0.0)
+    {
+        {
             return Err(field(
                 "yaw_table.max_drop_m",
                 format!("must be > 0, got {d}"),

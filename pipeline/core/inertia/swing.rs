@@ -230,11 +230,10 @@ pub fn analyze(
                 out.period_s = t0;
                 out.u_period_s = u_whole.max(spread).max(den.recip().sqrt());
                 out.windows = windows.len();
-                if windows.len() >= 3 {
-                    if let Ok(line) = polyfit_centered(&amp2, &wn, 1) {
-                        let intercept = line.eval(0.0);
-                        out.backbone_slope_per_rad2 = line.coeffs[1] / intercept;
-                    }
+                if windows.len() >= 3
+                    && let Ok(line) = polyfit_centered(&amp2, &wn, 1)
+                {
+                    out.backbone_slope_per_rad2 = line.coeffs[1] / line.eval(0.0);
                 }
             }
         }

@@ -9,6 +9,9 @@
 use super::Measured;
 use crate::numerics::random::SplitMix64;
 
+/// A deterministic computation from input values to output values.
+pub type Computation<'a, E> = &'a dyn Fn(&[f64]) -> Result<Vec<f64>, E>;
+
 /// Propagation method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Propagation {
@@ -22,7 +25,7 @@ pub enum Propagation {
 /// Carlo loop are skipped; if more than 10 % fail the uncertainty is NaN.
 pub fn propagate<E>(
     inputs: &[Measured],
-    f: &dyn Fn(&[f64]) -> Result<Vec<f64>, E>,
+    f: Computation<'_, E>,
     how: Propagation,
 ) -> Result<Vec<(f64, f64)>, E> {
     let nominal: Vec<f64> = inputs.iter().map(|m| m.value).collect();

@@ -148,7 +148,8 @@ fn monte_carlo_spread() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(40);
-    let cases: Vec<(&str, fn(u64) -> SyntheticSession)> = vec![
+    type Maker = fn(u64) -> SyntheticSession;
+    let cases: Vec<(&str, Maker)> = vec![
         ("v1b", |k| synth::v1(true, k)),
         ("v2a_noisy", |k| synth::v2a(true, k)),
         ("v2a_raw", synth::v2a_raw),
