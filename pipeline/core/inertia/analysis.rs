@@ -8,8 +8,6 @@
 //! platform tare) is reported as an error of the dependent run. Deliberately no I/O beyond the
 //! reader closure and no output formatting.
 
-use std::f64::consts::PI;
-
 use super::encoder;
 use super::pendulum::{self, TiltConfig, ZeroOffset};
 use super::session::{
@@ -1276,12 +1274,11 @@ fn combine_pendulum(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
         let how = ctx.propagation();
         match propagate(&inputs, &f, how) {
             Ok(out) if out[2].0 > 0.0 => {
-                let (i_cg, h) = (out[2].0, (out[1].0 - pend.pivot_to_deck_m.value).abs());
+                let i_cg = out[2].0;
                 // sensitivity dI_cg/dh = m (k^2 - h^2)/h, as % per mm
                 let h_pivot = pend.pivot_to_deck_m.value - out[1].0;
                 let k2 = i_cg / m_v.value;
                 let sens = m_v.value * (k2 - h_pivot * h_pivot) / h_pivot / i_cg * 1e-3 * 100.0;
-                let _ = h;
                 let object = ctx.object(spec);
                 let mut ids: Vec<&RunSpec> = vec![ps, vs];
                 ids.extend(plat_swing.iter().map(|(s, _)| *s));
@@ -1312,5 +1309,4 @@ fn combine_pendulum(ctx: &mut Ctx, measured: &[(RunSpec, Measurement)]) {
             Err(e) => ctx.fail(&spec.id, e),
         }
     }
-    let _ = PI;
 }
