@@ -351,4 +351,17 @@ mod tests {
         assert!((exact - 118.0).abs() < 1e-10);
         assert!((thesis - exact - m * r * r).abs() < 1e-10);
     }
+
+    #[test]
+    fn thesis_formula_cancels_when_the_tare_uses_it_too() {
+        // V1: with I_table itself "measured" by the thesis formula (8.135) from an empty-table
+        // run with the same m and r, the thesis result for the vehicle is exactly 110.000.
+        let (m, r, g, tau) = (6.0, 0.15, 9.80665, 0.04);
+        let alpha = |load: f64| (m * g * r - tau) / (8.0 + load + m * r * r);
+        let m_drag = tau / (g * r);
+        let table = rotating_inertia_thesis(m, m_drag, r, g, alpha(0.0));
+        assert!((table - 8.135).abs() < 1e-9, "{table}");
+        let veh = rotating_inertia_thesis(m, m_drag, r, g, alpha(110.0)) - table;
+        assert!((veh - 110.0).abs() < 1e-9, "{veh}");
+    }
 }
