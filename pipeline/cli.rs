@@ -22,6 +22,53 @@ pub struct Cli {
 pub enum Command {
     /// Run SQL over a store's tables and print the result.
     Query(QueryArgs),
+    /// Rig inertia: process vehicle inertia/CG rig sessions into OUT/inertia.parquet.
+    Inertia(InertiaArgs),
+    /// Write synthetic data with known answers.
+    Synth {
+        #[command(subcommand)]
+        what: SynthCommand,
+    },
+}
+
+/// `tirebase inertia SESSION_DIR... --out OUT`
+#[derive(Debug, Args)]
+#[command(
+    long_about = "Process rig-inertia sessions (yaw table with falling mass, trifilar pendulum, \
+compound pendulum on a knife edge) into OUT/inertia.parquet: one row per result with columns \
+session, run, object, axis, quantity, method, value, uncertainty (standard, k = 1), units (SI: \
+kg*m^2, m, s, rad, N*m) and diagnostics. Axis is yaw (vertical), pitch or roll. A session is a \
+directory with session.toml and one CSV per run (format: schemas/inertia_session.md). A failed \
+run is reported on stderr and the other runs continue; the exit code is then 1 (2 for fatal \
+errors). A short summary of the main results goes to stdout."
+)]
+pub struct InertiaArgs {
+    /// Session directories (each holding session.toml and its run CSVs).
+    #[arg(required = true, value_name = "SESSION_DIR")]
+    pub sessions: Vec<PathBuf>,
+    /// Output directory; inertia.parquet is written (replaced) there.
+    #[arg(long, value_name = "OUT")]
+    pub out: PathBuf,
+}
+
+/// What `tirebase synth` generates.
+#[derive(Debug, Subcommand)]
+pub enum SynthCommand {
+    /// Synthetic rig-inertia sessions with known answers (validation cases V1-V5 of the inertia
+    /// methods document, noise-free and noisy, plus a raw-encoder session with bounce, missed
+    /// edges and drift). Each goes to DIR/<case>/ with session.toml, run CSVs and expected.toml.
+    Inertia(SynthInertiaArgs),
+}
+
+/// `tirebase synth inertia --out DIR [--seed N]`
+#[derive(Debug, Args)]
+pub struct SynthInertiaArgs {
+    /// Directory to write the sessions into (created; existing case directories are replaced).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Seed of the noise generators (SplitMix64); same seed, same bytes.
+    #[arg(long, default_value_t = 20250314, value_name = "N")]
+    pub seed: u64,
 }
 
 /// `tirebase ingest`.

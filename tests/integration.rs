@@ -1,1 +1,4 @@
-//! Integration tests.
+//! Integration tests: one binary, one module per command, each driving the real `tirebase`
+//! binary in temporary directories.
+
+mod inertia;
