@@ -1,4 +1,5 @@
-//! Integration tests: one test binary, one module per command, each driving the real
-//! `tirebase` binary in temp dirs.
+//! Integration tests: one binary, one module per command, each driving the real `tirebase`
+//! binary in temporary directories.
 
+mod inertia;
 mod tir;
