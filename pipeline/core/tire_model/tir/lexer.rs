@@ -65,12 +65,16 @@ fn strip_comment(s: &str) -> Result<&str, LexError> {
     Ok(s)
 }
 
-/// Control characters other than tab and form feed mean the text is not a `.tir` file.
+/// ASCII control characters other than tab, form feed and the DOS end-of-file mark mean the
+/// text is not a `.tir` file. (C1 controls are allowed: Windows-1252 punctuation such as 0x92
+/// in a comment shows up as U+0092 after Latin-1 decoding.)
 fn check_binary(s: &str) -> Result<(), LexError> {
-    match s
-        .chars()
-        .find(|&c| (c.is_control() && c != '\t' && c != '\x0c') || c == '\u{fffd}')
-    {
+    let binary = |c: char| {
+        ((c as u32) < 0x20 && !matches!(c, '\t' | '\x0c' | '\x1a'))
+            || c == '\x7f'
+            || c == '\u{fffd}'
+    };
+    match s.chars().find(|&c| binary(c)) {
         Some(c) => Err(LexError::Binary(c as u32)),
         None => Ok(()),
     }
