@@ -193,7 +193,7 @@ fn input_columns_in_any_order_with_extras() {
     let input = dir.path().join("in.csv");
     std::fs::write(
         &input,
-        "note,Vx_mps,gamma_rad,alpha_rad,kappa,Fz_N\n\
+        "\u{feff}note,Vx_mps,gamma_rad,alpha_rad,kappa,Fz_N\r\n\
          a,11.176,0,-0.05235987755982988,0,1100\n\
          \"b, quoted\",11.176,0.03490658503988659,0.08726646259971647,0.05,1100\n",
     )

@@ -84,7 +84,7 @@ fn read_points(path: &Path) -> anyhow::Result<PointTable> {
     for (slot, name) in index.iter_mut().zip(INPUT_COLUMNS) {
         *slot = header
             .iter()
-            .position(|h| h.trim() == name)
+            .position(|h| h.trim_start_matches('\u{feff}').trim() == name)
             .with_context(|| {
                 format!(
                     "{shown}: line 1: no column {name} in the header (needs {})",
