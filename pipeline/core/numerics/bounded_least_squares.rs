@@ -397,6 +397,11 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
                     return Termination::SmallCostChange;
                 }
             } else {
+                // A step the local model says cannot gain more than `ftol` is a converged fit
+                // (round-off decides the sign of the actual change), not a stall.
+                if predicted >= 0.0 && predicted <= self.options.ftol * cost {
+                    return Termination::SmallCostChange;
+                }
                 lambda *= nu;
                 nu *= 2.0;
                 let all_clipped = s.iter().all(|x| *x == 0.0);
