@@ -322,9 +322,8 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
             return Termination::NonFiniteStart;
         }
         let mut normal = normal_equations(&jac, &r, n);
-        let mut scale: Vec<f64> = (0..n)
-            .map(|j| normal.a[j * n + j].sqrt().max(1e-300))
-            .collect();
+        let mut scale: Vec<f64> = (0..n).map(|j| normal.a[j * n + j].sqrt()).collect();
+        floor_scale(&mut scale);
         let mut lambda = 1e-3;
         let mut nu = 2.0;
         let mut r_trial = vec![0.0; m];
@@ -390,6 +389,7 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
                 for j in 0..n {
                     scale[j] = scale[j].max(normal.a[j * n + j].sqrt());
                 }
+                floor_scale(&mut scale);
                 if small_step {
                     return Termination::SmallStep;
                 }
@@ -457,6 +457,19 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
             cost,
             rmse,
             robust_weights,
+        }
+    }
+}
+
+/// Keeps every scale positive: a parameter with no effect at the current point (a zero
+/// Jacobian column, e.g. a factor multiplied by a term that is zero there) gets a scale of 1e-8
+/// of the largest, so the damped system stays positive definite and its step is zero.
+fn floor_scale(scale: &mut [f64]) {
+    let largest = scale.iter().copied().fold(0.0, f64::max);
+    let floor = if largest > 0.0 { 1e-8 * largest } else { 1.0 };
+    for d in scale.iter_mut() {
+        if !(*d >= floor) {
+            *d = floor;
         }
     }
 }
@@ -726,6 +739,40 @@ mod tests {
             plain.params
         );
         assert!(robust.robust_weights[7] < 0.1 && robust.robust_weights[31] < 0.1);
+    }
+
+    /// A parameter without effect at the start (zero Jacobian column) does not stall the solver.
+    struct Product;
+
+    impl LeastSquaresProblem for Product {
+        fn n_params(&self) -> usize {
+            2
+        }
+        fn n_residuals(&self) -> usize {
+            20
+        }
+        fn residuals(&self, p: &[f64], r: &mut [f64]) {
+            // y = p0 + p1 * x with a zero-effect third... here p1 multiplies x^2 * p0^0.
+            for (i, ri) in r.iter_mut().enumerate() {
+                let x = i as f64 / 10.0;
+                *ri = p[0] * x + p[0] * p[1] * x * x - (0.5 * x + 0.5 * 0.4 * x * x);
+            }
+        }
+        fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
+            self.residuals(p, r);
+            for i in 0..20 {
+                let x = i as f64 / 10.0;
+                jac[2 * i] = x + p[1] * x * x;
+                jac[2 * i + 1] = p[0] * x * x;
+            }
+        }
+    }
+
+    #[test]
+    fn zero_jacobian_column_does_not_stall() {
+        let out = minimize(&Product, &[0.0, 1.0], &Bounds::unbounded(2), &Options::default());
+        assert!(out.termination.converged(), "{:?}", out.termination);
+        assert!((out.params[0] - 0.5).abs() < 1e-8 && (out.params[1] - 0.4).abs() < 1e-8);
     }
 
     #[test]

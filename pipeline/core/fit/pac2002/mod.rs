@@ -216,6 +216,9 @@ pub struct FitConfig {
     pub alpha_bin_rad: f64,
     /// Longitudinal-slip grid for collapsing drive/brake and combined sweeps.
     pub kappa_bin: f64,
+    /// Largest number of collapsed points per sweep used by the joint refinements (evenly spaced
+    /// along the curve); quality is always reported on all of them.
+    pub max_points_per_sweep: usize,
     /// Spike test: a sample deviating from its running median by more than this many robust
     /// standard deviations (and by 1 % of the sweep's peak) is replaced by the median.
     pub despike_sigmas: f64,
@@ -242,6 +245,7 @@ impl Default for FitConfig {
         FitConfig {
             alpha_bin_rad: 0.25_f64.to_radians(),
             kappa_bin: 0.0025,
+            max_points_per_sweep: 60,
             despike_sigmas: 6.0,
             delag: true,
             loss: RobustLoss::Huber { k: 2.0 },
@@ -291,7 +295,8 @@ impl FamilyStatus {
 /// Quality of one family's fit (units of its channel: N or N m).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FitQuality {
-    /// Collapsed points fitted.
+    /// Collapsed points the quality is computed on (all of them; the refinement may use a
+    /// thinned subset, see [`FitConfig::max_points_per_sweep`]).
     pub n: usize,
     /// Root-mean-square error on the collapsed points.
     pub rmse: f64,

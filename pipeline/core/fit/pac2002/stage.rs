@@ -443,30 +443,37 @@ fn levels_of(sweeps: &[&CollapsedSweep]) -> Levels {
 /// Data points of a family, weighted so every sweep counts the same: residuals are relative to
 /// the sweep's peak (floored at 5 % of the largest peak) and divided by the square root of the
 /// sweep's point count and of the number of sweeps.
-fn data_points(sweeps: &[&CollapsedSweep], output: Output) -> Vec<DataPoint> {
+///
+/// A sweep with more than `max_per_sweep` points contributes that many, evenly spaced along the
+/// curve (a deterministic thinning: the collapsed curves are oversampled for fitting purposes).
+fn data_points(sweeps: &[&CollapsedSweep], output: Output, max_per_sweep: usize) -> Vec<DataPoint> {
     let max_peak = sweeps.iter().map(|s| s.peak(output)).fold(0.0, f64::max);
     let mut out = Vec::new();
     for s in sweeps {
-        let n = s
+        let valid: Vec<_> = s
             .points
             .iter()
             .filter(|p| p.output(output).is_finite())
-            .count();
+            .collect();
+        let n = valid.len();
         if n == 0 {
             continue;
         }
+        let m = n.min(max_per_sweep.max(2));
         let peak = s.peak(output).max(0.05 * max_peak).max(1e-9);
-        let w = 1.0 / (peak * ((n * sweeps.len()) as f64).sqrt());
-        out.extend(
-            s.points
-                .iter()
-                .filter(|p| p.output(output).is_finite())
-                .map(|p| DataPoint {
-                    input: p.input,
-                    value: p.output(output),
-                    weight: w,
-                }),
-        );
+        let w = 1.0 / (peak * ((m * sweeps.len()) as f64).sqrt());
+        out.extend((0..m).map(|k| {
+            let i = if m == n {
+                k
+            } else {
+                ((k * (n - 1)) as f64 / (m - 1) as f64).round() as usize
+            };
+            DataPoint {
+                input: valid[i].input,
+                value: valid[i].output(output),
+                weight: w,
+            }
+        }));
     }
     out
 }
@@ -525,7 +532,7 @@ fn fit_family(
             .copied()
             .filter(|s| s.kind != SweepKind::Cornering)
             .collect();
-        let points = data_points(&slip, output);
+        let points = data_points(&slip, output, cfg.max_points_per_sweep);
         let (_, q) = refine(family, &free, &points, &slip, env, cfg, c)?;
         evals += q.evaluations;
         let mz0: &[Coef] = previous
@@ -534,7 +541,7 @@ fn fit_family(
             .map_or(&[], |(_, v)| v.as_slice());
         free = mz0.iter().chain(free.iter()).copied().collect();
     }
-    let points = data_points(sweeps, output);
+    let points = data_points(sweeps, output, cfg.max_points_per_sweep);
     let (outcome, mut quality) = refine(family, &free, &points, sweeps, env, cfg, c)?;
     let mut outcome = outcome;
     if family == Family::Mx && cfg.mx_form == MxForm::Auto {
@@ -697,7 +704,8 @@ fn refine(
     let penalties = penalties_of(family, free, env, cfg);
     let start: Vec<f64> = free.iter().map(|coef| c[*coef]).collect();
     let output = output_of(family);
-    let initial_rmse = rmse_on_points(points, c, family);
+    let all_points = data_points(sweeps, output, usize::MAX);
+    let initial_rmse = rmse_on_points(&all_points, c, family);
     let problem = FamilyProblem::new(c, free, family, points, &penalties);
     let options = Options {
         max_iterations: cfg.max_iterations,
@@ -714,7 +722,7 @@ fn refine(
     }
     let fitted = problem.coefs_at(&outcome.params);
     *c = fitted;
-    let quality = quality_of(family, output, points, sweeps, c, &outcome, initial_rmse);
+    let quality = quality_of(family, output, &all_points, sweeps, c, &outcome, initial_rmse);
     Ok((outcome, quality))
 }
 
