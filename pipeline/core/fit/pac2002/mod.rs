@@ -245,7 +245,7 @@ impl Default for FitConfig {
         FitConfig {
             alpha_bin_rad: 0.25_f64.to_radians(),
             kappa_bin: 0.0025,
-            max_points_per_sweep: 60,
+            max_points_per_sweep: 40,
             despike_sigmas: 6.0,
             delag: true,
             loss: RobustLoss::Huber { k: 2.0 },
