@@ -24,7 +24,10 @@ mod synthetic;
 use tirebase_core::fit::pac2002::{FitConfig, fit as fit_pac2002};
 
 fn bench_full_fit(c: &mut Criterion) {
-    let input = synthetic::ttc_round(&synthetic::fsae_demo(), &synthetic::RoundSpec::realistic(13));
+    let input = synthetic::ttc_round(
+        &synthetic::fsae_demo(),
+        &synthetic::RoundSpec::realistic(13),
+    );
     let once = fit_pac2002(&input, &FitConfig::default()).expect("fit");
     eprintln!(
         "full fit: {} solver evaluations, {:.3} s (single run)",

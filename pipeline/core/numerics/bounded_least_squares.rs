@@ -386,8 +386,8 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
                 p.copy_from_slice(&trial);
                 cost = self.weighted_jacobian(p, &mut r, &mut jac);
                 normal = normal_equations(&jac, &r, n);
-                for j in 0..n {
-                    scale[j] = scale[j].max(normal.a[j * n + j].sqrt());
+                for (j, d) in scale.iter_mut().enumerate() {
+                    *d = d.max(normal.a[j * n + j].sqrt());
                 }
                 floor_scale(&mut scale);
                 if small_step {
@@ -468,7 +468,7 @@ fn floor_scale(scale: &mut [f64]) {
     let largest = scale.iter().copied().fold(0.0, f64::max);
     let floor = if largest > 0.0 { 1e-8 * largest } else { 1.0 };
     for d in scale.iter_mut() {
-        if !(*d >= floor) {
+        if d.is_nan() || *d < floor {
             *d = floor;
         }
     }
@@ -770,7 +770,12 @@ mod tests {
 
     #[test]
     fn zero_jacobian_column_does_not_stall() {
-        let out = minimize(&Product, &[0.0, 1.0], &Bounds::unbounded(2), &Options::default());
+        let out = minimize(
+            &Product,
+            &[0.0, 1.0],
+            &Bounds::unbounded(2),
+            &Options::default(),
+        );
         assert!(out.termination.converged(), "{:?}", out.termination);
         assert!((out.params[0] - 0.5).abs() < 1e-8 && (out.params[1] - 0.4).abs() < 1e-8);
     }

@@ -82,8 +82,6 @@ impl CurvePoint {
 /// A sweep after cleaning and collapsing.
 #[derive(Clone, Debug)]
 pub struct CollapsedSweep {
-    /// The sweep's id.
-    pub id: String,
     /// What was swept.
     pub kind: SweepKind,
     /// Nominal levels.
@@ -172,7 +170,6 @@ pub fn collapse(sweep: &Sweep, settings: &CollapseSettings<'_>) -> CollapsedSwee
     }
     let points = branch_average(sweep.kind, &samples, settings.bin);
     CollapsedSweep {
-        id: sweep.id.clone(),
         kind: sweep.kind,
         nominal: sweep.nominal,
         samples,
@@ -201,14 +198,14 @@ fn despike(samples: &mut [Sample], o: Output, sigmas: f64) -> usize {
     let values: Vec<f64> = samples.iter().map(|s| o.of(s)).collect();
     let mut med = vec![f64::NAN; n];
     let mut window = Vec::with_capacity(2 * HALF + 1);
-    for i in 0..n {
+    for (i, m) in med.iter_mut().enumerate() {
         // Symmetric windows only (shrinking at the ends): a running median is then exact on
         // monotone data, however steep.
         window.clear();
         let half = HALF.min(i).min(n - 1 - i);
         let (lo, hi) = (i - half, i + half + 1);
         window.extend(values[lo..hi].iter().copied().filter(|v| v.is_finite()));
-        med[i] = median(&mut window);
+        *m = median(&mut window);
     }
     let mut abs_res: Vec<f64> = values
         .iter()
@@ -322,10 +319,10 @@ struct Acc {
 impl Acc {
     fn add(&mut self, s: &Sample) {
         self.n += 1;
-        for (a, v) in self
-            .inputs
-            .iter_mut()
-            .zip([s.fz_n, s.kappa, s.alpha_rad, s.gamma_rad, s.vx_mps])
+        for (a, v) in
+            self.inputs
+                .iter_mut()
+                .zip([s.fz_n, s.kappa, s.alpha_rad, s.gamma_rad, s.vx_mps])
         {
             *a += v;
         }

@@ -238,10 +238,7 @@ mod tests {
         };
         assert!(unidentifiable(QBZ5, &levels).is_some());
         assert!(unidentifiable(QBZ4, &levels).is_none());
-        let one_load = Levels {
-            loads: 1,
-            ..levels
-        };
+        let one_load = Levels { loads: 1, ..levels };
         assert!(unidentifiable(PDY2, &one_load).is_some());
     }
 }

@@ -240,7 +240,9 @@ pub fn pure_lateral(
     // Cornering stiffness: scan PKY2, linear in (PKY1, -PKY1 PKY3).
     let k: Vec<f64> = shapes.iter().map(|s| s.0.k).collect();
     let scan: Vec<f64> = if setup.is_free(PKY2) {
-        (0..60).map(|i| 0.3 * (60.0f64).powf(i as f64 / 59.0)).collect()
+        (0..60)
+            .map(|i| 0.3 * (60.0f64).powf(i as f64 / 59.0))
+            .collect()
     } else {
         vec![c[PKY2]]
     };
@@ -381,9 +383,7 @@ pub fn pure_longitudinal(
     }
     setup.set(c, PCX1, median(shapes.iter().map(|s| s.0.c).collect()));
     let (e_mean, e_split) = curvature_split(&shapes);
-    let rows: Vec<Vec<f64>> = (0..n)
-        .map(|i| vec![1.0, dfz[i], dfz[i] * dfz[i]])
-        .collect();
+    let rows: Vec<Vec<f64>> = (0..n).map(|i| vec![1.0, dfz[i], dfz[i] * dfz[i]]).collect();
     if let Some(b) = linear_fit(setup, &[None, Some(PEX2), Some(PEX3)], &rows, &e_mean) {
         setup.set(c, PEX1, b[0].min(0.9));
         setup.set(c, PEX2, b[1]);
@@ -520,9 +520,7 @@ pub fn pure_aligning(
         setup.set(c, QBZ5, b[4] / b[0]);
     }
     setup.set(c, QCZ1, median(rows_out.iter().map(|r| r.ct).collect()));
-    let design: Vec<Vec<f64>> = (0..n)
-        .map(|i| vec![1.0, dfz[i], dfz[i] * dfz[i]])
-        .collect();
+    let design: Vec<Vec<f64>> = (0..n).map(|i| vec![1.0, dfz[i], dfz[i] * dfz[i]]).collect();
     let yet: Vec<f64> = rows_out.iter().map(|r| r.et).collect();
     if let Some(b) = linear_fit(setup, &[None, Some(QEZ2), Some(QEZ3)], &design, &yet) {
         setup.set(c, QEZ1, b[0].min(0.9));
@@ -818,12 +816,17 @@ mod tests {
     #[test]
     fn single_curve_extraction_recovers_factors() {
         let truth = [-30000.0, 1.45, -2500.0, -0.3, 0.2, 0.003, 40.0];
-        let x: Vec<f64> = (0..97).map(|i| (-12.0 + 0.25 * i as f64).to_radians()).collect();
+        let x: Vec<f64> = (0..97)
+            .map(|i| (-12.0 + 0.25 * i as f64).to_radians())
+            .collect();
         let y: Vec<f64> = x.iter().map(|v| MfCurve.eval(&truth, *v)).collect();
         let s = extract_mf(&x, &y).unwrap();
         let got = [s.k, s.c, s.d, s.e_pos, s.e_neg, s.sh, s.sv];
         for (g, t) in got.iter().zip(truth) {
-            assert!((g - t).abs() <= 1e-4 * t.abs().max(1.0), "{got:?} vs {truth:?}");
+            assert!(
+                (g - t).abs() <= 1e-4 * t.abs().max(1.0),
+                "{got:?} vs {truth:?}"
+            );
         }
     }
 }

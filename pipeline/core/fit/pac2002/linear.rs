@@ -115,20 +115,20 @@ mod tests {
 
     #[test]
     fn lstsq_recovers_plane_and_handles_collinear_columns() {
-        let rows: Vec<[f64; 3]> = (0..12)
-            .map(|i| [1.0, i as f64, (i % 3) as f64])
-            .collect();
+        let rows: Vec<[f64; 3]> = (0..12).map(|i| [1.0, i as f64, (i % 3) as f64]).collect();
         let design: Vec<f64> = rows.iter().flatten().copied().collect();
-        let y: Vec<f64> = rows
-            .iter()
-            .map(|r| 2.0 + 0.5 * r[1] - 3.0 * r[2])
-            .collect();
+        let y: Vec<f64> = rows.iter().map(|r| 2.0 + 0.5 * r[1] - 3.0 * r[2]).collect();
         let b = lstsq(&design, 3, &y).unwrap();
-        assert!((b[0] - 2.0).abs() < 1e-9 && (b[1] - 0.5).abs() < 1e-9 && (b[2] + 3.0).abs() < 1e-9);
+        assert!(
+            (b[0] - 2.0).abs() < 1e-9 && (b[1] - 0.5).abs() < 1e-9 && (b[2] + 3.0).abs() < 1e-9
+        );
         // Two identical columns: the minimum-norm answer splits the effect.
         let design2: Vec<f64> = (0..5).flat_map(|i| [i as f64, i as f64]).collect();
         let y2: Vec<f64> = (0..5).map(|i| 4.0 * i as f64).collect();
         let b2 = lstsq(&design2, 2, &y2).unwrap();
-        assert!((b2[0] - 2.0).abs() < 1e-9 && (b2[1] - 2.0).abs() < 1e-9, "{b2:?}");
+        assert!(
+            (b2[0] - 2.0).abs() < 1e-9 && (b2[1] - 2.0).abs() < 1e-9,
+            "{b2:?}"
+        );
     }
 }

@@ -92,7 +92,8 @@ impl Quantity {
                 (c[PEY1] + c[PEY2] * dfz) * (-((c[PEY3] + c[PEY4] * gy) * sign) + 1.0) * c[LEY]
             }
             Quantity::Ex { dfz, sign } => {
-                (c[PEX1] + c[PEX2] * dfz + c[PEX3] * (dfz * dfz)) * (-(c[PEX4] * sign) + 1.0)
+                (c[PEX1] + c[PEX2] * dfz + c[PEX3] * (dfz * dfz))
+                    * (-(c[PEX4] * sign) + 1.0)
                     * c[LEX]
             }
             Quantity::Et { dfz, gamma, a } => {
@@ -111,8 +112,7 @@ impl Quantity {
                 let byk = c[RBY1] * (c[RBY2] * (l.alpha - c[RBY3])).cos_atan() * c[LYKA];
                 let eyk = c[REY1] + c[REY2] * l.dfz;
                 let shyk = c[RHY1] + c[RHY2] * l.dfz;
-                -(weighting(byk, c[RCY1], eyk, l.kappa + shyk)
-                    / weighting(byk, c[RCY1], eyk, shyk))
+                -(weighting(byk, c[RCY1], eyk, l.kappa + shyk) / weighting(byk, c[RCY1], eyk, shyk))
             }
             Quantity::NegBt { dfz, gamma } => {
                 let gz = c[LGAZ] * gamma;
@@ -127,7 +127,11 @@ impl Quantity {
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub enum Penalty {
     /// `weight (c[coef] - centre)`.
-    Prior { coef: Coef, centre: f64, weight: f64 },
+    Prior {
+        coef: Coef,
+        centre: f64,
+        weight: f64,
+    },
     /// `weight max(0, quantity - limit)`.
     AtMost {
         quantity: Quantity,
@@ -156,16 +160,6 @@ impl Penalty {
                     T::cst(0.0)
                 }
             }
-        }
-    }
-
-    /// How far the constraint is violated (0 when satisfied; priors report 0).
-    pub fn violation(&self, c: &Coefs<f64>) -> f64 {
-        match *self {
-            Penalty::Prior { .. } => 0.0,
-            Penalty::AtMost {
-                quantity, limit, ..
-            } => (quantity.value(c) - limit).max(0.0),
         }
     }
 }
@@ -408,7 +402,10 @@ mod tests {
             for (i, pt) in points.iter().enumerate() {
                 let full = channel_value(&truth, &pt.input, family);
                 let cached = problem.value(&truth, i);
-                assert!((full - cached).abs() <= 1e-9 * full.abs().max(1.0), "{family:?}");
+                assert!(
+                    (full - cached).abs() <= 1e-9 * full.abs().max(1.0),
+                    "{family:?}"
+                );
             }
             let p: Vec<f64> = free.iter().map(|c| truth[*c]).collect();
             let fd = finite_difference_jacobian(&problem, &p, 1e-6);

@@ -85,6 +85,13 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
         c[coef] = coef.default_value();
     }
     let env = set_scalars(input, &sweeps, &mut c, &mut origins, &mut notes)?;
+    let spikes: usize = sweeps.iter().map(|s| s.spikes).sum();
+    if spikes > 0 {
+        notes.push(format!(
+            "despiking replaced {spikes} sample values (running-median test) in {} sweeps",
+            sweeps.len()
+        ));
+    }
     let mut families = Vec::new();
     let mut std_errors: Vec<(Coef, Option<f64>, bool)> = Vec::new();
     let mut evaluations = 0;
@@ -171,10 +178,7 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
 }
 
 /// Sorts, checks and collapses the sweeps; returns the usable ones and the skipped ones.
-fn prepare_sweeps(
-    input: &FitInput,
-    cfg: &FitConfig,
-) -> (Vec<CollapsedSweep>, Vec<SkippedSweep>) {
+fn prepare_sweeps(input: &FitInput, cfg: &FitConfig) -> (Vec<CollapsedSweep>, Vec<SkippedSweep>) {
     let mut order: Vec<usize> = (0..input.sweeps.len()).collect();
     order.sort_by(|&a, &b| {
         let (x, y) = (&input.sweeps[a], &input.sweeps[b]);
@@ -256,7 +260,10 @@ fn set_scalars(
     loads.sort_by(f64::total_cmp);
     let mut levels: Vec<f64> = Vec::new();
     for l in loads {
-        if levels.last().is_none_or(|last| l - last > 0.02 * last.abs().max(1.0)) {
+        if levels
+            .last()
+            .is_none_or(|last| l - last > 0.02 * last.abs().max(1.0))
+        {
             levels.push(l);
         }
     }
@@ -267,9 +274,11 @@ fn set_scalars(
     origins.push((LONGVL, None, CoefficientOrigin::Context));
     let samples = || sweeps.iter().flat_map(|s| s.samples.iter());
     let range = |f: &dyn Fn(&super::Sample) -> f64| {
-        samples().map(f).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(v), b.max(v))
-        })
+        samples()
+            .map(f)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            })
     };
     let kappa = range(&|s| s.kappa);
     let alpha = range(&|s| s.alpha_rad);
@@ -369,7 +378,10 @@ fn family_sweeps<'a>(
         Family::Mx => &[Family::Fy0],
     };
     if let Some(missing) = needs.iter().find(|f| !fitted.contains(f)) {
-        return Err(format!("needs the {} family, which was not fitted", missing.as_str()));
+        return Err(format!(
+            "needs the {} family, which was not fitted",
+            missing.as_str()
+        ));
     }
     let output = output_of(family);
     let combined_fy = fitted.contains(&Family::Fy);
@@ -560,7 +572,10 @@ fn fit_family(
             free = ext_free;
         }
     }
-    for coef in free.iter().filter(|coef| family.coefficients().contains(coef)) {
+    for coef in free
+        .iter()
+        .filter(|coef| family.coefficients().contains(coef))
+    {
         origins.push((*coef, Some(family), CoefficientOrigin::Fitted));
     }
     Ok((outcome, free, quality, evals))
@@ -722,7 +737,15 @@ fn refine(
     }
     let fitted = problem.coefs_at(&outcome.params);
     *c = fitted;
-    let quality = quality_of(family, output, &all_points, sweeps, c, &outcome, initial_rmse);
+    let quality = quality_of(
+        family,
+        output,
+        &all_points,
+        sweeps,
+        c,
+        &outcome,
+        initial_rmse,
+    );
     Ok((outcome, quality))
 }
 

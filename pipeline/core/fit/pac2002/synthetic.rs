@@ -9,8 +9,7 @@
 //! next to the virtual test machine (branch `synth`): no heat, no load control dynamics.
 
 use crate::fit::pac2002::{
-    FitContext, FitInput, RelaxationLaw, RelaxationLengths, Sample, Sweep, SweepKind,
-    SweepNominal,
+    FitContext, FitInput, RelaxationLaw, RelaxationLengths, Sample, Sweep, SweepKind, SweepNominal,
 };
 use crate::tire_model::{Coef, Coefs, Mode, Pac2002, SlipInput};
 

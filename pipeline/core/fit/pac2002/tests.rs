@@ -105,7 +105,6 @@ fn fit_noise_free_reproduces_truth_within_0_1_percent() {
     }
 }
 
-
 /// Issue 5 "Done when" 2 (on generated data until the virtual machine lands): ~1 % of peak
 /// Gaussian noise, spikes, input noise and a first-order lag (sigma 0.2..0.45 m at 11 m/s) on
 /// up/down sweeps: RMS force error against the truth <= 2 % of peak for Fx and Fy, <= 5 % for
@@ -221,27 +220,47 @@ fn fit_is_deterministic() {
     }
 }
 
+/// CPU time of the calling thread, s, from `/proc/thread-self/stat` (Linux, 100 ticks/s);
+/// `None` elsewhere. Wall-clock time is meaningless on a shared, loaded machine.
+fn thread_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/thread-self/stat").ok()?;
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let utime: f64 = fields.get(11)?.parse().ok()?;
+    let stime: f64 = fields.get(12)?.parse().ok()?;
+    Some((utime + stime) / 100.0)
+}
+
 /// Issue 5 speed target: a full fit (all families) of one tire and pressure under 2 s on one
-/// core. Measured here in the test profile (the core crate is built at opt-level 3 in every
-/// profile); `cargo bench -p tirebase-core --bench fit_pac2002` gives the release figure.
+/// core, measured as the CPU time of the fitting thread in the test profile (the core crate is
+/// built at opt-level 3 in every profile). `cargo bench -p tirebase-core --bench fit_pac2002`
+/// gives the release wall-clock figure.
 #[test]
 fn full_fit_takes_under_two_seconds() {
     let input = ttc_round(&fsae_demo(), &RoundSpec::realistic(13));
     let samples: usize = input.sweeps.iter().map(|s| s.samples.len()).sum();
-    let best = (0..2)
-        .map(|_| {
-            let t = std::time::Instant::now();
-            let fit = fit(&input, &FitConfig::default()).expect("fit");
-            (t.elapsed().as_secs_f64(), fit.evaluations)
-        })
-        .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a });
+    let mut best = (f64::INFINITY, f64::INFINITY, 0);
+    for _ in 0..2 {
+        let cpu0 = thread_cpu_seconds();
+        let t = std::time::Instant::now();
+        let fit = fit(&input, &FitConfig::default()).expect("fit");
+        let wall = t.elapsed().as_secs_f64();
+        let cpu = match (cpu0, thread_cpu_seconds()) {
+            (Some(a), Some(b)) => b - a,
+            _ => wall,
+        };
+        if cpu < best.0 {
+            best = (cpu, wall, fit.evaluations);
+        }
+    }
     eprintln!(
-        "full fit: {:.3} s, {} solver evaluations, {} sweeps, {samples} samples",
+        "full fit: {:.3} s CPU ({:.3} s wall), {} solver evaluations, {} sweeps, {samples} samples",
         best.0,
         best.1,
+        best.2,
         input.sweeps.len()
     );
-    assert!(best.0 < 2.0, "full fit took {:.3} s", best.0);
+    assert!(best.0 < 2.0, "full fit took {:.3} s of CPU", best.0);
 }
 
 /// Families without data are left out and USE_MODE says so; a QC-flagged sweep is skipped.
