@@ -18,6 +18,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("runs.toml", include_str!("../schemas/runs.toml")),
     ("segments.toml", include_str!("../schemas/segments.toml")),
     ("samples.toml", include_str!("../schemas/samples.toml")),
+    ("inertia.toml", include_str!("../schemas/inertia.toml")),
 ];
 
 /// Column data types used by tirebase tables.

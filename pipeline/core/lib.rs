@@ -12,5 +12,7 @@
 
 pub mod fit;
 pub mod frame;
+pub mod inertia;
 pub mod numerics;
+pub mod synth;
 pub mod tire_model;

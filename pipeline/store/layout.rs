@@ -163,14 +163,15 @@ pub fn parse_version_dir(name: &str) -> Option<u32> {
     }
 }
 
-/// The temporary sibling a file is written to before its atomic rename.
+/// The temporary sibling a file is written to before its atomic rename: hidden (leading `.`,
+/// skipped by pyarrow and Spark directory reads) and not ending in `.parquet` (skipped by
+/// `*.parquet` globs).
 pub fn temp_path(final_path: &Path, unique: &str) -> PathBuf {
-    let mut name = final_path
+    let name = final_path
         .file_name()
-        .map(|s| s.to_os_string())
+        .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-    name.push(format!(".{unique}{TEMP_SUFFIX}"));
-    final_path.with_file_name(name)
+    final_path.with_file_name(format!(".{name}.{unique}{TEMP_SUFFIX}"))
 }
 
 #[cfg(test)]

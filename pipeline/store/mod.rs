@@ -8,6 +8,7 @@
 pub mod files;
 pub mod layout;
 pub mod lock;
+pub mod versions;
 
 use std::path::{Path, PathBuf};
 
