@@ -190,6 +190,30 @@ fn fitted_models_pass_the_physical_rules() {
         eprintln!("{name}: largest E {worst_e:.4}, smallest G {worst_g:.4}");
         assert!(worst_e <= 1.0 + 1e-9, "{name}: E = {worst_e} > 1");
         assert!(worst_g > 0.0, "{name}: G = {worst_g} <= 0");
+        // The `.tir` lint (tire_model::tir::lint) finds no error the truth itself does not have
+        // (the mirrored-lateral truth has Ky_alpha > 0, which the lint calls SAE-signed).
+        let lint_codes = |coefs: &Coefs<f64>, use_mode: i64| {
+            let mut file = crate::tire_model::tir::TirFile::from_coefs(coefs.clone());
+            file.use_mode = Some(use_mode);
+            let report = crate::tire_model::tir::lint::lint(&file);
+            for f in &report.findings {
+                eprintln!("{name}: lint {f}");
+            }
+            report
+                .findings
+                .iter()
+                .filter(|f| f.severity == crate::tire_model::tir::lint::Severity::Error)
+                .map(|f| f.code)
+                .collect::<Vec<_>>()
+        };
+        let truth_errors = lint_codes(&truth, 4);
+        let fitted_errors = lint_codes(c, i64::from(fit.use_mode));
+        for code in &fitted_errors {
+            assert!(
+                truth_errors.contains(code),
+                "{name}: lint error {code} on the fitted model"
+            );
+        }
     }
 }
 
