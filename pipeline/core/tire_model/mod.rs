@@ -6,6 +6,7 @@
 pub mod pac2002;
 pub mod params;
 pub mod real;
+pub mod tir;
 
 pub use pac2002::{Evaluation, Mode, Pac2002, SlipInput, TrailPeak};
 pub use params::{Coef, Coefs, Section};
