@@ -11,5 +11,7 @@
 //! the rest of the heavy dependency tree stay cheap to compile.
 
 pub mod frame;
-pub mod ttc;
+pub mod naming;
+pub mod synth;
 pub mod tire_model;
+pub mod ttc;

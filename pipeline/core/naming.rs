@@ -89,14 +89,22 @@ mod tests {
 
     #[test]
     fn sanitised_names_use_only_the_allowed_alphabet() {
-        for name in ["Hoosier 43100 18.0x6.0-10 R20, 7 inch rim", "Ä b/c\\d:e", "a__b", "x"] {
+        for name in [
+            "Hoosier 43100 18.0x6.0-10 R20, 7 inch rim",
+            "Ä b/c\\d:e",
+            "a__b",
+            "x",
+        ] {
             let s = sanitize_tire(name);
             assert!(
                 s.chars()
                     .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || ".-_".contains(c)),
                 "{s}"
             );
-            assert!(!s.contains("__"), "{s}: a double underscore would clash with the separator");
+            assert!(
+                !s.contains("__"),
+                "{s}: a double underscore would clash with the separator"
+            );
         }
     }
 }

@@ -155,7 +155,12 @@ fn pick(v: &[f64], keep: &[usize], f: impl Fn(f64) -> f64) -> Vec<f64> {
 
 /// Build the file's columns from the samples at indices `keep` (in order). `with_sl` adds the
 /// `SL` column (drive/brake `.dat`, every `.mat`).
-pub fn channel_table(s: &RunSamples, keep: &[usize], style: &FileStyle, with_sl: bool) -> ChannelTable {
+pub fn channel_table(
+    s: &RunSamples,
+    keep: &[usize],
+    style: &FileStyle,
+    with_sl: bool,
+) -> ChannelTable {
     let sel = |v: &Vec<f64>| pick(v, keep, |x| x);
     let sae = TireChannels::<IsoW>::new(
         sel(&s.fx_n),
@@ -187,11 +192,7 @@ pub fn channel_table(s: &RunSamples, keep: &[usize], style: &FileStyle, with_sl:
     };
     // Round 4 SI .dat files label (and hold) the ambient temperature in deg F.
     let amb_f = us || (style.round == RoundStyle::R4 && !mat);
-    let amb_unit = if amb_f && !us {
-        "deg F"
-    } else {
-        temp
-    };
+    let amb_unit = if amb_f && !us { "deg F" } else { temp };
     let time = if r4 { "sec" } else { "s" };
     let ratio = if r4 { "none" } else { "SAE" };
     let f = |x: f64| if us { x / N_PER_LBF } else { x };
@@ -226,7 +227,9 @@ pub fn channel_table(s: &RunSamples, keep: &[usize], style: &FileStyle, with_sl:
             "V",
             speed,
             2,
-            pick(&s.v_mps, keep, |x| if us { x * 3.6 / KPH_PER_MPH } else { x * 3.6 }),
+            pick(&s.v_mps, keep, |x| {
+                if us { x * 3.6 / KPH_PER_MPH } else { x * 3.6 }
+            }),
         ),
         col("N", "rpm", 2, sel(&s.n_rpm)),
         col("SA", "deg", 3, deg(&sae.alpha_rad)),
@@ -254,7 +257,11 @@ pub fn channel_table(s: &RunSamples, keep: &[usize], style: &FileStyle, with_sl:
             if r4 { "AMBTMP" } else { "AmbTmp" },
             amb_unit,
             2,
-            pick(&s.ambient_c, keep, |x| if amb_f { x * 1.8 + 32.0 } else { x }),
+            pick(
+                &s.ambient_c,
+                keep,
+                |x| if amb_f { x * 1.8 + 32.0 } else { x },
+            ),
         ),
         col("SR", ratio, 4, sel(&s.sr)),
     ];

@@ -6,7 +6,7 @@
 //! is a dwell and which piece it belongs to.
 //!
 //! Per sample: commanded state (+ load-servo wander) -> steady-state PAC2002 at the tread
-//! temperature's grip scaling (`LMUX = LMUY = mu_rel(T)/mu_rel(T_ref)`) -> first-order lag
+//! temperature's grip scalings (`LMUX`, `LMUY` = `mu_rel(T)/mu_rel(T_ref)`) -> first-order lag
 //! (`Fy`, `Mz`, `Mx` with `sigma_alpha`; `Fx` with `sigma_kappa`) -> slip power heats the tread ->
 //! radii, wheel speed, slips -> sensors (noise, IR phase lag, IR clipping).
 //! Deliberately not here: units, axis conversion to SAE, decimals, file formats (`dat.rs`).
@@ -122,7 +122,7 @@ pub struct RunSamples {
     pub sl: Vec<f64>,
     /// The true tread surface temperature at the contact (no sensor effects), degC.
     pub surface_true_c: Vec<f64>,
-    /// The grip scaling applied (`LMUX = LMUY`).
+    /// The lateral grip scaling applied (`LMUY`).
     pub grip_scale: Vec<f64>,
     /// Sample lies in a dwell piece.
     pub dwell: Vec<bool>,
@@ -163,13 +163,13 @@ pub fn simulate(
         let (cmd, piece) = program.command_at(t, &mut hint);
         let fz = cmd.fz_n * (1.0 + ns * load_wander.step(rng)) + ns * load_offset.step(rng);
         let v = cmd.v_mps;
-        let grip = if realism.heat {
+        let (grip_x, grip_y) = if realism.heat {
             thermal.grip_scale(tread.surface_c)
         } else {
-            1.0
+            (1.0, 1.0)
         };
-        model.coefs[Coef::LMUX] = grip;
-        model.coefs[Coef::LMUY] = grip;
+        model.coefs[Coef::LMUX] = grip_x;
+        model.coefs[Coef::LMUY] = grip_y;
         let ss = model.eval(
             &SlipInput {
                 fz_n: fz,
@@ -230,7 +230,8 @@ pub fn simulate(
         out.mx_nm.push(mx + rng.gauss(ns * NOISE.moment_x_nm));
         out.mz_nm.push(mz + rng.gauss(ns * NOISE.moment_z_nm));
         out.road_c.push(road + rng.gauss(ns * NOISE.temperature_c));
-        out.ambient_c.push(air + rng.gauss(ns * NOISE.temperature_c));
+        out.ambient_c
+            .push(air + rng.gauss(ns * NOISE.temperature_c));
         out.sr.push(if v > STANDSTILL_MPS {
             sr + rng.gauss(ns * NOISE.slip)
         } else {
@@ -238,7 +239,7 @@ pub fn simulate(
         });
         out.sl.push(cmd.kappa + rng.gauss(ns * NOISE.slip));
         out.surface_true_c.push(tread.surface_c);
-        out.grip_scale.push(grip);
+        out.grip_scale.push(grip_y);
         out.dwell.push(program.pieces[piece].dwell);
         out.piece.push(piece as u32);
         // IR channels are filled below from the surface history (phase lag).
@@ -324,11 +325,9 @@ fn infrared(out: &mut RunSamples, realism: &Realism, rng: &mut Rng) {
         let outer = centre + IR_OUTER_PER_DEG * ia_deg;
         out.tread_centre_c
             .push(centre + rng.gauss(ns * NOISE.temperature_c));
-        out.tread_inner_c.push(
-            inner * (1.0 - c_in) + sidewall * c_in + rng.gauss(ns * NOISE.temperature_c),
-        );
-        out.tread_outer_c.push(
-            outer * (1.0 - c_out) + sidewall * c_out + rng.gauss(ns * NOISE.temperature_c),
-        );
+        out.tread_inner_c
+            .push(inner * (1.0 - c_in) + sidewall * c_in + rng.gauss(ns * NOISE.temperature_c));
+        out.tread_outer_c
+            .push(outer * (1.0 - c_out) + sidewall * c_out + rng.gauss(ns * NOISE.temperature_c));
     }
 }

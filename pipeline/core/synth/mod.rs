@@ -12,3 +12,6 @@ pub mod physics;
 pub mod round;
 pub mod schedule;
 pub mod tires;
+
+#[cfg(test)]
+mod tests;

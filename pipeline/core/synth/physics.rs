@@ -73,11 +73,11 @@ pub struct ThermalParams {
 impl Default for ThermalParams {
     fn default() -> Self {
         ThermalParams {
-            surface_gain_k_per_j: 6.0e-4,
-            bulk_gain_k_per_j: 1.6e-4,
+            surface_gain_k_per_j: 1.0e-3,
+            bulk_gain_k_per_j: 3.0e-4,
             surface_to_bulk_per_s: 0.5,
-            bulk_to_surface_per_s: 0.05,
-            road_cooling_per_s: 0.06,
+            bulk_to_surface_per_s: 0.025,
+            road_cooling_per_s: 0.15,
             road_cooling_standstill_per_s: 0.01,
             air_cooling_per_s: 0.01,
             bulk_cooling_per_s: 0.004,
@@ -118,8 +118,8 @@ impl Tread {
         dt_s: f64,
     ) {
         let v = v_mps.abs();
-        let road_rate = (p.road_cooling_per_s * (v / v_ref_mps).sqrt())
-            .max(p.road_cooling_standstill_per_s);
+        let road_rate =
+            (p.road_cooling_per_s * (v / v_ref_mps).sqrt()).max(p.road_cooling_standstill_per_s);
         let rolling_w = p.rolling_loss * fz_n.max(0.0) * v;
         let ts = self.surface_c;
         let tb = self.bulk_c;

@@ -342,7 +342,7 @@ pub fn plan_round(config: &SynthConfig) -> Result<RoundPlan, RoundError> {
         for &p in &distinct {
             truths.push(truth_model(&base, combo.tire_index, combo.rim_in, p));
         }
-        thermal.push(thermal_truth(combo.tire_index, config.realism.ambient_c));
+        thermal.push(thermal_truth(INITIAL_T_PEAK_C, config.realism.ambient_c));
         for &p in pressures {
             for kind in [RunKind::Cornering, RunKind::DriveBrake] {
                 let run = runs.len() as u32 + 1;
@@ -368,7 +368,7 @@ pub fn plan_round(config: &SynthConfig) -> Result<RoundPlan, RoundError> {
             runs[i].defects.push(*kind);
         }
     }
-    Ok(RoundPlan {
+    let mut plan = RoundPlan {
         config: config.clone(),
         combos,
         runs,
@@ -376,7 +376,58 @@ pub fn plan_round(config: &SynthConfig) -> Result<RoundPlan, RoundError> {
         thermal,
         realism: config.realism.resolve(),
         schedule: config.schedule.resolve(),
-    })
+    };
+    if plan.realism.heat {
+        for ci in 0..plan.combos.len() {
+            plan.thermal[ci] = calibrate_thermal(&plan, ci);
+        }
+    }
+    Ok(plan)
+}
+
+/// Peak temperature the calibration starts from, degC.
+const INITIAL_T_PEAK_C: f64 = 55.0;
+
+/// Centre combination `ci`'s thermal law on its test temperatures: simulate (noise-free) its
+/// cornering and drive/brake runs at the first planned pressure and collect the tread
+/// temperatures of the fitted sweeps ([`ThermalTruth::centred_on`]).
+fn calibrate_thermal(plan: &RoundPlan, ci: usize) -> ThermalTruth {
+    let tire = &CATALOGUE[plan.combos[ci].tire_index];
+    let pressure = tire.pressures_psi[0];
+    let truth = plan.truth(ci, pressure);
+    let realism = Realism {
+        noise_scale: 0.0,
+        ..plan.realism
+    };
+    let mut lateral = Vec::new();
+    let mut longitudinal = Vec::new();
+    for program in [
+        cornering_program(tire, pressure, &plan.schedule),
+        drive_brake_program(tire, pressure, &plan.schedule),
+    ] {
+        let mut rng = Rng::for_stream(0, &[]);
+        let s = simulate(&program, truth, &plan.thermal[ci], &realism, 50.0, &mut rng);
+        for seg in program.segments.iter().filter(|g| {
+            matches!(
+                g.kind,
+                SegmentKind::Cornering | SegmentKind::DriveBrake | SegmentKind::Combined
+            )
+        }) {
+            let into = if seg.kind == SegmentKind::Cornering {
+                &mut lateral
+            } else {
+                &mut longitudinal
+            };
+            for i in 0..s.et_s.len() {
+                let p = s.piece[i] as usize;
+                if p >= seg.first_piece && p < seg.end_piece {
+                    let w = s.fx_n[i].hypot(s.fy_n[i]) / s.fz_n[i].max(1.0);
+                    into.push((s.surface_true_c[i], w));
+                }
+            }
+        }
+    }
+    plan.thermal[ci].centred_on(&lateral, &longitudinal)
 }
 
 impl RoundPlan {
@@ -602,7 +653,11 @@ fn tire_id(combo: &Combo) -> String {
     )
 }
 
-fn render_mat(plan: &RoundPlan, spec: &RunSpec, table: &ChannelTable) -> Result<Vec<u8>, RoundError> {
+fn render_mat(
+    plan: &RoundPlan,
+    spec: &RunSpec,
+    table: &ChannelTable,
+) -> Result<Vec<u8>, RoundError> {
     let combo = plan.combos[spec.combo];
     let err = |e: crate::ttc::mat::MatWriteError| RoundError::Mat {
         file: spec.file.clone(),
@@ -625,8 +680,12 @@ fn render_mat(plan: &RoundPlan, spec: &RunSpec, table: &ChannelTable) -> Result<
         .map_err(err)?;
     let names: Vec<&str> = table.columns.iter().map(|c| c.name).collect();
     let units: Vec<&str> = table.columns.iter().map(|c| c.unit).collect();
-    w.push_struct_of_text_cells("channel", &[("name", &names), ("units", &units)], compression)
-        .map_err(err)?;
+    w.push_struct_of_text_cells(
+        "channel",
+        &[("name", &names), ("units", &units)],
+        compression,
+    )
+    .map_err(err)?;
     let source = spec.file.replace(".mat", ".dat");
     w.push_text("source", &source, compression).map_err(err)?;
     w.push_text("testid", spec.kind.test_id(), compression)
@@ -707,6 +766,7 @@ struct ThermalToml {
     t_cold_c: f64,
     hot_falloff: f64,
     t_matrix_ref_c: f64,
+    t_ref_longitudinal_c: f64,
     mu_rel_floor: f64,
     law: &'static str,
     applied_as: &'static str,
@@ -860,9 +920,10 @@ fn truth_toml(plan: &RoundPlan, ci: usize) -> TruthToml {
             t_cold_c: th.t_cold_c,
             hot_falloff: th.hot_falloff,
             t_matrix_ref_c: th.t_matrix_ref_c,
+            t_ref_longitudinal_c: th.t_ref_longitudinal_c,
             mu_rel_floor: super::tires::MU_REL_FLOOR,
             law: "mu_rel(T) = 1 - a ((T - t_peak)/(t_peak - t_cold))^2, a = 1 - 1/(1 + gain) below t_peak and hot_falloff a above, floored at mu_rel_floor",
-            applied_as: "LMUX = LMUY = mu_rel(T)/mu_rel(t_matrix_ref) (the truth .tir is the tire at t_matrix_ref)",
+            applied_as: "LMUY = mu_rel(T)/mu_rel(t_matrix_ref), LMUX = mu_rel(T)/mu_rel(t_ref_longitudinal); t_peak is centred on the cornering matrix and each reference is where mu_rel equals the |F|/Fz-weighted mean mu_rel of its sweeps, so the truth .tir has no thermal bias on average",
             temperature_seen_by_grip: "tread surface temperature at the contact",
             ir_phase_lag: "TSTC(t) = surface(t - 0.75 * 2 pi RE/V); TSTI/TSTO offset +1.8/-1.2 degC per deg IA; clip to ambient+6 when |Fy|/Fz exceeds 1.9 (inner, Fy < 0 ISO-W) or 2.4 (outer)",
             surface_gain_k_per_j: p.surface_gain_k_per_j,

@@ -395,7 +395,12 @@ fn spring_rates(b: &mut Builder, tire: &BaseTire, cfg: &ScheduleConfig, statics:
     let fz = b.now.fz_n;
     b.dwell_to(V_REF_MPS, fz, 0.0, 0.0, 2.0);
     for ia in [0.0, 2.0, 4.0] {
-        b.staircase(SegmentKind::SpringRateDynamic, &loads, ia, cfg.spring_step_s);
+        b.staircase(
+            SegmentKind::SpringRateDynamic,
+            &loads,
+            ia,
+            cfg.spring_step_s,
+        );
     }
 }
 
@@ -587,7 +592,11 @@ mod tests {
             .sum();
         assert!((350.0..700.0).contains(&test_s), "{test_s} s of test");
         for s in &p.segments {
-            assert!(p.pieces[s.first_piece..s.end_piece].iter().all(|x| !x.dwell));
+            assert!(
+                p.pieces[s.first_piece..s.end_piece]
+                    .iter()
+                    .all(|x| !x.dwell)
+            );
         }
     }
 

@@ -20,6 +20,7 @@
 //! can reproduce it to round-off. Deliberately not here: the thermal and transient behaviour (see
 //! `physics.rs`), file formats.
 
+use crate::tire_model::tir::TirFile;
 use crate::tire_model::{Coef, Coefs, Pac2002};
 
 use super::round::RoundError;
@@ -76,8 +77,8 @@ pub const PRESSURE_SENSITIVITY: PressureSensitivity = PressureSensitivity {
     ppx2: 0.10,
     ppx3: -0.10,
     ppx4: 0.06,
-    ppy1: 0.22,
-    ppy2: 0.55,
+    ppy1: 0.45,
+    ppy2: 0.25,
     ppy3: -0.12,
     ppy4: 0.08,
     ppz1: 0.30,
@@ -93,7 +94,9 @@ pub const PRESSURE_SENSITIVITY: PressureSensitivity = PressureSensitivity {
 /// `1 - a_hot ((T - t_peak)/(t_peak - t_cold))^2` above, floored at `MU_REL_FLOOR`, with
 /// `a_cold = 1 - 1/(1 + gain_peak_over_cold)` (so `mu_rel(t_peak)/mu_rel(t_cold) = 1 + gain`) and
 /// `a_hot = hot_falloff * a_cold`. The machine applies `mu_rel(T)/mu_rel(t_matrix_ref)` as the
-/// friction scaling `LMUX = LMUY`, so the truth `.tir` is the tire at `t_matrix_ref`.
+/// lateral friction scaling `LMUY` and `mu_rel(T)/mu_rel(t_ref_longitudinal)` as `LMUX`, so the
+/// truth `.tir` is the tire at the temperatures its cornering matrix, respectively its
+/// drive/brake and combined sweeps, run at.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ThermalTruth {
     /// Temperature of peak grip, degC.
@@ -105,8 +108,10 @@ pub struct ThermalTruth {
     pub t_cold_c: f64,
     /// Fall-off above the peak relative to the rise below it (1 = "at a similar rate").
     pub hot_falloff: f64,
-    /// Tread temperature the truth `.tir` describes (grip scaling 1 there), degC.
+    /// Tread temperature the truth `.tir`'s lateral grip describes (`LMUY` = 1 there), degC.
     pub t_matrix_ref_c: f64,
+    /// Tread temperature the truth `.tir`'s longitudinal grip describes (`LMUX` = 1), degC.
+    pub t_ref_longitudinal_c: f64,
 }
 
 /// Lowest grip multiplier the law gives (far outside the tested temperatures).
@@ -129,9 +134,14 @@ impl ThermalTruth {
         (1.0 - a * x * x).max(MU_REL_FLOOR)
     }
 
-    /// The friction scaling the machine applies: `mu_rel(T)/mu_rel(t_matrix_ref)`.
-    pub fn grip_scale(&self, t_c: f64) -> f64 {
-        self.mu_rel(t_c) / self.mu_rel(self.t_matrix_ref_c)
+    /// The friction scalings the machine applies, `(LMUX, LMUY)`:
+    /// `mu_rel(T)/mu_rel(t_ref_longitudinal)` and `mu_rel(T)/mu_rel(t_matrix_ref)`.
+    pub fn grip_scale(&self, t_c: f64) -> (f64, f64) {
+        let mu = self.mu_rel(t_c);
+        (
+            mu / self.mu_rel(self.t_ref_longitudinal_c),
+            mu / self.mu_rel(self.t_matrix_ref_c),
+        )
     }
 }
 
@@ -164,8 +174,6 @@ pub struct BaseTire {
     pub pcy1_delta: f64,
     /// Relaxation: `PTY1, PTY2, PTX1, PTX2, PTX3` at the reference pressure.
     pub pt: [f64; 5],
-    /// Temperature of peak grip, degC.
-    pub t_peak_c: f64,
     /// Nominal pressures of the cornering/drive-brake runs in test order, psi (repeats allowed).
     pub pressures_psi: &'static [f64],
 }
@@ -193,7 +201,6 @@ pub const CATALOGUE: &[BaseTire] = &[
         kx_scale: 1.1,
         pcy1_delta: 0.0,
         pt: [1.75, 1.5, 2.05, -0.6, 0.1],
-        t_peak_c: 60.0,
         pressures_psi: &[12.0, 10.0, 14.0, 8.0, 12.0],
     },
     BaseTire {
@@ -210,7 +217,6 @@ pub const CATALOGUE: &[BaseTire] = &[
         kx_scale: 1.0,
         pcy1_delta: 0.0,
         pt: [1.9, 1.4, 2.2, -0.5, 0.1],
-        t_peak_c: 58.0,
         pressures_psi: &[12.0, 10.0, 14.0, 8.0],
     },
     BaseTire {
@@ -227,7 +233,6 @@ pub const CATALOGUE: &[BaseTire] = &[
         kx_scale: 0.95,
         pcy1_delta: 0.05,
         pt: [1.8, 1.5, 2.1, -0.55, 0.1],
-        t_peak_c: 61.0,
         pressures_psi: &[12.0, 10.0, 14.0, 8.0, 12.0],
     },
     BaseTire {
@@ -244,7 +249,6 @@ pub const CATALOGUE: &[BaseTire] = &[
         kx_scale: 1.05,
         pcy1_delta: -0.05,
         pt: [1.7, 1.6, 2.0, -0.6, 0.1],
-        t_peak_c: 57.0,
         pressures_psi: &[12.0, 10.0, 14.0, 8.0],
     },
     BaseTire {
@@ -261,7 +265,6 @@ pub const CATALOGUE: &[BaseTire] = &[
         kx_scale: 1.0,
         pcy1_delta: 0.03,
         pt: [1.8, 1.45, 2.1, -0.6, 0.1],
-        t_peak_c: 56.0,
         pressures_psi: &[12.0, 10.0, 14.0, 8.0, 12.0],
     },
     BaseTire {
@@ -278,7 +281,6 @@ pub const CATALOGUE: &[BaseTire] = &[
         kx_scale: 1.0,
         pcy1_delta: 0.0,
         pt: [1.85, 1.45, 2.15, -0.5, 0.1],
-        t_peak_c: 55.0,
         pressures_psi: &[12.0, 10.0, 14.0, 8.0],
     },
 ];
@@ -353,26 +355,12 @@ impl TruthModel {
     }
 }
 
-/// Parse the numeric `KEY = value` lines of the embedded base file.
-///
-/// Interim: replaced by `tire_model::tir` (branch `tir`) when it lands; this reads only the
-/// committed, well-formed base file.
+/// The base coefficients: the embedded property file, read by the `.tir` reader.
 pub fn base_coefs() -> Result<Coefs<f64>, RoundError> {
-    let mut coefs = Coefs::defaults();
-    for (i, line) in BASE_TIR.lines().enumerate() {
-        let line = line.split('$').next().unwrap_or("");
-        let Some((key, value)) = line.split_once('=') else {
-            continue;
-        };
-        let Some(coef) = Coef::from_name(key) else {
-            continue;
-        };
-        coefs[coef] = value
-            .trim()
-            .parse()
-            .map_err(|_| RoundError::BaseTire { line: i + 1 })?;
-    }
-    Ok(coefs)
+    let (file, _warnings) = TirFile::parse(BASE_TIR).map_err(|e| RoundError::BaseTire {
+        message: e.to_string(),
+    })?;
+    Ok(file.coefs)
 }
 
 /// The truth model of catalogue tire `tire_index` on rim `rim_in` at `pressure_psi`.
@@ -452,15 +440,56 @@ pub fn truth_model(
     }
 }
 
-/// The thermal truth of catalogue tire `tire_index` (the same at every rim and pressure).
-pub fn thermal_truth(tire_index: usize, t_cold_c: f64) -> ThermalTruth {
-    let tire = &CATALOGUE[tire_index];
+/// Relative rise of peak grip from the cold tire (`t_cold_c`) to the optimum.
+pub const GAIN_PEAK_OVER_COLD: f64 = 0.35;
+
+/// A thermal law before calibration: peak at `t_peak_c`, truth at the peak.
+pub fn thermal_truth(t_peak_c: f64, t_cold_c: f64) -> ThermalTruth {
     ThermalTruth {
-        t_peak_c: tire.t_peak_c,
-        gain_peak_over_cold: 0.25,
+        t_peak_c,
+        gain_peak_over_cold: GAIN_PEAK_OVER_COLD,
         t_cold_c,
         hot_falloff: 1.0,
-        t_matrix_ref_c: tire.t_peak_c,
+        t_matrix_ref_c: t_peak_c,
+        t_ref_longitudinal_c: t_peak_c,
+    }
+}
+
+impl ThermalTruth {
+    /// Centre the law on the temperatures the fitted sweeps run at. `lateral` and
+    /// `longitudinal` are `(temperature, weight)` samples of the cornering matrix, respectively
+    /// of the drive/brake and combined sweeps (weights `|F|/Fz`, so near-peak samples count
+    /// most). The peak moves to the weighted mean cornering-matrix temperature; each reference
+    /// temperature moves (on the cold side) to where `mu_rel` equals the weighted mean `mu_rel`
+    /// of its sweeps, so the mean grip scaling over them is 1 and the truth `.tir` carries no
+    /// thermal bias.
+    pub fn centred_on(&self, lateral: &[(f64, f64)], longitudinal: &[(f64, f64)]) -> ThermalTruth {
+        let w_sum: f64 = lateral.iter().map(|x| x.1).sum();
+        if w_sum <= 0.0 {
+            return *self;
+        }
+        let mean_t = lateral.iter().map(|(t, w)| t * w).sum::<f64>() / w_sum;
+        let mut out = *self;
+        out.t_peak_c = (mean_t * 10.0).round() / 10.0;
+        out.t_matrix_ref_c = out.reference_for(lateral);
+        out.t_ref_longitudinal_c = out.reference_for(longitudinal);
+        out
+    }
+
+    /// The cold-side temperature whose `mu_rel` is the weighted mean `mu_rel` of `samples`.
+    fn reference_for(&self, samples: &[(f64, f64)]) -> f64 {
+        let w_sum: f64 = samples.iter().map(|x| x.1).sum();
+        if w_sum <= 0.0 {
+            return self.t_peak_c;
+        }
+        let mean_mu = samples
+            .iter()
+            .map(|(t, w)| self.mu_rel(*t) * w)
+            .sum::<f64>()
+            / w_sum;
+        let x = ((1.0 - mean_mu) / self.a_cold()).max(0.0).sqrt();
+        let t = self.t_peak_c - x * (self.t_peak_c - self.t_cold_c);
+        (t * 10.0).round() / 10.0
     }
 }
 

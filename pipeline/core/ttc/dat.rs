@@ -60,12 +60,10 @@ pub fn read_dat(bytes: &[u8], source_name: &str) -> Result<RunTable, TtcError> {
 /// Read everything from `reader`, then [`read_dat`].
 pub fn read_dat_from(mut reader: impl Read, source_name: &str) -> Result<RunTable, TtcError> {
     let mut bytes = Vec::new();
-    reader
-        .read_to_end(&mut bytes)
-        .map_err(|e| TtcError::Io {
-            source_name: source_name.to_string(),
-            message: e.to_string(),
-        })?;
+    reader.read_to_end(&mut bytes).map_err(|e| TtcError::Io {
+        source_name: source_name.to_string(),
+        message: e.to_string(),
+    })?;
     read_dat(&bytes, source_name)
 }
 
@@ -188,7 +186,10 @@ fn parse_names(line: &[u8], source_name: &str) -> Result<Vec<String>, TtcError> 
     }
     for (index, name) in names.iter().enumerate() {
         if name.is_empty() {
-            return Err(header_error(format!("column {} has no channel name", index + 1)));
+            return Err(header_error(format!(
+                "column {} has no channel name",
+                index + 1
+            )));
         }
         if let Some(first) = names[..index]
             .iter()
@@ -230,17 +231,18 @@ fn parse_units(
         .enumerate()
         .map(|(index, (name, unit_raw))| {
             let channel = Channel::from_name(name);
-            let unit = match channel {
-                Some(channel) => Some(
-                    checked_unit(channel, &unit_raw).map_err(|message| TtcError::Unit {
-                        source_name: source_name.to_string(),
-                        location: format!("line 3, column {}", index + 1),
-                        channel: name.clone(),
-                        message,
-                    })?,
-                ),
-                None => Unit::parse(&unit_raw),
-            };
+            let unit =
+                match channel {
+                    Some(channel) => Some(checked_unit(channel, &unit_raw).map_err(|message| {
+                        TtcError::Unit {
+                            source_name: source_name.to_string(),
+                            location: format!("line 3, column {}", index + 1),
+                            channel: name.clone(),
+                            message,
+                        }
+                    })?),
+                    None => Unit::parse(&unit_raw),
+                };
             Ok(ColumnInfo {
                 name: name.clone(),
                 channel,
@@ -308,7 +310,10 @@ fn parse_rows(
         let end = find_byte(body, pos, b'\n').unwrap_or(body.len());
         let line = strip_cr(&body[pos..end]);
         let next = end + 1;
-        let is_last = || body.get(next..).is_none_or(|r| r.iter().all(u8::is_ascii_whitespace));
+        let is_last = || {
+            body.get(next..)
+                .is_none_or(|r| r.iter().all(u8::is_ascii_whitespace))
+        };
         match parse_row(line, &mut columns) {
             Ok(()) => {}
             Err(RowProblem::Blank) if is_last() => break,
@@ -396,7 +401,13 @@ impl RowProblem {
         }
     }
 
-    fn into_error(self, source_name: &str, line_no: usize, line: &[u8], names: &[String]) -> TtcError {
+    fn into_error(
+        self,
+        source_name: &str,
+        line_no: usize,
+        line: &[u8],
+        names: &[String],
+    ) -> TtcError {
         let source_name = source_name.to_string();
         let cell_text = |column: usize| {
             let cell = line.split(|b| *b == b'\t').nth(column).unwrap_or_default();
@@ -468,6 +479,9 @@ fn strip_cr(line: &[u8]) -> &[u8] {
 #[inline]
 fn trim_blanks(cell: &[u8]) -> &[u8] {
     let start = cell.iter().position(|b| *b != b' ').unwrap_or(cell.len());
-    let end = cell.iter().rposition(|b| *b != b' ').map_or(start, |i| i + 1);
+    let end = cell
+        .iter()
+        .rposition(|b| *b != b' ')
+        .map_or(start, |i| i + 1);
     &cell[start..end]
 }

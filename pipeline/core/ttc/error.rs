@@ -33,9 +33,7 @@ pub enum TtcError {
     },
 
     /// A channel name appears twice on line 2 (names compare case-insensitively).
-    #[error(
-        "{source_name}: line 2: channel {name:?} appears twice (columns {first} and {second})"
-    )]
+    #[error("{source_name}: line 2: channel {name:?} appears twice (columns {first} and {second})")]
     DuplicateChannel {
         source_name: String,
         name: String,
@@ -89,9 +87,7 @@ pub enum TtcError {
     },
 
     /// A data cell that parses to NaN or an infinity (TIRF files never contain those).
-    #[error(
-        "{source_name}: line {line}, column {column} ({channel}): non-finite value {cell:?}"
-    )]
+    #[error("{source_name}: line {line}, column {column} ({channel}): non-finite value {cell:?}")]
     NonFinite {
         source_name: String,
         line: usize,

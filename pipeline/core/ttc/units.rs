@@ -162,9 +162,12 @@ impl Unit {
     /// The unit system this unit belongs to.
     pub fn system(self) -> UnitSystem {
         match self {
-            Unit::Mph | Unit::Inch | Unit::Psi | Unit::PoundForce | Unit::FootPound | Unit::DegF => {
-                UnitSystem::Uscs
-            }
+            Unit::Mph
+            | Unit::Inch
+            | Unit::Psi
+            | Unit::PoundForce
+            | Unit::FootPound
+            | Unit::DegF => UnitSystem::Uscs,
             Unit::Kph
             | Unit::Centimetre
             | Unit::KiloPascal
@@ -240,12 +243,18 @@ mod tests {
     #[test]
     fn conversions_hit_known_values() {
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
-        assert!(close(Unit::PoundForce.to_canonical(250.0), 1112.055_403_815_125));
+        assert!(close(
+            Unit::PoundForce.to_canonical(250.0),
+            1112.055_403_815_125
+        ));
         assert!(close(Unit::Psi.to_canonical(12.0), 82.737_087_518_020_33));
         assert!(close(Unit::Mph.to_canonical(25.0), 40.2336));
         assert!(close(Unit::Inch.to_canonical(10.0), 0.254));
         assert!(close(Unit::Centimetre.to_canonical(22.5), 0.225));
-        assert!(close(Unit::FootPound.to_canonical(1.0), 1.355_817_948_331_400_4));
+        assert!(close(
+            Unit::FootPound.to_canonical(1.0),
+            1.355_817_948_331_400_4
+        ));
         assert!(close(Unit::DegF.to_canonical(212.0), 100.0));
         assert!(close(Unit::DegF.to_canonical(-40.0), -40.0));
         assert!(close(Unit::Degree.to_canonical(180.0), PI));

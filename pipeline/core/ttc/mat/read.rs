@@ -202,7 +202,9 @@ fn inflate(data: &[u8]) -> Result<Vec<u8>, String> {
             out.reserve(out.capacity());
         }
         let (in_before, out_before) = (decoder.total_in(), decoder.total_out());
-        let consumed = usize::try_from(in_before).unwrap_or(usize::MAX).min(data.len());
+        let consumed = usize::try_from(in_before)
+            .unwrap_or(usize::MAX)
+            .min(data.len());
         let status = decoder
             .decompress_vec(&data[consumed..], &mut out, FlushDecompress::None)
             .map_err(|e| format!("zlib stream is corrupt: {e}"))?;
@@ -294,7 +296,9 @@ fn matrix(
     name: &mut Option<String>,
 ) -> Result<MatVariable, String> {
     if depth > MAX_DEPTH {
-        return Err(format!("cells/structs nested deeper than {MAX_DEPTH} levels"));
+        return Err(format!(
+            "cells/structs nested deeper than {MAX_DEPTH} levels"
+        ));
     }
     if data.is_empty() {
         // MATLAB writes an empty matrix in a cell as an miMATRIX of length 0.
@@ -320,7 +324,9 @@ fn matrix(
     let dims = dimensions(&mut cursor)?;
     let (name_type, name_bytes) = cursor.element("array name")?;
     if !matches!(name_type, MI_INT8 | MI_UINT8 | MI_UTF8) {
-        return Err(format!("array name has data type {name_type}, expected miINT8"));
+        return Err(format!(
+            "array name has data type {name_type}, expected miINT8"
+        ));
     }
     let array_name = String::from_utf8_lossy(name_bytes).into_owned();
     if depth == 0 {
@@ -331,7 +337,13 @@ fn matrix(
         MX_CELL => cell(&mut cursor, dims, count, depth)?,
         MX_STRUCT => structure(&mut cursor, dims, count, depth)?,
         MX_CHAR => char_array(&mut cursor, dims, count)?,
-        6..=15 => numeric(&mut cursor, dims, count, class, flags_word & FLAG_COMPLEX != 0)?,
+        6..=15 => numeric(
+            &mut cursor,
+            dims,
+            count,
+            class,
+            flags_word & FLAG_COMPLEX != 0,
+        )?,
         3 => unsupported("object"),
         5 => unsupported("sparse array"),
         16 => unsupported("function handle"),
@@ -375,7 +387,12 @@ fn element_count(dims: &[usize]) -> Result<usize, String> {
         .ok_or_else(|| format!("dimensions {dims:?} overflow"))
 }
 
-fn cell(cursor: &mut Cursor, dims: Vec<usize>, count: usize, depth: usize) -> Result<MatValue, String> {
+fn cell(
+    cursor: &mut Cursor,
+    dims: Vec<usize>,
+    count: usize,
+    depth: usize,
+) -> Result<MatValue, String> {
     let mut items = Vec::with_capacity(count.min(cursor.bytes.len() / 8));
     for k in 0..count {
         items.push(nested_matrix(cursor, depth, &format!("cell {}", k + 1))?);
@@ -449,20 +466,34 @@ fn char_array(cursor: &mut Cursor, dims: Vec<usize>, count: usize) -> Result<Mat
     let (data_type, data) = cursor.element("char data")?;
     let big_endian = cursor.big_endian;
     let utf16: Vec<u16> = match data_type {
-        MI_UINT16 | MI_UTF16 | MI_INT16 => {
-            even_chunks::<2>(data, "char data")?
-                .map(|c| if big_endian { u16::from_be_bytes(c) } else { u16::from_le_bytes(c) })
-                .collect()
-        }
+        MI_UINT16 | MI_UTF16 | MI_INT16 => even_chunks::<2>(data, "char data")?
+            .map(|c| {
+                if big_endian {
+                    u16::from_be_bytes(c)
+                } else {
+                    u16::from_le_bytes(c)
+                }
+            })
+            .collect(),
         MI_UINT8 | MI_INT8 => data.iter().map(|b| u16::from(*b)).collect(),
         MI_UTF8 => String::from_utf8_lossy(data).encode_utf16().collect(),
         MI_UTF32 => even_chunks::<4>(data, "char data")?
-            .map(|c| if big_endian { u32::from_be_bytes(c) } else { u32::from_le_bytes(c) })
+            .map(|c| {
+                if big_endian {
+                    u32::from_be_bytes(c)
+                } else {
+                    u32::from_le_bytes(c)
+                }
+            })
             .map(|u| char::from_u32(u).unwrap_or(char::REPLACEMENT_CHARACTER))
             .collect::<String>()
             .encode_utf16()
             .collect(),
-        other => return Err(format!("char data has data type {other}, expected miUINT16")),
+        other => {
+            return Err(format!(
+                "char data has data type {other}, expected miUINT16"
+            ));
+        }
     };
     if data_type != MI_UTF8 && utf16.len() != count {
         return Err(format!(
