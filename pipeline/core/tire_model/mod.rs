@@ -3,6 +3,7 @@
 //!
 //! Pure code: no file system, no serde, no Arrow. Reading a `.tir` takes a `&str`.
 
+pub mod factors;
 pub mod pac2002;
 pub mod params;
 pub mod real;

@@ -184,3 +184,5 @@ impl TirFile {
 
 #[cfg(test)]
 mod reference_tests;
+#[cfg(test)]
+mod tests;

@@ -395,12 +395,16 @@ impl Collected {
                     upsert(&mut self.header, entry);
                 }
             }
+            Kind::Units if !units::UNIT_KEYS.contains(&key) => {
+                self.extra(kind, "UNITS", key, value, line);
+            }
             Kind::Units => match text_of(value) {
-                Some(v) => match self.units.set(key, v) {
-                    Ok(true) => self.unit_lines.push((line, key.to_string())),
-                    Ok(false) => self.extra(kind, "UNITS", key, value, line),
-                    Err(reason) => return Err(TirReadError::UnknownUnit { line, reason }),
-                },
+                Some(v) => {
+                    self.units
+                        .set(key, v)
+                        .map_err(|reason| TirReadError::UnknownUnit { line, reason })?;
+                    self.unit_lines.push((line, key.to_string()));
+                }
                 None => self.warn(line, format!("{key} is empty; SI assumed")),
             },
             Kind::Model => self.model_key(key, value, line)?,

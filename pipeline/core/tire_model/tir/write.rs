@@ -104,7 +104,7 @@ impl Out {
     fn pair(&mut self, key: &str, value: &str, comment: &str) {
         let mut s = format!("{key:<25}= {value}");
         if !comment.is_empty() {
-            let width = 25 + 2 + 24;
+            let width = 25 + 2 + 25;
             while s.len() < width {
                 s.push(' ');
             }
@@ -125,7 +125,13 @@ fn number(key: &str, x: f64) -> Result<String, TirWriteError> {
             value: x,
         });
     }
-    Ok(format_f64(x))
+    let s = format_f64(x);
+    // A space where the minus sign would be keeps the digits of a column aligned.
+    Ok(if s.starts_with('-') {
+        s
+    } else {
+        format!(" {s}")
+    })
 }
 
 /// A string as a quoted `.tir` value.
@@ -317,7 +323,7 @@ fn shape(out: &mut Out, tir: &TirFile) -> Result<(), TirWriteError> {
             .iter()
             .map(|x| number("SHAPE", *x))
             .collect::<Result<Vec<_>, _>>()?;
-        out.line(&format!(" {}", cells.join("  ")));
+        out.line(&cells.join(" "));
     }
     Ok(())
 }
