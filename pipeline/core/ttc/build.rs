@@ -74,7 +74,8 @@ pub(crate) fn build(
     let tire = if meta.iso_flag == Some(true) {
         TireChannels::<IsoW>::new(fx, fy, fz, mx, Vec::new(), mz, sa_rad, ia_rad, kappa)
     } else {
-        TireChannels::<Sae>::new(fx, fy, fz, mx, Vec::new(), mz, sa_rad, ia_rad, kappa).into_iso_w()
+        TireChannels::<Sae>::new(fx, fy, fz, mx, Vec::new(), mz, sa_rad, ia_rad, kappa)
+            .into_iso_w()
     };
 
     meta.rows = rows;
@@ -140,9 +141,7 @@ pub(crate) fn estimate_sample_rate_hz(et_s: &[f64]) -> Option<f64> {
 /// wrong (or FZ was recorded with an unusual sign).
 fn fz_sign_warning(fz_n: &[f64], iso_flag: Option<bool>) -> Option<String> {
     let loaded = fz_n.iter().filter(|v| v.abs() > FZ_SIGN_CHECK_MIN_N);
-    let (negative, total) = loaded.fold((0usize, 0usize), |(n, t), v| {
-        (n + usize::from(*v < 0.0), t + 1)
-    });
+    let (negative, total) = loaded.fold((0usize, 0usize), |(n, t), v| (n + usize::from(*v < 0.0), t + 1));
     (total > 0 && negative * 2 > total).then(|| {
         let flag = match iso_flag {
             Some(true) => "ISO True",

@@ -33,7 +33,9 @@ pub enum TtcError {
     },
 
     /// A channel name appears twice on line 2 (names compare case-insensitively).
-    #[error("{source_name}: line 2: channel {name:?} appears twice (columns {first} and {second})")]
+    #[error(
+        "{source_name}: line 2: channel {name:?} appears twice (columns {first} and {second})"
+    )]
     DuplicateChannel {
         source_name: String,
         name: String,
@@ -87,7 +89,9 @@ pub enum TtcError {
     },
 
     /// A data cell that parses to NaN or an infinity (TIRF files never contain those).
-    #[error("{source_name}: line {line}, column {column} ({channel}): non-finite value {cell:?}")]
+    #[error(
+        "{source_name}: line {line}, column {column} ({channel}): non-finite value {cell:?}"
+    )]
     NonFinite {
         source_name: String,
         line: usize,
@@ -137,4 +141,11 @@ pub(crate) fn excerpt(bytes: &[u8], max: usize) -> String {
         out.push_str("...");
     }
     out
+}
+
+/// A name from the file made safe for a one-line message: control characters escaped, at most
+/// 40 characters.
+pub(crate) fn printable(text: &str) -> String {
+    let escaped: String = text.chars().flat_map(char::escape_debug).collect();
+    excerpt(escaped.as_bytes(), 40)
 }

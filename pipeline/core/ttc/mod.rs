@@ -34,12 +34,16 @@
 //!   a warning. A short row anywhere else is an error.
 
 mod build;
+pub mod example;
 pub mod channel;
 pub mod dat;
 pub mod error;
 pub mod float;
 pub mod mat;
 pub mod units;
+
+#[cfg(test)]
+mod tests;
 
 use crate::frame::{IsoW, TireChannels};
 

@@ -162,12 +162,9 @@ impl Unit {
     /// The unit system this unit belongs to.
     pub fn system(self) -> UnitSystem {
         match self {
-            Unit::Mph
-            | Unit::Inch
-            | Unit::Psi
-            | Unit::PoundForce
-            | Unit::FootPound
-            | Unit::DegF => UnitSystem::Uscs,
+            Unit::Mph | Unit::Inch | Unit::Psi | Unit::PoundForce | Unit::FootPound | Unit::DegF => {
+                UnitSystem::Uscs
+            }
             Unit::Kph
             | Unit::Centimetre
             | Unit::KiloPascal
@@ -191,6 +188,23 @@ impl Unit {
             Unit::PoundForce => value * LBF_TO_N,
             Unit::FootPound => value * FT_LBF_TO_NM,
             Unit::DegF => (value - 32.0) * (5.0 / 9.0),
+        }
+    }
+
+    /// The inverse of [`Unit::to_canonical`]: a canonical value expressed in this unit (what a
+    /// writer of US customary files needs).
+    pub fn from_canonical(self, value: f64) -> f64 {
+        match self {
+            Unit::Second | Unit::Kph | Unit::Rpm | Unit::KiloPascal => value,
+            Unit::Newton | Unit::NewtonMetre | Unit::DegC | Unit::Dimensionless => value,
+            Unit::Mph => value / MPH_TO_KPH,
+            Unit::Degree => value / DEG_TO_RAD,
+            Unit::Inch => value / INCH_TO_M,
+            Unit::Centimetre => value / CM_TO_M,
+            Unit::Psi => value / PSI_TO_KPA,
+            Unit::PoundForce => value / LBF_TO_N,
+            Unit::FootPound => value / FT_LBF_TO_NM,
+            Unit::DegF => value * (9.0 / 5.0) + 32.0,
         }
     }
 
@@ -243,21 +257,25 @@ mod tests {
     #[test]
     fn conversions_hit_known_values() {
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
-        assert!(close(
-            Unit::PoundForce.to_canonical(250.0),
-            1112.055_403_815_125
-        ));
+        assert!(close(Unit::PoundForce.to_canonical(250.0), 1112.055_403_815_125));
         assert!(close(Unit::Psi.to_canonical(12.0), 82.737_087_518_020_33));
         assert!(close(Unit::Mph.to_canonical(25.0), 40.2336));
         assert!(close(Unit::Inch.to_canonical(10.0), 0.254));
         assert!(close(Unit::Centimetre.to_canonical(22.5), 0.225));
-        assert!(close(
-            Unit::FootPound.to_canonical(1.0),
-            1.355_817_948_331_400_4
-        ));
+        assert!(close(Unit::FootPound.to_canonical(1.0), 1.355_817_948_331_400_4));
         assert!(close(Unit::DegF.to_canonical(212.0), 100.0));
         assert!(close(Unit::DegF.to_canonical(-40.0), -40.0));
         assert!(close(Unit::Degree.to_canonical(180.0), PI));
+    }
+
+    #[test]
+    fn from_canonical_inverts_to_canonical() {
+        for (_, unit) in Unit::spellings() {
+            for value in [-273.0, -1.5, 0.0, 0.25, 98.6, 1557.0] {
+                let back = unit.to_canonical(unit.from_canonical(value));
+                assert!((back - value).abs() <= 1e-12 * value.abs().max(1.0), "{unit:?} {value}");
+            }
+        }
     }
 
     #[test]

@@ -16,6 +16,7 @@ pub use write::{Compression, MatWriteError, MatWriter};
 
 use super::build::{SourceColumn, build};
 use super::dat::checked_unit;
+use super::error::printable;
 use super::{Channel, ColumnInfo, RunMeta, RunTable, SourceFormat, TtcError, Unit};
 
 /// The class a numeric array had in MATLAB (storage may use a smaller type; values are `f64`).
@@ -201,7 +202,7 @@ fn run_from_variables(
 ) -> Result<RunTable, TtcError> {
     let variable_error = |name: &str, message: String| TtcError::MatVariable {
         source_name: source_name.to_string(),
-        name: name.to_string(),
+        name: printable(name),
         message,
     };
     let mut meta = RunMeta {
@@ -237,10 +238,7 @@ fn run_from_variables(
         .value
         .as_vector()
         .ok_or_else(|| {
-            variable_error(
-                &rows.name,
-                format!("expected an N x 1 vector, found {}", rows.value.describe()),
-            )
+            variable_error(&rows.name, format!("expected an N x 1 vector, found {}", rows.value.describe()))
         })?
         .len();
     if rows == 0 {
@@ -263,9 +261,8 @@ fn run_from_variables(
                     format!("expected a {rows} x 1 numeric vector like ET, found {found}"),
                 ));
             }
-            meta.warnings.push(format!(
-                "variable {name} ({found}) ignored: not a {rows} x 1 vector"
-            ));
+            meta.warnings
+                .push(format!("variable {name} ({found}) ignored: not a {rows} x 1 vector"));
             continue;
         };
         if let Some(other) = columns
@@ -280,21 +277,17 @@ fn run_from_variables(
         let from_file = units.iter().find(|u| u.name.eq_ignore_ascii_case(&name));
         let (unit_raw, unit) = match (channel, from_file) {
             (Some(channel), Some(entry)) => {
-                let unit =
-                    checked_unit(channel, &entry.unit).map_err(|message| TtcError::Unit {
-                        source_name: source_name.to_string(),
-                        location: format!("variable channel, units{{{}}}", entry.index + 1),
-                        channel: name.clone(),
-                        message,
-                    })?;
+                let unit = checked_unit(channel, &entry.unit).map_err(|message| TtcError::Unit {
+                    source_name: source_name.to_string(),
+                    location: format!("variable channel, units{{{}}}", entry.index + 1),
+                    channel: printable(&name),
+                    message,
+                })?;
                 (entry.unit.clone(), Some(unit))
             }
             (Some(channel), None) => {
                 assumed.push(channel.name());
-                (
-                    channel.si_fallback_spelling().to_string(),
-                    Some(channel.si_fallback_unit()),
-                )
+                (channel.si_fallback_spelling().to_string(), Some(channel.si_fallback_unit()))
             }
             (None, Some(entry)) => (entry.unit.clone(), Unit::parse(&entry.unit)),
             (None, None) => (String::new(), None),
@@ -345,21 +338,14 @@ fn channel_units(variables: &[MatVariable], source_name: &str) -> Result<Vec<Uni
             ))
         })?;
         let MatValue::Cell { items, .. } = value else {
-            return Err(bad(format!(
-                "field {field}: expected a cell array, found {}",
-                value.describe()
-            )));
+            return Err(bad(format!("field {field}: expected a cell array, found {}", value.describe())));
         };
         items
             .iter()
             .enumerate()
             .map(|(k, item)| {
                 item.as_text().ok_or_else(|| {
-                    bad(format!(
-                        "{field}{{{}}}: expected char, found {}",
-                        k + 1,
-                        item.describe()
-                    ))
+                    bad(format!("{field}{{{}}}: expected char, found {}", k + 1, item.describe()))
                 })
             })
             .collect()
@@ -415,9 +401,6 @@ mod tests {
             split_tireid("Goodyear D2696, 6.5 inch rim"),
             ("Goodyear D2696".to_string(), Some(6.5))
         );
-        assert_eq!(
-            split_tireid("Avon 7.0/16.0-10"),
-            ("Avon 7.0/16.0-10".to_string(), None)
-        );
+        assert_eq!(split_tireid("Avon 7.0/16.0-10"), ("Avon 7.0/16.0-10".to_string(), None));
     }
 }

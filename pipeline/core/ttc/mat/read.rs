@@ -11,7 +11,7 @@ use flate2::{Decompress, FlushDecompress, Status};
 
 use super::{MatValue, MatVariable, NumericClass};
 use crate::ttc::TtcError;
-use crate::ttc::error::excerpt;
+use crate::ttc::error::{excerpt, printable};
 
 /// Size of the MAT-file header.
 pub(super) const HEADER_LEN: usize = 128;
@@ -146,8 +146,8 @@ impl Context<'_> {
             source_name: self.source_name.to_string(),
             element: self
                 .name
-                .clone()
-                .unwrap_or_else(|| format!("#{}", self.index)),
+                .as_deref()
+                .map_or_else(|| format!("#{}", self.index), printable),
             offset: self.offset,
             message,
         }
@@ -155,18 +155,32 @@ impl Context<'_> {
 }
 
 /// One top-level element (`miMATRIX`, or `miCOMPRESSED` holding one); returns the variable and
-/// the bytes consumed including padding.
+/// the bytes consumed including padding. On failure before the array name was read, the name
+/// is recovered from whatever bytes are there, so the error can still name the variable.
 fn top_level_element(
     rest: &[u8],
     big_endian: bool,
     context: &mut Context,
 ) -> Result<(MatVariable, usize), String> {
+    let result = decode_top_level(rest, big_endian, &mut context.name);
+    if result.is_err() && context.name.is_none() {
+        context.name = peek_name(rest, big_endian);
+    }
+    result
+}
+
+fn decode_top_level(
+    rest: &[u8],
+    big_endian: bool,
+    name: &mut Option<String>,
+) -> Result<(MatVariable, usize), String> {
     let mut cursor = Cursor::new(rest, big_endian);
     let (data_type, data) = cursor.element("top-level element")?;
     let variable = match data_type {
-        MI_MATRIX => matrix(data, big_endian, 0, &mut context.name)?,
+        MI_MATRIX => matrix(data, big_endian, 0, name)?,
         MI_COMPRESSED => {
-            let inflated = inflate(data)?;
+            let (inflated, status) = inflate(data);
+            status?;
             let mut inner = Cursor::new(&inflated, big_endian);
             let (inner_type, inner_data) = inner.element("compressed element")?;
             if inner_type != MI_MATRIX {
@@ -175,7 +189,7 @@ fn top_level_element(
                     type_name(inner_type)
                 ));
             }
-            matrix(inner_data, big_endian, 0, &mut context.name)?
+            matrix(inner_data, big_endian, 0, name)?
         }
         other => {
             return Err(format!(
@@ -193,8 +207,30 @@ fn top_level_element(
     Ok((variable, consumed))
 }
 
-/// Inflate a zlib stream, insisting on its end marker.
-fn inflate(data: &[u8]) -> Result<Vec<u8>, String> {
+/// Best-effort array name of a damaged top-level element (for error messages only).
+fn peek_name(rest: &[u8], big_endian: bool) -> Option<String> {
+    let head = Cursor::new(rest.get(..8)?, big_endian);
+    let available = &rest[8..];
+    let body = match head.u32_at(0) {
+        MI_MATRIX => available.to_vec(),
+        MI_COMPRESSED => {
+            let declared = head.u32_at(4) as usize;
+            let (inflated, _) = inflate(&available[..declared.min(available.len())]);
+            inflated.get(8..)?.to_vec()
+        }
+        _ => return None,
+    };
+    let mut cursor = Cursor::new(&body, big_endian);
+    cursor.element("array flags").ok()?;
+    cursor.element("dimensions").ok()?;
+    let (data_type, name) = cursor.element("array name").ok()?;
+    (matches!(data_type, MI_INT8 | MI_UINT8 | MI_UTF8) && !name.is_empty())
+        .then(|| String::from_utf8_lossy(name).into_owned())
+}
+
+/// Inflate a zlib stream, insisting on its end marker. Returns what was inflated even on
+/// failure (used to recover a variable name for the message).
+fn inflate(data: &[u8]) -> (Vec<u8>, Result<(), String>) {
     let mut decoder = Decompress::new(true);
     let mut out: Vec<u8> = Vec::with_capacity(data.len().saturating_mul(4).max(64));
     loop {
@@ -202,22 +238,23 @@ fn inflate(data: &[u8]) -> Result<Vec<u8>, String> {
             out.reserve(out.capacity());
         }
         let (in_before, out_before) = (decoder.total_in(), decoder.total_out());
-        let consumed = usize::try_from(in_before)
-            .unwrap_or(usize::MAX)
-            .min(data.len());
-        let status = decoder
-            .decompress_vec(&data[consumed..], &mut out, FlushDecompress::None)
-            .map_err(|e| format!("zlib stream is corrupt: {e}"))?;
+        let consumed = usize::try_from(in_before).unwrap_or(usize::MAX).min(data.len());
+        let status = match decoder.decompress_vec(&data[consumed..], &mut out, FlushDecompress::None)
+        {
+            Ok(status) => status,
+            Err(e) => return (out, Err(format!("zlib stream is corrupt: {e}"))),
+        };
         if status == Status::StreamEnd {
-            return Ok(out);
+            return (out, Ok(()));
         }
         let progressed = decoder.total_in() != in_before || decoder.total_out() != out_before;
         if !progressed && out.len() < out.capacity() {
-            return Err(format!(
+            let message = format!(
                 "zlib stream ends before its end marker after {} of {} bytes (truncated?)",
                 decoder.total_in(),
                 data.len()
-            ));
+            );
+            return (out, Err(message));
         }
     }
 }
@@ -296,9 +333,7 @@ fn matrix(
     name: &mut Option<String>,
 ) -> Result<MatVariable, String> {
     if depth > MAX_DEPTH {
-        return Err(format!(
-            "cells/structs nested deeper than {MAX_DEPTH} levels"
-        ));
+        return Err(format!("cells/structs nested deeper than {MAX_DEPTH} levels"));
     }
     if data.is_empty() {
         // MATLAB writes an empty matrix in a cell as an miMATRIX of length 0.
@@ -324,9 +359,7 @@ fn matrix(
     let dims = dimensions(&mut cursor)?;
     let (name_type, name_bytes) = cursor.element("array name")?;
     if !matches!(name_type, MI_INT8 | MI_UINT8 | MI_UTF8) {
-        return Err(format!(
-            "array name has data type {name_type}, expected miINT8"
-        ));
+        return Err(format!("array name has data type {name_type}, expected miINT8"));
     }
     let array_name = String::from_utf8_lossy(name_bytes).into_owned();
     if depth == 0 {
@@ -337,13 +370,7 @@ fn matrix(
         MX_CELL => cell(&mut cursor, dims, count, depth)?,
         MX_STRUCT => structure(&mut cursor, dims, count, depth)?,
         MX_CHAR => char_array(&mut cursor, dims, count)?,
-        6..=15 => numeric(
-            &mut cursor,
-            dims,
-            count,
-            class,
-            flags_word & FLAG_COMPLEX != 0,
-        )?,
+        6..=15 => numeric(&mut cursor, dims, count, class, flags_word & FLAG_COMPLEX != 0)?,
         3 => unsupported("object"),
         5 => unsupported("sparse array"),
         16 => unsupported("function handle"),
@@ -387,12 +414,7 @@ fn element_count(dims: &[usize]) -> Result<usize, String> {
         .ok_or_else(|| format!("dimensions {dims:?} overflow"))
 }
 
-fn cell(
-    cursor: &mut Cursor,
-    dims: Vec<usize>,
-    count: usize,
-    depth: usize,
-) -> Result<MatValue, String> {
+fn cell(cursor: &mut Cursor, dims: Vec<usize>, count: usize, depth: usize) -> Result<MatValue, String> {
     let mut items = Vec::with_capacity(count.min(cursor.bytes.len() / 8));
     for k in 0..count {
         items.push(nested_matrix(cursor, depth, &format!("cell {}", k + 1))?);
@@ -466,34 +488,20 @@ fn char_array(cursor: &mut Cursor, dims: Vec<usize>, count: usize) -> Result<Mat
     let (data_type, data) = cursor.element("char data")?;
     let big_endian = cursor.big_endian;
     let utf16: Vec<u16> = match data_type {
-        MI_UINT16 | MI_UTF16 | MI_INT16 => even_chunks::<2>(data, "char data")?
-            .map(|c| {
-                if big_endian {
-                    u16::from_be_bytes(c)
-                } else {
-                    u16::from_le_bytes(c)
-                }
-            })
-            .collect(),
+        MI_UINT16 | MI_UTF16 | MI_INT16 => {
+            even_chunks::<2>(data, "char data")?
+                .map(|c| if big_endian { u16::from_be_bytes(c) } else { u16::from_le_bytes(c) })
+                .collect()
+        }
         MI_UINT8 | MI_INT8 => data.iter().map(|b| u16::from(*b)).collect(),
         MI_UTF8 => String::from_utf8_lossy(data).encode_utf16().collect(),
         MI_UTF32 => even_chunks::<4>(data, "char data")?
-            .map(|c| {
-                if big_endian {
-                    u32::from_be_bytes(c)
-                } else {
-                    u32::from_le_bytes(c)
-                }
-            })
+            .map(|c| if big_endian { u32::from_be_bytes(c) } else { u32::from_le_bytes(c) })
             .map(|u| char::from_u32(u).unwrap_or(char::REPLACEMENT_CHARACTER))
             .collect::<String>()
             .encode_utf16()
             .collect(),
-        other => {
-            return Err(format!(
-                "char data has data type {other}, expected miUINT16"
-            ));
-        }
+        other => return Err(format!("char data has data type {other}, expected miUINT16")),
     };
     if data_type != MI_UTF8 && utf16.len() != count {
         return Err(format!(

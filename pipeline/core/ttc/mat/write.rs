@@ -88,9 +88,7 @@ impl MatWriter {
         };
         check_name(name).map_err(invalid)?;
         if self.names.iter().any(|n| n == name) {
-            return Err(invalid(
-                "a variable of this name was already written".to_string(),
-            ));
+            return Err(invalid("a variable of this name was already written".to_string()));
         }
         let mut element = Vec::new();
         encode_matrix(&mut element, name, value).map_err(invalid)?;
@@ -197,9 +195,7 @@ fn encode_matrix(out: &mut Vec<u8>, name: &str, value: &MatValue) -> Result<(), 
         .try_fold(1usize, |acc, d| acc.checked_mul(*d))
         .ok_or("dimensions overflow")?;
     if dims.len() < 2 || dims.iter().any(|d| i32::try_from(*d).is_err()) {
-        return Err(format!(
-            "dimensions {dims:?}: need at least two, each below 2^31"
-        ));
+        return Err(format!("dimensions {dims:?}: need at least two, each below 2^31"));
     }
     let class = match value {
         MatValue::Numeric { class, .. } => numeric_class_code(*class),
@@ -210,15 +206,8 @@ fn encode_matrix(out: &mut Vec<u8>, name: &str, value: &MatValue) -> Result<(), 
             return Err(format!("cannot write an unsupported value ({description})"));
         }
     };
-    push_element(
-        out,
-        MI_UINT32,
-        &[u32::from(class).to_le_bytes(), [0; 4]].concat(),
-    );
-    let dim_bytes: Vec<u8> = dims
-        .iter()
-        .flat_map(|d| (*d as i32).to_le_bytes())
-        .collect();
+    push_element(out, MI_UINT32, &[u32::from(class).to_le_bytes(), [0; 4]].concat());
+    let dim_bytes: Vec<u8> = dims.iter().flat_map(|d| (*d as i32).to_le_bytes()).collect();
     push_element(out, MI_INT32, &dim_bytes);
     push_element(out, MI_INT8, name.as_bytes());
     match value {
@@ -278,9 +267,7 @@ fn expect_count(found: usize, expected: usize, dims: &[usize]) -> Result<(), Str
     if found == expected {
         Ok(())
     } else {
-        Err(format!(
-            "{found} values, but dimensions {dims:?} need {expected}"
-        ))
+        Err(format!("{found} values, but dimensions {dims:?} need {expected}"))
     }
 }
 
@@ -312,10 +299,7 @@ fn numeric_storage(class: NumericClass, data: &[f64]) -> Result<(u32, Vec<u8>), 
         let mut bytes = Vec::with_capacity(data.len() * N);
         for (k, v) in data.iter().enumerate() {
             if !(v.fract() == 0.0 && *v >= min && *v <= max) {
-                return Err(format!(
-                    "value {v} at index {k} does not fit {}",
-                    class.name()
-                ));
+                return Err(format!("value {v} at index {k} does not fit {}", class.name()));
             }
             bytes.extend_from_slice(&to_bytes(*v));
         }
@@ -323,50 +307,16 @@ fn numeric_storage(class: NumericClass, data: &[f64]) -> Result<(u32, Vec<u8>), 
     }
     use NumericClass as C;
     Ok(match class {
-        C::Double => (
-            MI_DOUBLE,
-            data.iter().flat_map(|v| v.to_le_bytes()).collect(),
-        ),
-        C::Single => (
-            MI_SINGLE,
-            data.iter()
-                .flat_map(|v| (*v as f32).to_le_bytes())
-                .collect(),
-        ),
-        C::Int8 => (
-            MI_INT8,
-            integers(data, -128.0, 127.0, class, |v| (v as i8).to_le_bytes())?,
-        ),
-        C::Uint8 => (
-            MI_UINT8,
-            integers(data, 0.0, 255.0, class, |v| (v as u8).to_le_bytes())?,
-        ),
-        C::Int16 => (
-            MI_INT16,
-            integers(data, -32768.0, 32767.0, class, |v| (v as i16).to_le_bytes())?,
-        ),
-        C::Uint16 => (
-            MI_UINT16,
-            integers(data, 0.0, 65535.0, class, |v| (v as u16).to_le_bytes())?,
-        ),
-        C::Int32 => (
-            MI_INT32,
-            integers(data, -2147483648.0, 2147483647.0, class, |v| {
-                (v as i32).to_le_bytes()
-            })?,
-        ),
-        C::Uint32 => (
-            MI_UINT32,
-            integers(data, 0.0, 4294967295.0, class, |v| (v as u32).to_le_bytes())?,
-        ),
-        C::Int64 => (
-            MI_INT64,
-            integers(data, -9.2e18, 9.2e18, class, |v| (v as i64).to_le_bytes())?,
-        ),
-        C::Uint64 => (
-            MI_UINT64,
-            integers(data, 0.0, 1.8e19, class, |v| (v as u64).to_le_bytes())?,
-        ),
+        C::Double => (MI_DOUBLE, data.iter().flat_map(|v| v.to_le_bytes()).collect()),
+        C::Single => (MI_SINGLE, data.iter().flat_map(|v| (*v as f32).to_le_bytes()).collect()),
+        C::Int8 => (MI_INT8, integers(data, -128.0, 127.0, class, |v| (v as i8).to_le_bytes())?),
+        C::Uint8 => (MI_UINT8, integers(data, 0.0, 255.0, class, |v| (v as u8).to_le_bytes())?),
+        C::Int16 => (MI_INT16, integers(data, -32768.0, 32767.0, class, |v| (v as i16).to_le_bytes())?),
+        C::Uint16 => (MI_UINT16, integers(data, 0.0, 65535.0, class, |v| (v as u16).to_le_bytes())?),
+        C::Int32 => (MI_INT32, integers(data, -2147483648.0, 2147483647.0, class, |v| (v as i32).to_le_bytes())?),
+        C::Uint32 => (MI_UINT32, integers(data, 0.0, 4294967295.0, class, |v| (v as u32).to_le_bytes())?),
+        C::Int64 => (MI_INT64, integers(data, -9.2e18, 9.2e18, class, |v| (v as i64).to_le_bytes())?),
+        C::Uint64 => (MI_UINT64, integers(data, 0.0, 1.8e19, class, |v| (v as u64).to_le_bytes())?),
     })
 }
 

@@ -1,4 +1,5 @@
-//! Calspan TIRF `.dat` (ASCII) -> [`RunTable`].
+//! Calspan TIRF `.dat` (ASCII) -> [`RunTable`] (and, in `write.rs`, the inverse for tests and
+//! the virtual test machine).
 //!
 //! In: the bytes of a `.dat` file (three header lines, then tab-separated numeric rows) and a
 //! source name for messages. Out: the run, or a one-line [`TtcError`] naming the line (and
@@ -10,10 +11,14 @@
 //! Deliberately not here: reading files (see [`super::read_path`]) and unit conversion (shared
 //! with the `.mat` reader in `build.rs`).
 
+mod write;
+
 use std::io::Read;
 
+pub use write::{DatColumn, Line1, render_dat};
+
 use super::build::{SourceColumn, build};
-use super::error::excerpt;
+use super::error::{excerpt, printable};
 use super::float::parse_f64;
 use super::{Channel, ColumnInfo, RunMeta, RunTable, SourceFormat, TtcError, Unit};
 
@@ -40,6 +45,7 @@ pub fn read_dat(bytes: &[u8], source_name: &str) -> Result<RunTable, TtcError> {
     parse_line1(strip_cr(&bytes[..line1_end]), &mut meta)?;
     let lines = HeaderLines::split(bytes, source_name)?;
     let names = parse_names(lines.line2, source_name)?;
+    check_required(&names, source_name)?;
     let infos = parse_units(lines.line3, &names, source_name)?;
     let body = &bytes[lines.data_start..];
     let columns = parse_rows(body, &names, source_name, &mut meta.warnings)?;
@@ -60,10 +66,12 @@ pub fn read_dat(bytes: &[u8], source_name: &str) -> Result<RunTable, TtcError> {
 /// Read everything from `reader`, then [`read_dat`].
 pub fn read_dat_from(mut reader: impl Read, source_name: &str) -> Result<RunTable, TtcError> {
     let mut bytes = Vec::new();
-    reader.read_to_end(&mut bytes).map_err(|e| TtcError::Io {
-        source_name: source_name.to_string(),
-        message: e.to_string(),
-    })?;
+    reader
+        .read_to_end(&mut bytes)
+        .map_err(|e| TtcError::Io {
+            source_name: source_name.to_string(),
+            message: e.to_string(),
+        })?;
     read_dat(&bytes, source_name)
 }
 
@@ -186,10 +194,7 @@ fn parse_names(line: &[u8], source_name: &str) -> Result<Vec<String>, TtcError> 
     }
     for (index, name) in names.iter().enumerate() {
         if name.is_empty() {
-            return Err(header_error(format!(
-                "column {} has no channel name",
-                index + 1
-            )));
+            return Err(header_error(format!("column {} has no channel name", index + 1)));
         }
         if let Some(first) = names[..index]
             .iter()
@@ -204,6 +209,33 @@ fn parse_names(line: &[u8], source_name: &str) -> Result<Vec<String>, TtcError> 
         }
     }
     Ok(names)
+}
+
+/// Every required channel must be on line 2 (checked before any row is parsed).
+fn check_required(names: &[String], source_name: &str) -> Result<(), TtcError> {
+    if let [only] = names
+        && (only.contains(',') || only.contains(';'))
+    {
+        return Err(TtcError::Header {
+            source_name: source_name.to_string(),
+            line: 2,
+            message: format!(
+                "a single column {:?}: the file is not tab-separated",
+                excerpt(only.as_bytes(), EXCERPT_CHARS)
+            ),
+        });
+    }
+    let missing = Channel::REQUIRED
+        .into_iter()
+        .find(|c| !names.iter().any(|n| Channel::from_name(n) == Some(*c)));
+    match missing {
+        Some(channel) => Err(TtcError::MissingChannel {
+            source_name: source_name.to_string(),
+            location: "line 2".to_string(),
+            channel: channel.name().to_string(),
+        }),
+        None => Ok(()),
+    }
 }
 
 /// Line 3: one unit per channel. Known channels need a known unit of the right quantity;
@@ -231,18 +263,17 @@ fn parse_units(
         .enumerate()
         .map(|(index, (name, unit_raw))| {
             let channel = Channel::from_name(name);
-            let unit =
-                match channel {
-                    Some(channel) => Some(checked_unit(channel, &unit_raw).map_err(|message| {
-                        TtcError::Unit {
-                            source_name: source_name.to_string(),
-                            location: format!("line 3, column {}", index + 1),
-                            channel: name.clone(),
-                            message,
-                        }
-                    })?),
-                    None => Unit::parse(&unit_raw),
-                };
+            let unit = match channel {
+                Some(channel) => Some(
+                    checked_unit(channel, &unit_raw).map_err(|message| TtcError::Unit {
+                        source_name: source_name.to_string(),
+                        location: format!("line 3, column {}", index + 1),
+                        channel: printable(name),
+                        message,
+                    })?,
+                ),
+                None => Unit::parse(&unit_raw),
+            };
             Ok(ColumnInfo {
                 name: name.clone(),
                 channel,
@@ -310,10 +341,7 @@ fn parse_rows(
         let end = find_byte(body, pos, b'\n').unwrap_or(body.len());
         let line = strip_cr(&body[pos..end]);
         let next = end + 1;
-        let is_last = || {
-            body.get(next..)
-                .is_none_or(|r| r.iter().all(u8::is_ascii_whitespace))
-        };
+        let is_last = || body.get(next..).is_none_or(|r| r.iter().all(u8::is_ascii_whitespace));
         match parse_row(line, &mut columns) {
             Ok(()) => {}
             Err(RowProblem::Blank) if is_last() => break,
@@ -335,7 +363,7 @@ fn parse_rows(
 
 /// Why a row could not be taken. A row that fails pushes nothing (partial pushes are undone).
 enum RowProblem {
-    /// Nothing but blanks.
+    /// Nothing but blanks and tabs.
     Blank,
     /// Fewer cells than channels, or an empty cell: what a cut-off last line looks like.
     Truncated { cells: usize },
@@ -351,6 +379,9 @@ enum RowProblem {
 #[inline]
 fn parse_row(line: &[u8], columns: &mut [Vec<f64>]) -> Result<(), RowProblem> {
     let width = columns.len();
+    if line.iter().all(|b| *b == b' ' || *b == b'\t') {
+        return Err(RowProblem::Blank);
+    }
     let mut column = 0;
     let mut start = 0;
     let result = loop {
@@ -373,8 +404,6 @@ fn parse_row(line: &[u8], columns: &mut [Vec<f64>]) -> Result<(), RowProblem> {
         if end >= line.len() {
             break if column == width {
                 Ok(())
-            } else if column == 0 && trim_blanks(line).is_empty() {
-                Err(RowProblem::Blank)
             } else {
                 Err(RowProblem::Truncated { cells: column })
             };
@@ -401,13 +430,7 @@ impl RowProblem {
         }
     }
 
-    fn into_error(
-        self,
-        source_name: &str,
-        line_no: usize,
-        line: &[u8],
-        names: &[String],
-    ) -> TtcError {
+    fn into_error(self, source_name: &str, line_no: usize, line: &[u8], names: &[String]) -> TtcError {
         let source_name = source_name.to_string();
         let cell_text = |column: usize| {
             let cell = line.split(|b| *b == b'\t').nth(column).unwrap_or_default();
@@ -427,7 +450,7 @@ impl RowProblem {
                         source_name,
                         line: line_no,
                         column: cells + 1,
-                        channel: names[cells].clone(),
+                        channel: printable(&names[cells]),
                         cell: String::new(),
                     }
                 } else {
@@ -449,14 +472,14 @@ impl RowProblem {
                 source_name,
                 line: line_no,
                 column: column + 1,
-                channel: names[column].clone(),
+                channel: printable(&names[column]),
                 cell: cell_text(column),
             },
             RowProblem::NonFinite { column } => TtcError::NonFinite {
                 source_name,
                 line: line_no,
                 column: column + 1,
-                channel: names[column].clone(),
+                channel: printable(&names[column]),
                 cell: cell_text(column),
             },
         }
@@ -479,9 +502,6 @@ fn strip_cr(line: &[u8]) -> &[u8] {
 #[inline]
 fn trim_blanks(cell: &[u8]) -> &[u8] {
     let start = cell.iter().position(|b| *b != b' ').unwrap_or(cell.len());
-    let end = cell
-        .iter()
-        .rposition(|b| *b != b' ')
-        .map_or(start, |i| i + 1);
+    let end = cell.iter().rposition(|b| *b != b' ').map_or(start, |i| i + 1);
     &cell[start..end]
 }
