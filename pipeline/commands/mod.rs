@@ -6,10 +6,12 @@ use std::process::ExitCode;
 use crate::cli::{Cli, Command};
 
 pub mod query;
+pub mod synth;
 
 /// Run one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match &cli.command {
         Command::Query(args) => query::run(args),
+        Command::Synth(cmd) => synth::run(cmd),
     }
 }

@@ -206,9 +206,13 @@ pub fn simulate(
         };
 
         out.et_s.push(t);
-        out.v_mps.push(v + rng.gauss(ns * NOISE.speed_mps));
-        out.n_rpm
-            .push(omega * 60.0 / std::f64::consts::TAU + rng.gauss(ns * NOISE.wheel_rpm));
+        // Speed and wheel speed are magnitudes: never negative, not noisy at standstill.
+        let moving = if v > STANDSTILL_MPS { ns } else { 0.0 };
+        out.v_mps
+            .push((v + rng.gauss(moving * NOISE.speed_mps)).max(0.0));
+        out.n_rpm.push(
+            (omega * 60.0 / std::f64::consts::TAU + rng.gauss(moving * NOISE.wheel_rpm)).max(0.0),
+        );
         out.alpha_rad
             .push(cmd.alpha_rad + rng.gauss(ns * NOISE.angle_rad));
         out.gamma_rad
