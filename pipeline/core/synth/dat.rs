@@ -271,43 +271,36 @@ pub fn channel_table(
     ChannelTable { columns }
 }
 
-/// Append `x` with exactly `decimals` decimals (no exponent, no `-0`).
+/// Append `x` with exactly `decimals` decimals (no exponent, no `-0`; `decimals <= 9`).
 pub fn push_fixed(out: &mut Vec<u8>, x: f64, decimals: u8) {
-    let scale = 10f64.powi(decimals as i32);
+    let scale = 10f64.powi(i32::from(decimals));
     let q = (x * scale).round();
-    let q = if q == 0.0 { 0.0 } else { q };
     let neg = q < 0.0;
-    let q = q.abs() as u64;
-    let pow = 10u64.pow(decimals as u32);
-    if neg {
+    let mut q = q.abs() as u64;
+    if neg && q != 0 {
         out.push(b'-');
     }
-    let int = q / pow;
-    let frac = q % pow;
-    let mut buf = itoa_buf(int);
-    out.append(&mut buf);
-    if decimals > 0 {
-        out.push(b'.');
-        let digits = itoa_buf(frac);
-        for _ in digits.len()..decimals as usize {
-            out.push(b'0');
-        }
-        out.extend_from_slice(&digits);
-    }
-}
-
-fn itoa_buf(mut v: u64) -> Vec<u8> {
-    if v == 0 {
-        return vec![b'0'];
-    }
-    let mut tmp = [0u8; 20];
-    let mut i = tmp.len();
-    while v > 0 {
+    // Digits from the right into a stack buffer: fraction (zero-padded), point, integer part.
+    let mut buf = [0u8; 32];
+    let mut i = buf.len();
+    for _ in 0..decimals {
         i -= 1;
-        tmp[i] = b'0' + (v % 10) as u8;
-        v /= 10;
+        buf[i] = b'0' + (q % 10) as u8;
+        q /= 10;
     }
-    tmp[i..].to_vec()
+    if decimals > 0 {
+        i -= 1;
+        buf[i] = b'.';
+    }
+    loop {
+        i -= 1;
+        buf[i] = b'0' + (q % 10) as u8;
+        q /= 10;
+        if q == 0 {
+            break;
+        }
+    }
+    out.extend_from_slice(&buf[i..]);
 }
 
 /// The `.dat` bytes: header line 1, channel names, units, then fixed-decimal rows; TAB
@@ -335,17 +328,32 @@ pub fn render_dat(line1: &str, table: &ChannelTable) -> Vec<u8> {
     out
 }
 
+/// What line 1 of a `.dat` file may say about the run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeaderFields<'a> {
+    pub project: u32,
+    pub run: u32,
+    /// `MM-DD-YYYY`.
+    pub date: &'a str,
+    /// `HH:MM`.
+    pub time: &'a str,
+    pub tire_name: &'a str,
+    pub rim_in: f64,
+    /// 7-character run ID.
+    pub id: &'a str,
+}
+
 /// Line 1 of a `.dat` file in the style of the round.
-pub fn header_line(
-    style: &FileStyle,
-    project: u32,
-    run: u32,
-    date: &str,
-    time: &str,
-    tire_name: &str,
-    rim_in: f64,
-    id: &str,
-) -> String {
+pub fn header_line(style: &FileStyle, h: &HeaderFields) -> String {
+    let HeaderFields {
+        project,
+        run,
+        date,
+        time,
+        tire_name,
+        rim_in,
+        id,
+    } = h;
     match style.round {
         RoundStyle::R4 => format!("TIRF Data File: Project {project}; Run {run}"),
         RoundStyle::R8 => format!(

@@ -15,6 +15,7 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::naming::{tir_file_name, tire_rim_stem};
@@ -23,8 +24,8 @@ use crate::tire_model::{Coef, Coefs};
 use crate::ttc::mat::{Compression, MatWriter};
 
 use super::dat::{
-    ChannelTable, Container, FileStyle, RoundStyle, STYLE_CYCLE, channel_table, header_line,
-    render_dat,
+    ChannelTable, Container, FileStyle, HeaderFields, RoundStyle, STYLE_CYCLE, channel_table,
+    header_line, render_dat,
 };
 use super::defects::{DefectKind, DefectRecord, apply_to_table, apply_to_text};
 use super::machine::{Realism, simulate};
@@ -378,9 +379,11 @@ pub fn plan_round(config: &SynthConfig) -> Result<RoundPlan, RoundError> {
         schedule: config.schedule.resolve(),
     };
     if plan.realism.heat {
-        for ci in 0..plan.combos.len() {
-            plan.thermal[ci] = calibrate_thermal(&plan, ci);
-        }
+        let calibrated: Vec<ThermalTruth> = (0..plan.combos.len())
+            .into_par_iter()
+            .map(|ci| calibrate_thermal(&plan, ci))
+            .collect();
+        plan.thermal = calibrated;
     }
     Ok(plan)
 }
@@ -540,15 +543,18 @@ pub fn render_run(plan: &RoundPlan, index: usize) -> Result<RunOutput, RoundErro
     let bytes = match spec.style.container {
         Container::Dat => {
             let (date, time) = run_date_time(spec.run);
+            let id = file_id(&mut meta_rng);
             let line1 = header_line(
                 &spec.style,
-                plan.config.project,
-                spec.run,
-                &date,
-                &time,
-                combo.tire(),
-                combo.rim_in,
-                &file_id(&mut meta_rng),
+                &HeaderFields {
+                    project: plan.config.project,
+                    run: spec.run,
+                    date: &date,
+                    time: &time,
+                    tire_name: combo.tire(),
+                    rim_in: combo.rim_in,
+                    id: &id,
+                },
             );
             let mut bytes = render_dat(&line1, &table);
             for kind in spec.defects.iter().filter(|k| !k.on_table()) {
