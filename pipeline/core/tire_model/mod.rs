@@ -10,3 +10,6 @@ pub mod real;
 pub use pac2002::{Evaluation, Mode, Pac2002, SlipInput, TrailPeak};
 pub use params::{Coef, Coefs, Section};
 pub use real::{Dual, Real};
+
+#[cfg(test)]
+pub(crate) mod test_support;

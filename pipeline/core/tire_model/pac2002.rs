@@ -609,3 +609,39 @@ impl Pac2002 {
         relaxation_lengths(&self.coefs, fz_n, gamma_rad)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tire_model::test_support::*;
+
+    /// Largest `|ours - ref| / max(|ref|, 1)` over `[Fx, Fy, Mx, My, Mz]` on a reference grid.
+    fn max_rel_err(coefs: &Coefs<f64>, csv: &str, mode: Mode) -> [f64; 5] {
+        let tire = Pac2002::new(coefs.clone());
+        let mut worst = [0.0f64; 5];
+        for row in reference_rows(csv) {
+            let e = tire.eval(&row.input, mode);
+            let ours = [e.fx_n, e.fy_n, e.mx_nm, e.my_nm, e.mz_nm];
+            for k in 0..5 {
+                let r = (ours[k] - row.outputs[k]).abs() / row.outputs[k].abs().max(1.0);
+                worst[k] = worst[k].max(r);
+            }
+        }
+        worst
+    }
+
+    #[test]
+    fn reference_grids_match_mfeval_to_1e_9() {
+        let fsae = coefs_from_tir_lines(FSAE_DEMO_TIR);
+        let sample = coefs_from_tir_lines(MFEVAL_SAMPLE_TIR);
+        for (name, coefs, csv, mode) in [
+            ("fsae-demo 111", &fsae, FSAE_DEMO_COMBINED_111, Mode::Limits),
+            ("mfeval-sample 111", &sample, MFEVAL_SAMPLE_COMBINED_111, Mode::Limits),
+            ("mfeval-sample 211", &sample, MFEVAL_SAMPLE_COMBINED_211, Mode::Raw),
+        ] {
+            let worst = max_rel_err(coefs, csv, mode);
+            eprintln!("{name}: max rel err [Fx Fy Mx My Mz] = {:.2e} {:.2e} {:.2e} {:.2e} {:.2e}", worst[0], worst[1], worst[2], worst[3], worst[4]);
+            assert!(worst.iter().all(|w| *w <= 1e-9), "{name}: {worst:?}");
+        }
+    }
+}

@@ -1,0 +1,39 @@
+//! Criterion benchmarks of the PAC2002 evaluator: time per point of a combined-slip evaluation
+//! (all five outputs) over a batch of 10^5 points, and of a coefficient Jacobian.
+//!
+//! In: the bundled FSAE demo tire and 10^5 seeded random points over an FSAE envelope (continuous
+//! load, as measured data has). Out: criterion's report; divide the batch time by 10^5 (or read
+//! the throughput line) for ns per point. Single thread. Not a correctness check: the unit and
+//! property tests are.
+
+use std::hint::black_box;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use tirebase_core::tire_model::{Coef, Coefs, Evaluation, Mode, Pac2002, SlipInput};
+
+#[path = "../tire_model/test_support.rs"]
+mod test_support;
+
+const N_POINTS: usize = 100_000;
+
+fn fsae_tire() -> Pac2002 {
+    Pac2002::new(test_support::coefs_from_tir_lines(
+        test_support::FSAE_DEMO_TIR,
+    ))
+}
+
+fn combined(c: &mut Criterion) {
+    let tire = fsae_tire();
+    let points = test_support::random_points(N_POINTS, 7, tire.coefs[Coef::FNOMIN]);
+    let mut out = vec![Evaluation::default(); N_POINTS];
+    let mut group = c.benchmark_group("combined_eval_1e5");
+    group.throughput(Throughput::Elements(N_POINTS as u64));
+    group.sample_size(20);
+    group.bench_function("eval_batch_limits", |b| {
+        b.iter(|| tire.eval_batch(black_box(&points), Mode::Limits, &mut out))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, combined);
+criterion_main!(benches);
