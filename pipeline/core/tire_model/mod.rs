@@ -3,10 +3,12 @@
 //!
 //! Pure code: no file system, no serde, no Arrow. Reading a `.tir` takes a `&str`.
 
+pub mod jacobian;
 pub mod pac2002;
 pub mod params;
 pub mod real;
 
+pub use jacobian::{Channel, MAX_BLOCK};
 pub use pac2002::{Evaluation, Mode, Pac2002, SlipInput, TrailPeak};
 pub use params::{Coef, Coefs, Section};
 pub use real::{Dual, Real};

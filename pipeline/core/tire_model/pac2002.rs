@@ -636,11 +636,24 @@ mod tests {
         let sample = coefs_from_tir_lines(MFEVAL_SAMPLE_TIR);
         for (name, coefs, csv, mode) in [
             ("fsae-demo 111", &fsae, FSAE_DEMO_COMBINED_111, Mode::Limits),
-            ("mfeval-sample 111", &sample, MFEVAL_SAMPLE_COMBINED_111, Mode::Limits),
-            ("mfeval-sample 211", &sample, MFEVAL_SAMPLE_COMBINED_211, Mode::Raw),
+            (
+                "mfeval-sample 111",
+                &sample,
+                MFEVAL_SAMPLE_COMBINED_111,
+                Mode::Limits,
+            ),
+            (
+                "mfeval-sample 211",
+                &sample,
+                MFEVAL_SAMPLE_COMBINED_211,
+                Mode::Raw,
+            ),
         ] {
             let worst = max_rel_err(coefs, csv, mode);
-            eprintln!("{name}: max rel err [Fx Fy Mx My Mz] = {:.2e} {:.2e} {:.2e} {:.2e} {:.2e}", worst[0], worst[1], worst[2], worst[3], worst[4]);
+            eprintln!(
+                "{name}: max rel err [Fx Fy Mx My Mz] = {:.2e} {:.2e} {:.2e} {:.2e} {:.2e}",
+                worst[0], worst[1], worst[2], worst[3], worst[4]
+            );
             assert!(worst.iter().all(|w| *w <= 1e-9), "{name}: {worst:?}");
         }
     }
