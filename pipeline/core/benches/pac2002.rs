@@ -9,7 +9,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use tirebase_core::tire_model::{Coef, Coefs, Evaluation, Mode, Pac2002, SlipInput};
+use tirebase_core::tire_model::{Channel, Coef, Coefs, Evaluation, Mode, Pac2002, SlipInput};
 
 #[path = "../tire_model/test_support.rs"]
 mod test_support;
@@ -35,5 +35,38 @@ fn combined(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, combined);
+/// Points in the Jacobian benchmark (a fit's data set is 10^3..10^5 points; the cost is linear).
+const N_JAC_POINTS: usize = 10_000;
+
+fn jacobian(c: &mut Criterion) {
+    let tire = fsae_tire();
+    let points = test_support::random_points(N_JAC_POINTS, 11, tire.coefs[Coef::FNOMIN]);
+    // The 18 Fy0 family coefficients plus LMUY and LKY: 20 free coefficients.
+    let mut free = Channel::Fy0.family().to_vec();
+    free.extend([Coef::LMUY, Coef::LKY]);
+    assert_eq!(free.len(), 20);
+    let mut values = vec![0.0; N_JAC_POINTS];
+    let mut jac = vec![0.0; N_JAC_POINTS * free.len()];
+    let mut group = c.benchmark_group("jacobian_1e4");
+    group.throughput(Throughput::Elements(N_JAC_POINTS as u64));
+    group.sample_size(20);
+    group.bench_function("fy0_20_coefs", |b| {
+        b.iter(|| {
+            tire.jacobian_into(
+                Channel::Fy0,
+                black_box(&free),
+                black_box(&points),
+                Mode::Limits,
+                &mut values,
+                &mut jac,
+            )
+        })
+    });
+    group.bench_function("fy0_values_only", |b| {
+        b.iter(|| tire.channel_into(Channel::Fy0, black_box(&points), Mode::Limits, &mut values))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, combined, jacobian);
 criterion_main!(benches);

@@ -4,6 +4,8 @@
 //! Pure code: no file system, no serde, no Arrow. Reading a `.tir` takes a `&str`.
 
 pub mod jacobian;
+#[allow(dead_code)]
+pub(crate) mod lanes;
 pub mod pac2002;
 pub mod params;
 pub mod real;
