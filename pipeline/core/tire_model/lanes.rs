@@ -21,7 +21,7 @@
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Number of points evaluated together.
-pub const LANES: usize = 8;
+pub const LANES: usize = 32;
 
 /// `LANES` values, one per point.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -129,10 +129,13 @@ impl V {
         self.map(|x| x.max(limit))
     }
 
-    /// Lane-wise `f64::clamp` (callers guarantee `lo <= hi`).
+    /// Lane-wise `f64::clamp` (NaN stays NaN), without its `lo <= hi` assertion in the loop.
     #[inline(always)]
     pub fn clamp(self, lo: f64, hi: f64) -> V {
-        self.map(|x| x.clamp(lo, hi))
+        self.map(|x| {
+            let x = if x < lo { lo } else { x };
+            if x > hi { hi } else { x }
+        })
     }
 
     /// `E <= 1` clamp when `on`, exactly as the scalar evaluator's `min_cst(1.0)`.
@@ -177,6 +180,12 @@ impl V {
         self.cmp(|a| a < x)
     }
 
+    /// Lanes above `x`.
+    #[inline(always)]
+    pub fn gt(self, x: f64) -> M {
+        self.cmp(|a| a > x)
+    }
+
     #[inline(always)]
     fn cmp(self, f: impl Fn(f64) -> bool) -> M {
         let mut r = [false; LANES];
@@ -217,7 +226,8 @@ impl M {
     }
 }
 
-/// Horner evaluation `c[0] + s (c[1] + s (c[2] + ...))`.
+/// Horner evaluation `c[0] + s (c[1] + s (c[2] + ...))`. (Estrin's scheme was tried: slower
+/// here, the lane count already hides the latency.)
 #[inline(always)]
 fn horner(s: V, c: &[f64]) -> V {
     let mut r = V::splat(c[c.len() - 1]);
@@ -252,27 +262,21 @@ const PI_2_LO: f64 = 6.123233995736766e-17;
 #[inline(always)]
 pub fn atan(x: V) -> V {
     let a = x.abs();
-    let mut num = [0.0; LANES];
-    let mut den = [0.0; LANES];
-    let mut hi = [0.0; LANES];
-    let mut lo = [0.0; LANES];
-    for i in 0..LANES {
-        let ai = a.0[i];
-        let (n, d, h, l) = if ai > TAN_3PI_8 {
-            (-1.0, ai, PI_2_HI, PI_2_LO)
-        } else if ai > TAN_PI_8 {
-            (ai - 1.0, ai + 1.0, PI_4_HI, PI_4_LO)
-        } else {
-            (ai, 1.0, 0.0, 0.0)
-        };
-        num[i] = n;
-        den[i] = d;
-        hi[i] = h;
-        lo[i] = l;
-    }
-    let u = V(num) / V(den);
+    let big = a.gt(TAN_3PI_8);
+    let mid = a.gt(TAN_PI_8);
+    let num = big.select(V::splat(-1.0), mid.select(a - 1.0, a));
+    let den = big.select(a, mid.select(a + 1.0, V::splat(1.0)));
+    let hi = big.select(
+        V::splat(PI_2_HI),
+        mid.select(V::splat(PI_4_HI), V::splat(0.0)),
+    );
+    let lo = big.select(
+        V::splat(PI_2_LO),
+        mid.select(V::splat(PI_4_LO), V::splat(0.0)),
+    );
+    let u = num / den;
     let s = u * u;
-    let r = V(hi) + (V(lo) + (u + u * s * horner(s, &ATAN_P)));
+    let r = hi + (lo + (u + u * s * horner(s, &ATAN_P)));
     let mut out = [0.0; LANES];
     for i in 0..LANES {
         out[i] = r.0[i].copysign(x.0[i]);
@@ -307,16 +311,22 @@ const PIO2_3: f64 = 2.0222662487959506e-21;
 /// Largest argument reduced here; beyond it (or for NaN, infinities) the standard library is used.
 const REDUCE_MAX: f64 = 1e5;
 
-/// `x = k pi/2 + r`, `|r| <= pi/4`: returns `(sin r, cos r, k mod 4)`.
+/// `1.5 * 2^52`: adding it rounds a double of magnitude below `2^51` to an integer, whose low
+/// bits then sit in the low bits of the sum's mantissa.
+const ROUND_MAGIC: f64 = 6755399441055744.0;
+
+/// `x = k pi/2 + r`, `|r| <= pi/4`: returns `(sin r, cos r, odd k, k mod 4 >= 2)`.
 #[inline(always)]
-fn reduce_sin_cos(x: V) -> (V, V, [u8; LANES]) {
-    let mut k = [0.0; LANES];
-    let mut q = [0u8; LANES];
+fn reduce_sin_cos(x: V) -> (V, V, M, M) {
+    let t = x * TWO_OVER_PI + ROUND_MAGIC;
+    let k = t - ROUND_MAGIC;
+    let mut odd = [false; LANES];
+    let mut neg = [false; LANES];
     for i in 0..LANES {
-        k[i] = (x.0[i] * TWO_OVER_PI).round();
-        q[i] = (k[i] as i64 & 3) as u8;
+        let bits = t.0[i].to_bits();
+        odd[i] = bits & 1 != 0;
+        neg[i] = bits & 2 != 0;
     }
-    let k = V(k);
     let r = ((x - k * PIO2_1) - k * PIO2_2) - k * PIO2_3;
     let s = r * r;
     let sin_r = r + r * s * horner(s, &SIN_P);
@@ -324,72 +334,58 @@ fn reduce_sin_cos(x: V) -> (V, V, [u8; LANES]) {
     let half_s = s * 0.5;
     let w = 1.0 - half_s;
     let cos_r = w + (((1.0 - w) - half_s) + s * s * horner(s, &COS_P));
-    (sin_r, cos_r, q)
+    (sin_r, cos_r, M(odd), M(neg))
 }
 
-/// Lanes outside the reduced range.
+/// Lanes outside the reduced range (or NaN).
 #[inline(always)]
 fn needs_libm(x: V) -> bool {
-    x.0.iter().any(|v| !(v.abs() <= REDUCE_MAX))
+    let mut out = false;
+    for i in 0..LANES {
+        out |= !(x.0[i].abs() <= REDUCE_MAX);
+    }
+    out
+}
+
+/// The standard library's `f`, lane by lane (rare: kept out of line).
+#[cold]
+#[inline(never)]
+fn libm(x: V, f: fn(f64) -> f64) -> V {
+    x.map(f)
 }
 
 /// Sine.
 #[inline(always)]
 pub fn sin(x: V) -> V {
     if needs_libm(x) {
-        return x.map(f64::sin);
+        return libm(x, f64::sin);
     }
-    let (s, c, q) = reduce_sin_cos(x);
-    let mut out = [0.0; LANES];
-    for i in 0..LANES {
-        out[i] = match q[i] {
-            0 => s.0[i],
-            1 => c.0[i],
-            2 => -s.0[i],
-            _ => -c.0[i],
-        };
-    }
-    V(out)
+    let (s, c, odd, neg) = reduce_sin_cos(x);
+    let v = odd.select(c, s);
+    neg.select(-v, v)
 }
 
 /// Cosine.
 #[inline(always)]
 pub fn cos(x: V) -> V {
     if needs_libm(x) {
-        return x.map(f64::cos);
+        return libm(x, f64::cos);
     }
-    let (s, c, q) = reduce_sin_cos(x);
-    let mut out = [0.0; LANES];
-    for i in 0..LANES {
-        out[i] = match q[i] {
-            0 => c.0[i],
-            1 => -s.0[i],
-            2 => -c.0[i],
-            _ => s.0[i],
-        };
-    }
-    V(out)
+    let (s, c, odd, neg) = reduce_sin_cos(x);
+    // cos(k pi/2 + r) = c, -s, -c, s for k mod 4 = 0, 1, 2, 3.
+    let v = odd.select(s, c);
+    let flip = M(std::array::from_fn(|i| odd.0[i] != neg.0[i]));
+    flip.select(-v, v)
 }
 
-/// Tangent (`sin r / cos r`, or `-cos r / sin r` in odd quadrants).
+/// Tangent (`sin r / cos r`, or `-cos r / sin r` for odd `k`).
 #[inline(always)]
 pub fn tan(x: V) -> V {
     if needs_libm(x) {
-        return x.map(f64::tan);
+        return libm(x, f64::tan);
     }
-    let (s, c, q) = reduce_sin_cos(x);
-    let mut num = [0.0; LANES];
-    let mut den = [0.0; LANES];
-    for i in 0..LANES {
-        if q[i] & 1 == 0 {
-            num[i] = s.0[i];
-            den[i] = c.0[i];
-        } else {
-            num[i] = -c.0[i];
-            den[i] = s.0[i];
-        }
-    }
-    V(num) / V(den)
+    let (s, c, odd, _) = reduce_sin_cos(x);
+    odd.select(-c, s) / odd.select(s, c)
 }
 
 /// Exponential (the standard library's, lane by lane).

@@ -3,9 +3,9 @@
 //!
 //! Pure code: no file system, no serde, no Arrow. Reading a `.tir` takes a `&str`.
 
+mod batch;
 pub mod jacobian;
-#[allow(dead_code)]
-pub(crate) mod lanes;
+mod lanes;
 pub mod pac2002;
 pub mod params;
 pub mod real;
