@@ -402,6 +402,53 @@ mod tests {
         }
     }
 
+    /// The baseline, AVX2 and AVX-512F builds give the same bits (no fused multiply-add).
+    #[test]
+    fn every_instruction_set_gives_the_same_bits() {
+        let tire = Pac2002::new(coefs_from_tir_lines(MFEVAL_SAMPLE_TIR));
+        let points = random_points(4 * LANES + 3, 21, tire.coefs[FNOMIN]);
+        let run = |f: &dyn Fn(&mut [Evaluation<f64>])| {
+            let mut out = vec![Evaluation::default(); points.len()];
+            f(&mut out);
+            let bits = |e: &Evaluation<f64>| {
+                [
+                    e.fx_n,
+                    e.fy_n,
+                    e.mx_nm,
+                    e.my_nm,
+                    e.mz_nm,
+                    e.mux,
+                    e.muy,
+                    e.kxk_n,
+                    e.kya_n_per_rad,
+                    e.trail_m,
+                    e.mzr_nm,
+                ]
+                .map(f64::to_bits)
+            };
+            out.iter().map(bits).collect::<Vec<_>>()
+        };
+        let base =
+            run(&|o| eval_batch_lanes(&tire.coefs, tire.trail_peak, &points, Mode::Limits, o));
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: AVX2 present (checked).
+                let avx2 = run(&|o| unsafe {
+                    eval_batch_avx2(&tire.coefs, tire.trail_peak, &points, Mode::Limits, o)
+                });
+                assert!(base == avx2, "AVX2 build differs from baseline");
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: AVX-512F present (checked).
+                let avx512 = run(&|o| unsafe {
+                    eval_batch_avx512(&tire.coefs, tire.trail_peak, &points, Mode::Limits, o)
+                });
+                assert!(base == avx512, "AVX-512F build differs from baseline");
+            }
+        }
+    }
+
     /// Batches shorter than, equal to and just past one block (padding of the last block).
     #[test]
     fn fast_batch_handles_every_length() {
