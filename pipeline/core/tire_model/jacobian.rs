@@ -93,6 +93,7 @@ impl Channel {
 }
 
 /// The value of one channel at one point, evaluating only the families it needs.
+#[inline(always)]
 pub fn channel_value<T: Real>(
     c: &Coefs<T>,
     input: &SlipInput,
@@ -195,8 +196,69 @@ impl Pac2002 {
         }
     }
 
-    /// Values and the Jacobian columns of one block of at most `N` free coefficients.
+    /// [`Self::jacobian_block_inline`], in the widest instruction set the CPU has (the dual
+    /// numbers' derivative arrays are where the time goes; no fused multiply-add is enabled, so
+    /// every build gives the same bits).
     fn jacobian_block<const N: usize>(
+        &self,
+        channel: Channel,
+        cols: Columns<'_>,
+        points: &[SlipInput],
+        mode: Mode,
+        values: &mut [f64],
+        jac: &mut [f64],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU supports AVX-512F (checked just above).
+                unsafe {
+                    self.jacobian_block_avx512::<N>(channel, cols, points, mode, values, jac)
+                };
+                return;
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2 (checked just above).
+                unsafe { self.jacobian_block_avx2::<N>(channel, cols, points, mode, values, jac) };
+                return;
+            }
+        }
+        self.jacobian_block_inline::<N>(channel, cols, points, mode, values, jac);
+    }
+
+    /// [`Self::jacobian_block_inline`] compiled with AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn jacobian_block_avx512<const N: usize>(
+        &self,
+        channel: Channel,
+        cols: Columns<'_>,
+        points: &[SlipInput],
+        mode: Mode,
+        values: &mut [f64],
+        jac: &mut [f64],
+    ) {
+        self.jacobian_block_inline::<N>(channel, cols, points, mode, values, jac);
+    }
+
+    /// [`Self::jacobian_block_inline`] compiled with AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn jacobian_block_avx2<const N: usize>(
+        &self,
+        channel: Channel,
+        cols: Columns<'_>,
+        points: &[SlipInput],
+        mode: Mode,
+        values: &mut [f64],
+        jac: &mut [f64],
+    ) {
+        self.jacobian_block_inline::<N>(channel, cols, points, mode, values, jac);
+    }
+
+    /// Values and the Jacobian columns of one block of at most `N` free coefficients.
+    #[inline(always)]
+    fn jacobian_block_inline<const N: usize>(
         &self,
         channel: Channel,
         cols: Columns<'_>,
@@ -447,6 +509,43 @@ mod tests {
                 Mode::Limits,
             );
         }
+    }
+
+    /// The dispatched (AVX2/AVX-512F) Jacobian equals the baseline build bit for bit.
+    #[test]
+    fn every_instruction_set_gives_the_same_bits() {
+        let tire = tire(1);
+        let free = free_for(Channel::Mz);
+        let block = &free[..16];
+        let points = crate::tire_model::test_support::random_points(40, 8, tire.coefs[FNOMIN]);
+        let cols = Columns {
+            free: block,
+            first: 0,
+            n_free: block.len(),
+        };
+        let run = |dispatched: bool| {
+            let mut values = vec![0.0; points.len()];
+            let mut jac = vec![0.0; points.len() * block.len()];
+            let args = (Channel::Mz, cols, &points[..], Mode::Limits);
+            if dispatched {
+                tire.jacobian_block::<16>(args.0, args.1, args.2, args.3, &mut values, &mut jac);
+            } else {
+                tire.jacobian_block_inline::<16>(
+                    args.0,
+                    args.1,
+                    args.2,
+                    args.3,
+                    &mut values,
+                    &mut jac,
+                );
+            }
+            values
+                .iter()
+                .chain(&jac)
+                .map(|x| x.to_bits())
+                .collect::<Vec<u64>>()
+        };
+        assert!(run(true) == run(false));
     }
 
     /// More than `MAX_BLOCK` free coefficients are evaluated block by block; the columns equal a
