@@ -18,11 +18,14 @@
 //! plain numbers (limits and switches), so their Jacobian columns are zero.
 
 use super::pac2002::{
-    Mode, Pac2002, SlipInput, TrailPeak, combined_fx, combined_fy, combined_mz, load,
+    Evaluation, Mode, Pac2002, SlipInput, TrailPeak, combined_fx, combined_fy, combined_mz, load,
     overturning_mx, pure_fx0, pure_fy0, pure_mz0, rolling_my, trail_terms,
 };
 use super::params::{Coef, Coef::*, Coefs};
 use super::real::{Dual, Real};
+
+/// Points per batch-evaluator call in [`Pac2002::channel_into`] (a stack buffer, no allocation).
+const CHANNEL_CHUNK: usize = 256;
 
 /// Widest dual number used; longer free lists are evaluated in blocks of this many coefficients.
 pub const MAX_BLOCK: usize = 32;
@@ -128,6 +131,10 @@ pub fn channel_value<T: Real>(
 impl Pac2002 {
     /// One channel at every point (the residual side of a fit); `values.len() == points.len()`.
     ///
+    /// The pure channels run the scalar per-family equations (only the families they need);
+    /// the combined channels and `Mx`, `My` need almost the whole model and run the batch
+    /// evaluator of [`Pac2002::eval_batch`] (within `1e-12` relative of the scalar path).
+    ///
     /// # Panics
     /// If the lengths differ.
     pub fn channel_into(
@@ -138,8 +145,29 @@ impl Pac2002 {
         values: &mut [f64],
     ) {
         assert_eq!(points.len(), values.len(), "channel_into: values length");
-        for (p, v) in points.iter().zip(values.iter_mut()) {
-            *v = channel_value(&self.coefs, p, mode, self.trail_peak, channel);
+        let pick: fn(&Evaluation<f64>) -> f64 = match channel {
+            Channel::Fx0 | Channel::Fy0 | Channel::Mz0 => {
+                for (p, v) in points.iter().zip(values.iter_mut()) {
+                    *v = channel_value(&self.coefs, p, mode, self.trail_peak, channel);
+                }
+                return;
+            }
+            Channel::Fx => |e| e.fx_n,
+            Channel::Fy => |e| e.fy_n,
+            Channel::Mz => |e| e.mz_nm,
+            Channel::Mx => |e| e.mx_nm,
+            Channel::My => |e| e.my_nm,
+        };
+        let mut buffer = [Evaluation::default(); CHANNEL_CHUNK];
+        for (pts, vals) in points
+            .chunks(CHANNEL_CHUNK)
+            .zip(values.chunks_mut(CHANNEL_CHUNK))
+        {
+            let evals = &mut buffer[..pts.len()];
+            self.eval_batch(pts, mode, evals);
+            for (v, e) in vals.iter_mut().zip(evals.iter()) {
+                *v = pick(e);
+            }
         }
     }
 
@@ -508,6 +536,31 @@ mod tests {
                 &points,
                 Mode::Limits,
             );
+        }
+    }
+
+    /// `channel_into` (batch evaluator for combined channels) agrees with the scalar
+    /// `channel_value` to 1e-12 relative to `max(|value|, 1)`, over more than one chunk.
+    #[test]
+    fn channel_into_matches_channel_value() {
+        for t in 0..2 {
+            let tire = tire(t);
+            let points = crate::tire_model::test_support::random_points(
+                2 * CHANNEL_CHUNK + 7,
+                4,
+                tire.coefs[FNOMIN],
+            );
+            let mut values = vec![0.0; points.len()];
+            for ch in Channel::ALL {
+                tire.channel_into(ch, &points, Mode::Limits, &mut values);
+                for (p, v) in points.iter().zip(&values) {
+                    let s = channel_value(&tire.coefs, p, Mode::Limits, tire.trail_peak, ch);
+                    assert!(
+                        (v - s).abs() <= 1e-12 * s.abs().max(1.0),
+                        "{ch:?} {p:?}: {v} vs {s}"
+                    );
+                }
+            }
         }
     }
 
