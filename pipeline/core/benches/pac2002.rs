@@ -1,14 +1,15 @@
 //! Criterion benchmarks of the PAC2002 evaluator: time per point of a combined-slip evaluation
 //! (all five outputs) over a batch of 10^5 points, and of a coefficient Jacobian.
 //!
-//! In: the bundled FSAE demo tire and 10^5 seeded random points over an FSAE envelope (continuous
-//! load, as measured data has). Out: criterion's report; divide the batch time by 10^5 (or read
+//! Run: `cargo bench -p tirebase-core` (about a minute). In: the bundled FSAE demo tire and
+//! 10^5 seeded random points over an FSAE envelope (continuous load, as measured data has). Out: criterion's report; divide the batch time by 10^5 (or read
 //! the throughput line) for ns per point. Single thread. Not a correctness check: the unit and
 //! property tests are.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+// `Coefs` and `SlipInput` are used by the included test-support module through `super::`.
 use tirebase_core::tire_model::{Channel, Coef, Coefs, Evaluation, Mode, Pac2002, SlipInput};
 
 #[path = "../tire_model/test_support.rs"]
@@ -31,6 +32,15 @@ fn combined(c: &mut Criterion) {
     group.sample_size(20);
     group.bench_function("eval_batch_limits", |b| {
         b.iter(|| tire.eval_batch(black_box(&points), Mode::Limits, &mut out))
+    });
+    // The scalar path (standard-library elementary functions, one point at a time): the
+    // "before" figure the batch evaluator is measured against.
+    group.bench_function("scalar_eval_loop_limits", |b| {
+        b.iter(|| {
+            for (p, slot) in black_box(&points).iter().zip(out.iter_mut()) {
+                *slot = tire.eval(p, Mode::Limits);
+            }
+        })
     });
     group.finish();
 }
