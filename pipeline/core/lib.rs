@@ -11,4 +11,7 @@
 //! the rest of the heavy dependency tree stay cheap to compile.
 
 pub mod frame;
+pub mod inertia;
+pub mod numerics;
+pub mod synth;
 pub mod tire_model;

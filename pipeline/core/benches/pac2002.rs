@@ -9,8 +9,8 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-// `Coefs` and `SlipInput` are used by the included test-support module through `super::`.
-use tirebase_core::tire_model::{Channel, Coef, Coefs, Evaluation, Mode, Pac2002, SlipInput};
+// `Coefs`, `SlipInput` and `tir` are used by the included test-support module via `super::`.
+use tirebase_core::tire_model::{Channel, Coef, Coefs, Evaluation, Mode, Pac2002, SlipInput, tir};
 
 #[path = "../tire_model/test_support.rs"]
 mod test_support;
@@ -18,9 +18,7 @@ mod test_support;
 const N_POINTS: usize = 100_000;
 
 fn fsae_tire() -> Pac2002 {
-    Pac2002::new(test_support::coefs_from_tir_lines(
-        test_support::FSAE_DEMO_TIR,
-    ))
+    Pac2002::new(test_support::coefs_from_tir(test_support::FSAE_DEMO_TIR))
 }
 
 fn combined(c: &mut Criterion) {

@@ -380,8 +380,8 @@ mod tests {
 
     #[test]
     fn fast_batch_matches_scalar_on_reference_grids() {
-        let fsae = Pac2002::new(coefs_from_tir_lines(FSAE_DEMO_TIR));
-        let sample = Pac2002::new(coefs_from_tir_lines(MFEVAL_SAMPLE_TIR));
+        let fsae = Pac2002::new(coefs_from_tir(FSAE_DEMO_TIR));
+        let sample = Pac2002::new(coefs_from_tir(MFEVAL_SAMPLE_TIR));
         for (name, tire, csv, mode) in [
             ("fsae-demo 111", &fsae, FSAE_DEMO_COMBINED_111, Mode::Limits),
             (
@@ -405,7 +405,7 @@ mod tests {
     /// The baseline, AVX2 and AVX-512F builds give the same bits (no fused multiply-add).
     #[test]
     fn every_instruction_set_gives_the_same_bits() {
-        let tire = Pac2002::new(coefs_from_tir_lines(MFEVAL_SAMPLE_TIR));
+        let tire = Pac2002::new(coefs_from_tir(MFEVAL_SAMPLE_TIR));
         let points = random_points(4 * LANES + 3, 21, tire.coefs[FNOMIN]);
         let run = |f: &dyn Fn(&mut [Evaluation<f64>])| {
             let mut out = vec![Evaluation::default(); points.len()];
@@ -452,7 +452,7 @@ mod tests {
     /// Batches shorter than, equal to and just past one block (padding of the last block).
     #[test]
     fn fast_batch_handles_every_length() {
-        let tire = Pac2002::new(coefs_from_tir_lines(FSAE_DEMO_TIR));
+        let tire = Pac2002::new(coefs_from_tir(FSAE_DEMO_TIR));
         let points = random_points(2 * LANES + 1, 9, tire.coefs[FNOMIN]);
         for n in [0, 1, 5, LANES - 1, LANES, LANES + 1, 2 * LANES + 1] {
             assert_close(
@@ -468,7 +468,7 @@ mod tests {
             ("fsae-demo", FSAE_DEMO_TIR),
             ("mfeval-sample", MFEVAL_SAMPLE_TIR),
         ] {
-            let tire = Pac2002::new(coefs_from_tir_lines(tir));
+            let tire = Pac2002::new(coefs_from_tir(tir));
             let mut points = random_points(200_000, 5, tire.coefs[FNOMIN]);
             // Edge lanes: zero load, below FZMIN, zero slip, standstill, low and reverse speed.
             let mut rng = SplitMix64(17);

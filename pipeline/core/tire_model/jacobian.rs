@@ -330,7 +330,7 @@ mod tests {
     use proptest::test_runner::RngSeed;
 
     use super::*;
-    use crate::tire_model::test_support::{FSAE_DEMO_TIR, MFEVAL_SAMPLE_TIR, coefs_from_tir_lines};
+    use crate::tire_model::test_support::{FSAE_DEMO_TIR, MFEVAL_SAMPLE_TIR, coefs_from_tir};
 
     /// Scaling factors added to every free list (most channels depend on a few of them).
     const SCALINGS: [Coef; 10] = [LFZO, LMUX, LMUY, LKX, LKY, LTR, LRES, LS, LMX, LMY];
@@ -417,9 +417,7 @@ mod tests {
     }
 
     fn tire(index: usize) -> Pac2002 {
-        Pac2002::new(coefs_from_tir_lines(
-            [FSAE_DEMO_TIR, MFEVAL_SAMPLE_TIR][index],
-        ))
+        Pac2002::new(coefs_from_tir([FSAE_DEMO_TIR, MFEVAL_SAMPLE_TIR][index]))
     }
 
     /// A point over (and a little beyond) the tire's envelope, with exact zeros of `kappa` and

@@ -4,11 +4,13 @@
 //! Pure code: no file system, no serde, no Arrow. Reading a `.tir` takes a `&str`.
 
 mod batch;
+pub mod factors;
 pub mod jacobian;
 mod lanes;
 pub mod pac2002;
 pub mod params;
 pub mod real;
+pub mod tir;
 
 pub use jacobian::{Channel, MAX_BLOCK};
 pub use pac2002::{Evaluation, Mode, Pac2002, SlipInput, TrailPeak};

@@ -645,8 +645,8 @@ mod tests {
 
     #[test]
     fn reference_grids_match_mfeval_to_1e_9() {
-        let fsae = coefs_from_tir_lines(FSAE_DEMO_TIR);
-        let sample = coefs_from_tir_lines(MFEVAL_SAMPLE_TIR);
+        let fsae = coefs_from_tir(FSAE_DEMO_TIR);
+        let sample = coefs_from_tir(MFEVAL_SAMPLE_TIR);
         for (name, coefs, csv, mode) in [
             ("fsae-demo 111", &fsae, FSAE_DEMO_COMBINED_111, Mode::Limits),
             (

@@ -1,9 +1,8 @@
 //! Test and benchmark support: the bundled reference tires and MFeval reference grids.
 //!
 //! In: the `.tir` and CSV files under `tests/fixtures/reference/` (compiled in with
-//! `include_str!`). Out: coefficient vectors and reference rows. Deliberately not a `.tir`
-//! reader: `coefs_from_tir_lines` only reads `KEY = number` lines into [`Coefs::defaults`].
-//! TODO(tir): replace it with the real reader once branch `tir` lands on main.
+//! `include_str!`). Out: coefficient vectors (through the real `.tir` reader) and reference
+//! rows, plus a seeded point generator.
 //!
 //! Compiled only for tests (`#[cfg(test)]` in `tire_model/mod.rs`) and included by path into the
 //! benchmarks, so nothing here is public API.
@@ -12,7 +11,7 @@
 
 // `super` is `tire_model` in the library and the benchmark's crate root in the benches; both
 // have these names in scope.
-use super::{Coef, Coefs, SlipInput};
+use super::{Coefs, SlipInput, tir::TirFile};
 
 /// The FSAE-size PAC2002 demo tire (`PDY1 < 0`, `QSX4..11` set).
 pub const FSAE_DEMO_TIR: &str =
@@ -33,21 +32,9 @@ pub const MFEVAL_SAMPLE_COMBINED_211: &str = include_str!(
     "../../../tests/fixtures/reference/mfeval-sample/mfeval_pac2002_combined_mode211.csv"
 );
 
-/// Read every `KEY = number` line whose key is a [`Coef`] into the defaults.
-/// TODO(tir): test-only stand-in for the `.tir` reader.
-pub fn coefs_from_tir_lines(text: &str) -> Coefs<f64> {
-    let mut coefs = Coefs::defaults();
-    for line in text.lines() {
-        let line = line.split(['$', '!']).next().unwrap_or("");
-        let Some((key, value)) = line.split_once('=') else {
-            continue;
-        };
-        let (Some(coef), Ok(value)) = (Coef::from_name(key), value.trim().parse::<f64>()) else {
-            continue;
-        };
-        coefs[coef] = value;
-    }
-    coefs
+/// The coefficients of a bundled `.tir` file (panics if it cannot be read: fixtures are fixed).
+pub fn coefs_from_tir(text: &str) -> Coefs<f64> {
+    TirFile::parse(text).expect("bundled .tir reads").0.coefs
 }
 
 /// One reference row: the input point and MFeval's `[Fx, Fy, Mx, My, Mz]`.
@@ -105,8 +92,8 @@ pub fn reference_rows(csv: &str) -> Vec<ReferenceRow> {
 /// The two reference tires, by name.
 pub fn reference_tires() -> [(&'static str, Coefs<f64>); 2] {
     [
-        ("fsae-demo", coefs_from_tir_lines(FSAE_DEMO_TIR)),
-        ("mfeval-sample", coefs_from_tir_lines(MFEVAL_SAMPLE_TIR)),
+        ("fsae-demo", coefs_from_tir(FSAE_DEMO_TIR)),
+        ("mfeval-sample", coefs_from_tir(MFEVAL_SAMPLE_TIR)),
     ]
 }
 
