@@ -397,8 +397,21 @@ mod tests {
                 Mode::Raw,
             ),
         ] {
-            let points: Vec<SlipInput> = reference_rows(csv).iter().map(|r| r.input).collect();
+            let rows = reference_rows(csv);
+            let points: Vec<SlipInput> = rows.iter().map(|r| r.input).collect();
             assert_close(name, worst_vs_scalar(tire, &points, mode));
+            // And directly against MFeval, at issue 2's 1e-9.
+            let mut fast = vec![Evaluation::default(); points.len()];
+            tire.eval_batch(&points, mode, &mut fast);
+            let mut worst: f64 = 0.0;
+            for (row, e) in rows.iter().zip(&fast) {
+                let ours = [e.fx_n, e.fy_n, e.mx_nm, e.my_nm, e.mz_nm];
+                for (a, b) in ours.iter().zip(row.outputs) {
+                    worst = worst.max((a - b).abs() / b.abs().max(1.0));
+                }
+            }
+            eprintln!("{name}: eval_batch vs MFeval, worst relative error {worst:.1e}");
+            assert!(worst <= 1e-9, "{name}: eval_batch vs MFeval {worst:e}");
         }
     }
 
