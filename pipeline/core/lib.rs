@@ -11,4 +11,5 @@
 //! the rest of the heavy dependency tree stay cheap to compile.
 
 pub mod frame;
+pub mod segment;
 pub mod tire_model;

@@ -1,0 +1,270 @@
+//! Pass 6, QC: raw channels + final segments -> QC flags per segment.
+//!
+//! In: the raw [`RunSignals`], the [`Timeline`] (ET anomalies), the pressure dropouts found by
+//! preparation, the segments' ranges and kinds. Out: one sorted, deduplicated flag list per
+//! segment. A finding covering a stretch flags every segment the stretch overlaps.
+//!
+//! Rules: `zero_pressure` where P <= `qc.zero_pressure_max_kpa` for `qc.zero_min_s`;
+//! `zeroed_channel:<name>` where a channel is exactly 0 for `qc.zero_min_s` while its neighbours
+//! on either side are clearly non-zero (a channel that is legitimately ~0 there, like SA at a
+//! dwell or V at a static hold, is not flagged); `non_monotonic_et` / `duplicated_et` at ET
+//! steps back / repeats; `too_short` for a classified segment under `qc.too_short_min_s`, a sweep
+//! cycle with only one big excursion, or a sweep under `qc.too_short_frac` of its kind's median
+//! length in the run; `load_drift` when the least-squares FZ trend across a held-load segment
+//! exceeds `qc.load_drift`; `saturated_channel:<name>` when a force, temperature or extra channel
+//! sits exactly at its run extreme for `qc.saturation_min_s`. Off-nominal flags come from binning.
+//! Deliberately not here: deciding what to do with flagged data (the fitting stages do).
+
+use std::ops::Range;
+
+use super::config::SegmentConfig;
+use super::gaps::Timeline;
+use super::output::{QcFlag, SegmentKind};
+use super::prepare::{is_exact_zero, median, zero_runs};
+use super::signals::RunSignals;
+
+/// What QC needs to know about a segment.
+pub(crate) struct Draft {
+    pub samples: Range<usize>,
+    pub kind: SegmentKind,
+    /// Big excursions of a sweep cycle (2 = complete).
+    pub parts: usize,
+}
+
+/// Samples on each side of a zero stretch used to judge whether the channel should be non-zero.
+const NEIGHBOURS: usize = 10;
+
+/// Flags for every draft (same order).
+pub(crate) fn flag(
+    signals: &RunSignals,
+    timeline: &Timeline,
+    pressure_dropouts: &[Range<usize>],
+    drafts: &[Draft],
+    cfg: &SegmentConfig,
+) -> Vec<Vec<QcFlag>> {
+    let mut flags: Vec<Vec<QcFlag>> = vec![Vec::new(); drafts.len()];
+    let starts: Vec<usize> = drafts.iter().map(|d| d.samples.start).collect();
+    let mut mark = |range: Range<usize>, flag: &QcFlag| {
+        let first = starts.partition_point(|&s| s <= range.start).saturating_sub(1);
+        for (k, d) in drafts.iter().enumerate().skip(first) {
+            if d.samples.start >= range.end.max(range.start + 1) {
+                break;
+            }
+            if d.samples.end > range.start {
+                flags[k].push(flag.clone());
+            }
+        }
+    };
+    for &i in &timeline.non_monotonic {
+        mark(i..i + 1, &QcFlag::NonMonotonicEt);
+    }
+    for &i in &timeline.duplicated {
+        mark(i..i + 1, &QcFlag::DuplicatedEt);
+    }
+    for r in pressure_dropouts {
+        mark(r.clone(), &QcFlag::ZeroPressure);
+    }
+    let min_zero = timeline.samples(cfg.qc.zero_min_s);
+    for (name, x) in zero_checked(signals) {
+        for r in zeroed_stretches(x, min_zero, cfg.qc.zeroed_neighbour_frac) {
+            mark(r, &QcFlag::ZeroedChannel(name.to_string()));
+        }
+    }
+    let min_sat = timeline.samples(cfg.qc.saturation_min_s);
+    for (name, x) in saturation_checked(signals) {
+        for r in saturated_stretches(x, min_sat) {
+            mark(r, &QcFlag::SaturatedChannel(name.to_string()));
+        }
+    }
+    shape_flags(signals, timeline, drafts, cfg, &mut flags);
+    for f in &mut flags {
+        f.sort();
+        f.dedup();
+    }
+    flags
+}
+
+/// Channels checked for zeroed stretches (pressure has its own flag).
+fn zero_checked<'a>(s: &RunSignals<'a>) -> Vec<(&'a str, &'a [f64])> {
+    s.required()
+        .into_iter()
+        .filter(|(name, _)| !matches!(*name, "et_s" | "pressure_kpa"))
+        .collect()
+}
+
+/// Channels checked for saturation: measured responses, not commanded set-points.
+fn saturation_checked<'a>(s: &RunSignals<'a>) -> Vec<(&'a str, &'a [f64])> {
+    let mut out: Vec<(&'a str, &'a [f64])> = vec![("fy_n", s.fy_n), ("fx_n", s.fx_n)];
+    if let Some(t) = s.tread_temps {
+        out.extend([
+            ("tread_inner_c", t.inner_c),
+            ("tread_centre_c", t.centre_c),
+            ("tread_outer_c", t.outer_c),
+        ]);
+    }
+    out.extend(s.extra.iter().copied());
+    out
+}
+
+/// Exact-zero stretches whose neighbours exceed `frac` of the channel's 95th percentile |x|.
+fn zeroed_stretches(x: &[f64], min_len: usize, frac: f64) -> Vec<Range<usize>> {
+    let runs = zero_runs(x, min_len, &is_exact_zero);
+    if runs.is_empty() {
+        return runs;
+    }
+    let mut mags: Vec<f64> = x.iter().map(|v| v.abs()).collect();
+    let k = (mags.len() * 95 / 100).min(mags.len() - 1);
+    let (_, p95, _) = mags.select_nth_unstable_by(k, f64::total_cmp);
+    let floor = frac * *p95;
+    if floor <= 0.0 {
+        return Vec::new();
+    }
+    let side = |r: Range<usize>| {
+        let mut v: Vec<f64> = x[r].iter().map(|v| v.abs()).collect();
+        median(&mut v).unwrap_or(0.0)
+    };
+    runs.into_iter()
+        .filter(|r| {
+            let left = side(r.start.saturating_sub(NEIGHBOURS)..r.start);
+            let right = side(r.end..(r.end + NEIGHBOURS).min(x.len()));
+            left.max(right) > floor
+        })
+        .collect()
+}
+
+/// Stretches of at least `min_len` samples exactly at the channel's run maximum or minimum
+/// (a constant or exactly-zero channel is not saturation).
+fn saturated_stretches(x: &[f64], min_len: usize) -> Vec<Range<usize>> {
+    let (lo, hi) = x
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    if !(hi > lo) {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    for extreme in [hi, lo] {
+        if is_exact_zero(extreme) {
+            continue;
+        }
+        let eps = 1e-9 * extreme.abs().max(1.0);
+        out.extend(zero_runs(x, min_len, &|v| (v - extreme).abs() <= eps));
+    }
+    out.sort_by_key(|r| r.start);
+    out
+}
+
+fn is_sweep(kind: SegmentKind) -> bool {
+    matches!(
+        kind,
+        SegmentKind::ColdToWarm
+            | SegmentKind::Conditioning
+            | SegmentKind::Cornering
+            | SegmentKind::DriveBrake
+            | SegmentKind::Combined
+            | SegmentKind::SpeedSweep
+    )
+}
+
+fn holds_load(kind: SegmentKind) -> bool {
+    !matches!(
+        kind,
+        SegmentKind::Other | SegmentKind::SpringRateStatic | SegmentKind::SpringRateDynamic
+    )
+}
+
+/// `too_short` and `load_drift`.
+fn shape_flags(
+    signals: &RunSignals,
+    timeline: &Timeline,
+    drafts: &[Draft],
+    cfg: &SegmentConfig,
+    flags: &mut [Vec<QcFlag>],
+) {
+    let q = &cfg.qc;
+    let min_len = timeline.samples(q.too_short_min_s);
+    let typical = |kind: SegmentKind| {
+        let mut lens: Vec<f64> = drafts
+            .iter()
+            .filter(|d| d.kind == kind)
+            .map(|d| d.samples.len() as f64)
+            .collect();
+        median(&mut lens).unwrap_or(0.0)
+    };
+    for (d, f) in drafts.iter().zip(flags.iter_mut()) {
+        if d.kind == SegmentKind::Other {
+            continue;
+        }
+        let n = d.samples.len();
+        let short = n < min_len
+            || (is_sweep(d.kind) && (d.parts < 2 || (n as f64) < q.too_short_frac * typical(d.kind)));
+        if short {
+            f.push(QcFlag::TooShort);
+        }
+        if holds_load(d.kind) {
+            let (drift, mean) = trend(&signals.fz_n[d.samples.clone()]);
+            if drift.abs() > q.load_drift.at(mean) {
+                f.push(QcFlag::LoadDrift);
+            }
+        }
+    }
+}
+
+/// Least-squares change across the slice (slope times length) and the mean, exact zeros skipped.
+fn trend(x: &[f64]) -> (f64, f64) {
+    let pts: Vec<(f64, f64)> = x
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| !is_exact_zero(**v))
+        .map(|(i, v)| (i as f64, *v))
+        .collect();
+    let n = pts.len() as f64;
+    if pts.len() < 3 {
+        return (0.0, pts.first().map_or(0.0, |p| p.1));
+    }
+    let (mt, mx) = pts
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (t, v)| (a + t / n, b + v / n));
+    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |(a, b), (t, v)| {
+        (a + (t - mt) * (v - mx), b + (t - mt) * (t - mt))
+    });
+    let span = pts[pts.len() - 1].0 - pts[0].0;
+    ((sxy / sxx) * span, mx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn zeros_inside_a_live_signal_are_flagged_zeros_at_rest_are_not() {
+        let mut fy: Vec<f64> = (0..200).map(|i| 1000.0 * (i as f64 * 0.05).sin()).collect();
+        for v in &mut fy[50..80] {
+            *v = 0.0;
+        }
+        assert_eq!(zeroed_stretches(&fy, 10, 0.05), vec![50..80]);
+        let mut v = vec![40.0; 100];
+        v.extend(std::iter::repeat_n(0.0, 100));
+        for (k, s) in v[95..100].iter_mut().enumerate() {
+            *s = 0.1 * (5 - k) as f64;
+        }
+        assert!(zeroed_stretches(&v, 10, 0.05).is_empty(), "speed at a static hold");
+    }
+
+    #[test]
+    fn a_clipped_channel_is_saturated() {
+        let mut t: Vec<f64> = (0..100).map(|i| 40.0 + i as f64 * 0.3).collect();
+        for v in &mut t[60..] {
+            *v = 60.0;
+        }
+        let x: Vec<f64> = t.iter().map(|v| v.min(60.0)).collect();
+        assert_eq!(saturated_stretches(&x, 10), vec![60..100]);
+        assert!(saturated_stretches(&[5.0; 50], 10).is_empty());
+    }
+
+    #[test]
+    fn trend_measures_drift() {
+        let x: Vec<f64> = (0..101).map(|i| 1000.0 + i as f64).collect();
+        let (drift, mean) = trend(&x);
+        assert!((drift - 100.0).abs() < 1e-6 && (mean - 1050.0).abs() < 1e-6);
+    }
+}
