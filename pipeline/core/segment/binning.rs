@@ -10,7 +10,9 @@
 use std::ops::Range;
 
 use super::config::{LevelConfig, Tolerance};
-use super::output::{ChannelStats, Level, MeasuredLevels, NominalLevels, SegmentKind, SweepVariable};
+use super::output::{
+    ChannelStats, Level, MeasuredLevels, NominalLevels, SegmentKind, SweepVariable,
+};
 use super::prepare::Dropouts;
 use super::signals::RunSignals;
 
@@ -170,7 +172,11 @@ mod tests {
     fn nearest_level_within_tolerance_or_none() {
         let cfg = LevelConfig::default();
         assert_eq!(nearest(1101.0, &cfg.fz_n, cfg.fz_tol), Some(1112));
-        assert_eq!(nearest(1334.0, &cfg.fz_n, cfg.fz_tol), None, "300 lb is no nominal");
+        assert_eq!(
+            nearest(1334.0, &cfg.fz_n, cfg.fz_tol),
+            None,
+            "300 lb is no nominal"
+        );
         assert_eq!(nearest(85.9, &cfg.pressure_kpa, cfg.pressure_tol), Some(83));
         assert_eq!(nearest(-2.96, &cfg.alpha_deg, cfg.alpha_tol), Some(-3));
         assert_eq!(nearest(40.2, &cfg.speed_kph, cfg.speed_tol), Some(40));
@@ -192,10 +198,20 @@ mod tests {
             alpha_deg: Some(0),
             speed_kph: Some(40),
         };
-        let (n, off) = nominal_for(SegmentKind::Cornering, Some(SweepVariable::SlipAngle), &bins, None);
+        let (n, off) = nominal_for(
+            SegmentKind::Cornering,
+            Some(SweepVariable::SlipAngle),
+            &bins,
+            None,
+        );
         assert_eq!(n.alpha_deg, None);
         assert_eq!(off, vec![Level::Load]);
-        let (n, off) = nominal_for(SegmentKind::SpringRateStatic, Some(SweepVariable::Load), &bins, None);
+        let (n, off) = nominal_for(
+            SegmentKind::SpringRateStatic,
+            Some(SweepVariable::Load),
+            &bins,
+            None,
+        );
         assert_eq!((n.fz_n, n.ia_deg), (None, Some(2)));
         assert!(off.is_empty());
     }

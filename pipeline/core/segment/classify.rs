@@ -45,7 +45,14 @@ pub(crate) struct Classified {
 }
 
 /// The set-point key of a sweep cycle.
-type Key = (SweepVariable, Option<i32>, Option<i32>, Option<i32>, Option<i32>, Option<i32>);
+type Key = (
+    SweepVariable,
+    Option<i32>,
+    Option<i32>,
+    Option<i32>,
+    Option<i32>,
+    Option<i32>,
+);
 
 fn key(d: &Detection, bins: &NominalLevels) -> Option<Key> {
     let var = match d.motion {
@@ -53,8 +60,17 @@ fn key(d: &Detection, bins: &NominalLevels) -> Option<Key> {
         Motion::SlSweep => SweepVariable::LongitudinalSlip,
         _ => return None,
     };
-    let alpha = (var == SweepVariable::LongitudinalSlip).then_some(bins.alpha_deg).flatten();
-    Some((var, bins.pressure_kpa, bins.ia_deg, bins.fz_n, bins.speed_kph, alpha))
+    let alpha = (var == SweepVariable::LongitudinalSlip)
+        .then_some(bins.alpha_deg)
+        .flatten();
+    Some((
+        var,
+        bins.pressure_kpa,
+        bins.ia_deg,
+        bins.fz_n,
+        bins.speed_kph,
+        alpha,
+    ))
 }
 
 struct Train {

@@ -87,7 +87,7 @@ pub struct SmoothingConfig {
 }
 
 /// Slip activity: a sample is active when the slip angle or the longitudinal slip is away from
-/// zero. Activity episodes are the unit sweeps and step steers are found in.
+/// zero or moving. Activity episodes are the unit sweeps and step steers are found in.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ActivityConfig {
@@ -95,6 +95,10 @@ pub struct ActivityConfig {
     pub sa_active_deg: f64,
     /// |SL - SL at free rolling| above this is active, -.
     pub sl_active: f64,
+    /// |dSA/dt| above this is active too (a sweep passing through zero), deg/s.
+    pub sa_rate_active_deg_s: f64,
+    /// |dSL/dt| above this is active too, 1/s.
+    pub sl_rate_active_per_s: f64,
     /// SL is only looked at above this road speed (SL/SR are meaningless at V ~ 0), km/h.
     pub rolling_min_kph: f64,
     /// Quiet stretches shorter than this inside activity are bridged (a sweep crossing zero), s.
@@ -182,7 +186,8 @@ pub struct SpringRateConfig {
     pub static_max_kph: f64,
 }
 
-/// Inclination sweeps: IA ramps through a wide span at SA ~ 0, rolling and loaded.
+/// Inclination sweeps: IA ramps through a wide span at SA ~ 0, rolling, loaded, at a held load
+/// (spread within the plateau load band) and not too quickly.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct IaSweepConfig {
@@ -194,6 +199,8 @@ pub struct IaSweepConfig {
     pub pause_max_s: f64,
     /// The tire must carry at least this load, N.
     pub loaded_min_n: f64,
+    /// A sweep lasts at least this long (a quick IA repositioning is no sweep), s.
+    pub min_duration_s: f64,
 }
 
 /// Classification of sweep cycles (see `classify.rs` for the rules these feed).
@@ -288,6 +295,8 @@ impl Default for ActivityConfig {
         ActivityConfig {
             sa_active_deg: 0.5,
             sl_active: 0.03,
+            sa_rate_active_deg_s: 1.0,
+            sl_rate_active_per_s: 0.01,
             rolling_min_kph: 2.0,
             quiet_min_s: 1.0,
             active_min_s: 0.5,
@@ -363,6 +372,7 @@ impl Default for IaSweepConfig {
             rate_min_deg_s: 0.2,
             pause_max_s: 0.5,
             loaded_min_n: 100.0,
+            min_duration_s: 3.0,
         }
     }
 }
@@ -426,7 +436,7 @@ impl Default for QcConfig {
             too_short_frac: 0.5,
             too_short_min_s: 1.0,
             load_drift: Tolerance {
-                abs: 50.0,
+                abs: 30.0,
                 frac: 0.05,
             },
         }
@@ -441,7 +451,10 @@ impl SegmentConfig {
             ("gaps.gap_factor", self.gaps.gap_factor),
             ("smoothing.window_s", self.smoothing.window_s),
             ("smoothing.rate_window_s", self.smoothing.rate_window_s),
-            ("smoothing.ia_rate_window_s", self.smoothing.ia_rate_window_s),
+            (
+                "smoothing.ia_rate_window_s",
+                self.smoothing.ia_rate_window_s,
+            ),
             ("activity.sa_active_deg", self.activity.sa_active_deg),
             ("activity.sl_active", self.activity.sl_active),
             ("activity.quiet_min_s", self.activity.quiet_min_s),
@@ -485,8 +498,7 @@ impl SegmentConfig {
             ("qc.load_drift", self.qc.load_drift),
         ];
         for (key, tol) in tolerances {
-            if !(tol.abs.is_finite() && tol.abs > 0.0 && tol.frac.is_finite() && tol.frac >= 0.0)
-            {
+            if !(tol.abs.is_finite() && tol.abs > 0.0 && tol.frac.is_finite() && tol.frac >= 0.0) {
                 return Err(SegmentError::Config {
                     key,
                     reason: format!("needs abs > 0 and frac >= 0, got {tol:?}"),
@@ -517,7 +529,10 @@ impl SegmentConfig {
         if self.classify.cold_to_warm_min_cycles < 2 {
             return Err(SegmentError::Config {
                 key: "classify.cold_to_warm_min_cycles",
-                reason: format!("must be >= 2, got {}", self.classify.cold_to_warm_min_cycles),
+                reason: format!(
+                    "must be >= 2, got {}",
+                    self.classify.cold_to_warm_min_cycles
+                ),
             });
         }
         Ok(())

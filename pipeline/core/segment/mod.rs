@@ -41,13 +41,12 @@ use std::collections::BTreeMap;
 use std::ops::Range;
 
 pub use config::{
-    ActivityConfig, ClassifyConfig, GapConfig, IaSweepConfig, LevelConfig, PlateauConfig,
-    QcConfig, SegmentConfig, SmoothingConfig, SpringRateConfig, StepSteerConfig, SweepConfig,
-    Tolerance,
+    ActivityConfig, ClassifyConfig, GapConfig, IaSweepConfig, LevelConfig, PlateauConfig, QcConfig,
+    SegmentConfig, SmoothingConfig, SpringRateConfig, StepSteerConfig, SweepConfig, Tolerance,
 };
 pub use output::{
-    ChannelStats, Level, MeasuredLevels, NominalLevels, QcFlag, RunClass, RunSegmentation,
-    Segment, SegmentKind, SweepVariable,
+    ChannelStats, Level, MeasuredLevels, NominalLevels, QcFlag, RunClass, RunSegmentation, Segment,
+    SegmentKind, SweepVariable,
 };
 pub use signals::{RunSignals, TreadTemps};
 
@@ -185,7 +184,8 @@ fn finish(
         s.measured = source.measure(s.samples.clone());
     }
     let bins = binning::bin_all(&s.measured, &cfg.levels);
-    let held = held_sa_deg.map(|a| binning::nearest(a, &cfg.levels.alpha_deg, cfg.levels.alpha_tol));
+    let held =
+        held_sa_deg.map(|a| binning::nearest(a, &cfg.levels.alpha_deg, cfg.levels.alpha_tol));
     let (nominal, off) = binning::nominal_for(s.kind, s.sweep, &bins, held);
     s.nominal = nominal;
     s.sweep_rate = rate;

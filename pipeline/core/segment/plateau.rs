@@ -59,9 +59,17 @@ pub(crate) fn level_runs(x: &[f64], tol: Tolerance) -> Vec<LevelRun> {
 
 /// Runs of at least `min_len` samples; two of them at the same level (within `tol`) separated
 /// by at most `blip_max` samples of shorter runs are merged, the excursion included.
-pub(crate) fn held_runs(x: &[f64], tol: Tolerance, min_len: usize, blip_max: usize) -> Vec<LevelRun> {
+pub(crate) fn held_runs(
+    x: &[f64],
+    tol: Tolerance,
+    min_len: usize,
+    blip_max: usize,
+) -> Vec<LevelRun> {
     let mut held: Vec<LevelRun> = Vec::new();
-    for run in level_runs(x, tol).into_iter().filter(|r| r.len() >= min_len) {
+    for run in level_runs(x, tol)
+        .into_iter()
+        .filter(|r| r.len() >= min_len)
+    {
         if let Some(last) = held.last_mut() {
             let gap = run.start - last.end;
             if gap <= blip_max && (run.mean - last.mean).abs() <= tol.at(last.mean) {
@@ -76,9 +84,30 @@ pub(crate) fn held_runs(x: &[f64], tol: Tolerance, min_len: usize, blip_max: usi
     held
 }
 
+/// Least-squares change across `x` (fitted slope times the span), 0 for fewer than 2 samples.
+pub(crate) fn linear_change(x: &[f64]) -> f64 {
+    let n = x.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let mt = (n - 1) as f64 / 2.0;
+    let mx = x.iter().sum::<f64>() / n as f64;
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (i, v) in x.iter().enumerate() {
+        let dt = i as f64 - mt;
+        sxy += dt * (v - mx);
+        sxx += dt * dt;
+    }
+    sxy / sxx * (n - 1) as f64
+}
+
 /// Stretches where every channel is inside one of its held runs, cut at every run boundary
 /// of any channel, at least `min_len` long.
-pub(crate) fn held_pieces(len: usize, channels: &[Vec<LevelRun>], min_len: usize) -> Vec<Range<usize>> {
+pub(crate) fn held_pieces(
+    len: usize,
+    channels: &[Vec<LevelRun>],
+    min_len: usize,
+) -> Vec<Range<usize>> {
     let mut cuts: Vec<usize> = vec![0, len];
     for runs in channels {
         for r in runs {
@@ -123,7 +152,11 @@ mod tests {
         let held = held_runs(&x, Tolerance::fixed(30.0), 20, 10);
         assert_eq!(held.len(), 2);
         assert_eq!((held[0].start, held[0].end), (0, 50));
-        assert_eq!((held[1].start, held[1].end), (50, 101));
+        assert_eq!(
+            (held[1].start, held[1].end),
+            (50, 104),
+            "the ramp's first 60 N join the level"
+        );
         assert!((held[0].mean - 100.0).abs() < 1e-9);
     }
 
@@ -139,21 +172,45 @@ mod tests {
 
     #[test]
     fn relative_tolerance_scales_with_level() {
-        let tol = Tolerance { abs: 10.0, frac: 0.1 };
+        let tol = Tolerance {
+            abs: 10.0,
+            frac: 0.1,
+        };
         let x = steps(&[(1500.0, 30), (1600.0, 30)]);
-        assert_eq!(level_runs(&x, tol).len(), 1, "100 N apart at 1550 N is within +-155 N");
+        assert_eq!(
+            level_runs(&x, tol).len(),
+            1,
+            "100 N apart at 1550 N is within +-155 N"
+        );
         let y = steps(&[(150.0, 30), (250.0, 30)]);
         assert_eq!(level_runs(&y, tol).len(), 2);
     }
 
     #[test]
+    fn linear_change_of_a_ramp_is_its_rise() {
+        let x: Vec<f64> = (0..11).map(|i| 5.0 + 2.0 * i as f64).collect();
+        assert!((linear_change(&x) - 20.0).abs() < 1e-9);
+        assert!(linear_change(&[3.0; 8]).abs() < 1e-12);
+    }
+
+    #[test]
     fn pieces_are_cut_where_any_channel_changes() {
-        let a = vec![
-            LevelRun { start: 0, end: 100, mean: 1.0 },
-        ];
+        let a = vec![LevelRun {
+            start: 0,
+            end: 100,
+            mean: 1.0,
+        }];
         let b = vec![
-            LevelRun { start: 0, end: 40, mean: 1.0 },
-            LevelRun { start: 45, end: 100, mean: 2.0 },
+            LevelRun {
+                start: 0,
+                end: 40,
+                mean: 1.0,
+            },
+            LevelRun {
+                start: 45,
+                end: 100,
+                mean: 2.0,
+            },
         ];
         assert_eq!(held_pieces(100, &[a, b], 10), vec![0..40, 45..100]);
     }

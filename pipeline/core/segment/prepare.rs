@@ -59,19 +59,32 @@ pub(crate) fn prepare(signals: &RunSignals, timeline: &Timeline, cfg: &SegmentCo
     let min_zero = timeline.samples(cfg.qc.zero_min_s);
     let p_floor = cfg.qc.zero_pressure_max_kpa;
     let mut dropouts = Dropouts::default();
-    let bridged = |x: &[f64], is_zero: &dyn Fn(f64) -> bool, keep: Option<&mut Vec<Range<usize>>>| {
-        let runs = zero_runs(x, min_zero, is_zero);
-        let out = bridge(x, &runs);
-        if let Some(keep) = keep {
-            *keep = runs;
-        }
-        out
-    };
+    let bridged =
+        |x: &[f64], is_zero: &dyn Fn(f64) -> bool, keep: Option<&mut Vec<Range<usize>>>| {
+            let runs = zero_runs(x, min_zero, is_zero);
+            let out = bridge(x, &runs);
+            if let Some(keep) = keep {
+                *keep = runs;
+            }
+            out
+        };
     let deg = |x: &[f64]| -> Vec<f64> { x.iter().map(|r| r.to_degrees()).collect() };
-    let sa = bridged(&deg(signals.alpha_rad), &is_exact_zero, Some(&mut dropouts.sa));
-    let ia = bridged(&deg(signals.gamma_rad), &is_exact_zero, Some(&mut dropouts.ia));
+    let sa = bridged(
+        &deg(signals.alpha_rad),
+        &is_exact_zero,
+        Some(&mut dropouts.sa),
+    );
+    let ia = bridged(
+        &deg(signals.gamma_rad),
+        &is_exact_zero,
+        Some(&mut dropouts.ia),
+    );
     let fz = bridged(signals.fz_n, &is_exact_zero, Some(&mut dropouts.fz));
-    let p = bridged(signals.pressure_kpa, &|x| x.abs() <= p_floor, Some(&mut dropouts.p));
+    let p = bridged(
+        signals.pressure_kpa,
+        &|x| x.abs() <= p_floor,
+        Some(&mut dropouts.p),
+    );
     let v = bridged(signals.speed_kph, &is_exact_zero, Some(&mut dropouts.v));
     let has_sl = signals.has_kappa && !signals.kappa.is_empty();
     let sl = if has_sl {
@@ -90,7 +103,9 @@ pub(crate) fn prepare(signals: &RunSignals, timeline: &Timeline, cfg: &SegmentCo
     let sl = smooth(&sl);
     let ia_deg = smooth(&ia);
     let rate = |x: &[f64], h: usize| {
-        per_block(x, &timeline.blocks, |b| centred_rate(b, h, timeline.period_s))
+        per_block(x, &timeline.blocks, |b| {
+            centred_rate(b, h, timeline.period_s)
+        })
     };
     Prepared {
         sa_rate: rate(&sa_deg, rate_half),

@@ -11,8 +11,9 @@
 //! steps back / repeats; `too_short` for a classified segment under `qc.too_short_min_s`, a sweep
 //! cycle with only one big excursion, or a sweep under `qc.too_short_frac` of its kind's median
 //! length in the run; `load_drift` when the least-squares FZ trend across a held-load segment
-//! exceeds `qc.load_drift`; `saturated_channel:<name>` when a force, temperature or extra channel
-//! sits exactly at its run extreme for `qc.saturation_min_s`. Off-nominal flags come from binning.
+//! (read at low tire force, where load control is not disturbed) exceeds `qc.load_drift`;
+//! `saturated_channel:<name>` when a live (noisy) force, temperature or extra channel sits
+//! exactly at its run extreme for `qc.saturation_min_s`. Off-nominal flags come from binning.
 //! Deliberately not here: deciding what to do with flagged data (the fitting stages do).
 
 use std::ops::Range;
@@ -32,7 +33,11 @@ pub(crate) struct Draft {
 }
 
 /// Samples on each side of a zero stretch used to judge whether the channel should be non-zero.
-const NEIGHBOURS: usize = 10;
+const NEIGHBOURS: usize = 3;
+
+/// A channel whose consecutive samples repeat exactly in more than this fraction of steps is
+/// too smooth (or too coarse) for "sitting exactly at its extreme" to mean clipping.
+const SMOOTH_REPEAT_FRAC: f64 = 0.2;
 
 /// Flags for every draft (same order).
 pub(crate) fn flag(
@@ -45,7 +50,9 @@ pub(crate) fn flag(
     let mut flags: Vec<Vec<QcFlag>> = vec![Vec::new(); drafts.len()];
     let starts: Vec<usize> = drafts.iter().map(|d| d.samples.start).collect();
     let mut mark = |range: Range<usize>, flag: &QcFlag| {
-        let first = starts.partition_point(|&s| s <= range.start).saturating_sub(1);
+        let first = starts
+            .partition_point(|&s| s <= range.start)
+            .saturating_sub(1);
         for (k, d) in drafts.iter().enumerate().skip(first) {
             if d.samples.start >= range.end.max(range.start + 1) {
                 break;
@@ -106,7 +113,9 @@ fn saturation_checked<'a>(s: &RunSignals<'a>) -> Vec<(&'a str, &'a [f64])> {
     out
 }
 
-/// Exact-zero stretches whose neighbours exceed `frac` of the channel's 95th percentile |x|.
+/// Exact-zero stretches whose neighbours on both sides (the one side at a run end) exceed `frac`
+/// of the channel's 95th percentile |x|: a live signal that drops to zero, not a quiet channel
+/// passing through zero.
 fn zeroed_stretches(x: &[f64], min_len: usize, frac: f64) -> Vec<Range<usize>> {
     let runs = zero_runs(x, min_len, &is_exact_zero);
     if runs.is_empty() {
@@ -125,20 +134,37 @@ fn zeroed_stretches(x: &[f64], min_len: usize, frac: f64) -> Vec<Range<usize>> {
     };
     runs.into_iter()
         .filter(|r| {
-            let left = side(r.start.saturating_sub(NEIGHBOURS)..r.start);
-            let right = side(r.end..(r.end + NEIGHBOURS).min(x.len()));
-            left.max(right) > floor
+            let left = (r.start > 0).then(|| side(r.start.saturating_sub(NEIGHBOURS)..r.start));
+            let right = (r.end < x.len()).then(|| side(r.end..(r.end + NEIGHBOURS).min(x.len())));
+            match (left, right) {
+                (Some(l), Some(r)) => l.min(r) > floor,
+                (Some(one), None) | (None, Some(one)) => one > floor,
+                (None, None) => false,
+            }
         })
         .collect()
 }
 
-/// Stretches of at least `min_len` samples exactly at the channel's run maximum or minimum
-/// (a constant or exactly-zero channel is not saturation).
+/// Stretches of at least `min_len` samples exactly at the channel's run maximum or minimum.
+/// Only for channels that are live sample to sample (noise): a smooth or coarse channel (exact
+/// repeats in over 20 % of steps) naturally lingers at its extreme, and a zero extreme is the
+/// zeroed-channel check's business.
 fn saturated_stretches(x: &[f64], min_len: usize) -> Vec<Range<usize>> {
     let (lo, hi) = x
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
-    if !(hi > lo) {
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    if hi <= lo {
+        return Vec::new();
+    }
+    let inside = |v: f64| v > lo && v < hi;
+    let (mut steps, mut repeats) = (0usize, 0usize);
+    for w in x.windows(2).filter(|w| inside(w[0]) && inside(w[1])) {
+        steps += 1;
+        repeats += usize::from((w[1] - w[0]).abs() <= 0.0);
+    }
+    if repeats as f64 > SMOOTH_REPEAT_FRAC * steps as f64 {
         return Vec::new();
     }
     let mut out = Vec::new();
@@ -196,17 +222,38 @@ fn shape_flags(
         }
         let n = d.samples.len();
         let short = n < min_len
-            || (is_sweep(d.kind) && (d.parts < 2 || (n as f64) < q.too_short_frac * typical(d.kind)));
+            || (is_sweep(d.kind)
+                && (d.parts < 2 || (n as f64) < q.too_short_frac * typical(d.kind)));
         if short {
             f.push(QcFlag::TooShort);
         }
         if holds_load(d.kind) {
-            let (drift, mean) = trend(&signals.fz_n[d.samples.clone()]);
+            let (drift, mean) = trend(&low_force_load(signals, d.samples.clone()));
             if drift.abs() > q.load_drift.at(mean) {
                 f.push(QcFlag::LoadDrift);
             }
         }
     }
+}
+
+/// FZ over a segment with the samples of high tire force set to exact zero (skipped by
+/// [`trend`]): load control wanders with the force, so the baseline is read where the force is
+/// low (|FX| + |FY| within a quarter of its segment maximum), e.g. at every zero crossing of a
+/// sweep. Falls back to every sample when fewer than 10 qualify.
+fn low_force_load(signals: &RunSignals, r: Range<usize>) -> Vec<f64> {
+    let force: Vec<f64> = r
+        .clone()
+        .map(|i| signals.fx_n[i].abs() + signals.fy_n[i].abs())
+        .collect();
+    let limit = 0.25 * force.iter().cloned().fold(0.0, f64::max);
+    let fz = &signals.fz_n[r];
+    if force.iter().filter(|f| **f <= limit).count() < 10 {
+        return fz.to_vec();
+    }
+    fz.iter()
+        .zip(&force)
+        .map(|(z, f)| if *f <= limit { *z } else { 0.0 })
+        .collect()
 }
 
 /// Least-squares change across the slice (slope times length) and the mean, exact zeros skipped.
@@ -242,23 +289,29 @@ mod tests {
             *v = 0.0;
         }
         assert_eq!(zeroed_stretches(&fy, 10, 0.05), vec![50..80]);
-        let mut v = vec![40.0; 100];
+        let mut v: Vec<f64> = (0..100).map(|i| 40.0 * (1.0 - i as f64 / 100.0)).collect();
         v.extend(std::iter::repeat_n(0.0, 100));
-        for (k, s) in v[95..100].iter_mut().enumerate() {
-            *s = 0.1 * (5 - k) as f64;
-        }
-        assert!(zeroed_stretches(&v, 10, 0.05).is_empty(), "speed at a static hold");
+        assert!(
+            zeroed_stretches(&v, 10, 0.05).is_empty(),
+            "speed at a static hold"
+        );
     }
 
     #[test]
     fn a_clipped_channel_is_saturated() {
-        let mut t: Vec<f64> = (0..100).map(|i| 40.0 + i as f64 * 0.3).collect();
-        for v in &mut t[60..] {
-            *v = 60.0;
-        }
-        let x: Vec<f64> = t.iter().map(|v| v.min(60.0)).collect();
-        assert_eq!(saturated_stretches(&x, 10), vec![60..100]);
+        let noisy: Vec<f64> = (0..100)
+            .map(|i| 40.0 + i as f64 * 0.3 + if i % 2 == 0 { 0.05 } else { -0.05 })
+            .collect();
+        let x: Vec<f64> = noisy.iter().map(|v| v.min(60.0)).collect();
+        assert_eq!(saturated_stretches(&x, 10), vec![67..100]);
         assert!(saturated_stretches(&[5.0; 50], 10).is_empty());
+        let smooth: Vec<f64> = (0..100)
+            .map(|i| (40.0 + (i as f64 * 0.03).sin() * 5.0).round())
+            .collect();
+        assert!(
+            saturated_stretches(&smooth, 10).is_empty(),
+            "a slow peak is not clipping"
+        );
     }
 
     #[test]

@@ -6,7 +6,8 @@
 //! inclination sweeps. Everything not detected is left for `other`.
 //!
 //! How, per gap-free block:
-//! 1. Slip activity: samples with |SA| or |SL - SL at free rolling| away from zero; quiet gaps
+//! 1. Slip activity: samples with SA or SL (relative to free rolling) away from zero or moving;
+//!    quiet gaps
 //!    shorter than `activity.quiet_min_s` are bridged (a sweep crossing zero), so an episode is
 //!    one sweep, one block of back-to-back sweeps, or one step-steer sequence. Dwells are quiet.
 //! 2. Each episode is cut into pieces where P, IA, FZ and V all hold a level (pass 2).
@@ -23,7 +24,7 @@ use std::ops::Range;
 
 use super::config::{SegmentConfig, Tolerance};
 use super::gaps::Timeline;
-use super::plateau::{LevelRun, held_pieces, held_runs, level_runs};
+use super::plateau::{LevelRun, held_pieces, held_runs, level_runs, linear_change};
 use super::prepare::{Prepared, median};
 
 /// What moves in a detection.
@@ -88,8 +89,12 @@ fn activity_episodes(
 ) -> Vec<Range<usize>> {
     let a = &cfg.activity;
     let active = |i: usize| {
-        prep.sa_deg[i].abs() > a.sa_active_deg
-            || (prep.has_sl && prep.v_kph[i] > a.rolling_min_kph && prep.sl[i].abs() > a.sl_active)
+        let sa = prep.sa_deg[i].abs() > a.sa_active_deg
+            || prep.sa_rate[i].abs() > a.sa_rate_active_deg_s;
+        let sl = prep.has_sl
+            && prep.v_kph[i] > a.rolling_min_kph
+            && (prep.sl[i].abs() > a.sl_active || prep.sl_rate[i].abs() > a.sl_rate_active_per_s);
+        sa || sl
     };
     let raw = mask_runs(block, active);
     let quiet_min = timeline.samples(a.quiet_min_s);
@@ -175,7 +180,9 @@ fn detect_in_episode(
 
 fn span_of(x: &[f64]) -> (f64, f64) {
     x.iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        })
 }
 
 /// One set-point piece of an episode: SL sweep, step steers, SA sweep or nothing.
@@ -271,24 +278,30 @@ fn cycles(
 
 /// Cycles of an oscillating signal: the big excursions (|x| > thr) in order; a cycle holds one
 /// positive and one negative excursion, cut at the sample nearest zero between cycles. With
-/// `three_is_one`, a piece with exactly three excursions is one cycle (the SL sweep shape
-/// +0.2 -> -0.2 -> +0.2). Returns relative ranges covering `x` and the number of excursions in
-/// each (1 = incomplete).
+/// `three_is_one` (the SL sweep shape +0.2 -> -0.2 -> +0.2), a third excursion of the first's
+/// sign joins the cycle when the signal then returns to zero (the next excursion has the same
+/// sign again, or there is none). Returns relative ranges covering `x` and the number of
+/// excursions in each (1 = incomplete).
 pub(crate) fn cycle_bounds(x: &[f64], thr: f64, three_is_one: bool) -> Vec<(Range<usize>, usize)> {
     let excursions = excursions(x, thr);
     if excursions.is_empty() {
         return vec![(0..x.len(), 0)];
     }
     let mut groups: Vec<Vec<(usize, usize, i8)>> = Vec::new();
-    for &e in &excursions {
+    for (k, &e) in excursions.iter().enumerate() {
+        let next_sign = excursions.get(k + 1).map(|n| n.2);
         match groups.last_mut() {
             Some(g) if g.len() == 1 && g[0].2 != e.2 => g.push(e),
+            Some(g)
+                if three_is_one
+                    && g.len() == 2
+                    && g[0].2 == e.2
+                    && next_sign.is_none_or(|s| s == e.2) =>
+            {
+                g.push(e)
+            }
             _ => groups.push(vec![e]),
         }
-    }
-    if three_is_one && excursions.len() == 3 && groups.len() == 2 && groups[1].len() == 1 {
-        let last = groups.pop().unwrap_or_default();
-        groups[0].extend(last);
     }
     let mut out = Vec::with_capacity(groups.len());
     let mut start = 0;
@@ -348,10 +361,7 @@ fn step_steers(
     let max_rise = timeline.samples(c.max_rise_s);
     let mut steps = Vec::new();
     let mut prev_end = 0;
-    for run in level_runs(sa, Tolerance::fixed(c.hold_tol_deg)) {
-        if run.len() < hold {
-            continue;
-        }
+    for run in held_runs(sa, Tolerance::fixed(c.hold_tol_deg), hold, 0) {
         let rise = run.start - prev_end;
         if run.mean.abs() >= c.min_level_deg && rise <= max_rise {
             steps.push((prev_end..run.end, run));
@@ -399,7 +409,9 @@ fn detect_in_quiet(
     out
 }
 
-/// Chains of short load steps at one IA and speed.
+/// Chains of short load steps at one IA and speed. A step is a flat level run (its least-squares
+/// change within the step tolerance, so a slow load ramp cut into bands is no staircase);
+/// consecutive flat runs closer than `step_min_n` are one step.
 fn load_staircases(
     prep: &Prepared,
     quiet: Range<usize>,
@@ -407,12 +419,35 @@ fn load_staircases(
     cfg: &SegmentConfig,
 ) -> Vec<Detection> {
     let c = &cfg.spring_rate;
-    let (step_min, step_max) = (timeline.samples(c.step_min_s), timeline.samples(c.step_max_s));
+    let (step_min, step_max) = (
+        timeline.samples(c.step_min_s),
+        timeline.samples(c.step_max_s),
+    );
     let transition_max = timeline.samples(c.transition_max_s);
     let mean = |x: &[f64], r: Range<usize>| x[r.clone()].iter().sum::<f64>() / r.len() as f64;
-    let steps: Vec<(Range<usize>, f64, f64, f64)> = level_runs(&prep.fz_n[quiet.clone()], c.fz_n)
+    let mut levels: Vec<LevelRun> = Vec::new();
+    for r in level_runs(&prep.fz_n[quiet.clone()], c.fz_n) {
+        let flat =
+            || linear_change(&prep.fz_n[shift(r.range(), quiet.start)]).abs() <= c.fz_n.at(r.mean);
+        if r.len() < step_min || r.mean < c.loaded_min_n || !flat() {
+            continue;
+        }
+        match levels.last_mut() {
+            // A step the greedy band cut in two (its ramp-in tail and its level): one step.
+            Some(last)
+                if r.start - last.end <= transition_max
+                    && (r.mean - last.mean).abs() < c.step_min_n =>
+            {
+                let (a, b) = (last.len() as f64, r.len() as f64);
+                last.mean = (last.mean * a + r.mean * b) / (a + b);
+                last.end = r.end;
+            }
+            _ => levels.push(r),
+        }
+    }
+    let steps: Vec<(Range<usize>, f64, f64, f64)> = levels
         .into_iter()
-        .filter(|r| (step_min..=step_max).contains(&r.len()) && r.mean >= c.loaded_min_n)
+        .filter(|r| r.len() <= step_max)
         .map(|r| {
             let abs = shift(r.range(), quiet.start);
             let ia = mean(&prep.ia_deg, abs.clone());
@@ -452,7 +487,8 @@ fn load_staircases(
     out
 }
 
-/// Monotonic IA ramps spanning at least `ia_sweep.min_span_deg`, rolling and loaded.
+/// Monotonic IA ramps spanning at least `ia_sweep.min_span_deg` over at least
+/// `ia_sweep.min_duration_s`, rolling, loaded and at a held load.
 fn ia_ramps(
     prep: &Prepared,
     quiet: Range<usize>,
@@ -461,6 +497,7 @@ fn ia_ramps(
 ) -> Vec<Detection> {
     let c = &cfg.ia_sweep;
     let pause_max = timeline.samples(c.pause_max_s);
+    let min_len = timeline.samples(c.min_duration_s);
     let mut out = Vec::new();
     for sign in [1.0, -1.0] {
         let raw = mask_runs(quiet.clone(), |i| sign * prep.ia_rate[i] > c.rate_min_deg_s);
@@ -477,11 +514,15 @@ fn ia_ramps(
             let n = r.len() as f64;
             let v = prep.v_kph[r.clone()].iter().sum::<f64>() / n;
             let fz = prep.fz_n[r.clone()].iter().sum::<f64>() / n;
+            let (fz_lo, fz_hi) = span_of(&prep.fz_n[r.clone()]);
             if hi - lo >= c.min_span_deg
+                && r.len() >= min_len
                 && v > cfg.activity.rolling_min_kph
                 && fz >= c.loaded_min_n
+                && fz_hi - fz_lo <= 2.0 * cfg.plateau.fz_n.at(fz)
             {
-                let mut moving: Vec<f64> = prep.ia_rate[r.clone()].iter().map(|v| v.abs()).collect();
+                let mut moving: Vec<f64> =
+                    prep.ia_rate[r.clone()].iter().map(|v| v.abs()).collect();
                 out.push(Detection {
                     span: (lo, hi),
                     rate: median(&mut moving),
@@ -548,8 +589,16 @@ mod tests {
     }
 
     #[test]
+    fn back_to_back_sl_sweeps_are_two_cycles() {
+        let x = triangle(&[0.0, 0.2, -0.2, 0.2, 0.0, 0.2, -0.2, 0.2, 0.0], 500);
+        let c = cycle_bounds(&x, 0.1, true);
+        assert_eq!(c.iter().map(|(_, p)| *p).collect::<Vec<_>>(), vec![3, 3]);
+    }
+
+    #[test]
     fn complement_fills_between_episodes() {
         assert_eq!(complement(0..10, &[2..4, 6..7]), vec![0..2, 4..6, 7..10]);
-        assert_eq!(complement(0..10, &[0..10]), Vec::<Range<usize>>::new());
+        let all: Vec<Range<usize>> = vec![(0..10)];
+        assert!(complement(0..10, &all).is_empty());
     }
 }

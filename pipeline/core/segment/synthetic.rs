@@ -159,19 +159,25 @@ impl Rig {
         let n = [(); 9].map(|_| self.noise());
         let c = &mut self.cols;
         c.et_s.push(Self::round(self.t, 3));
-        c.speed_kph.push(Self::round((s.v + 0.05 * n[0]).max(0.0) * f64::from(u8::from(s.v > 0.0)), 2));
+        c.speed_kph.push(Self::round(
+            (s.v + 0.05 * n[0]).max(0.0) * f64::from(u8::from(s.v > 0.0)),
+            2,
+        ));
         c.pressure_kpa.push(Self::round(s.p + 0.3 * n[1], 2));
         c.fz_n.push(Self::round(s.fz + 6.0 * n[2] + 0.02 * fy, 2));
-        c.alpha_rad.push(Self::round(s.sa + 0.01 * n[3], 3).to_radians());
-        c.gamma_rad.push(Self::round(s.ia + 0.01 * n[4], 3).to_radians());
+        c.alpha_rad
+            .push(Self::round(s.sa + 0.01 * n[3], 3).to_radians());
+        c.gamma_rad
+            .push(Self::round(s.ia + 0.01 * n[4], 3).to_radians());
         c.kappa.push(Self::round(s.sl + 0.0005 * n[5], 4));
         c.fy_n.push(Self::round(fy + 10.0 * n[6], 2));
         c.fx_n.push(Self::round(fx - 0.015 * s.fz + 8.0 * n[7], 2));
-        c.loaded_radius_m.push(Self::round(26.0 - s.fz / 1500.0 + 0.01 * n[8], 2) / 100.0);
+        c.loaded_radius_m
+            .push(Self::round(26.0 - s.fz / 1500.0 + 0.01 * n[8], 2) / 100.0);
         c.t_inner_c.push(Self::round(self.temp_c + 2.0 * s.ia, 1));
         c.t_centre_c.push(Self::round(self.temp_c, 1));
         c.t_outer_c.push(Self::round(self.temp_c - 2.0 * s.ia, 1));
-        c.mz_nm.push(Self::round(-fy * 0.01, 2));
+        c.mz_nm.push(Self::round(-fy * 0.01 + 0.3 * n[6], 2));
         self.t += dt;
     }
 
@@ -208,7 +214,13 @@ impl Rig {
     pub fn sa_path(&mut self, points: &[f64], rate: f64) -> &mut Self {
         for &p in points {
             let secs = (p - self.state.sa).abs() / rate;
-            self.go(To { sa: Some(p), ..To::default() }, secs);
+            self.go(
+                To {
+                    sa: Some(p),
+                    ..To::default()
+                },
+                secs,
+            );
         }
         self
     }
@@ -217,7 +229,13 @@ impl Rig {
     pub fn sl_path(&mut self, points: &[f64], rate: f64) -> &mut Self {
         for &p in points {
             let secs = (p - self.state.sl).abs() / rate;
-            self.go(To { sl: Some(p), ..To::default() }, secs);
+            self.go(
+                To {
+                    sl: Some(p),
+                    ..To::default()
+                },
+                secs,
+            );
         }
         self
     }
@@ -226,7 +244,15 @@ impl Rig {
     /// the set-points jump to `then` with no samples in between).
     pub fn dwell(&mut self, secs: f64, rest_fz: f64, then: To) -> &mut Self {
         if self.keep_dwells {
-            self.go(To { sa: Some(0.0), sl: Some(0.0), fz: Some(rest_fz), ..To::default() }, 1.0);
+            self.go(
+                To {
+                    sa: Some(0.0),
+                    sl: Some(0.0),
+                    fz: Some(rest_fz),
+                    ..To::default()
+                },
+                1.0,
+            );
             self.hold(secs);
             self.go(then, 1.5);
         } else {
@@ -243,7 +269,12 @@ impl Rig {
     }
 
     /// Record what `f` schedules as a truth segment of `kind`.
-    pub fn mark(&mut self, kind: SegmentKind, nominal: NominalLevels, f: impl FnOnce(&mut Self)) -> &mut Self {
+    pub fn mark(
+        &mut self,
+        kind: SegmentKind,
+        nominal: NominalLevels,
+        f: impl FnOnce(&mut Self),
+    ) -> &mut Self {
         let start = self.len();
         f(self);
         self.truth.push(Truth {
@@ -278,7 +309,14 @@ pub(crate) const LB350: f64 = 1557.0;
 /// A spring-rate staircase at the current speed for each IA.
 pub(crate) fn spring_rates(rig: &mut Rig, ias: &[f64], loads: &[f64]) {
     for &ia in ias {
-        rig.go(To { ia: Some(ia), fz: Some(100.0), ..To::default() }, 1.0);
+        rig.go(
+            To {
+                ia: Some(ia),
+                fz: Some(100.0),
+                ..To::default()
+            },
+            1.0,
+        );
         rig.hold(0.5);
         let kind = if rig.state.v > 0.0 {
             SegmentKind::SpringRateDynamic
@@ -289,11 +327,23 @@ pub(crate) fn spring_rates(rig: &mut Rig, ias: &[f64], loads: &[f64]) {
         nominal.fz_n = None;
         rig.mark(kind, nominal, |r| {
             for &fz in loads {
-                r.go(To { fz: Some(fz), ..To::default() }, 0.2);
+                r.go(
+                    To {
+                        fz: Some(fz),
+                        ..To::default()
+                    },
+                    0.2,
+                );
                 r.hold(0.8);
             }
         });
-        rig.go(To { fz: Some(100.0), ..To::default() }, 0.5);
+        rig.go(
+            To {
+                fz: Some(100.0),
+                ..To::default()
+            },
+            0.5,
+        );
         rig.hold(1.0);
     }
 }
@@ -319,23 +369,58 @@ pub(crate) fn round4_cornering(p_kpa: f64, cold: bool, keep_dwells: bool, seed: 
     if cold {
         spring_rates(&mut rig, &[0.0, 2.0, 4.0], &loads);
     }
-    rig.go(To { v: Some(40.0), ia: Some(0.0), fz: Some(LB50), ..To::default() }, 8.0);
+    rig.go(
+        To {
+            v: Some(40.0),
+            ia: Some(0.0),
+            fz: Some(LB50),
+            ..To::default()
+        },
+        8.0,
+    );
     rig.hold(2.0);
     if cold {
         spring_rates(&mut rig, &[0.0, 2.0, 4.0], &loads);
-        rig.go(To { ia: Some(0.0), fz: Some(LB250), ..To::default() }, 2.0);
+        rig.go(
+            To {
+                ia: Some(0.0),
+                fz: Some(LB250),
+                ..To::default()
+            },
+            2.0,
+        );
         rig.hold(1.0);
         sweep_cycles(&mut rig, SegmentKind::ColdToWarm, 8, 12.0, 8.0);
         rig.hold(2.0);
         spring_rates(&mut rig, &[0.0, 2.0, 4.0], &loads);
     }
-    rig.go(To { ia: Some(0.0), fz: Some(LB250), ..To::default() }, 2.0);
+    rig.go(
+        To {
+            ia: Some(0.0),
+            fz: Some(LB250),
+            ..To::default()
+        },
+        2.0,
+    );
     rig.hold(1.0);
     sweep_cycles(&mut rig, SegmentKind::Conditioning, 3, 6.0, 6.0);
     for ia in [0.0, 2.0, 4.0, 1.0, 3.0] {
         for fz in [LB350, LB150, LB50, LB250, LB100] {
-            rig.dwell(12.0, LB50, To { ia: Some(ia), ..To::default() });
-            rig.go(To { fz: Some(fz), ..To::default() }, 1.0);
+            rig.dwell(
+                12.0,
+                LB50,
+                To {
+                    ia: Some(ia),
+                    ..To::default()
+                },
+            );
+            rig.go(
+                To {
+                    fz: Some(fz),
+                    ..To::default()
+                },
+                1.0,
+            );
             let nominal = rig.nominal(None);
             rig.mark(SegmentKind::Cornering, nominal, |r| {
                 r.sa_path(&[-4.0, 12.0, -12.0, 3.0], 4.0);
@@ -343,7 +428,15 @@ pub(crate) fn round4_cornering(p_kpa: f64, cold: bool, keep_dwells: bool, seed: 
             rig.sa_path(&[0.0], 4.0);
         }
     }
-    rig.dwell(5.0, LB50, To { ia: Some(0.0), fz: Some(100.0), ..To::default() });
+    rig.dwell(
+        5.0,
+        LB50,
+        To {
+            ia: Some(0.0),
+            fz: Some(100.0),
+            ..To::default()
+        },
+    );
     rig.hold(1.0);
     spring_rates(&mut rig, &[0.0], &loads);
     rig.hold(2.0);
@@ -356,7 +449,14 @@ pub(crate) fn round4_cornering(p_kpa: f64, cold: bool, keep_dwells: bool, seed: 
 pub(crate) fn round4_drive_brake(p_kpa: f64, keep_dwells: bool, seed: u64) -> Rig {
     let mut rig = Rig::new(50.0, keep_dwells, seed, p_kpa);
     rig.hold(2.0);
-    rig.go(To { v: Some(40.0), fz: Some(LB250), ..To::default() }, 8.0);
+    rig.go(
+        To {
+            v: Some(40.0),
+            fz: Some(LB250),
+            ..To::default()
+        },
+        8.0,
+    );
     rig.hold(1.0);
     for _ in 0..2 {
         let nominal = rig.nominal(Some(0));
@@ -367,8 +467,22 @@ pub(crate) fn round4_drive_brake(p_kpa: f64, keep_dwells: bool, seed: u64) -> Ri
     for ia in [0.0, 2.0, 4.0] {
         for fz in [LB350, LB150, LB250, LB50] {
             for sa in [0.0, 3.0, 6.0] {
-                rig.dwell(10.0, LB50, To { ia: Some(ia), ..To::default() });
-                rig.go(To { fz: Some(fz), sa: Some(sa), ..To::default() }, 1.5);
+                rig.dwell(
+                    10.0,
+                    LB50,
+                    To {
+                        ia: Some(ia),
+                        ..To::default()
+                    },
+                );
+                rig.go(
+                    To {
+                        fz: Some(fz),
+                        sa: Some(sa),
+                        ..To::default()
+                    },
+                    1.5,
+                );
                 rig.hold(0.5);
                 let kind = if sa == 0.0 {
                     SegmentKind::DriveBrake
@@ -379,7 +493,13 @@ pub(crate) fn round4_drive_brake(p_kpa: f64, keep_dwells: bool, seed: u64) -> Ri
                 rig.mark(kind, nominal, |r| {
                     r.sl_path(&[0.2, -0.2, 0.2, 0.0], 0.1);
                 });
-                rig.go(To { sa: Some(0.0), ..To::default() }, 1.0);
+                rig.go(
+                    To {
+                        sa: Some(0.0),
+                        ..To::default()
+                    },
+                    1.0,
+                );
             }
         }
     }
@@ -396,14 +516,36 @@ pub(crate) fn round8_cornering_raw(seed: u64) -> Rig {
     let loads = [LB50, LB100, LB150, LB200, LB250];
     rig.hold(2.0);
     spring_rates(&mut rig, &[0.0, 2.0, 4.0], &loads);
-    rig.go(To { v: Some(40.0), fz: Some(LB150), ..To::default() }, 8.0);
+    rig.go(
+        To {
+            v: Some(40.0),
+            fz: Some(LB150),
+            ..To::default()
+        },
+        8.0,
+    );
     rig.hold(2.0);
     sweep_cycles(&mut rig, SegmentKind::ColdToWarm, 12, 12.0, 8.0);
     for p in [83.0, 97.0] {
-        rig.dwell(8.0, LB50, To { p: Some(p), ..To::default() });
+        rig.dwell(
+            8.0,
+            LB50,
+            To {
+                p: Some(p),
+                ..To::default()
+            },
+        );
         for ia in [0.0, 2.0, 4.0] {
             for fz in [LB200, LB50, LB150, LB250] {
-                rig.dwell(6.0, LB50, To { ia: Some(ia), fz: Some(fz), ..To::default() });
+                rig.dwell(
+                    6.0,
+                    LB50,
+                    To {
+                        ia: Some(ia),
+                        fz: Some(fz),
+                        ..To::default()
+                    },
+                );
                 rig.hold(1.0);
                 let nominal = rig.nominal(None);
                 rig.mark(SegmentKind::Cornering, nominal, |r| {
@@ -413,18 +555,41 @@ pub(crate) fn round8_cornering_raw(seed: u64) -> Rig {
         }
     }
     for fz in [LB150, LB250] {
-        rig.dwell(6.0, LB50, To { ia: Some(-4.0), fz: Some(fz), ..To::default() });
+        rig.dwell(
+            6.0,
+            LB50,
+            To {
+                ia: Some(-4.0),
+                fz: Some(fz),
+                ..To::default()
+            },
+        );
         rig.hold(2.0);
         let mut nominal = rig.nominal(Some(0));
         nominal.ia_deg = None;
         rig.mark(SegmentKind::IaSweep, nominal, |r| {
-            r.go(To { ia: Some(4.0), ..To::default() }, 8.0);
+            r.go(
+                To {
+                    ia: Some(4.0),
+                    ..To::default()
+                },
+                8.0,
+            );
         });
         rig.hold(2.0);
     }
     for v in [24.0, 72.0] {
         for fz in [LB150, LB250] {
-            rig.dwell(6.0, LB50, To { ia: Some(0.0), fz: Some(fz), v: Some(v), ..To::default() });
+            rig.dwell(
+                6.0,
+                LB50,
+                To {
+                    ia: Some(0.0),
+                    fz: Some(fz),
+                    v: Some(v),
+                    ..To::default()
+                },
+            );
             rig.hold(1.0);
             let nominal = rig.nominal(None);
             rig.mark(SegmentKind::SpeedSweep, nominal, |r| {
@@ -432,7 +597,14 @@ pub(crate) fn round8_cornering_raw(seed: u64) -> Rig {
             });
         }
     }
-    rig.dwell(4.0, LB50, To { v: Some(40.0), ..To::default() });
+    rig.dwell(
+        4.0,
+        LB50,
+        To {
+            v: Some(40.0),
+            ..To::default()
+        },
+    );
     rig
 }
 
@@ -442,17 +614,43 @@ pub(crate) fn round8_transient(seed: u64) -> Rig {
     let mut rig = Rig::new(100.0, true, seed, 83.0);
     rig.hold(2.0);
     spring_rates(&mut rig, &[0.0], &[LB50, LB100, LB150, LB200, LB250]);
-    rig.go(To { v: Some(40.0), fz: Some(LB150), ..To::default() }, 8.0);
+    rig.go(
+        To {
+            v: Some(40.0),
+            fz: Some(LB150),
+            ..To::default()
+        },
+        8.0,
+    );
     for fz in [LB50, LB150, LB250] {
-        rig.dwell(5.0, LB50, To { fz: Some(fz), ..To::default() });
+        rig.dwell(
+            5.0,
+            LB50,
+            To {
+                fz: Some(fz),
+                ..To::default()
+            },
+        );
         rig.hold(2.0);
         for sa in [1.0, -1.0, -6.0] {
             let nominal = rig.nominal(Some(sa as i32));
             rig.mark(SegmentKind::StepSteer, nominal, |r| {
-                r.go(To { sa: Some(sa), ..To::default() }, 0.1);
+                r.go(
+                    To {
+                        sa: Some(sa),
+                        ..To::default()
+                    },
+                    0.1,
+                );
                 r.hold(3.0);
             });
-            rig.go(To { sa: Some(0.0), ..To::default() }, 0.1);
+            rig.go(
+                To {
+                    sa: Some(0.0),
+                    ..To::default()
+                },
+                0.1,
+            );
             rig.hold(3.0);
         }
     }
@@ -465,11 +663,27 @@ pub(crate) fn round8_transient(seed: u64) -> Rig {
 pub(crate) fn round9_drive_brake_raw(seed: u64) -> Rig {
     let mut rig = Rig::new(100.0, true, seed, 69.0);
     rig.hold(2.0);
-    rig.go(To { v: Some(40.0), fz: Some(LB150), ..To::default() }, 8.0);
+    rig.go(
+        To {
+            v: Some(40.0),
+            fz: Some(LB150),
+            ..To::default()
+        },
+        8.0,
+    );
     for ia in [0.0, 2.0] {
         for fz in [LB350, LB150] {
             for sa in [0.0, 3.0, 6.0] {
-                rig.dwell(6.0, LB50, To { ia: Some(ia), fz: Some(fz), sa: Some(sa), ..To::default() });
+                rig.dwell(
+                    6.0,
+                    LB50,
+                    To {
+                        ia: Some(ia),
+                        fz: Some(fz),
+                        sa: Some(sa),
+                        ..To::default()
+                    },
+                );
                 rig.hold(0.5);
                 let kind = if sa == 0.0 {
                     SegmentKind::DriveBrake
@@ -484,13 +698,29 @@ pub(crate) fn round9_drive_brake_raw(seed: u64) -> Rig {
         }
     }
     for v in [24.0, 72.0] {
-        rig.dwell(6.0, LB50, To { ia: Some(0.0), fz: Some(LB150), v: Some(v), ..To::default() });
+        rig.dwell(
+            6.0,
+            LB50,
+            To {
+                ia: Some(0.0),
+                fz: Some(LB150),
+                v: Some(v),
+                ..To::default()
+            },
+        );
         rig.hold(0.5);
         let nominal = rig.nominal(Some(0));
         rig.mark(SegmentKind::SpeedSweep, nominal, |r| {
             r.sl_path(&[0.15, -0.15, 0.0], 0.05);
         });
     }
-    rig.dwell(3.0, LB50, To { v: Some(40.0), ..To::default() });
+    rig.dwell(
+        3.0,
+        LB50,
+        To {
+            v: Some(40.0),
+            ..To::default()
+        },
+    );
     rig
 }
