@@ -598,7 +598,7 @@ mod tests {
     #[test]
     fn complement_fills_between_episodes() {
         assert_eq!(complement(0..10, &[2..4, 6..7]), vec![0..2, 4..6, 7..10]);
-        let all: Vec<Range<usize>> = vec![(0..10)];
+        let all = std::iter::once(0..10).collect::<Vec<_>>();
         assert!(complement(0..10, &all).is_empty());
     }
 }
