@@ -25,6 +25,8 @@
 //!   `combined` otherwise; a data cycle at a nominal speed other than the main speed is
 //!   `speed_sweep`. The main speed is `main_speed_kph` when any data cycle runs at it, else the
 //!   speed of most data cycles.
+//! - The cycles of one cold-to-warm or conditioning train that follow each other without a gap
+//!   are then merged into one segment ([`merge_warm_up_blocks`]).
 //! - Step steers, spring-rate staircases (static below `spring_rate.static_max_kph`) and IA
 //!   ramps keep the kind their detector gave.
 //!
@@ -42,6 +44,8 @@ use super::sweep::{Detection, Motion};
 pub(crate) struct Classified {
     pub kind: SegmentKind,
     pub sweep: Option<SweepVariable>,
+    /// The train a cold-to-warm or conditioning cycle belongs to (blocks merge per train).
+    pub train: Option<usize>,
 }
 
 /// The set-point key of a sweep cycle.
@@ -156,6 +160,7 @@ pub(crate) fn classify(
                 Motion::LoadSteps => SweepVariable::Load,
                 Motion::IaRamp => SweepVariable::Inclination,
             }),
+            train: None,
         })
         .collect();
 
@@ -225,8 +230,10 @@ pub(crate) fn classify(
                 _ => SegmentKind::Combined,
             }
         };
+        let warm_up = matches!(kind, SegmentKind::ColdToWarm | SegmentKind::Conditioning);
         for &i in &t.members {
             out[i].kind = kind;
+            out[i].train = warm_up.then_some(k);
         }
     }
 
@@ -237,6 +244,40 @@ pub(crate) fn classify(
         }
     }
     (out, main_speed)
+}
+
+/// Cold-to-warm and conditioning cycles of one train that follow each other without a gap
+/// become one segment: a warm-up block is one procedure (the thesis keeps it as one structure,
+/// the virtual machine's truth as one segment); the thermal stage splits it by zero crossings.
+pub(crate) fn merge_warm_up_blocks(
+    dets: Vec<Detection>,
+    classes: Vec<Classified>,
+) -> (Vec<Detection>, Vec<Classified>) {
+    let mut out_d: Vec<Detection> = Vec::with_capacity(dets.len());
+    let mut out_c: Vec<Classified> = Vec::with_capacity(classes.len());
+    let mut members = 1usize;
+    for (d, c) in dets.into_iter().zip(classes) {
+        if let (Some(last_d), Some(last_c)) = (out_d.last_mut(), out_c.last())
+            && c.train.is_some()
+            && last_c.train == c.train
+            && last_d.samples.end == d.samples.start
+        {
+            let (a, b) = (members as f64, 1.0);
+            last_d.rate = match (last_d.rate, d.rate) {
+                (Some(x), Some(y)) => Some((x * a + y * b) / (a + b)),
+                (x, y) => x.or(y),
+            };
+            last_d.samples.end = d.samples.end;
+            last_d.parts += d.parts;
+            last_d.span = (last_d.span.0.min(d.span.0), last_d.span.1.max(d.span.1));
+            members += 1;
+            continue;
+        }
+        members = 1;
+        out_d.push(d);
+        out_c.push(c);
+    }
+    (out_d, out_c)
 }
 
 /// Most common train length among `rest` (ties to the shortest), 1 with fewer than 3 trains.

@@ -380,7 +380,7 @@ impl Default for IaSweepConfig {
 impl Default for ClassifyConfig {
     fn default() -> Self {
         ClassifyConfig {
-            cold_to_warm_min_cycles: 6,
+            cold_to_warm_min_cycles: 3,
             cold_to_warm_min_rate_deg_s: 6.0,
             cold_to_warm_min_temp_rise_c: 2.0,
             rate_tol_frac: 0.3,

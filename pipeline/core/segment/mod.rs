@@ -91,6 +91,11 @@ pub fn run(
     let speeds: Vec<f64> = measured.iter().map(|m| m.speed_kph.mean).collect();
     let centre = signals.tread_temps.map(|t| t.centre_c);
     let (classes, main_speed) = classify::classify(&detections, &bins, &speeds, centre, cfg);
+    let (detections, classes) = classify::merge_warm_up_blocks(detections, classes);
+    let measured: Vec<MeasuredLevels> = detections
+        .iter()
+        .map(|d| source.measure(d.samples.clone()))
+        .collect();
 
     let mut segments = Vec::new();
     let mut extras: Vec<(usize, Option<f64>, Option<f64>)> = Vec::new();

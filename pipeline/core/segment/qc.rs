@@ -5,9 +5,10 @@
 //! segment. A finding covering a stretch flags every segment the stretch overlaps.
 //!
 //! Rules: `zero_pressure` where P <= `qc.zero_pressure_max_kpa` for `qc.zero_min_s`;
-//! `zeroed_channel:<name>` where a channel is exactly 0 for `qc.zero_min_s` while its neighbours
-//! on either side are clearly non-zero (a channel that is legitimately ~0 there, like SA at a
-//! dwell or V at a static hold, is not flagged); `non_monotonic_et` / `duplicated_et` at ET
+//! `zeroed_channel:<name>` where a channel is exactly 0 for `qc.zero_min_s` and either carries
+//! sensor noise elsewhere (a noisy measured channel never rests at exactly 0) or is clearly
+//! non-zero on both sides (set-point channels and noise-free files: SA at a dwell or V at a static
+//! hold are legitimately 0 and not flagged); `non_monotonic_et` / `duplicated_et` at ET
 //! steps back / repeats; `too_short` for a classified segment under `qc.too_short_min_s`, a sweep
 //! cycle with only one big excursion, or a sweep under `qc.too_short_frac` of its kind's median
 //! length in the run; `load_drift` when the least-squares FZ trend across a held-load segment
@@ -73,7 +74,9 @@ pub(crate) fn flag(
     }
     let min_zero = timeline.samples(cfg.qc.zero_min_s);
     for (name, x) in zero_checked(signals) {
-        for r in zeroed_stretches(x, min_zero, cfg.qc.zeroed_neighbour_frac) {
+        let set_point = matches!(name, "speed_kph" | "alpha_rad" | "gamma_rad" | "kappa");
+        let live = !set_point && is_live(x);
+        for r in zeroed_stretches(x, min_zero, cfg.qc.zeroed_neighbour_frac, live) {
             mark(r, &QcFlag::ZeroedChannel(name.to_string()));
         }
     }
@@ -113,12 +116,27 @@ fn saturation_checked<'a>(s: &RunSignals<'a>) -> Vec<(&'a str, &'a [f64])> {
     out
 }
 
-/// Exact-zero stretches whose neighbours on both sides (the one side at a run end) exceed `frac`
-/// of the channel's 95th percentile |x|: a live signal that drops to zero, not a quiet channel
-/// passing through zero.
-fn zeroed_stretches(x: &[f64], min_len: usize, frac: f64) -> Vec<Range<usize>> {
+/// True when the channel carries sensor noise: outside exact zeros, consecutive samples repeat
+/// in at most 20 % of steps. A noisy channel cannot sit at exactly 0 for a stretch by itself.
+fn is_live(x: &[f64]) -> bool {
+    let (mut steps, mut repeats) = (0usize, 0usize);
+    for w in x
+        .windows(2)
+        .filter(|w| !is_exact_zero(w[0]) && !is_exact_zero(w[1]))
+    {
+        steps += 1;
+        repeats += usize::from((w[1] - w[0]).abs() <= 0.0);
+    }
+    steps > 0 && (repeats as f64) <= SMOOTH_REPEAT_FRAC * steps as f64
+}
+
+/// Exact-zero stretches that are dropouts: every one in a `live` (noisy) channel; otherwise
+/// those whose neighbours on both sides (the one side at a run end) exceed `frac` of the
+/// channel's 95th percentile |x|: a signal that drops to zero, not a quiet or noise-free channel
+/// resting at zero (speed at a static hold, slip angle at a dwell, SL of a cornering run).
+fn zeroed_stretches(x: &[f64], min_len: usize, frac: f64, live: bool) -> Vec<Range<usize>> {
     let runs = zero_runs(x, min_len, &is_exact_zero);
-    if runs.is_empty() {
+    if runs.is_empty() || live {
         return runs;
     }
     let mut mags: Vec<f64> = x.iter().map(|v| v.abs()).collect();
@@ -288,12 +306,27 @@ mod tests {
         for v in &mut fy[50..80] {
             *v = 0.0;
         }
-        assert_eq!(zeroed_stretches(&fy, 10, 0.05), vec![50..80]);
+        assert_eq!(zeroed_stretches(&fy, 10, 0.05, false), vec![50..80]);
         let mut v: Vec<f64> = (0..100).map(|i| 40.0 * (1.0 - i as f64 / 100.0)).collect();
         v.extend(std::iter::repeat_n(0.0, 100));
         assert!(
-            zeroed_stretches(&v, 10, 0.05).is_empty(),
+            zeroed_stretches(&v, 10, 0.05, false).is_empty(),
             "speed at a static hold"
+        );
+        let quiet_mz: Vec<f64> = (0..200)
+            .map(|i| {
+                if (60..90).contains(&i) {
+                    0.0
+                } else {
+                    0.5 + 0.13 * ((i * 7) % 5) as f64
+                }
+            })
+            .collect();
+        assert!(is_live(&quiet_mz));
+        assert_eq!(
+            zeroed_stretches(&quiet_mz, 10, 0.5, true),
+            vec![60..90],
+            "small but noisy"
         );
     }
 

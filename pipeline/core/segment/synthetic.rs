@@ -348,19 +348,46 @@ pub(crate) fn spring_rates(rig: &mut Rig, ias: &[f64], loads: &[f64]) {
     }
 }
 
-/// `n` back-to-back cycles 0 -> +a -> -a -> 0 at `rate`, each marked as `kind`.
+/// One block of `n` back-to-back cycles 0 -> +a -> -a -> 0 at `rate`, marked as one `kind`.
 pub(crate) fn sweep_cycles(rig: &mut Rig, kind: SegmentKind, n: usize, amp: f64, rate: f64) {
-    for _ in 0..n {
-        let nominal = rig.nominal(None);
-        rig.mark(kind, nominal, |r| {
+    let nominal = rig.nominal(None);
+    rig.mark(kind, nominal, |r| {
+        for _ in 0..n {
             r.sa_path(&[amp, -amp, 0.0], rate);
-        });
+        }
+    });
+}
+
+/// One block of a continuous triangle: 0 -> +a, then `n` times (-a, +a), then 0 (the virtual
+/// machine's cold-to-warm shape), marked as one `kind`.
+pub(crate) fn sweep_triangle(rig: &mut Rig, kind: SegmentKind, n: usize, amp: f64, rate: f64) {
+    let nominal = rig.nominal(None);
+    rig.mark(kind, nominal, |r| {
+        r.sa_path(&[amp], rate);
+        for _ in 0..n {
+            r.sa_path(&[-amp, amp], rate);
+        }
+        r.sa_path(&[0.0], rate);
+    });
+}
+
+impl Rig {
+    /// Inclination to `deg` over `secs`.
+    pub fn ia_to(&mut self, deg: f64, secs: f64) -> &mut Self {
+        self.go(
+            To {
+                ia: Some(deg),
+                ..To::default()
+            },
+            secs,
+        )
     }
 }
 
 /// Round-4 cornering run at `p_kpa`: spring rates static and dynamic, optional cold-to-warm
 /// (8 cycles +-12 deg at 8 deg/s, 250 lb), conditioning (3 cycles +-6 deg at 6 deg/s, 250 lb),
-/// the 25-sweep matrix (SA -4 -> +12 -> -12 -> +3 at 4 deg/s; IA 0,2,4,1,3 x loads
+/// the 25-sweep matrix (SAE SA -4 -> +12 -> -12 -> +3 at 4 deg/s, ISO-W alpha +4 -> -12 -> +12
+/// -> -3; IA 0,2,4,1,3 x loads
 /// 350,150,50,250,100 lb), spring rates again. 50 Hz, dwells cut unless `keep_dwells`.
 pub(crate) fn round4_cornering(p_kpa: f64, cold: bool, keep_dwells: bool, seed: u64) -> Rig {
     let mut rig = Rig::new(50.0, keep_dwells, seed, p_kpa);
@@ -423,7 +450,7 @@ pub(crate) fn round4_cornering(p_kpa: f64, cold: bool, keep_dwells: bool, seed: 
             );
             let nominal = rig.nominal(None);
             rig.mark(SegmentKind::Cornering, nominal, |r| {
-                r.sa_path(&[-4.0, 12.0, -12.0, 3.0], 4.0);
+                r.sa_path(&[4.0, -12.0, 12.0, -3.0], 4.0);
             });
             rig.sa_path(&[0.0], 4.0);
         }
@@ -507,10 +534,10 @@ pub(crate) fn round4_drive_brake(p_kpa: f64, keep_dwells: bool, seed: u64) -> Ri
     rig
 }
 
-/// Round-8 style cornering raw file (100 Hz, dwells kept): spring rates, 12 cold-to-warm cycles
-/// (+-12 deg at 8 deg/s), +-12 deg matrix sweeps at 4 deg/s for loads 200,50,150,250 lb (10 inch
+/// Round-8 style cornering raw file (100 Hz, dwells kept): spring rates, a cold-to-warm block
+/// (continuous +-12 deg triangle of 12 cycles at 8 deg/s), +-12 deg matrix sweeps at 4 deg/s for loads 200,50,150,250 lb (10 inch
 /// tire: 200 lb replaces 350) x IA 0,2,4 at two pressures, IA sweeps -4 -> +4, and speed sweeps
-/// at 15 and 45 mph.
+/// at 15 and 45 mph. IA sweeps go 0 -> -4 -> +4 -> 0 at 1 deg/s.
 pub(crate) fn round8_cornering_raw(seed: u64) -> Rig {
     let mut rig = Rig::new(100.0, true, seed, 83.0);
     let loads = [LB50, LB100, LB150, LB200, LB250];
@@ -525,7 +552,8 @@ pub(crate) fn round8_cornering_raw(seed: u64) -> Rig {
         8.0,
     );
     rig.hold(2.0);
-    sweep_cycles(&mut rig, SegmentKind::ColdToWarm, 12, 12.0, 8.0);
+    rig.ia_to(0.0, 1.0);
+    sweep_triangle(&mut rig, SegmentKind::ColdToWarm, 12, 12.0, 8.0);
     for p in [83.0, 97.0] {
         rig.dwell(
             8.0,
@@ -559,7 +587,7 @@ pub(crate) fn round8_cornering_raw(seed: u64) -> Rig {
             6.0,
             LB50,
             To {
-                ia: Some(-4.0),
+                ia: Some(0.0),
                 fz: Some(fz),
                 ..To::default()
             },
@@ -568,13 +596,7 @@ pub(crate) fn round8_cornering_raw(seed: u64) -> Rig {
         let mut nominal = rig.nominal(Some(0));
         nominal.ia_deg = None;
         rig.mark(SegmentKind::IaSweep, nominal, |r| {
-            r.go(
-                To {
-                    ia: Some(4.0),
-                    ..To::default()
-                },
-                8.0,
-            );
+            r.ia_to(-4.0, 4.0).ia_to(4.0, 8.0).ia_to(0.0, 4.0);
         });
         rig.hold(2.0);
     }
@@ -609,7 +631,8 @@ pub(crate) fn round8_cornering_raw(seed: u64) -> Rig {
 }
 
 /// Round-8 transient run (100 Hz, dwells kept): spring rates, then at each load step steers to
-/// SAE -1, +1, +6 deg (ISO-W +1, -1, -6), each held 3 s and returned to 0.
+/// SAE -1, +1, +6 deg (ISO-W +1, -1, -6) at 60 deg/s, each held 2 s and returned to 0 (0.5 s at
+/// zero before and after belong to the step, as in the virtual machine's plan).
 pub(crate) fn round8_transient(seed: u64) -> Rig {
     let mut rig = Rig::new(100.0, true, seed, 83.0);
     rig.hold(2.0);
@@ -635,22 +658,10 @@ pub(crate) fn round8_transient(seed: u64) -> Rig {
         for sa in [1.0, -1.0, -6.0] {
             let nominal = rig.nominal(Some(sa as i32));
             rig.mark(SegmentKind::StepSteer, nominal, |r| {
-                r.go(
-                    To {
-                        sa: Some(sa),
-                        ..To::default()
-                    },
-                    0.1,
-                );
-                r.hold(3.0);
+                r.hold(0.5);
+                r.sa_path(&[sa], 60.0).hold(2.0);
+                r.sa_path(&[0.0], 60.0).hold(0.5);
             });
-            rig.go(
-                To {
-                    sa: Some(0.0),
-                    ..To::default()
-                },
-                0.1,
-            );
             rig.hold(3.0);
         }
     }
