@@ -409,8 +409,9 @@ fn detect_in_quiet(
     out
 }
 
-/// Chains of short load steps at one IA and speed. A step is a flat level run (its least-squares
-/// change within the step tolerance, so a slow load ramp cut into bands is no staircase);
+/// Chains of short load steps at one IA and speed. A step is a flat level run: the least-squares
+/// change over its middle 60 % is within half the step tolerance (a level run may start on the
+/// tail of the ramp into it, but a slow load ramp cut into bands keeps rising in the middle);
 /// consecutive flat runs closer than `step_min_n` are one step.
 fn load_staircases(
     prep: &Prepared,
@@ -427,8 +428,11 @@ fn load_staircases(
     let mean = |x: &[f64], r: Range<usize>| x[r.clone()].iter().sum::<f64>() / r.len() as f64;
     let mut levels: Vec<LevelRun> = Vec::new();
     for r in level_runs(&prep.fz_n[quiet.clone()], c.fz_n) {
-        let flat =
-            || linear_change(&prep.fz_n[shift(r.range(), quiet.start)]).abs() <= c.fz_n.at(r.mean);
+        let flat = || {
+            let x = &prep.fz_n[shift(r.range(), quiet.start)];
+            let edge = x.len() / 5;
+            linear_change(&x[edge..x.len() - edge]).abs() <= 0.5 * c.fz_n.at(r.mean)
+        };
         if r.len() < step_min || r.mean < c.loaded_min_n || !flat() {
             continue;
         }
