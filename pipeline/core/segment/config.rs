@@ -351,8 +351,8 @@ impl Default for SpringRateConfig {
     fn default() -> Self {
         SpringRateConfig {
             fz_n: Tolerance {
-                abs: 25.0,
-                frac: 0.03,
+                abs: 30.0,
+                frac: 0.04,
             },
             step_min_s: 0.15,
             step_max_s: 4.0,

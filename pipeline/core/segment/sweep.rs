@@ -410,7 +410,7 @@ fn detect_in_quiet(
 }
 
 /// Chains of short load steps at one IA and speed. A step is a flat level run: the least-squares
-/// change over its middle 60 % is within half the step tolerance (a level run may start on the
+/// change over its middle 60 % is within the step tolerance (a level run may start on the
 /// tail of the ramp into it, but a slow load ramp cut into bands keeps rising in the middle);
 /// consecutive flat runs closer than `step_min_n` are one step.
 fn load_staircases(
@@ -431,7 +431,7 @@ fn load_staircases(
         let flat = || {
             let x = &prep.fz_n[shift(r.range(), quiet.start)];
             let edge = x.len() / 5;
-            linear_change(&x[edge..x.len() - edge]).abs() <= 0.5 * c.fz_n.at(r.mean)
+            linear_change(&x[edge..x.len() - edge]).abs() <= c.fz_n.at(r.mean)
         };
         if r.len() < step_min || r.mean < c.loaded_min_n || !flat() {
             continue;
