@@ -16,77 +16,65 @@ use super::output::{
 use super::prepare::Dropouts;
 use super::signals::RunSignals;
 
-/// Raw set-point channels in segment units, with dropout samples masked out.
-pub(crate) struct StatsSource {
-    pressure_kpa: Vec<f64>,
-    ia_deg: Vec<f64>,
-    fz_n: Vec<f64>,
-    speed_kph: Vec<f64>,
-    alpha_deg: Vec<f64>,
-    /// Per channel (same order), true where the sample is a dropout.
-    masked: [Vec<bool>; 5],
+/// Raw set-point channels with their dropout stretches (borrowed, nothing copied).
+pub(crate) struct StatsSource<'a> {
+    signals: &'a RunSignals<'a>,
+    dropouts: &'a Dropouts,
 }
 
-fn mask(n: usize, runs: &[Range<usize>]) -> Vec<bool> {
-    let mut m = vec![false; n];
-    for r in runs {
-        m[r.clone()].iter_mut().for_each(|v| *v = true);
-    }
-    m
-}
-
-impl StatsSource {
-    pub fn new(signals: &RunSignals, dropouts: &Dropouts) -> Self {
-        let n = signals.len();
-        StatsSource {
-            pressure_kpa: signals.pressure_kpa.to_vec(),
-            ia_deg: signals.gamma_rad.iter().map(|r| r.to_degrees()).collect(),
-            fz_n: signals.fz_n.to_vec(),
-            speed_kph: signals.speed_kph.to_vec(),
-            alpha_deg: signals.alpha_rad.iter().map(|r| r.to_degrees()).collect(),
-            masked: [
-                mask(n, &dropouts.p),
-                mask(n, &dropouts.ia),
-                mask(n, &dropouts.fz),
-                mask(n, &dropouts.v),
-                mask(n, &dropouts.sa),
-            ],
-        }
+impl<'a> StatsSource<'a> {
+    pub fn new(signals: &'a RunSignals<'a>, dropouts: &'a Dropouts) -> Self {
+        StatsSource { signals, dropouts }
     }
 
-    /// Measured levels over `range`.
+    /// Measured levels over `range` (angles converted to degrees).
     pub fn measure(&self, range: Range<usize>) -> MeasuredLevels {
-        let stats = |x: &[f64], m: &[bool]| channel_stats(&x[range.clone()], &m[range.clone()]);
+        let (s, d) = (self.signals, self.dropouts);
+        let stats = |x: &[f64], skip: &[Range<usize>], scale: f64| {
+            let st = channel_stats(x, range.clone(), skip);
+            ChannelStats {
+                mean: st.mean * scale,
+                std: st.std * scale,
+            }
+        };
+        let deg = 1f64.to_degrees();
         MeasuredLevels {
-            pressure_kpa: stats(&self.pressure_kpa, &self.masked[0]),
-            ia_deg: stats(&self.ia_deg, &self.masked[1]),
-            fz_n: stats(&self.fz_n, &self.masked[2]),
-            speed_kph: stats(&self.speed_kph, &self.masked[3]),
-            alpha_deg: stats(&self.alpha_deg, &self.masked[4]),
+            pressure_kpa: stats(s.pressure_kpa, &d.p, 1.0),
+            ia_deg: stats(s.gamma_rad, &d.ia, deg),
+            fz_n: stats(s.fz_n, &d.fz, 1.0),
+            speed_kph: stats(s.speed_kph, &d.v, 1.0),
+            alpha_deg: stats(s.alpha_rad, &d.sa, deg),
         }
     }
 }
 
-/// Mean and population std of the unmasked samples (zeros when every sample is masked).
-fn channel_stats(x: &[f64], masked: &[bool]) -> ChannelStats {
-    let (mut n, mut sum) = (0usize, 0.0);
-    for (v, m) in x.iter().zip(masked) {
-        if !m {
-            n += 1;
-            sum += v;
+/// The parts of `range` outside the sorted, disjoint `skip` ranges.
+fn kept_parts(range: Range<usize>, skip: &[Range<usize>]) -> Vec<Range<usize>> {
+    let first = skip.partition_point(|r| r.end <= range.start);
+    let mut out = Vec::new();
+    let mut cursor = range.start;
+    for r in skip[first..].iter().take_while(|r| r.start < range.end) {
+        if r.start > cursor {
+            out.push(cursor..r.start);
         }
+        cursor = cursor.max(r.end);
     }
+    if cursor < range.end {
+        out.push(cursor..range.end);
+    }
+    out
+}
+
+/// Mean and population std of `x[range]` outside `skip` (zeros when nothing is left).
+fn channel_stats(x: &[f64], range: Range<usize>, skip: &[Range<usize>]) -> ChannelStats {
+    let parts = kept_parts(range, skip);
+    let n: usize = parts.iter().map(|r| r.len()).sum();
     if n == 0 {
         return ChannelStats::default();
     }
-    let mean = sum / n as f64;
-    let var = x
-        .iter()
-        .zip(masked)
-        .filter(|(_, m)| !**m)
-        .map(|(v, _)| (v - mean).powi(2))
-        .sum::<f64>()
-        / n as f64;
+    let values = || parts.iter().flat_map(|r| x[r.clone()].iter());
+    let mean = values().sum::<f64>() / n as f64;
+    let var = values().map(|v| (v - mean).powi(2)).sum::<f64>() / n as f64;
     ChannelStats {
         mean,
         std: var.sqrt(),
@@ -184,9 +172,16 @@ mod tests {
 
     #[test]
     fn stats_skip_dropouts() {
-        let s = channel_stats(&[10.0, 0.0, 0.0, 12.0], &[false, true, true, false]);
+        let s = channel_stats(&[10.0, 0.0, 0.0, 12.0], 0..4, &[1..3]);
         assert!((s.mean - 11.0).abs() < 1e-12 && (s.std - 1.0).abs() < 1e-12);
-        assert_eq!(channel_stats(&[0.0], &[true]), ChannelStats::default());
+        assert_eq!(
+            channel_stats(&[0.0], 0..1, &[0..1]),
+            ChannelStats::default()
+        );
+        assert_eq!(
+            kept_parts(5..20, &[0..2, 4..7, 10..12, 19..30]),
+            vec![7..10, 12..19]
+        );
     }
 
     #[test]

@@ -58,68 +58,125 @@ pub(crate) fn is_exact_zero(x: f64) -> bool {
 pub(crate) fn prepare(signals: &RunSignals, timeline: &Timeline, cfg: &SegmentConfig) -> Prepared {
     let min_zero = timeline.samples(cfg.qc.zero_min_s);
     let p_floor = cfg.qc.zero_pressure_max_kpa;
+    let half = timeline.samples(cfg.smoothing.window_s) / 2;
+    let blocks = &timeline.blocks;
+    let deg = 1f64.to_degrees();
     let mut dropouts = Dropouts::default();
-    let bridged =
-        |x: &[f64], is_zero: &dyn Fn(f64) -> bool, keep: Option<&mut Vec<Range<usize>>>| {
-            let runs = zero_runs(x, min_zero, is_zero);
-            let out = bridge(x, &runs);
-            if let Some(keep) = keep {
-                *keep = runs;
-            }
-            out
-        };
-    let deg = |x: &[f64]| -> Vec<f64> { x.iter().map(|r| r.to_degrees()).collect() };
-    let sa = bridged(
-        &deg(signals.alpha_rad),
-        &is_exact_zero,
-        Some(&mut dropouts.sa),
+    let sa_deg = working(
+        signals.alpha_rad,
+        min_zero,
+        is_exact_zero,
+        blocks,
+        half,
+        deg,
+        &mut dropouts.sa,
     );
-    let ia = bridged(
-        &deg(signals.gamma_rad),
-        &is_exact_zero,
-        Some(&mut dropouts.ia),
+    let ia_deg = working(
+        signals.gamma_rad,
+        min_zero,
+        is_exact_zero,
+        blocks,
+        half,
+        deg,
+        &mut dropouts.ia,
     );
-    let fz = bridged(signals.fz_n, &is_exact_zero, Some(&mut dropouts.fz));
-    let p = bridged(
+    let fz_n = working(
+        signals.fz_n,
+        min_zero,
+        is_exact_zero,
+        blocks,
+        half,
+        1.0,
+        &mut dropouts.fz,
+    );
+    let p_kpa = working(
         signals.pressure_kpa,
-        &|x| x.abs() <= p_floor,
-        Some(&mut dropouts.p),
+        min_zero,
+        |x| x.abs() <= p_floor,
+        blocks,
+        half,
+        1.0,
+        &mut dropouts.p,
     );
-    let v = bridged(signals.speed_kph, &is_exact_zero, Some(&mut dropouts.v));
+    let v_kph = working(
+        signals.speed_kph,
+        min_zero,
+        is_exact_zero,
+        blocks,
+        half,
+        1.0,
+        &mut dropouts.v,
+    );
     let has_sl = signals.has_kappa && !signals.kappa.is_empty();
     let sl = if has_sl {
-        let sl = bridged(signals.kappa, &is_exact_zero, None);
-        let reference = free_rolling_slip(&sl, &sa, &v, cfg);
-        sl.iter().map(|k| k - reference).collect()
+        let mut sl = working(
+            signals.kappa,
+            min_zero,
+            is_exact_zero,
+            blocks,
+            half,
+            1.0,
+            &mut Vec::new(),
+        );
+        let reference = free_rolling_slip(&sl, &sa_deg, &v_kph, cfg);
+        sl.iter_mut().for_each(|k| *k -= reference);
+        sl
     } else {
         vec![0.0; signals.len()]
     };
-
-    let half = timeline.samples(cfg.smoothing.window_s) / 2;
     let rate_half = (timeline.samples(cfg.smoothing.rate_window_s) / 2).max(1);
     let ia_rate_half = (timeline.samples(cfg.smoothing.ia_rate_window_s) / 2).max(1);
-    let smooth = |x: &[f64]| per_block(x, &timeline.blocks, |b| moving_average(b, half));
-    let sa_deg = smooth(&sa);
-    let sl = smooth(&sl);
-    let ia_deg = smooth(&ia);
-    let rate = |x: &[f64], h: usize| {
-        per_block(x, &timeline.blocks, |b| {
-            centred_rate(b, h, timeline.period_s)
-        })
-    };
+    let period = timeline.period_s;
     Prepared {
-        sa_rate: rate(&sa_deg, rate_half),
-        sl_rate: rate(&sl, rate_half),
-        ia_rate: rate(&ia_deg, ia_rate_half),
+        sa_rate: rate_blocks(&sa_deg, blocks, rate_half, period),
+        sl_rate: rate_blocks(&sl, blocks, rate_half, period),
+        ia_rate: rate_blocks(&ia_deg, blocks, ia_rate_half, period),
         sa_deg,
         sl,
         ia_deg,
-        fz_n: smooth(&fz),
-        p_kpa: smooth(&p),
-        v_kph: smooth(&v),
+        fz_n,
+        p_kpa,
+        v_kph,
         has_sl,
         dropouts,
     }
+}
+
+/// One working channel: dropout stretches (`is_zero` for `min_zero` samples) found and bridged
+/// (copied only when there are any), smoothed per block, scaled (rad -> deg).
+#[allow(clippy::too_many_arguments)]
+fn working(
+    x: &[f64],
+    min_zero: usize,
+    is_zero: impl Fn(f64) -> bool,
+    blocks: &[Range<usize>],
+    half: usize,
+    scale: f64,
+    dropouts: &mut Vec<Range<usize>>,
+) -> Vec<f64> {
+    *dropouts = zero_runs(x, min_zero, is_zero);
+    let bridged;
+    let source = if dropouts.is_empty() {
+        x
+    } else {
+        bridged = bridge(x, dropouts);
+        &bridged[..]
+    };
+    let mut out = Vec::with_capacity(x.len());
+    let mut prefix = Vec::with_capacity(x.len() + 1);
+    for block in blocks {
+        moving_average_into(&source[block.clone()], half, scale, &mut prefix, &mut out);
+    }
+    out
+}
+
+/// [`centred_rate`] per block, into one vector.
+fn rate_blocks(x: &[f64], blocks: &[Range<usize>], half: usize, period_s: f64) -> Vec<f64> {
+    let mut out = Vec::with_capacity(x.len());
+    for block in blocks {
+        centred_rate_into(&x[block.clone()], half, period_s, &mut out);
+    }
+    out
 }
 
 /// Median SL while rolling free (rolling, SA quiet): the offset of Calspan's SR, ~0 for SL.
@@ -146,55 +203,62 @@ pub(crate) fn median(values: &mut [f64]) -> Option<f64> {
     Some(*m)
 }
 
-/// Apply `f` to every block's slice and concatenate (blocks cover the run in order).
-fn per_block(x: &[f64], blocks: &[Range<usize>], f: impl Fn(&[f64]) -> Vec<f64>) -> Vec<f64> {
+/// Centred moving average over `2 * half + 1` samples, shrinking at the ends.
+pub(crate) fn moving_average(x: &[f64], half: usize) -> Vec<f64> {
     let mut out = Vec::with_capacity(x.len());
-    for block in blocks {
-        out.extend(f(&x[block.clone()]));
-    }
+    moving_average_into(x, half, 1.0, &mut Vec::new(), &mut out);
     out
 }
 
-/// Centred moving average over `2 * half + 1` samples, shrinking at the ends.
-pub(crate) fn moving_average(x: &[f64], half: usize) -> Vec<f64> {
+/// [`moving_average`] times `scale`, appended to `out` (`prefix` is scratch space).
+fn moving_average_into(
+    x: &[f64],
+    half: usize,
+    scale: f64,
+    prefix: &mut Vec<f64>,
+    out: &mut Vec<f64>,
+) {
     let n = x.len();
-    let mut prefix = Vec::with_capacity(n + 1);
+    prefix.clear();
     prefix.push(0.0);
     let mut sum = 0.0;
     for v in x {
         sum += v;
         prefix.push(sum);
     }
-    (0..n)
-        .map(|i| {
-            let lo = i.saturating_sub(half);
-            let hi = (i + half + 1).min(n);
-            (prefix[hi] - prefix[lo]) / (hi - lo) as f64
-        })
-        .collect()
+    out.extend((0..n).map(|i| {
+        let lo = i.saturating_sub(half);
+        let hi = (i + half + 1).min(n);
+        scale * (prefix[hi] - prefix[lo]) / (hi - lo) as f64
+    }));
 }
 
 /// Centred difference `(x[i+h] - x[i-h]) / (2 h period)`, one-sided at the ends, per second.
 pub(crate) fn centred_rate(x: &[f64], half: usize, period_s: f64) -> Vec<f64> {
+    let mut out = Vec::with_capacity(x.len());
+    centred_rate_into(x, half, period_s, &mut out);
+    out
+}
+
+/// [`centred_rate`] appended to `out`.
+fn centred_rate_into(x: &[f64], half: usize, period_s: f64, out: &mut Vec<f64>) {
     let n = x.len();
-    (0..n)
-        .map(|i| {
-            let lo = i.saturating_sub(half);
-            let hi = (i + half).min(n.saturating_sub(1));
-            if hi > lo {
-                (x[hi] - x[lo]) / ((hi - lo) as f64 * period_s)
-            } else {
-                0.0
-            }
-        })
-        .collect()
+    out.extend((0..n).map(|i| {
+        let lo = i.saturating_sub(half);
+        let hi = (i + half).min(n.saturating_sub(1));
+        if hi > lo {
+            (x[hi] - x[lo]) / ((hi - lo) as f64 * period_s)
+        } else {
+            0.0
+        }
+    }));
 }
 
 /// Maximal stretches of at least `min_len` samples where `is_zero` holds.
 pub(crate) fn zero_runs(
     x: &[f64],
     min_len: usize,
-    is_zero: &dyn Fn(f64) -> bool,
+    is_zero: impl Fn(f64) -> bool,
 ) -> Vec<Range<usize>> {
     let mut runs = Vec::new();
     let mut start = None;
@@ -266,12 +330,12 @@ mod tests {
         for v in &mut x[5..10] {
             *v = 0.0;
         }
-        let runs = zero_runs(&x, 3, &is_exact_zero);
+        let runs = zero_runs(&x, 3, is_exact_zero);
         assert_eq!(runs, vec![5..10]);
         let y = bridge(&x, &runs);
         for (i, v) in y.iter().enumerate() {
             assert!((v - (100.0 + i as f64)).abs() < 1e-9, "sample {i}: {v}");
         }
-        assert!(zero_runs(&x, 6, &is_exact_zero).is_empty());
+        assert!(zero_runs(&x, 6, is_exact_zero).is_empty());
     }
 }

@@ -75,7 +75,7 @@ pub(crate) fn flag(
     let min_zero = timeline.samples(cfg.qc.zero_min_s);
     for (name, x) in zero_checked(signals) {
         let set_point = matches!(name, "speed_kph" | "alpha_rad" | "gamma_rad" | "kappa");
-        let live = !set_point && is_live(x);
+        let live = || !set_point && is_live(x);
         for r in zeroed_stretches(x, min_zero, cfg.qc.zeroed_neighbour_frac, live) {
             mark(r, &QcFlag::ZeroedChannel(name.to_string()));
         }
@@ -134,12 +134,18 @@ fn is_live(x: &[f64]) -> bool {
 /// those whose neighbours on both sides (the one side at a run end) exceed `frac` of the
 /// channel's 95th percentile |x|: a signal that drops to zero, not a quiet or noise-free channel
 /// resting at zero (speed at a static hold, slip angle at a dwell, SL of a cornering run).
-fn zeroed_stretches(x: &[f64], min_len: usize, frac: f64, live: bool) -> Vec<Range<usize>> {
-    let runs = zero_runs(x, min_len, &is_exact_zero);
-    if runs.is_empty() || live {
+fn zeroed_stretches(
+    x: &[f64],
+    min_len: usize,
+    frac: f64,
+    live: impl FnOnce() -> bool,
+) -> Vec<Range<usize>> {
+    let runs = zero_runs(x, min_len, is_exact_zero);
+    if runs.is_empty() || live() {
         return runs;
     }
-    let mut mags: Vec<f64> = x.iter().map(|v| v.abs()).collect();
+    // Every 7th sample is plenty for a threshold (and keeps this pass cheap on long runs).
+    let mut mags: Vec<f64> = x.iter().step_by(7).map(|v| v.abs()).collect();
     let k = (mags.len() * 95 / 100).min(mags.len() - 1);
     let (_, p95, _) = mags.select_nth_unstable_by(k, f64::total_cmp);
     let floor = frac * *p95;
@@ -176,25 +182,43 @@ fn saturated_stretches(x: &[f64], min_len: usize) -> Vec<Range<usize>> {
     if hi <= lo {
         return Vec::new();
     }
-    let inside = |v: f64| v > lo && v < hi;
+    let pinned_count = x.iter().filter(|&&v| v >= hi || v <= lo).count();
+    if pinned_count < min_len {
+        return Vec::new();
+    }
+    let at_extreme = |v: f64| {
+        let near = |e: f64| !is_exact_zero(e) && (v - e).abs() <= 1e-9 * e.abs().max(1.0);
+        near(hi) || near(lo)
+    };
     let (mut steps, mut repeats) = (0usize, 0usize);
-    for w in x.windows(2).filter(|w| inside(w[0]) && inside(w[1])) {
-        steps += 1;
-        repeats += usize::from((w[1] - w[0]).abs() <= 0.0);
+    let mut runs = Vec::new();
+    let mut start: Option<usize> = None;
+    for (i, &v) in x.iter().enumerate() {
+        if i > 0 && v > lo && v < hi && x[i - 1] > lo && x[i - 1] < hi {
+            steps += 1;
+            repeats += usize::from((v - x[i - 1]).abs() <= 0.0);
+        }
+        let pinned = at_extreme(v) && start.is_none_or(|s| (x[s] - v).abs() <= 0.0);
+        match (pinned, start) {
+            (true, None) => start = Some(i),
+            (false, Some(s)) => {
+                if i - s >= min_len {
+                    runs.push(s..i);
+                }
+                start = at_extreme(v).then_some(i);
+            }
+            _ => {}
+        }
+    }
+    if let Some(s) = start
+        && x.len() - s >= min_len
+    {
+        runs.push(s..x.len());
     }
     if repeats as f64 > SMOOTH_REPEAT_FRAC * steps as f64 {
         return Vec::new();
     }
-    let mut out = Vec::new();
-    for extreme in [hi, lo] {
-        if is_exact_zero(extreme) {
-            continue;
-        }
-        let eps = 1e-9 * extreme.abs().max(1.0);
-        out.extend(zero_runs(x, min_len, &|v| (v - extreme).abs() <= eps));
-    }
-    out.sort_by_key(|r| r.start);
-    out
+    runs
 }
 
 fn is_sweep(kind: SegmentKind) -> bool {
@@ -306,11 +330,11 @@ mod tests {
         for v in &mut fy[50..80] {
             *v = 0.0;
         }
-        assert_eq!(zeroed_stretches(&fy, 10, 0.05, false), vec![50..80]);
+        assert_eq!(zeroed_stretches(&fy, 10, 0.05, || false), vec![50..80]);
         let mut v: Vec<f64> = (0..100).map(|i| 40.0 * (1.0 - i as f64 / 100.0)).collect();
         v.extend(std::iter::repeat_n(0.0, 100));
         assert!(
-            zeroed_stretches(&v, 10, 0.05, false).is_empty(),
+            zeroed_stretches(&v, 10, 0.05, || false).is_empty(),
             "speed at a static hold"
         );
         let quiet_mz: Vec<f64> = (0..200)
@@ -324,7 +348,7 @@ mod tests {
             .collect();
         assert!(is_live(&quiet_mz));
         assert_eq!(
-            zeroed_stretches(&quiet_mz, 10, 0.5, true),
+            zeroed_stretches(&quiet_mz, 10, 0.5, || true),
             vec![60..90],
             "small but noisy"
         );

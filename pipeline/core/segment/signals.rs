@@ -133,6 +133,9 @@ impl<'a> RunSignals<'a> {
                     found: column.len(),
                 });
             }
+            if column.iter().fold(true, |ok, v| ok & v.is_finite()) {
+                continue;
+            }
             if let Some(index) = column.iter().position(|v| !v.is_finite()) {
                 return Err(SegmentError::NonFinite {
                     channel: name.to_string(),

@@ -443,7 +443,7 @@ fn debug_dump() {
 #[ignore]
 fn debug_zero_runs() {
     let rig = synthetic::round4_cornering(83.0, true, false, 1);
-    let runs = super::prepare::zero_runs(&rig.cols.mz_nm, 5, &super::prepare::is_exact_zero);
+    let runs = super::prepare::zero_runs(&rig.cols.mz_nm, 5, super::prepare::is_exact_zero);
     eprintln!(
         "{} runs, first {:?}",
         runs.len(),
@@ -479,4 +479,23 @@ fn debug_staircase() {
             ia
         );
     }
+}
+
+/// Timing on a long raw run (run with `--release -- --ignored --nocapture`; prints ms per run).
+#[test]
+#[ignore]
+fn timing_of_a_long_raw_run() {
+    let rig = synthetic::round8_cornering_raw(13);
+    let signals = rig.cols.signals(false);
+    let cfg = SegmentConfig::default();
+    let n: u32 = std::env::var("SEGMENT_TIMING_N")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(20);
+    let t0 = std::time::Instant::now();
+    for _ in 0..n {
+        std::hint::black_box(run(&signals, &cfg).unwrap());
+    }
+    let ms = t0.elapsed().as_secs_f64() * 1e3 / f64::from(n.max(1));
+    eprintln!("{} samples: {ms:.2} ms per run", rig.len());
 }
