@@ -172,7 +172,8 @@ mod tests {
 
     #[test]
     fn stats_skip_dropouts() {
-        let s = channel_stats(&[10.0, 0.0, 0.0, 12.0], 0..4, &[1..3]);
+        let skip: Vec<Range<usize>> = std::iter::once(1..3).collect();
+        let s = channel_stats(&[10.0, 0.0, 0.0, 12.0], 0..4, &skip);
         assert!((s.mean - 11.0).abs() < 1e-12 && (s.std - 1.0).abs() < 1e-12);
         assert_eq!(
             channel_stats(&[0.0], 0..1, &[0..1]),

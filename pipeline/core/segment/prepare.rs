@@ -170,7 +170,7 @@ fn working(
     out
 }
 
-/// [`centred_rate`] per block, into one vector.
+/// Centred differences (`centred_rate_into`) per block, into one vector.
 fn rate_blocks(x: &[f64], blocks: &[Range<usize>], half: usize, period_s: f64) -> Vec<f64> {
     let mut out = Vec::with_capacity(x.len());
     for block in blocks {
@@ -204,13 +204,15 @@ pub(crate) fn median(values: &mut [f64]) -> Option<f64> {
 }
 
 /// Centred moving average over `2 * half + 1` samples, shrinking at the ends.
-pub(crate) fn moving_average(x: &[f64], half: usize) -> Vec<f64> {
+#[cfg(test)]
+fn moving_average(x: &[f64], half: usize) -> Vec<f64> {
     let mut out = Vec::with_capacity(x.len());
     moving_average_into(x, half, 1.0, &mut Vec::new(), &mut out);
     out
 }
 
-/// [`moving_average`] times `scale`, appended to `out` (`prefix` is scratch space).
+/// Centred moving average over `2 * half + 1` samples (shrinking at the ends) times `scale`,
+/// appended to `out` (`prefix` is scratch space).
 fn moving_average_into(
     x: &[f64],
     half: usize,
@@ -234,13 +236,15 @@ fn moving_average_into(
 }
 
 /// Centred difference `(x[i+h] - x[i-h]) / (2 h period)`, one-sided at the ends, per second.
-pub(crate) fn centred_rate(x: &[f64], half: usize, period_s: f64) -> Vec<f64> {
+#[cfg(test)]
+fn centred_rate(x: &[f64], half: usize, period_s: f64) -> Vec<f64> {
     let mut out = Vec::with_capacity(x.len());
     centred_rate_into(x, half, period_s, &mut out);
     out
 }
 
-/// [`centred_rate`] appended to `out`.
+/// Centred difference `(x[i+h] - x[i-h]) / (2 h period)`, one-sided at the ends, per second,
+/// appended to `out`.
 fn centred_rate_into(x: &[f64], half: usize, period_s: f64, out: &mut Vec<f64>) {
     let n = x.len();
     out.extend((0..n).map(|i| {
