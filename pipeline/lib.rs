@@ -17,5 +17,10 @@
 
 pub use tirebase_core as core;
 
+pub mod catalog;
 pub mod cli;
 pub mod commands;
+pub mod progress;
+pub mod query;
+pub mod schema;
+pub mod store;

@@ -1,1 +1,5 @@
-//! Integration tests.
+//! Integration tests: one binary, one module per command, each driving the real `tirebase`
+//! binary in temporary directories.
+
+mod inertia;
+mod tir;

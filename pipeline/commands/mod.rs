@@ -3,9 +3,21 @@
 
 use std::process::ExitCode;
 
-use crate::cli::Cli;
+use crate::cli::{Cli, Command, SynthCommand};
+
+pub mod inertia;
+pub mod query;
+pub mod synth;
+pub mod tir;
 
 /// Run one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
-    match cli.command {}
+    match cli.command {
+        Command::Tir(cmd) => tir::run(cmd),
+        Command::Query(args) => query::run(&args),
+        Command::Inertia(args) => inertia::run(&args),
+        Command::Synth {
+            what: SynthCommand::Inertia(args),
+        } => synth::inertia(&args),
+    }
 }

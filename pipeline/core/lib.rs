@@ -11,5 +11,9 @@
 //! the rest of the heavy dependency tree stay cheap to compile.
 
 pub mod frame;
+pub mod inertia;
+pub mod numerics;
 pub mod segment;
+pub mod synth;
 pub mod tire_model;
+pub mod ttc;

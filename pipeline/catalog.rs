@@ -1,0 +1,197 @@
+//! The run catalog: which tire and rim a raw file belongs to (old rounds' `.dat` files name no
+//! tire), like the consortium's run guide.
+//!
+//! ```toml
+//! [[run]]
+//! project = 1320
+//! run = 54
+//! tire = "Hoosier 20.5x7.0-13 R25B"
+//! rim_in = 7
+//! kind = "cornering"        # optional hint: cornering | drive_brake | warmup | transient
+//! ```
+//!
+//! In: a TOML file. Out: lookups by (project, run). `tirebase synth round` writes this format.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::Deserialize;
+
+/// One catalogued run.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CatalogEntry {
+    /// Calspan project number.
+    pub project: u32,
+    /// Run number.
+    pub run: u32,
+    /// Tire name.
+    pub tire: String,
+    /// Rim width, inches.
+    pub rim_in: f64,
+    /// Optional run kind hint.
+    #[serde(default)]
+    pub kind: Option<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CatalogFile {
+    #[serde(default)]
+    run: Vec<CatalogEntry>,
+}
+
+/// Catalog errors.
+#[derive(Debug, thiserror::Error)]
+pub enum CatalogError {
+    /// The file could not be read.
+    #[error("{path}: {source}")]
+    Io {
+        /// Catalog path.
+        path: String,
+        /// OS error.
+        source: std::io::Error,
+    },
+    /// The TOML is invalid (the message names the line).
+    #[error("{path}: {message}")]
+    Parse {
+        /// Catalog path.
+        path: String,
+        /// toml's message.
+        message: String,
+    },
+    /// Two entries for one (project, run) disagree.
+    #[error("{path}: project {project} run {run} is catalogued twice with different tires")]
+    Conflict {
+        /// Catalog path.
+        path: String,
+        /// Project.
+        project: u32,
+        /// Run.
+        run: u32,
+    },
+    /// A kind hint is not one of the known kinds.
+    #[error(
+        "{path}: project {project} run {run}: kind {kind:?} is not one of cornering, drive_brake, warmup, transient"
+    )]
+    Kind {
+        /// Catalog path.
+        path: String,
+        /// Project.
+        project: u32,
+        /// Run.
+        run: u32,
+        /// The bad kind.
+        kind: String,
+    },
+}
+
+/// Known run kind hints.
+pub const KINDS: &[&str] = &["cornering", "drive_brake", "warmup", "transient"];
+
+/// Runs by (project, run).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Catalog {
+    entries: BTreeMap<(u32, u32), CatalogEntry>,
+}
+
+impl Catalog {
+    /// Parse catalog TOML text; `path` names it in errors.
+    pub fn parse(text: &str, path: &str) -> Result<Catalog, CatalogError> {
+        let file: CatalogFile = toml::from_str(text).map_err(|e| CatalogError::Parse {
+            path: path.to_string(),
+            message: e.to_string().replace('\n', " "),
+        })?;
+        let mut entries = BTreeMap::new();
+        for e in file.run {
+            if let Some(kind) = &e.kind
+                && !KINDS.contains(&kind.as_str())
+            {
+                return Err(CatalogError::Kind {
+                    path: path.to_string(),
+                    project: e.project,
+                    run: e.run,
+                    kind: kind.clone(),
+                });
+            }
+            if let Some(old) = entries.get(&(e.project, e.run))
+                && old != &e
+            {
+                return Err(CatalogError::Conflict {
+                    path: path.to_string(),
+                    project: e.project,
+                    run: e.run,
+                });
+            }
+            entries.insert((e.project, e.run), e);
+        }
+        Ok(Catalog { entries })
+    }
+
+    /// Read a catalog file.
+    pub fn read(path: &Path) -> Result<Catalog, CatalogError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| CatalogError::Io {
+            path: name.clone(),
+            source,
+        })?;
+        Catalog::parse(&text, &name)
+    }
+
+    /// The entry for a run, if catalogued.
+    pub fn get(&self, project: u32, run: u32) -> Option<&CatalogEntry> {
+        self.entries.get(&(project, run))
+    }
+
+    /// Number of catalogued runs.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Whether the catalog is empty.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_the_documented_format() {
+        let c = Catalog::parse(
+            "[[run]]\nproject = 1320\nrun = 54\ntire = \"Hoosier 20.5x7.0-13 R25B\"\nrim_in = 7\nkind = \"cornering\"\n",
+            "catalog.toml",
+        )
+        .unwrap();
+        let e = c.get(1320, 54).unwrap();
+        assert_eq!(
+            (e.tire.as_str(), e.rim_in),
+            ("Hoosier 20.5x7.0-13 R25B", 7.0)
+        );
+        assert!(c.get(1320, 55).is_none());
+    }
+
+    #[test]
+    fn errors_name_the_problem() {
+        let err = Catalog::parse("[[run]]\nproject = 1\nrun = 2\ntire = 3\n", "c.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.starts_with("c.toml:"), "{err}");
+        let err = Catalog::parse(
+            "[[run]]\nproject = 1\nrun = 2\ntire = \"x\"\nrim_in = 7\nkind = \"skidpad\"\n",
+            "c.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("skidpad"), "{err}");
+        let err = Catalog::parse(
+            "[[run]]\nproject = 1\nrun = 2\ntire = \"x\"\nrim_in = 7\ncolour = 1\n",
+            "c.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("colour"), "{err}");
+    }
+}

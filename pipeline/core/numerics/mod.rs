@@ -1,0 +1,46 @@
+//! Generic numerics shared by the fitting stages and the rig-inertia methods.
+//!
+//! In: plain slices and nalgebra vectors of `f64`. Out: fitted parameters with covariances and
+//! convergence facts (non-convergence is data, see [`levmar::FitOutcome`]). Deliberately pure:
+//! no file system, no serde, no Arrow or polars, no knowledge of tires or rigs.
+
+pub mod damped_sine;
+pub mod least_squares;
+pub mod levmar;
+pub mod ode;
+pub mod period;
+pub mod random;
+
+/// Bad input to a numerical routine (non-convergence is not an error: it is reported in the
+/// outcome structs).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NumericsError {
+    /// Fewer data points than the model needs.
+    #[error("{what}: need at least {needed} points, found {found}")]
+    TooFewPoints {
+        what: &'static str,
+        needed: usize,
+        found: usize,
+    },
+    /// Inputs of different lengths.
+    #[error("{what}: length mismatch ({left} vs {right})")]
+    LengthMismatch {
+        what: &'static str,
+        left: usize,
+        right: usize,
+    },
+    /// A NaN or infinity in the input.
+    #[error("{what}: non-finite value at index {index}")]
+    NotFinite { what: &'static str, index: usize },
+    /// The problem has no unique solution (rank-deficient design, flat signal).
+    #[error("{what}: {reason}")]
+    Degenerate { what: &'static str, reason: String },
+}
+
+/// Checks that every value is finite; `what` names the input in the error.
+pub fn check_finite(what: &'static str, values: &[f64]) -> Result<(), NumericsError> {
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(NumericsError::NotFinite { what, index }),
+        None => Ok(()),
+    }
+}

@@ -1,0 +1,293 @@
+//! SQL over a store: every table as a polars-sql table, lazily scanned.
+//!
+//! In: a store root and a SQL string. Out: a DataFrame (printed as an aligned table or CSV by
+//! the command layer). Tables:
+//! - `runs`, `segments`, `samples`: the tire database. `segments` and `samples` are filtered to
+//!   the data the runs table has committed (rows of a crashed or superseded ingest are never
+//!   visible here, even before their files are garbage-collected).
+//! - every published result table (`coefficients`, `fit_quality`, `spring_rate`, `thermal`,
+//!   `thermal_fit`, `relaxation`, `inertia`, ...) across all versions with a `version` column,
+//!   plus `<table>_latest`, the newest version only; and `versions` (one row per version).
+//!
+//! Deliberately not here: writing anything.
+
+use std::io::Write;
+use std::path::Path;
+
+use polars::prelude::*;
+use polars::sql::SQLContext;
+
+use crate::schema::{self, TableSchema};
+use crate::store::files::{parquet_files_below, parquet_files_in, read_parquet};
+use crate::store::layout::{SAMPLES_DIR, SEGMENTS_DIR, runs_file};
+use crate::store::{StoreError, versions};
+
+/// Query errors.
+#[derive(Debug, thiserror::Error)]
+pub enum QueryError {
+    /// The store could not be read.
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// The SQL failed to plan or execute.
+    #[error("query failed: {0}")]
+    Sql(#[from] PolarsError),
+    /// The path is not a store.
+    #[error("{0} is not a tirebase store (no runs/ or versions/ directory)")]
+    NotAStore(String),
+}
+
+/// An empty frame with a table's file columns (used when a table has no files yet).
+fn empty_frame(table: &TableSchema) -> LazyFrame {
+    DataFrame::empty_with_schema(&table.file_schema()).lazy()
+}
+
+fn pl_path(path: &Path) -> PlRefPath {
+    PlRefPath::new(path.to_string_lossy().into_owned())
+}
+
+/// Scan a list of Parquet files (hive partitions parsed from their paths when `hive`).
+fn scan_files(files: &[std::path::PathBuf], hive: bool) -> PolarsResult<LazyFrame> {
+    let paths: Vec<PlRefPath> = files.iter().map(|p| pl_path(p)).collect();
+    let args = ScanArgsParquet {
+        hive_options: if hive {
+            HiveOptions::new_enabled()
+        } else {
+            HiveOptions::new_disabled()
+        },
+        ..Default::default()
+    };
+    LazyFrame::scan_parquet_files(paths.into_iter().collect(), args)
+}
+
+/// The source versions whose data the runs table has committed.
+fn live_shas(runs: &DataFrame) -> PolarsResult<Series> {
+    let shas = runs.column("data_sha256")?.drop_nulls();
+    Ok(shas.as_materialized_series().clone())
+}
+
+/// Build a SQL context with every table of the store registered.
+pub fn context(root: &Path) -> Result<SQLContext, QueryError> {
+    let runs_path = root.join(runs_file());
+    let has_versions = root.join(crate::store::layout::VERSIONS_DIR).is_dir();
+    if !runs_path.exists() && !has_versions && !root.join(SAMPLES_DIR).is_dir() {
+        return Err(QueryError::NotAStore(root.display().to_string()));
+    }
+    let mut ctx = SQLContext::new();
+
+    let runs = if runs_path.exists() {
+        read_parquet(&runs_path)?
+    } else {
+        DataFrame::empty_with_schema(&schema::table("runs").file_schema())
+    };
+    let live = live_shas(&runs)?;
+    ctx.register("runs", runs.lazy());
+
+    let seg_files = parquet_files_in(&root.join(SEGMENTS_DIR))?;
+    let segments = if seg_files.is_empty() {
+        empty_frame(schema::table("segments"))
+    } else {
+        scan_files(&seg_files, false)?
+            .filter(col("source_sha256").is_in(lit(live.clone()).implode(false), false))
+    };
+    ctx.register("segments", segments);
+
+    let sample_files = parquet_files_below(&root.join(SAMPLES_DIR))?;
+    let samples = if sample_files.is_empty() {
+        empty_frame(schema::table("samples"))
+    } else {
+        scan_files(&sample_files, true)?
+            .filter(col("source_sha256").is_in(lit(live).implode(false), false))
+    };
+    ctx.register("samples", samples);
+
+    register_versions(&mut ctx, root)?;
+    Ok(ctx)
+}
+
+/// Register every result table of every version (`<table>` with a `version` column and
+/// `<table>_latest`) and the `versions` listing.
+fn register_versions(ctx: &mut SQLContext, root: &Path) -> Result<(), QueryError> {
+    let all = versions::list(root)?;
+    let mut numbers = Vec::new();
+    let mut tables: std::collections::BTreeMap<String, Vec<LazyFrame>> = Default::default();
+    let mut latest: std::collections::BTreeMap<String, LazyFrame> = Default::default();
+    for (n, dir) in &all {
+        numbers.push(*n as i64);
+        for file in parquet_files_in(dir)? {
+            let Some(name) = file.file_stem().and_then(|s| s.to_str()) else {
+                continue;
+            };
+            let lf = scan_files(std::slice::from_ref(&file), false)?
+                .with_column(lit(*n as i64).alias("version"));
+            latest.insert(name.to_string(), lf.clone());
+            tables.entry(name.to_string()).or_default().push(lf);
+        }
+    }
+    for (name, frames) in tables {
+        let union = concat(
+            frames,
+            UnionArgs {
+                to_supertypes: true,
+                ..Default::default()
+            },
+        )?;
+        ctx.register(&name, union);
+    }
+    for (name, lf) in latest {
+        ctx.register(&format!("{name}_latest"), lf);
+    }
+    let listing = df!("version" => numbers)?;
+    ctx.register("versions", listing.lazy());
+    Ok(())
+}
+
+/// Run one SQL statement against the store.
+pub fn run(root: &Path, sql: &str) -> Result<DataFrame, QueryError> {
+    let mut ctx = context(root)?;
+    Ok(ctx.execute(sql)?.collect()?)
+}
+
+/// Write a frame as CSV (header, full float precision).
+pub fn write_csv(df: &mut DataFrame, out: &mut dyn Write) -> PolarsResult<()> {
+    CsvWriter::new(out).include_header(true).finish(df)
+}
+
+/// Render a frame as an aligned text table (every row; floats to 6 significant digits).
+pub fn format_table(df: &DataFrame) -> String {
+    let names: Vec<String> = df
+        .get_column_names()
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let mut cells: Vec<Vec<String>> = vec![names.clone()];
+    for i in 0..df.height() {
+        let row = df
+            .columns()
+            .iter()
+            .map(|c| match c.get(i) {
+                Ok(AnyValue::Null) => String::new(),
+                Ok(AnyValue::Float64(v)) => format!("{v:.6}"),
+                Ok(AnyValue::String(s)) => s.to_string(),
+                Ok(v) => v.to_string(),
+                Err(_) => String::new(),
+            })
+            .collect();
+        cells.push(row);
+    }
+    let widths: Vec<usize> = (0..names.len())
+        .map(|j| {
+            cells
+                .iter()
+                .map(|r| r[j].chars().count())
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let mut out = String::new();
+    for (k, row) in cells.iter().enumerate() {
+        let line: Vec<String> = row
+            .iter()
+            .zip(&widths)
+            .map(|(c, w)| format!("{c:<w$}"))
+            .collect();
+        out.push_str(line.join("  ").trim_end());
+        out.push('\n');
+        if k == 0 {
+            let rule: Vec<String> = widths.iter().map(|w| "-".repeat(*w)).collect();
+            out.push_str(&rule.join("  "));
+            out.push('\n');
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::store::files::write_parquet_atomic;
+    use crate::store::layout::{PartitionKey, partition_dir};
+
+    /// A two-file store where one file's data is live and the other's was superseded.
+    fn tiny_store(root: &Path) {
+        let mut runs = df!(
+            "source_file" => ["a.dat", "b.dat"],
+            "data_sha256" => [Some("aaa"), None],
+            "status" => ["ok", "failed"],
+        )
+        .unwrap();
+        write_parquet_atomic(&root.join(runs_file()), &mut runs).unwrap();
+        let key = PartitionKey {
+            test: "cornering".into(),
+            tire: "Hoosier 20.5x7.0-13 R25B".into(),
+            rim_in: 7,
+            pressure_kpa_nom: 83,
+            ia_deg_nom: 0,
+            fz_n_nom: 1112,
+        };
+        for (sha, fz) in [("aaa", 1100.0), ("old", 9999.0)] {
+            let mut df = df!("source_sha256" => [sha, sha], "fz_n" => [fz, fz + 20.0]).unwrap();
+            let path = root
+                .join(partition_dir(&key))
+                .join(format!("a-{sha}.parquet"));
+            write_parquet_atomic(&path, &mut df).unwrap();
+        }
+    }
+
+    #[test]
+    fn samples_are_hive_decoded_and_filtered_to_live_data() {
+        let root = tempfile::tempdir().unwrap();
+        tiny_store(root.path());
+        let df = run(
+            root.path(),
+            "SELECT tire, rim_in, fz_n_nom, fz_n FROM samples ORDER BY fz_n",
+        )
+        .unwrap();
+        assert_eq!(df.height(), 2, "{df}");
+        let tire = df
+            .column("tire")
+            .unwrap()
+            .str()
+            .unwrap()
+            .get(0)
+            .unwrap()
+            .to_string();
+        assert_eq!(tire, "Hoosier 20.5x7.0-13 R25B");
+        let fz: Vec<f64> = df
+            .column("fz_n")
+            .unwrap()
+            .f64()
+            .unwrap()
+            .into_no_null_iter()
+            .collect();
+        assert_eq!(
+            fz,
+            vec![1100.0, 1120.0],
+            "measured fz_n must not be shadowed"
+        );
+        assert_eq!(
+            df.column("fz_n_nom")
+                .unwrap()
+                .cast(&DataType::Int64)
+                .unwrap()
+                .i64()
+                .unwrap()
+                .get(0),
+            Some(1112)
+        );
+    }
+
+    #[test]
+    fn not_a_store_is_a_clear_error() {
+        let root = tempfile::tempdir().unwrap();
+        let err = run(root.path(), "SELECT 1").unwrap_err().to_string();
+        assert!(err.contains("not a tirebase store"), "{err}");
+    }
+
+    #[test]
+    fn table_format_aligns_columns() {
+        let df = df!("a" => [1.5, 22.0], "name" => ["x", "yy"]).unwrap();
+        let text = format_table(&df);
+        assert_eq!(text.lines().count(), 4);
+        assert!(text.starts_with("a          name\n"), "{text}");
+    }
+}

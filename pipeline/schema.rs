@@ -1,0 +1,228 @@
+//! Table schemas, read from the TOML definitions in `schemas/` (embedded at build time): the one
+//! place a table's columns, types and units are defined.
+//!
+//! In: `schemas/<table>.toml`. Out: [`TableSchema`] lookups, the polars schema of a table and
+//! [`TableSchema::conform`], which every writer calls so a table on disk always matches its
+//! definition (column order, dtypes, nullability). Deliberately not here: where tables live
+//! (store/layout.rs) or how they are computed.
+
+use std::sync::OnceLock;
+
+use polars::prelude::*;
+use serde::Deserialize;
+
+use crate::store::StoreError;
+
+/// Embedded schema definitions: (file name, TOML text).
+const SOURCES: &[(&str, &str)] = &[
+    ("runs.toml", include_str!("../schemas/runs.toml")),
+    ("segments.toml", include_str!("../schemas/segments.toml")),
+    ("samples.toml", include_str!("../schemas/samples.toml")),
+    ("inertia.toml", include_str!("../schemas/inertia.toml")),
+];
+
+/// Column data types used by tirebase tables.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Dtype {
+    /// UTF-8 string.
+    Str,
+    /// 64-bit float.
+    F64,
+    /// 64-bit signed integer.
+    I64,
+    /// Boolean.
+    Bool,
+}
+
+impl Dtype {
+    /// The polars data type.
+    pub fn polars(self) -> DataType {
+        match self {
+            Dtype::Str => DataType::String,
+            Dtype::F64 => DataType::Float64,
+            Dtype::I64 => DataType::Int64,
+            Dtype::Bool => DataType::Boolean,
+        }
+    }
+}
+
+/// One column of a table.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Column {
+    /// Column name (units in the name).
+    pub name: String,
+    /// Data type.
+    pub dtype: Dtype,
+    /// Unit, human readable ("" for none).
+    pub unit: String,
+    /// May hold nulls.
+    #[serde(default)]
+    pub nullable: bool,
+    /// Hive partition key (lives in directory names, not inside the files).
+    #[serde(default)]
+    pub partition: bool,
+    /// What the column means.
+    pub description: String,
+}
+
+/// A table definition.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TableSchema {
+    /// Table name.
+    pub name: String,
+    /// What a row is and where the table lives.
+    pub description: String,
+    /// Columns in canonical order.
+    pub columns: Vec<Column>,
+}
+
+/// Every table schema, parsed once.
+pub fn all() -> &'static [TableSchema] {
+    static ALL: OnceLock<Vec<TableSchema>> = OnceLock::new();
+    ALL.get_or_init(|| {
+        SOURCES
+            .iter()
+            .map(|(file, text)| {
+                toml::from_str(text).unwrap_or_else(|e| panic!("schemas/{file} is invalid: {e}"))
+            })
+            .collect()
+    })
+}
+
+/// The schema of table `name`.
+///
+/// # Panics
+/// If no such table is defined (a programming error: table names are constants).
+pub fn table(name: &str) -> &'static TableSchema {
+    all()
+        .iter()
+        .find(|t| t.name == name)
+        .unwrap_or_else(|| panic!("no schema for table {name}"))
+}
+
+impl TableSchema {
+    /// Columns stored inside the files (partition keys excluded).
+    pub fn file_columns(&self) -> impl Iterator<Item = &Column> {
+        self.columns.iter().filter(|c| !c.partition)
+    }
+
+    /// The polars schema of the columns stored inside the files.
+    pub fn file_schema(&self) -> Schema {
+        self.file_columns()
+            .map(|c| Field::new(c.name.as_str().into(), c.dtype.polars()))
+            .collect()
+    }
+
+    /// Bring `df` to this schema's file layout: every file column present, in canonical order,
+    /// cast to its dtype, no nulls in non-nullable columns. Extra columns are an error (a
+    /// column nobody defined is a column nobody documents).
+    pub fn conform(&self, df: DataFrame) -> Result<DataFrame, StoreError> {
+        let err = |message: String| StoreError::Schema {
+            table: self.name.clone(),
+            message,
+        };
+        for name in df.get_column_names() {
+            if !self.file_columns().any(|c| c.name == name.as_str()) {
+                return Err(err(format!(
+                    "column {name} is not in schemas/{}.toml",
+                    self.name
+                )));
+            }
+        }
+        let mut columns = Vec::with_capacity(self.columns.len());
+        for c in self.file_columns() {
+            let series = df
+                .column(&c.name)
+                .map_err(|_| err(format!("missing column {}", c.name)))?;
+            let cast = series
+                .cast(&c.dtype.polars())
+                .map_err(|e| err(format!("column {}: {e}", c.name)))?;
+            if !c.nullable && cast.null_count() > 0 {
+                return Err(err(format!(
+                    "column {} has {} nulls but is not nullable",
+                    c.name,
+                    cast.null_count()
+                )));
+            }
+            columns.push(cast);
+        }
+        DataFrame::new_infer_height(columns).map_err(|e| err(e.to_string()))
+    }
+}
+
+/// Text rendering of every schema (the snapshot).
+pub fn render_snapshot() -> String {
+    let mut out = String::new();
+    for t in all() {
+        out.push_str(&format!("[{}]\n", t.name));
+        for c in &t.columns {
+            let mut flags = Vec::new();
+            if c.nullable {
+                flags.push("nullable");
+            }
+            if c.partition {
+                flags.push("partition");
+            }
+            let line = format!(
+                "{:<24} {:<5} {:<6} {}",
+                c.name,
+                format!("{:?}", c.dtype).to_lowercase(),
+                c.unit,
+                flags.join(",")
+            );
+            out.push_str(line.trim_end());
+            out.push('\n');
+        }
+        out.push('\n');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The snapshot test: any change to a table definition must be accepted deliberately
+    /// (`UPDATE_SNAPSHOTS=1 cargo test schema_snapshot`).
+    #[test]
+    fn schema_snapshot() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/schemas/snapshot.txt");
+        let rendered = render_snapshot();
+        if std::env::var_os("UPDATE_SNAPSHOTS").is_some() {
+            std::fs::write(path, &rendered).unwrap();
+        }
+        let stored = std::fs::read_to_string(path).unwrap_or_default();
+        assert_eq!(
+            stored, rendered,
+            "schemas changed; review and run with UPDATE_SNAPSHOTS=1 to accept"
+        );
+    }
+
+    #[test]
+    fn every_schema_has_unique_columns_and_units_in_names() {
+        for t in all() {
+            let mut names: Vec<_> = t.columns.iter().map(|c| c.name.as_str()).collect();
+            names.sort();
+            names.dedup();
+            assert_eq!(
+                names.len(),
+                t.columns.len(),
+                "duplicate column in {}",
+                t.name
+            );
+        }
+    }
+
+    #[test]
+    fn conform_orders_casts_and_rejects_unknown_columns() {
+        let runs = table("runs");
+        let df = df!("rows" => [3i32], "source_file" => ["a.dat"]).unwrap();
+        let err = runs.conform(df).unwrap_err().to_string();
+        assert!(err.contains("missing column"), "{err}");
+        let df = df!("bogus" => [1]).unwrap();
+        assert!(runs.conform(df).unwrap_err().to_string().contains("bogus"));
+    }
+}

@@ -1,0 +1,206 @@
+//! Crash-safe file primitives: content hashing, atomic writes (temp file, fsync, rename,
+//! fsync of the directory) and Parquet read/write of whole tables through polars.
+//!
+//! A reader never sees a half-written file: every write goes to a `*.tmp` sibling that no
+//! `*.parquet` glob matches and becomes visible by one `rename`. Deliberately not here: what the
+//! files mean (layout.rs) and multi-file commits (the runs table and version directories build on
+//! these primitives).
+
+use std::fs::{self, File};
+use std::io::{self, BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use polars::prelude::*;
+use sha2::{Digest, Sha256};
+
+use super::StoreError;
+use super::layout::temp_path;
+
+/// Hex SHA-256 of a file's content, streamed (1 MiB buffer).
+pub fn sha256_file(path: &Path) -> Result<String, StoreError> {
+    let mut file = File::open(path).map_err(|e| StoreError::io(path, e))?;
+    let mut hasher = Sha256::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        let n = file.read(&mut buf).map_err(|e| StoreError::io(path, e))?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+    }
+    Ok(hex(&hasher.finalize()))
+}
+
+/// Hex SHA-256 of bytes in memory.
+pub fn sha256_bytes(bytes: &[u8]) -> String {
+    hex(&Sha256::digest(bytes))
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A name unique within this process and distinct across processes (pid + counter).
+fn unique_suffix() -> String {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    format!(
+        "{}-{}",
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    )
+}
+
+/// Create `dir` and its parents.
+pub fn ensure_dir(dir: &Path) -> Result<(), StoreError> {
+    fs::create_dir_all(dir).map_err(|e| StoreError::io(dir, e))
+}
+
+/// fsync a directory so a rename inside it survives a crash (no-op where unsupported).
+pub fn sync_dir(dir: &Path) {
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
+/// Write a file atomically: `fill` writes the content into a temporary sibling, which is
+/// flushed, fsynced and renamed over `path`.
+pub fn write_atomic<F>(path: &Path, fill: F) -> Result<(), StoreError>
+where
+    F: FnOnce(&mut BufWriter<File>) -> Result<(), StoreError>,
+{
+    let parent = path.parent().unwrap_or(Path::new("."));
+    ensure_dir(parent)?;
+    let tmp = temp_path(path, &unique_suffix());
+    let result = (|| {
+        let file = File::create(&tmp).map_err(|e| StoreError::io(&tmp, e))?;
+        let mut writer = BufWriter::new(file);
+        fill(&mut writer)?;
+        writer.flush().map_err(|e| StoreError::io(&tmp, e))?;
+        let file = writer
+            .into_inner()
+            .map_err(|e| StoreError::io(&tmp, e.into_error()))?;
+        file.sync_all().map_err(|e| StoreError::io(&tmp, e))?;
+        fs::rename(&tmp, path).map_err(|e| StoreError::io(path, e))
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    } else {
+        sync_dir(parent);
+    }
+    result
+}
+
+/// Write bytes atomically.
+pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<(), StoreError> {
+    write_atomic(path, |w| {
+        w.write_all(bytes).map_err(|e| StoreError::io(path, e))
+    })
+}
+
+/// Write a DataFrame as one Parquet file (zstd), atomically.
+pub fn write_parquet_atomic(path: &Path, df: &mut DataFrame) -> Result<(), StoreError> {
+    write_atomic(path, |w| {
+        ParquetWriter::new(w)
+            .with_compression(ParquetCompression::Zstd(None))
+            .with_statistics(StatisticsOptions::full())
+            .finish(df)
+            .map(|_| ())
+            .map_err(|e| StoreError::polars(path, e))
+    })
+}
+
+/// Read one Parquet file into memory.
+pub fn read_parquet(path: &Path) -> Result<DataFrame, StoreError> {
+    let file = File::open(path).map_err(|e| StoreError::io(path, e))?;
+    ParquetReader::new(file)
+        .finish()
+        .map_err(|e| StoreError::polars(path, e))
+}
+
+/// Every `*.parquet` file directly in `dir` (sorted; empty if `dir` does not exist).
+pub fn parquet_files_in(dir: &Path) -> Result<Vec<PathBuf>, StoreError> {
+    let mut out = Vec::new();
+    let entries = match fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(out),
+        Err(e) => return Err(StoreError::io(dir, e)),
+    };
+    for entry in entries {
+        let path = entry.map_err(|e| StoreError::io(dir, e))?.path();
+        if path.extension().is_some_and(|x| x == "parquet") && path.is_file() {
+            out.push(path);
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// Every `*.parquet` file anywhere below `dir` (sorted; empty if `dir` does not exist).
+pub fn parquet_files_below(dir: &Path) -> Result<Vec<PathBuf>, StoreError> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        let entries = match fs::read_dir(&d) {
+            Ok(e) => e,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(StoreError::io(&d, e)),
+        };
+        for entry in entries {
+            let path = entry.map_err(|e| StoreError::io(&d, e))?.path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|x| x == "parquet") {
+                out.push(path);
+            }
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn atomic_write_replaces_and_leaves_no_temp() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a/b.txt");
+        write_bytes_atomic(&path, b"one").unwrap();
+        write_bytes_atomic(&path, b"two").unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"two");
+        let names: Vec<_> = fs::read_dir(path.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 1, "{names:?}");
+    }
+
+    #[test]
+    fn failed_fill_leaves_previous_content() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.parquet");
+        write_bytes_atomic(&path, b"old").unwrap();
+        let err = write_atomic(&path, |_| {
+            Err(StoreError::io(&path, io::Error::other("simulated")))
+        });
+        assert!(err.is_err());
+        assert_eq!(fs::read(&path).unwrap(), b"old");
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn parquet_round_trip_and_hash() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.parquet");
+        let mut df = df!("fz_n" => [1.0, 2.0], "name" => ["a", "b"]).unwrap();
+        write_parquet_atomic(&path, &mut df).unwrap();
+        assert_eq!(read_parquet(&path).unwrap(), df);
+        assert_eq!(
+            sha256_file(&path).unwrap(),
+            sha256_bytes(&fs::read(&path).unwrap())
+        );
+        assert_eq!(parquet_files_below(dir.path()).unwrap(), vec![path]);
+    }
+}

@@ -1,0 +1,70 @@
+//! The only code that touches the store's disk layout: paths, atomic Parquet files, the lock,
+//! and (in later modules) versions.
+//!
+//! In: DataFrames and keys. Out: files under a store root that polars, pandas, DuckDB and Spark
+//! read directly (hive-partitioned Parquet). Deliberately not here: what a table contains (the
+//! schemas and the stages decide) and any computation on the data.
+
+pub mod files;
+pub mod layout;
+pub mod lock;
+pub mod versions;
+
+use std::path::{Path, PathBuf};
+
+/// Store errors; each names the file it concerns.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    /// Operating-system error on a path.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// polars failed to read or write a table.
+    #[error("{path}: {source}")]
+    Polars {
+        /// The table file.
+        path: PathBuf,
+        /// The polars error.
+        source: polars::error::PolarsError,
+    },
+    /// Another process holds the store lock.
+    #[error(
+        "store {root} is locked by another tirebase process ({holder}); try again when it finishes"
+    )]
+    Locked {
+        /// The store root.
+        root: PathBuf,
+        /// The holder's description from the lock file.
+        holder: String,
+    },
+    /// A table does not have the columns its schema requires.
+    #[error("{table}: {message}")]
+    Schema {
+        /// Table name.
+        table: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl StoreError {
+    /// Wrap an I/O error with its path.
+    pub fn io(path: &Path, source: std::io::Error) -> Self {
+        StoreError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    /// Wrap a polars error with its path.
+    pub fn polars(path: &Path, source: polars::error::PolarsError) -> Self {
+        StoreError::Polars {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
