@@ -76,7 +76,8 @@ pub(crate) fn flag(
     for (name, x) in zero_checked(signals) {
         let set_point = matches!(name, "speed_kph" | "alpha_rad" | "gamma_rad" | "kappa");
         let live = || !set_point && is_live(x);
-        for r in zeroed_stretches(x, min_zero, cfg.qc.zeroed_neighbour_frac, live) {
+        let frac = cfg.qc.zeroed_neighbour_frac;
+        for r in zeroed_stretches(x, min_zero, frac, live, &timeline.blocks) {
             mark(r, &QcFlag::ZeroedChannel(name.to_string()));
         }
     }
@@ -132,13 +133,15 @@ fn is_live(x: &[f64]) -> bool {
 
 /// Exact-zero stretches that are dropouts: every one in a `live` (noisy) channel; otherwise
 /// those whose neighbours on both sides (the one side at a run end) exceed `frac` of the
-/// channel's 95th percentile |x|: a signal that drops to zero, not a quiet or noise-free channel
+/// channel's 95th percentile |x| (neighbours across an ET gap do not count): a signal that
+/// drops to zero, not a quiet or noise-free channel
 /// resting at zero (speed at a static hold, slip angle at a dwell, SL of a cornering run).
 fn zeroed_stretches(
     x: &[f64],
     min_len: usize,
     frac: f64,
     live: impl FnOnce() -> bool,
+    blocks: &[Range<usize>],
 ) -> Vec<Range<usize>> {
     let runs = zero_runs(x, min_len, is_exact_zero);
     if runs.is_empty() || live() {
@@ -156,10 +159,17 @@ fn zeroed_stretches(
         let mut v: Vec<f64> = x[r].iter().map(|v| v.abs()).collect();
         median(&mut v).unwrap_or(0.0)
     };
+    let block_of = |i: usize| {
+        let k = blocks.partition_point(|b| b.end <= i);
+        blocks.get(k).cloned().unwrap_or(0..x.len())
+    };
     runs.into_iter()
         .filter(|r| {
-            let left = (r.start > 0).then(|| side(r.start.saturating_sub(NEIGHBOURS)..r.start));
-            let right = (r.end < x.len()).then(|| side(r.end..(r.end + NEIGHBOURS).min(x.len())));
+            // Neighbours across an ET gap (a cut dwell) say nothing about this stretch.
+            let (first, last) = (block_of(r.start), block_of(r.end - 1));
+            let left = (r.start > first.start)
+                .then(|| side(r.start.saturating_sub(NEIGHBOURS).max(first.start)..r.start));
+            let right = (r.end < last.end).then(|| side(r.end..(r.end + NEIGHBOURS).min(last.end)));
             match (left, right) {
                 (Some(l), Some(r)) => l.min(r) > floor,
                 (Some(one), None) | (None, Some(one)) => one > floor,
@@ -330,11 +340,11 @@ mod tests {
         for v in &mut fy[50..80] {
             *v = 0.0;
         }
-        assert_eq!(zeroed_stretches(&fy, 10, 0.05, || false), vec![50..80]);
+        assert_eq!(zeroed_stretches(&fy, 10, 0.05, || false, &[]), vec![50..80]);
         let mut v: Vec<f64> = (0..100).map(|i| 40.0 * (1.0 - i as f64 / 100.0)).collect();
         v.extend(std::iter::repeat_n(0.0, 100));
         assert!(
-            zeroed_stretches(&v, 10, 0.05, || false).is_empty(),
+            zeroed_stretches(&v, 10, 0.05, || false, &[]).is_empty(),
             "speed at a static hold"
         );
         let quiet_mz: Vec<f64> = (0..200)
@@ -348,7 +358,7 @@ mod tests {
             .collect();
         assert!(is_live(&quiet_mz));
         assert_eq!(
-            zeroed_stretches(&quiet_mz, 10, 0.5, || true),
+            zeroed_stretches(&quiet_mz, 10, 0.5, || true, &[]),
             vec![60..90],
             "small but noisy"
         );

@@ -281,7 +281,8 @@ fn cycles(
 /// `three_is_one` (the SL sweep shape +0.2 -> -0.2 -> +0.2), a third excursion of the first's
 /// sign joins the cycle when the signal then returns to zero (the next excursion has the same
 /// sign again, or there is none). Returns relative ranges covering `x` and the number of
-/// excursions in each (1 = incomplete).
+/// excursions in each (1 = incomplete). A trailing lone excursion after a complete cycle joins
+/// it (a continuous train ends with a half excursion back to zero).
 pub(crate) fn cycle_bounds(x: &[f64], thr: f64, three_is_one: bool) -> Vec<(Range<usize>, usize)> {
     let excursions = excursions(x, thr);
     if excursions.is_empty() {
@@ -301,6 +302,17 @@ pub(crate) fn cycle_bounds(x: &[f64], thr: f64, three_is_one: bool) -> Vec<(Rang
                 g.push(e)
             }
             _ => groups.push(vec![e]),
+        }
+    }
+    // The half excursion a continuous sweep train ends with (..., -12, +12 -> 0) finishes the
+    // last cycle; a lone excursion with nothing before it stays an incomplete cycle.
+    if groups.len() >= 2
+        && groups[groups.len() - 1].len() == 1
+        && groups[groups.len() - 2].len() >= 2
+    {
+        let tail = groups.pop().unwrap_or_default();
+        if let Some(last) = groups.last_mut() {
+            last.extend(tail);
         }
     }
     let mut out = Vec::with_capacity(groups.len());
@@ -587,9 +599,14 @@ mod tests {
     fn sl_up_down_up_is_one_cycle_and_a_lone_excursion_is_incomplete() {
         let x = triangle(&[0.0, 0.2, -0.2, 0.2, 0.0], 500);
         assert_eq!(cycle_bounds(&x, 0.1, true).len(), 1);
-        let half = triangle(&[0.0, 12.0, -12.0, 0.0, 12.0, 0.0], 10);
-        let c = cycle_bounds(&half, 6.0, false);
-        assert_eq!(c.iter().map(|(_, p)| *p).collect::<Vec<_>>(), vec![2, 1]);
+        let tail = triangle(&[0.0, 12.0, -12.0, 0.0, 12.0, 0.0], 10);
+        assert_eq!(
+            cycle_bounds(&tail, 6.0, false).len(),
+            1,
+            "a tail joins its cycle"
+        );
+        let lone = triangle(&[0.0, 12.0, 0.0], 10);
+        assert_eq!(cycle_bounds(&lone, 6.0, false), vec![(0..lone.len(), 1)]);
     }
 
     #[test]
