@@ -62,23 +62,23 @@ pub(crate) fn prepare(signals: &RunSignals, timeline: &Timeline, cfg: &SegmentCo
     let blocks = &timeline.blocks;
     let deg = 1f64.to_degrees();
     let mut dropouts = Dropouts::default();
-    let sa_deg = working(
+    let sa_deg = working_set_point(
         signals.alpha_rad,
         min_zero,
-        is_exact_zero,
         blocks,
         half,
         deg,
         &mut dropouts.sa,
+        cfg.qc.zeroed_neighbour_frac,
     );
-    let ia_deg = working(
+    let ia_deg = working_set_point(
         signals.gamma_rad,
         min_zero,
-        is_exact_zero,
         blocks,
         half,
         deg,
         &mut dropouts.ia,
+        cfg.qc.zeroed_neighbour_frac,
     );
     let fz_n = working(
         signals.fz_n,
@@ -98,14 +98,14 @@ pub(crate) fn prepare(signals: &RunSignals, timeline: &Timeline, cfg: &SegmentCo
         1.0,
         &mut dropouts.p,
     );
-    let v_kph = working(
+    let v_kph = working_set_point(
         signals.speed_kph,
         min_zero,
-        is_exact_zero,
         blocks,
         half,
         1.0,
         &mut dropouts.v,
+        cfg.qc.zeroed_neighbour_frac,
     );
     let has_sl = signals.has_kappa && !signals.kappa.is_empty();
     let sl = if has_sl {
@@ -142,6 +142,23 @@ pub(crate) fn prepare(signals: &RunSignals, timeline: &Timeline, cfg: &SegmentCo
     }
 }
 
+/// A set-point channel (SA, IA, V) may rest at exactly 0 (noise-free files, standstill): only
+/// zero stretches that are dropouts by the QC rule (clearly non-zero on both sides inside their
+/// gap-free block) are bridged, never a legitimate zero.
+#[allow(clippy::too_many_arguments)]
+fn working_set_point(
+    x: &[f64],
+    min_zero: usize,
+    blocks: &[Range<usize>],
+    half: usize,
+    scale: f64,
+    dropouts: &mut Vec<Range<usize>>,
+    frac: f64,
+) -> Vec<f64> {
+    *dropouts = super::qc::zeroed_stretches(x, min_zero, frac, || false, blocks);
+    smooth_bridged(x, dropouts, blocks, half, scale)
+}
+
 /// One working channel: dropout stretches (`is_zero` for `min_zero` samples) found and bridged
 /// (copied only when there are any), smoothed per block, scaled (rad -> deg).
 #[allow(clippy::too_many_arguments)]
@@ -155,6 +172,17 @@ fn working(
     dropouts: &mut Vec<Range<usize>>,
 ) -> Vec<f64> {
     *dropouts = zero_runs(x, min_zero, is_zero);
+    smooth_bridged(x, dropouts, blocks, half, scale)
+}
+
+/// `x` with `dropouts` bridged, smoothed per block, scaled.
+fn smooth_bridged(
+    x: &[f64],
+    dropouts: &[Range<usize>],
+    blocks: &[Range<usize>],
+    half: usize,
+    scale: f64,
+) -> Vec<f64> {
     let bridged;
     let source = if dropouts.is_empty() {
         x

@@ -136,7 +136,7 @@ fn is_live(x: &[f64]) -> bool {
 /// channel's 95th percentile |x| (neighbours across an ET gap do not count): a signal that
 /// drops to zero, not a quiet or noise-free channel
 /// resting at zero (speed at a static hold, slip angle at a dwell, SL of a cornering run).
-fn zeroed_stretches(
+pub(crate) fn zeroed_stretches(
     x: &[f64],
     min_len: usize,
     frac: f64,
