@@ -8,7 +8,8 @@
 //! `zeroed_channel:<name>` where a channel is exactly 0 for `qc.zero_min_s` and either carries
 //! sensor noise elsewhere (a noisy measured channel never rests at exactly 0) or is clearly
 //! non-zero on both sides (set-point channels and noise-free files: SA at a dwell or V at a static
-//! hold are legitimately 0 and not flagged); `non_monotonic_et` / `duplicated_et` at ET
+//! hold are legitimately 0 and not flagged; nor are slip forces and moments at standstill);
+//! `non_monotonic_et` / `duplicated_et` at ET
 //! steps back / repeats; `too_short` for a classified segment under `qc.too_short_min_s`, a sweep
 //! cycle with only one big excursion, or a sweep under `qc.too_short_frac` of its kind's median
 //! length in the run; `load_drift` when the least-squares FZ trend across a held-load segment
@@ -77,7 +78,17 @@ pub(crate) fn flag(
         let set_point = matches!(name, "speed_kph" | "alpha_rad" | "gamma_rad" | "kappa");
         let live = || !set_point && is_live(x);
         let frac = cfg.qc.zeroed_neighbour_frac;
+        // Slip forces and moments are legitimately 0 at standstill in noise-free files.
+        let slip_force = !matches!(name, "fz_n" | "loaded_radius_m") && !name.starts_with("tread");
+        let standstill = |r: &Range<usize>| {
+            signals.speed_kph[r.clone()]
+                .iter()
+                .all(|v| v.abs() <= cfg.activity.rolling_min_kph)
+        };
         for r in zeroed_stretches(x, min_zero, frac, live, &timeline.blocks) {
+            if slip_force && !set_point && standstill(&r) {
+                continue;
+            }
             mark(r, &QcFlag::ZeroedChannel(name.to_string()));
         }
     }
