@@ -36,6 +36,8 @@ mod sweep;
 mod synthetic;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod truth_eval;
 
 use std::collections::BTreeMap;
 use std::ops::Range;
