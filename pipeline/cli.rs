@@ -23,6 +23,8 @@ pub enum Command {
     /// PAC2002 / MF 5.2 `.tir` property files: evaluate, lint, convert.
     #[command(subcommand)]
     Tir(TirCommand),
+    /// Read raw TTC run files into the store (SI units, ISO-W axes, segmented, hive Parquet).
+    Ingest(IngestArgs),
     /// Run SQL over a store's tables and print the result.
     Query(QueryArgs),
     /// Rig inertia: process vehicle inertia/CG rig sessions into OUT/inertia.parquet.

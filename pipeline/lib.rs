@@ -20,6 +20,8 @@ pub use tirebase_core as core;
 pub mod catalog;
 pub mod cli;
 pub mod commands;
+pub mod config;
+pub mod ingest;
 pub mod progress;
 pub mod query;
 pub mod schema;

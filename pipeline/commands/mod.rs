@@ -6,6 +6,7 @@ use std::process::ExitCode;
 use crate::cli::{Cli, Command};
 
 pub mod inertia;
+pub mod ingest;
 pub mod query;
 pub mod synth;
 pub mod tir;
@@ -14,6 +15,7 @@ pub mod tir;
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Tir(cmd) => tir::run(cmd),
+        Command::Ingest(args) => ingest::run(&args),
         Command::Query(args) => query::run(&args),
         Command::Inertia(args) => inertia::run(&args),
         Command::Synth { what } => synth::run(&what),

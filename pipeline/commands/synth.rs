@@ -15,9 +15,9 @@ use std::time::Instant;
 
 use anyhow::Context;
 use rayon::prelude::*;
-use serde::Deserialize;
 
 use crate::cli::{SynthCommand, SynthInertiaArgs, SynthRoundArgs, SynthSize};
+use crate::config::Config;
 use tirebase_core::synth::inertia::validation_sessions;
 
 use crate::core::synth::round::{
@@ -32,25 +32,9 @@ pub fn run(cmd: &SynthCommand) -> anyhow::Result<ExitCode> {
     }
 }
 
-/// The part of a configuration file this command reads.
-#[derive(Deserialize)]
-struct ConfigFile {
-    #[serde(default)]
-    synth: Option<SynthConfig>,
-}
-
 /// Defaults < `[synth]` of `--config` < flags.
 pub fn resolve_config(args: &SynthRoundArgs) -> anyhow::Result<SynthConfig> {
-    let mut cfg = match &args.config {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("{}: cannot read", path.display()))?;
-            let file: ConfigFile =
-                toml::from_str(&text).with_context(|| format!("{}: invalid", path.display()))?;
-            file.synth.unwrap_or_default()
-        }
-        None => SynthConfig::default(),
-    };
+    let mut cfg = Config::load(args.config.as_deref())?.synth;
     if let Some(seed) = args.seed {
         cfg.seed = seed;
     }

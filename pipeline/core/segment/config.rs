@@ -10,12 +10,12 @@
 //! Angles are in degrees (ISO-W sign for slip angle), loads in N (positive = compression),
 //! pressures in kPa, speeds in km/h, slips dimensionless, durations in seconds.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use super::SegmentError;
 
 /// A tolerance that grows with the level: `max(abs, frac * |level|)`.
-#[derive(Copy, Clone, Debug, PartialEq, Deserialize)]
+#[derive(Copy, Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Tolerance {
     /// Absolute floor, in the channel's unit.
@@ -37,7 +37,7 @@ impl Tolerance {
 }
 
 /// Every threshold of the segmenter. Sections follow the passes.
-#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SegmentConfig {
     /// Pass 1: ET gaps ("run" files drop the dwells, so ET jumps).
@@ -65,7 +65,7 @@ pub struct SegmentConfig {
 }
 
 /// ET gap detection. A gap is `dt > max(min_gap_s, gap_factor * sample_period)`.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct GapConfig {
     /// Smallest ET jump that splits a run, s.
@@ -75,7 +75,7 @@ pub struct GapConfig {
 }
 
 /// Smoothing applied (per gap-free block, never across a gap) before any threshold.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SmoothingConfig {
     /// Centred moving-average width for every channel, s.
@@ -88,7 +88,7 @@ pub struct SmoothingConfig {
 
 /// Slip activity: a sample is active when the slip angle or the longitudinal slip is away from
 /// zero or moving. Activity episodes are the unit sweeps and step steers are found in.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ActivityConfig {
     /// |SA| above this is active, deg.
@@ -108,7 +108,7 @@ pub struct ActivityConfig {
 }
 
 /// Set-point plateaus inside slip activity (half-band tolerances, see the module doc).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PlateauConfig {
     /// Pressure half-band, kPa.
@@ -127,7 +127,7 @@ pub struct PlateauConfig {
 
 /// Slip sweeps and their cycles. A cycle is one positive and one negative big excursion of the
 /// swept slip (SA: -4 -> +12 -> -12 -> +3 or 0 -> +12 -> -12 -> 0; SL: +0.2 -> -0.2 -> +0.2).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SweepConfig {
     /// Minimum SA span (max - min) of a slip-angle sweep, deg.
@@ -149,7 +149,7 @@ pub struct SweepConfig {
 }
 
 /// Step steers: SA jumps fast to a level and holds it.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct StepSteerConfig {
     /// SA half-band of a hold, deg.
@@ -165,7 +165,7 @@ pub struct StepSteerConfig {
 }
 
 /// Spring-rate holds: FZ stepped through levels with SA and SL at zero.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SpringRateConfig {
     /// Load half-band of one step (fine: FZ is clean at zero slip), N.
@@ -188,7 +188,7 @@ pub struct SpringRateConfig {
 
 /// Inclination sweeps: IA ramps through a wide span at SA ~ 0, rolling, loaded, at a held load
 /// (spread within the plateau load band) and not too quickly.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct IaSweepConfig {
     /// Minimum IA span of one monotonic ramp (set-point changes of a matrix are <= 4 deg), deg.
@@ -204,7 +204,7 @@ pub struct IaSweepConfig {
 }
 
 /// Classification of sweep cycles (see `classify.rs` for the rules these feed).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ClassifyConfig {
     /// A cold-to-warm block has at least this many consecutive cycles at one set-point, -.
@@ -224,7 +224,7 @@ pub struct ClassifyConfig {
 
 /// Nominal levels (commanded set-points) and the tolerance for binning a measured mean to them.
 /// A mean farther than the tolerance from every level bins to `None` and flags the segment.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LevelConfig {
     /// Inflation pressures, kPa (8/10/12/14 psi).
@@ -250,7 +250,7 @@ pub struct LevelConfig {
 }
 
 /// QC flag thresholds.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct QcConfig {
     /// A stretch of exact zeros (or of P below `zero_pressure_max_kpa`) lasts at least this, s.

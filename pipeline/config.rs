@@ -1,0 +1,277 @@
+//! Configuration: raw TOML in, one validated [`Config`] out, written into every version's
+//! manifest.
+//!
+//! Precedence: built-in defaults < `--config FILE` < command-line flags. `config/default.toml`
+//! documents every key with its default and unit; a test keeps it equal to the built-in defaults,
+//! so the reference cannot drift. Every table is `deny_unknown_fields`: a typo is an error that
+//! names the key, never a silent fallback to a default.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use tirebase_core::fit::pac2002::{FitConfig, MxForm};
+use tirebase_core::numerics::bounded_least_squares::RobustLoss;
+use tirebase_core::segment::SegmentConfig;
+use tirebase_core::synth::round::SynthConfig;
+
+/// Configuration errors.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("{path}: {source}")]
+    Io {
+        /// Config path.
+        path: String,
+        /// OS error.
+        source: std::io::Error,
+    },
+    /// Invalid TOML or an unknown key (toml names the key and line).
+    #[error("{path}: {message}")]
+    Parse {
+        /// Config path.
+        path: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A value out of range.
+    #[error("config key {key}: {reason}")]
+    Invalid {
+        /// Dotted key.
+        key: String,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Everything configurable, one table per stage.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Config {
+    /// `[synth]`: the virtual test machine.
+    pub synth: SynthConfig,
+    /// `[segment]`: segmentation thresholds.
+    pub segment: SegmentConfig,
+    /// `[fit]`: the fitting stages.
+    pub fit: FitSettings,
+}
+
+/// Robust loss of the PAC2002 refinements.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LossKind {
+    /// Plain least squares.
+    None,
+    /// Huber.
+    Huber,
+    /// Cauchy.
+    Cauchy,
+}
+
+/// Form of the overturning moment fit.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MxFormSetting {
+    /// PAC2002 core form (QSX1..QSX3).
+    Core,
+    /// Core form, then QSX4..QSX11 when it lowers the Mx RMSE by 10 % or more.
+    Auto,
+}
+
+/// `[fit]`: the PAC2002 fitting stage's knobs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FitSettings {
+    /// Slip-angle grid for collapsing up/down cornering sweeps, deg.
+    pub alpha_bin_deg: f64,
+    /// Longitudinal-slip grid for collapsing drive/brake and combined sweeps, -.
+    pub kappa_bin: f64,
+    /// Collapsed points per sweep used by the joint refinements.
+    pub max_points_per_sweep: usize,
+    /// Spike rejection threshold, robust standard deviations.
+    pub despike_sigmas: f64,
+    /// Remove the first-order lag with the relaxation stage's sigma before collapsing.
+    pub delag: bool,
+    /// Robust loss: none, huber or cauchy.
+    pub loss: LossKind,
+    /// Threshold of the robust loss, robust scales.
+    pub loss_k: f64,
+    /// Iteration budget per refinement.
+    pub max_iterations: usize,
+    /// Prior weight pulling the asymmetric combined terms RHX1, RBY3 to zero.
+    pub asymmetry_weight: f64,
+    /// Weight of the physical-constraint penalties.
+    pub constraint_weight: f64,
+    /// Overturning moment form: core or auto.
+    pub mx_form: MxFormSetting,
+    /// QSY1 written as the rolling-resistance placeholder (TTC records no My), -.
+    pub rolling_resistance_placeholder: f64,
+}
+
+impl Default for FitSettings {
+    fn default() -> Self {
+        let core = FitConfig::default();
+        let (loss, loss_k) = match core.loss {
+            RobustLoss::None => (LossKind::None, 0.0),
+            RobustLoss::Huber { k } => (LossKind::Huber, k),
+            RobustLoss::Cauchy { k } => (LossKind::Cauchy, k),
+        };
+        FitSettings {
+            alpha_bin_deg: core.alpha_bin_rad.to_degrees(),
+            kappa_bin: core.kappa_bin,
+            max_points_per_sweep: core.max_points_per_sweep,
+            despike_sigmas: core.despike_sigmas,
+            delag: core.delag,
+            loss,
+            loss_k,
+            max_iterations: core.max_iterations,
+            asymmetry_weight: core.asymmetry_weight,
+            constraint_weight: core.constraint_weight,
+            mx_form: match core.mx_form {
+                MxForm::Core => MxFormSetting::Core,
+                MxForm::Auto => MxFormSetting::Auto,
+            },
+            rolling_resistance_placeholder: core.rolling_resistance_placeholder,
+        }
+    }
+}
+
+impl FitSettings {
+    /// The core stage's configuration.
+    pub fn pac2002(&self) -> FitConfig {
+        FitConfig {
+            alpha_bin_rad: self.alpha_bin_deg.to_radians(),
+            kappa_bin: self.kappa_bin,
+            max_points_per_sweep: self.max_points_per_sweep,
+            despike_sigmas: self.despike_sigmas,
+            delag: self.delag,
+            loss: match self.loss {
+                LossKind::None => RobustLoss::None,
+                LossKind::Huber => RobustLoss::Huber { k: self.loss_k },
+                LossKind::Cauchy => RobustLoss::Cauchy { k: self.loss_k },
+            },
+            max_iterations: self.max_iterations,
+            asymmetry_weight: self.asymmetry_weight,
+            constraint_weight: self.constraint_weight,
+            mx_form: match self.mx_form {
+                MxFormSetting::Core => MxForm::Core,
+                MxFormSetting::Auto => MxForm::Auto,
+            },
+            rolling_resistance_placeholder: self.rolling_resistance_placeholder,
+        }
+    }
+
+    fn validate(&self) -> Result<(), ConfigError> {
+        let bad = |key: &str, reason: &str| {
+            Err(ConfigError::Invalid {
+                key: format!("fit.{key}"),
+                reason: reason.to_string(),
+            })
+        };
+        if !(self.alpha_bin_deg > 0.0 && self.alpha_bin_deg < 5.0) {
+            return bad("alpha_bin_deg", "must be in (0, 5) deg");
+        }
+        if !(self.kappa_bin > 0.0 && self.kappa_bin < 0.05) {
+            return bad("kappa_bin", "must be in (0, 0.05)");
+        }
+        if self.max_points_per_sweep < 8 {
+            return bad("max_points_per_sweep", "must be at least 8");
+        }
+        if self.loss != LossKind::None && self.loss_k <= 0.0 {
+            return bad("loss_k", "must be positive for a robust loss");
+        }
+        if self.max_iterations == 0 {
+            return bad("max_iterations", "must be positive");
+        }
+        Ok(())
+    }
+}
+
+impl Config {
+    /// Parse TOML text layered over the defaults; `path` names it in errors.
+    pub fn parse(text: &str, path: &str) -> Result<Config, ConfigError> {
+        let cfg: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            path: path.to_string(),
+            message: e.to_string().trim().replace('\n', " "),
+        })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// The defaults, or the defaults overridden by `path`.
+    pub fn load(path: Option<&Path>) -> Result<Config, ConfigError> {
+        match path {
+            None => Ok(Config::default()),
+            Some(p) => {
+                let name = p.display().to_string();
+                let text = std::fs::read_to_string(p).map_err(|source| ConfigError::Io {
+                    path: name.clone(),
+                    source,
+                })?;
+                Config::parse(&text, &name)
+            }
+        }
+    }
+
+    /// Check values serde cannot.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.segment.validate().map_err(|e| ConfigError::Invalid {
+            key: "segment".into(),
+            reason: e.to_string(),
+        })?;
+        self.fit.validate()
+    }
+
+    /// The resolved configuration as TOML (written into manifests).
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).unwrap_or_else(|e| format!("# could not render config: {e}\n"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_toml_documents_exactly_the_defaults() {
+        let text = include_str!("../config/default.toml");
+        let parsed = Config::parse(text, "config/default.toml").unwrap();
+        assert_eq!(
+            parsed,
+            Config::default(),
+            "config/default.toml drifted from the defaults"
+        );
+    }
+
+    #[test]
+    fn partial_files_override_only_their_keys() {
+        let cfg = Config::parse("[fit]\nkappa_bin = 0.005\n", "x.toml").unwrap();
+        assert_eq!(cfg.fit.kappa_bin, 0.005);
+        assert_eq!(cfg.segment, SegmentConfig::default());
+    }
+
+    #[test]
+    fn unknown_keys_and_bad_values_are_named() {
+        let err = Config::parse("[fit]\nkapa_bin = 0.005\n", "x.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("kapa_bin"), "{err}");
+        let err = Config::parse("[fit]\nkappa_bin = -1.0\n", "x.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("fit.kappa_bin"), "{err}");
+    }
+
+    #[test]
+    fn resolved_config_round_trips() {
+        let cfg = Config::default();
+        assert_eq!(Config::parse(&cfg.to_toml(), "resolved").unwrap(), cfg);
+    }
+}
+
+/// Prints the defaults as TOML, the input of `config/gen_default_toml.py`.
+#[cfg(test)]
+#[test]
+#[ignore]
+fn print_default_config() {
+    println!("{}", Config::default().to_toml());
+}
