@@ -10,6 +10,7 @@
 //! builds (see the workspace `Cargo.toml`), so fitting tests run at release speed while polars and
 //! the rest of the heavy dependency tree stay cheap to compile.
 
+pub mod fit;
 pub mod frame;
 pub mod inertia;
 pub mod numerics;
