@@ -15,6 +15,7 @@ pub fn key(tire: &str, pressure_kpa: i64) -> TireKey {
 
 /// A segment with every required channel zero-filled at `rate_hz` for `n` samples, starting at
 /// `t0_s`, at `speed_kph`; the caller fills what it needs.
+#[allow(clippy::too_many_arguments)]
 pub fn blank(
     id: &str,
     kind: SegmentKind,
@@ -85,4 +86,89 @@ pub fn add_noise(x: &mut [f64], sd: f64, rng: &mut SplitMix64) {
             *v += rng.normal(sd);
         }
     }
+}
+
+/// An FSAE-size PAC2002 tire (the lateral and longitudinal force coefficients of the virtual
+/// machine's base file, `FNOMIN` 1100 N, `R0` 0.2612 m) with the given relaxation coefficients
+/// `[PTY1, PTY2, PTX1, PTX2, PTX3]`.
+pub fn fsae_model(pt: [f64; 5]) -> crate::tire_model::Pac2002 {
+    use crate::tire_model::{Coef::*, Coefs, Pac2002};
+    let mut c = Coefs::defaults();
+    let values = [
+        (FNOMIN, 1100.0),
+        (UNLOADED_RADIUS, 0.2612),
+        (LONGVL, 11.176),
+        (VERTICAL_STIFFNESS, 137_800.0),
+        (VXLOW, 1.0),
+        (KPUMIN, -0.25),
+        (KPUMAX, 0.25),
+        (ALPMIN, -0.261799),
+        (ALPMAX, 0.261799),
+        (CAMMIN, -0.087266),
+        (CAMMAX, 0.087266),
+        (FZMIN, 100.0),
+        (FZMAX, 2500.0),
+        (PCX1, 1.55),
+        (PDX1, 2.55),
+        (PDX2, -0.18),
+        (PDX3, 8.0),
+        (PEX1, -0.25),
+        (PEX2, 0.3),
+        (PEX3, 0.05),
+        (PEX4, 0.15),
+        (PKX1, 52.0),
+        (PKX2, -2.0),
+        (PKX3, -0.25),
+        (PHX1, 0.0006),
+        (PHX2, -0.0004),
+        (PVX1, -0.01),
+        (PVX2, 0.005),
+        (RBX1, 11.0),
+        (RBX2, 9.0),
+        (RCX1, 1.05),
+        (REX1, -0.4),
+        (REX2, -0.3),
+        (RHX1, 0.002),
+        (PCY1, 1.45),
+        (PDY1, -2.5),
+        (PDY2, 0.15),
+        (PDY3, 4.0),
+        (PEY1, -0.3),
+        (PEY2, 0.25),
+        (PEY3, 0.05),
+        (PEY4, 2.0),
+        (PKY1, -56.7),
+        (PKY2, 1.75),
+        (PKY3, 1.2),
+        (PHY1, 0.0015),
+        (PHY2, 0.0008),
+        (PHY3, 0.06),
+        (PVY1, -0.006),
+        (PVY2, 0.01),
+        (PVY3, -1.5),
+        (PVY4, 0.3),
+        (RBY1, 14.0),
+        (RBY2, 10.0),
+        (RBY3, 0.002),
+        (RCY1, 1.05),
+        (REY1, -0.25),
+        (REY2, 0.1),
+        (RHY1, 0.003),
+        (RHY2, 0.002),
+        (RVY1, 0.02),
+        (RVY2, -0.015),
+        (RVY3, 0.4),
+        (RVY4, 15.0),
+        (RVY5, 1.9),
+        (RVY6, -12.0),
+        (PTY1, pt[0]),
+        (PTY2, pt[1]),
+        (PTX1, pt[2]),
+        (PTX2, pt[3]),
+        (PTX3, pt[4]),
+    ];
+    for (k, v) in values {
+        c[k] = v;
+    }
+    Pac2002::new(c)
 }
