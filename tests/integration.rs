@@ -2,3 +2,4 @@
 //! binary in temporary directories.
 
 mod inertia;
+mod tir;

@@ -8,10 +8,12 @@ use crate::cli::{Cli, Command, SynthCommand};
 pub mod inertia;
 pub mod query;
 pub mod synth;
+pub mod tir;
 
 /// Run one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
+        Command::Tir(cmd) => tir::run(cmd),
         Command::Query(args) => query::run(&args),
         Command::Inertia(args) => inertia::run(&args),
         Command::Synth {

@@ -16,3 +16,4 @@ pub mod inertia;
 pub mod numerics;
 pub mod synth;
 pub mod tire_model;
+pub mod ttc;

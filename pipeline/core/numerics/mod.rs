@@ -1,9 +1,12 @@
 //! Generic numerics shared by the fitting stages and the rig-inertia methods.
 //!
 //! In: plain slices and nalgebra vectors of `f64`. Out: fitted parameters with covariances and
-//! convergence facts (non-convergence is data, see [`levmar::FitOutcome`]). Deliberately pure:
+//! convergence facts (non-convergence is data, see [`levmar::FitOutcome`] and
+//! [`bounded_least_squares::FitOutcome`]; the latter is the bounded, robust solver the PAC2002
+//! fits use). Deliberately pure:
 //! no file system, no serde, no Arrow or polars, no knowledge of tires or rigs.
 
+pub mod bounded_least_squares;
 pub mod damped_sine;
 pub mod least_squares;
 pub mod levmar;

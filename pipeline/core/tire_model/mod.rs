@@ -3,9 +3,11 @@
 //!
 //! Pure code: no file system, no serde, no Arrow. Reading a `.tir` takes a `&str`.
 
+pub mod factors;
 pub mod pac2002;
 pub mod params;
 pub mod real;
+pub mod tir;
 
 pub use pac2002::{Evaluation, Mode, Pac2002, SlipInput, TrailPeak};
 pub use params::{Coef, Coefs, Section};

@@ -1,0 +1,198 @@
+//! `tirebase tir eval | lint | convert`: the `.tir` file commands.
+//!
+//! In: paths from the command line. Out: files (`eval`: a CSV of forces and moments, `convert`:
+//! a normalised `.tir`), findings on stdout (`lint`), reader warnings on stderr, and the exit
+//! code (`lint`: 0 clean or warnings only, 1 lint errors; any command: 2 via `main` when a file
+//! cannot be read). The model, reader, writer and lint are `tirebase_core::tire_model`; this
+//! module only moves bytes and prints. Deliberately not here: any physics.
+
+use std::fs;
+use std::path::Path;
+use std::process::ExitCode;
+
+use anyhow::{Context, bail};
+use tirebase_core::tire_model::tir::{ReadWarning, TirFile, format_f64, lint};
+use tirebase_core::tire_model::{Coef, Evaluation, Mode, SlipInput};
+
+use crate::cli::{EvalMode, TirCommand, TirConvertArgs, TirEvalArgs, TirLintArgs};
+
+/// Run one `tir` subcommand.
+pub fn run(cmd: TirCommand) -> anyhow::Result<ExitCode> {
+    match cmd {
+        TirCommand::Eval(args) => eval(&args),
+        TirCommand::Lint(args) => lint_file(&args),
+        TirCommand::Convert(args) => convert(&args),
+    }
+}
+
+/// Read and parse a `.tir` file; the error is one line naming the file and the line.
+fn read_tir(path: &Path) -> anyhow::Result<(TirFile, Vec<ReadWarning>)> {
+    let bytes = fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    TirFile::parse_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
+
+fn print_read_warnings(path: &Path, warnings: &[ReadWarning]) {
+    for w in warnings {
+        eprintln!("{}: warning: {w}", path.display());
+    }
+}
+
+/// The input columns `tir eval` needs, in [`SlipInput`] order.
+const INPUT_COLUMNS: [&str; 5] = ["Fz_N", "kappa", "alpha_rad", "gamma_rad", "Vx_mps"];
+/// The columns `tir eval` adds.
+const OUTPUT_COLUMNS: [&str; 5] = ["Fx_N", "Fy_N", "Mx_Nm", "My_Nm", "Mz_Nm"];
+
+fn eval(args: &TirEvalArgs) -> anyhow::Result<ExitCode> {
+    let (file, warnings) = read_tir(&args.tir)?;
+    print_read_warnings(&args.tir, &warnings);
+    let fnomin = file.coefs[Coef::FNOMIN];
+    if fnomin.is_nan() || fnomin <= 0.0 {
+        bail!(
+            "{}: FNOMIN = {fnomin} N; the model needs a positive nominal load (see `tirebase tir lint`)",
+            args.tir.display()
+        );
+    }
+    let table = read_points(&args.input)?;
+    let mode = match args.mode {
+        EvalMode::Limits => Mode::Limits,
+        EvalMode::Raw => Mode::Raw,
+    };
+    let mut results = vec![Evaluation::default(); table.points.len()];
+    file.model().eval_batch(&table.points, mode, &mut results);
+    write_results(&args.output, &table, &results)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The operating points of an input CSV and its raw records (echoed to the output).
+struct PointTable {
+    header: csv::StringRecord,
+    records: Vec<csv::StringRecord>,
+    points: Vec<SlipInput>,
+}
+
+fn read_points(path: &Path) -> anyhow::Result<PointTable> {
+    let shown = path.display();
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .from_path(path)
+        .with_context(|| format!("{shown}: cannot read"))?;
+    let header = reader
+        .headers()
+        .with_context(|| format!("{shown}: line 1: cannot read the header"))?
+        .clone();
+    let mut index = [0usize; 5];
+    for (slot, name) in index.iter_mut().zip(INPUT_COLUMNS) {
+        *slot = header
+            .iter()
+            .position(|h| h.trim_start_matches('\u{feff}').trim() == name)
+            .with_context(|| {
+                format!(
+                    "{shown}: line 1: no column {name} in the header (needs {})",
+                    INPUT_COLUMNS.join(", ")
+                )
+            })?;
+    }
+    let mut records = Vec::new();
+    let mut points = Vec::new();
+    for record in reader.records() {
+        let record = record.map_err(|e| anyhow::anyhow!("{shown}: {e}"))?;
+        let line = record.position().map_or(0, csv::Position::line);
+        let mut v = [0.0; 5];
+        for ((x, &i), name) in v.iter_mut().zip(&index).zip(INPUT_COLUMNS) {
+            let text = record.get(i).unwrap_or("").trim();
+            *x = text.parse().map_err(|_| {
+                anyhow::anyhow!("{shown}: line {line}: column {name}: '{text}' is not a number")
+            })?;
+        }
+        points.push(SlipInput {
+            fz_n: v[0],
+            kappa: v[1],
+            alpha_rad: v[2],
+            gamma_rad: v[3],
+            vx_mps: v[4],
+        });
+        records.push(record);
+    }
+    Ok(PointTable {
+        header,
+        records,
+        points,
+    })
+}
+
+fn write_results(
+    path: &Path,
+    table: &PointTable,
+    results: &[Evaluation<f64>],
+) -> anyhow::Result<()> {
+    let shown = path.display();
+    let mut writer =
+        csv::Writer::from_path(path).with_context(|| format!("{shown}: cannot create"))?;
+    let mut header: Vec<String> = table.header.iter().map(str::to_string).collect();
+    for h in &mut header {
+        if OUTPUT_COLUMNS.contains(&h.trim()) {
+            eprintln!("note: input column {h} is kept as {h}_input; {h} holds the model's value");
+            h.push_str("_input");
+        }
+    }
+    header.extend(OUTPUT_COLUMNS.iter().map(|s| s.to_string()));
+    writer.write_record(&header)?;
+    for (record, e) in table.records.iter().zip(results) {
+        let outputs = [e.fx_n, e.fy_n, e.mx_nm, e.my_nm, e.mz_nm].map(format_f64);
+        writer.write_record(record.iter().chain(outputs.iter().map(String::as_str)))?;
+    }
+    writer
+        .flush()
+        .with_context(|| format!("{shown}: cannot write"))?;
+    Ok(())
+}
+
+fn lint_file(args: &TirLintArgs) -> anyhow::Result<ExitCode> {
+    let path = args.file.display();
+    let (file, warnings) = read_tir(&args.file)?;
+    for w in &warnings {
+        println!("{path}: warning[read]: {w}");
+    }
+    let report = lint::lint(&file);
+    for f in &report.findings {
+        println!("{path}: {f}");
+    }
+    let envelope = report.envelope.map_or_else(
+        || "not sampled".to_string(),
+        |e| {
+            format!(
+                "Fz {:.0}..{:.0} N, inclination {:.2}..{:.2} deg, kappa {}..{}, alpha {:.2}..{:.2} deg, {} points",
+                e.fz_n.0,
+                e.fz_n.1,
+                e.gamma_rad.0.to_degrees(),
+                e.gamma_rad.1.to_degrees(),
+                format_f64(e.kappa.0),
+                format_f64(e.kappa.1),
+                e.alpha_rad.0.to_degrees(),
+                e.alpha_rad.1.to_degrees(),
+                report.points
+            )
+        },
+    );
+    println!(
+        "{path}: {} errors, {} warnings (envelope: {envelope})",
+        report.errors(),
+        report.warnings() + warnings.len()
+    );
+    Ok(if report.errors() > 0 {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+fn convert(args: &TirConvertArgs) -> anyhow::Result<ExitCode> {
+    let (file, warnings) = read_tir(&args.input)?;
+    print_read_warnings(&args.input, &warnings);
+    let text = file
+        .render()
+        .map_err(|e| anyhow::anyhow!("{}: cannot write as PAC2002: {e}", args.input.display()))?;
+    fs::write(&args.output, text)
+        .with_context(|| format!("{}: cannot write", args.output.display()))?;
+    Ok(ExitCode::SUCCESS)
+}

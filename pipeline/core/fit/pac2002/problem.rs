@@ -1,0 +1,426 @@
+//! The joint refinement of one coefficient family as a bounded least-squares problem.
+//!
+//! In: the current coefficient vector (every family fitted so far), the family's free
+//! coefficients, weighted data points of its channel and penalty terms. Out: residuals and their
+//! exact Jacobian (forward-mode [`Dual`] numbers through the generic PAC2002 equations) for
+//! [`crate::numerics::bounded_least_squares::minimize`].
+//!
+//! Residuals, in order: data `w_i (model_i - measured_i)`, then penalties: priors
+//! `w (c - centre)` and one-sided constraints `w max(0, q(c) - limit)` for the physical rules
+//! (curvature factors `E <= 1` before clamping, `Gxa, Gyk > 0`, `Bt > 0` over the tested
+//! envelope). The model is evaluated without input limiting (`Mode::Raw`): inside the tested
+//! envelope with `E <= 1` that is what MFeval's limited mode evaluates too, and the derivatives
+//! never vanish on a clamp.
+//!
+//! Deliberately not here: choosing weights, bounds or penalties (the stage does), the solver.
+
+use crate::numerics::bounded_least_squares::LeastSquaresProblem;
+use crate::tire_model::pac2002::{
+    CombinedFy, Mode, PureFy, TrailPeak, combined_fx, combined_fy, combined_mz, gxa, load,
+    overturning_mx, pure_fx0, pure_fy0, pure_mz0, trail_terms, weighting,
+};
+use crate::tire_model::{Coef, Coef::*, Coefs, Dual, Real, SlipInput};
+
+use super::family::Family;
+
+/// Evaluation mode of every fit.
+pub const FIT_MODE: Mode = Mode::Raw;
+
+/// The channel a family is fitted against; `None` for `My` (never fitted).
+pub fn channel_value<T: Real>(c: &Coefs<T>, input: &SlipInput, family: Family) -> T {
+    let l = load(c, input, FIT_MODE);
+    match family {
+        Family::Fy0 => pure_fy0(c, &l).fy0,
+        Family::Mz0 => {
+            let py = pure_fy0(c, &l);
+            let tt = trail_terms(c, &l, &py, TrailPeak::Standard);
+            pure_mz0(&l, &py, &tt)
+        }
+        Family::Fx0 => pure_fx0(c, &l).fx0,
+        Family::Fx => combined_fx(c, &l, pure_fx0(c, &l).fx0),
+        Family::Fy => combined_fy(c, &l, &pure_fy0(c, &l)).fy,
+        Family::Mz => {
+            let px = pure_fx0(c, &l);
+            let py = pure_fy0(c, &l);
+            let tt = trail_terms(c, &l, &py, TrailPeak::Standard);
+            let fx = combined_fx(c, &l, px.fx0);
+            let fy = combined_fy(c, &l, &py);
+            combined_mz(c, &l, px.kxk, &tt, fx, &fy).mz
+        }
+        Family::Mx => overturning_mx(c, &l, combined_fy(c, &l, &pure_fy0(c, &l)).fy),
+        Family::My => T::cst(f64::NAN),
+    }
+}
+
+/// One measured point of the family's channel.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct DataPoint {
+    /// Operating point.
+    pub input: SlipInput,
+    /// Measured (collapsed) value, N or N m.
+    pub value: f64,
+    /// Residual weight (1 / (sweep peak * sqrt(points in sweep * sweeps))).
+    pub weight: f64,
+}
+
+/// A quantity of the model that a constraint bounds from above.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum Quantity {
+    /// `Ey` at a relative load change, inclination and sign of `alpha_y`.
+    Ey { dfz: f64, gamma: f64, sign: f64 },
+    /// `Ex` at a relative load change and sign of `kappa_x`.
+    Ex { dfz: f64, sign: f64 },
+    /// `Et` at a relative load change, inclination and value `a` of `(2/pi) atan(Bt Ct alpha_t)`.
+    Et { dfz: f64, gamma: f64, a: f64 },
+    /// `Exa` at a relative load change.
+    Exa { dfz: f64 },
+    /// `Eyk` at a relative load change.
+    Eyk { dfz: f64 },
+    /// `-Gxa` at an operating point.
+    NegGxa { input: SlipInput },
+    /// `-Gyk` at an operating point.
+    NegGyk { input: SlipInput },
+    /// `-Bt` at a relative load change and inclination.
+    NegBt { dfz: f64, gamma: f64 },
+}
+
+impl Quantity {
+    fn value<T: Real>(&self, c: &Coefs<T>) -> T {
+        match *self {
+            Quantity::Ey { dfz, gamma, sign } => {
+                let gy = c[LGAY] * gamma;
+                (c[PEY1] + c[PEY2] * dfz) * (-((c[PEY3] + c[PEY4] * gy) * sign) + 1.0) * c[LEY]
+            }
+            Quantity::Ex { dfz, sign } => {
+                (c[PEX1] + c[PEX2] * dfz + c[PEX3] * (dfz * dfz))
+                    * (-(c[PEX4] * sign) + 1.0)
+                    * c[LEX]
+            }
+            Quantity::Et { dfz, gamma, a } => {
+                let gz = c[LGAZ] * gamma;
+                (c[QEZ1] + c[QEZ2] * dfz + c[QEZ3] * (dfz * dfz))
+                    * ((c[QEZ4] + c[QEZ5] * gz) * a + 1.0)
+            }
+            Quantity::Exa { dfz } => c[REX1] + c[REX2] * dfz,
+            Quantity::Eyk { dfz } => c[REY1] + c[REY2] * dfz,
+            Quantity::NegGxa { input } => {
+                let l = load(c, &input, FIT_MODE);
+                -gxa(c, &l)
+            }
+            Quantity::NegGyk { input } => {
+                let l = load(c, &input, FIT_MODE);
+                let byk = c[RBY1] * (c[RBY2] * (l.alpha - c[RBY3])).cos_atan() * c[LYKA];
+                let eyk = c[REY1] + c[REY2] * l.dfz;
+                let shyk = c[RHY1] + c[RHY2] * l.dfz;
+                -(weighting(byk, c[RCY1], eyk, l.kappa + shyk) / weighting(byk, c[RCY1], eyk, shyk))
+            }
+            Quantity::NegBt { dfz, gamma } => {
+                let gz = c[LGAZ] * gamma;
+                -((c[QBZ1] + c[QBZ2] * dfz + c[QBZ3] * (dfz * dfz))
+                    * (c[QBZ4] * gz + c[QBZ5] * gz.abs() + 1.0))
+            }
+        }
+    }
+}
+
+/// A penalty residual.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum Penalty {
+    /// `weight (c[coef] - centre)`.
+    Prior {
+        coef: Coef,
+        centre: f64,
+        weight: f64,
+    },
+    /// `weight max(0, quantity - limit)`.
+    AtMost {
+        quantity: Quantity,
+        limit: f64,
+        weight: f64,
+    },
+}
+
+impl Penalty {
+    fn residual<T: Real>(&self, c: &Coefs<T>) -> T {
+        match *self {
+            Penalty::Prior {
+                coef,
+                centre,
+                weight,
+            } => (c[coef] - centre) * weight,
+            Penalty::AtMost {
+                quantity,
+                limit,
+                weight,
+            } => {
+                let q = quantity.value(c) - limit;
+                if q.value() > 0.0 {
+                    q * weight
+                } else {
+                    T::cst(0.0)
+                }
+            }
+        }
+    }
+}
+
+/// What the families held fixed contribute at one point (computed once per problem).
+#[derive(Copy, Clone, Debug)]
+struct Fixed {
+    /// Pure lateral force factors (`Fy0` family).
+    py: PureFy<f64>,
+    /// Pure longitudinal force and slip stiffness (`Fx0` family).
+    fx0: f64,
+    kxk: f64,
+    /// Combined forces (`Fx`, `Fy` families).
+    fx: f64,
+    fy: CombinedFy<f64>,
+}
+
+fn lift_fy<T: Real>(p: &PureFy<f64>) -> PureFy<T> {
+    PureFy {
+        fy0: T::cst(p.fy0),
+        muy: T::cst(p.muy),
+        kya: T::cst(p.kya),
+        by: T::cst(p.by),
+        cy: T::cst(p.cy),
+        shy: T::cst(p.shy),
+        svy: T::cst(p.svy),
+    }
+}
+
+/// The families whose values a family's problem caches (their coefficients must not be free).
+fn cached_families(family: Family) -> &'static [Family] {
+    match family {
+        Family::Fy0 | Family::Fx0 | Family::My => &[],
+        Family::Mz0 | Family::Fy => &[Family::Fy0],
+        Family::Fx => &[Family::Fx0],
+        Family::Mz => &[Family::Fy0, Family::Fx0, Family::Fx, Family::Fy],
+        Family::Mx => &[Family::Fy0, Family::Fy],
+    }
+}
+
+/// One family's refinement problem. The channel is evaluated with the contributions of the
+/// families held fixed computed once ([`FamilyProblem::new`]), so a Jacobian runs the dual
+/// numbers only through the family's own equations.
+pub struct FamilyProblem<'a> {
+    /// Every coefficient; the free ones are overwritten by the parameter vector.
+    pub base: &'a Coefs<f64>,
+    /// Free coefficients (at most 32), in parameter order.
+    pub free: &'a [Coef],
+    /// The family (selects the channel).
+    pub family: Family,
+    /// Data.
+    pub points: &'a [DataPoint],
+    /// Penalties.
+    pub penalties: &'a [Penalty],
+    fixed: Vec<Fixed>,
+}
+
+impl<'a> FamilyProblem<'a> {
+    /// A problem; caches the fixed families' values at every point.
+    ///
+    /// # Panics
+    /// If a free coefficient belongs to a family the channel caches.
+    pub fn new(
+        base: &'a Coefs<f64>,
+        free: &'a [Coef],
+        family: Family,
+        points: &'a [DataPoint],
+        penalties: &'a [Penalty],
+    ) -> Self {
+        for f in cached_families(family) {
+            assert!(
+                !free.iter().any(|c| f.coefficients().contains(c)),
+                "FamilyProblem: {family:?} caches {f:?} but one of its coefficients is free"
+            );
+        }
+        let fixed = points
+            .iter()
+            .map(|pt| {
+                let l = load(base, &pt.input, FIT_MODE);
+                let px = pure_fx0(base, &l);
+                let py = pure_fy0(base, &l);
+                Fixed {
+                    py,
+                    fx0: px.fx0,
+                    kxk: px.kxk,
+                    fx: combined_fx(base, &l, px.fx0),
+                    fy: combined_fy(base, &l, &py),
+                }
+            })
+            .collect();
+        FamilyProblem {
+            base,
+            free,
+            family,
+            points,
+            penalties,
+            fixed,
+        }
+    }
+
+    /// The coefficient vector at parameters `p`.
+    pub fn coefs_at(&self, p: &[f64]) -> Coefs<f64> {
+        let mut c = self.base.clone();
+        for (coef, v) in self.free.iter().zip(p) {
+            c[*coef] = *v;
+        }
+        c
+    }
+
+    /// The channel at point `i` with the fixed families taken from the cache.
+    fn value<T: Real>(&self, c: &Coefs<T>, i: usize) -> T {
+        let input = &self.points[i].input;
+        let fixed = &self.fixed[i];
+        let l = load(c, input, FIT_MODE);
+        match self.family {
+            Family::Fy0 => pure_fy0(c, &l).fy0,
+            Family::Fx0 => pure_fx0(c, &l).fx0,
+            Family::Mz0 => {
+                let py = lift_fy(&fixed.py);
+                let tt = trail_terms(c, &l, &py, TrailPeak::Standard);
+                pure_mz0(&l, &py, &tt)
+            }
+            Family::Fx => combined_fx(c, &l, T::cst(fixed.fx0)),
+            Family::Fy => combined_fy(c, &l, &lift_fy(&fixed.py)).fy,
+            Family::Mz => {
+                let py = lift_fy(&fixed.py);
+                let tt = trail_terms(c, &l, &py, TrailPeak::Standard);
+                let fy = CombinedFy {
+                    fy: T::cst(fixed.fy.fy),
+                    svyk: T::cst(fixed.fy.svyk),
+                };
+                combined_mz(c, &l, T::cst(fixed.kxk), &tt, T::cst(fixed.fx), &fy).mz
+            }
+            Family::Mx => overturning_mx(c, &l, T::cst(fixed.fy.fy)),
+            Family::My => T::cst(f64::NAN),
+        }
+    }
+
+    fn jacobian_block<const N: usize>(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
+        let n = self.free.len();
+        debug_assert!(n <= N);
+        let mut c: Coefs<Dual<N>> = Coefs(self.base.0.map(Dual::cst));
+        for (k, (coef, v)) in self.free.iter().zip(p).enumerate() {
+            c[*coef] = Dual::var(*v, k);
+        }
+        let rows = self
+            .points
+            .iter()
+            .enumerate()
+            .map(|(i, pt)| (self.value(&c, i) - pt.value) * pt.weight);
+        let pen = self.penalties.iter().map(|pen| pen.residual(&c));
+        for (i, v) in rows.chain(pen).enumerate() {
+            r[i] = v.v;
+            jac[i * n..(i + 1) * n].copy_from_slice(&v.d[..n]);
+        }
+    }
+}
+
+impl LeastSquaresProblem for FamilyProblem<'_> {
+    fn n_params(&self) -> usize {
+        self.free.len()
+    }
+    fn n_residuals(&self) -> usize {
+        self.points.len() + self.penalties.len()
+    }
+    fn n_data(&self) -> usize {
+        self.points.len()
+    }
+    fn residuals(&self, p: &[f64], r: &mut [f64]) {
+        let c = self.coefs_at(p);
+        let rows = self
+            .points
+            .iter()
+            .enumerate()
+            .map(|(i, pt)| (self.value(&c, i) - pt.value) * pt.weight);
+        let pen = self.penalties.iter().map(|pen| pen.residual(&c));
+        for (ri, v) in r.iter_mut().zip(rows.chain(pen)) {
+            *ri = v;
+        }
+    }
+    fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
+        match self.free.len() {
+            0..=4 => self.jacobian_block::<4>(p, r, jac),
+            5..=8 => self.jacobian_block::<8>(p, r, jac),
+            9..=12 => self.jacobian_block::<12>(p, r, jac),
+            13..=16 => self.jacobian_block::<16>(p, r, jac),
+            17..=20 => self.jacobian_block::<20>(p, r, jac),
+            21..=24 => self.jacobian_block::<24>(p, r, jac),
+            25..=28 => self.jacobian_block::<28>(p, r, jac),
+            29..=32 => self.jacobian_block::<32>(p, r, jac),
+            n => panic!("FamilyProblem: {n} free coefficients, at most 32"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::numerics::bounded_least_squares::finite_difference_jacobian;
+    use crate::tire_model::Coef;
+
+    /// The dual-number Jacobian of every family matches central differences.
+    #[test]
+    fn jacobian_matches_finite_differences() {
+        let truth = super::super::synthetic::fsae_demo();
+        let inputs: Vec<SlipInput> = (0..9)
+            .map(|i| SlipInput {
+                fz_n: 300.0 + 150.0 * i as f64,
+                kappa: -0.12 + 0.03 * i as f64,
+                alpha_rad: (-0.15 + 0.037 * i as f64),
+                gamma_rad: 0.01 * (i % 4) as f64,
+                vx_mps: 11.176,
+            })
+            .collect();
+        for family in [
+            Family::Fy0,
+            Family::Mz0,
+            Family::Fx0,
+            Family::Fx,
+            Family::Fy,
+            Family::Mz,
+            Family::Mx,
+        ] {
+            let free: Vec<Coef> = family.coefficients().to_vec();
+            let points: Vec<DataPoint> = inputs
+                .iter()
+                .map(|input| DataPoint {
+                    input: *input,
+                    value: 1.0,
+                    weight: 0.01,
+                })
+                .collect();
+            let penalties = [Penalty::Prior {
+                coef: free[0],
+                centre: 0.0,
+                weight: 0.5,
+            }];
+            let problem = FamilyProblem::new(&truth, &free, family, &points, &penalties);
+            // The cached evaluation equals the full one.
+            for (i, pt) in points.iter().enumerate() {
+                let full = channel_value(&truth, &pt.input, family);
+                let cached = problem.value(&truth, i);
+                assert!(
+                    (full - cached).abs() <= 1e-9 * full.abs().max(1.0),
+                    "{family:?}"
+                );
+            }
+            let p: Vec<f64> = free.iter().map(|c| truth[*c]).collect();
+            let fd = finite_difference_jacobian(&problem, &p, 1e-6);
+            let mut r = vec![0.0; problem.n_residuals()];
+            let mut jac = vec![0.0; fd.len()];
+            problem.residuals_and_jacobian(&p, &mut r, &mut jac);
+            for (k, (a, b)) in jac.iter().zip(&fd).enumerate() {
+                let tol = 1e-5 * (1.0 + a.abs().max(b.abs()));
+                assert!(
+                    (a - b).abs() <= tol,
+                    "{family:?} residual {} coef {}: dual {a} vs fd {b}",
+                    k / free.len(),
+                    free[k % free.len()].name()
+                );
+            }
+        }
+    }
+}

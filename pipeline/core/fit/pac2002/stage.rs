@@ -1,0 +1,917 @@
+//! The stage itself: sweeps in, fitted model and facts out, family by family in dependency order.
+//!
+//! In: a [`FitInput`] and a [`FitConfig`]. Out: a [`Pac2002Fit`] or a [`FitError`] for input that
+//! cannot be fitted at all. Order: check the context, sort and collapse the sweeps, set the
+//! scalars (`FNOMIN` = middle nominal load of the matrix, `LONGVL`, radius, stiffness, ranges),
+//! then `Fy0 -> Mz0 -> Fx0 -> Fx -> Fy -> Mz -> Mx`, each: data points and weights, held
+//! (unidentifiable) coefficients, starting values, bounds and penalties, joint refinement,
+//! quality; finally the `My` placeholder and `USE_MODE`.
+//!
+//! Deterministic: sweeps are sorted by (kind, nominal slip angle, inclination, load, id) before
+//! anything else, every container iterates in a fixed order, and no randomness is used; only
+//! the `seconds` fields differ between runs.
+
+use std::time::Instant;
+
+use super::collapse::{CollapseSettings, CollapsedSweep, Output, collapse};
+use super::family::{Family, Levels, count_levels, held_value, unidentifiable};
+use super::initial::{self, Setup};
+use super::problem::{DataPoint, FamilyProblem, Penalty, Quantity, channel_value};
+use super::{
+    CoefficientOrigin, FamilyFit, FamilyStatus, FitConfig, FitError, FitInput, FitQuality,
+    FittedCoefficient, MxForm, Pac2002Fit, SkippedSweep, SweepKind,
+};
+use crate::numerics::bounded_least_squares::{Bounds, FitOutcome, Options, minimize};
+use crate::tire_model::{Coef, Coef::*, Coefs, Pac2002, SlipInput};
+
+/// The tested envelope: ranges of the data and the nominal load.
+#[derive(Copy, Clone, Debug)]
+struct Envelope {
+    fz0: f64,
+    fz: (f64, f64),
+    kappa: (f64, f64),
+    alpha: (f64, f64),
+    gamma: (f64, f64),
+    vx: f64,
+}
+
+impl Envelope {
+    fn dfz(&self, fz: f64) -> f64 {
+        (fz - self.fz0) / self.fz0
+    }
+
+    /// Relative load changes spanning the envelope (ends, and points between for quadratics).
+    fn dfz_grid(&self) -> [f64; 5] {
+        let (a, b) = (self.dfz(self.fz.0), self.dfz(self.fz.1));
+        [a, a + 0.25 * (b - a), 0.5 * (a + b), a + 0.75 * (b - a), b]
+    }
+
+    fn gamma_max_abs(&self) -> f64 {
+        self.gamma.0.abs().max(self.gamma.1.abs())
+    }
+}
+
+/// Runs the PAC2002 fit of one (tire, rim, pressure). See the module docs of `fit::pac2002`.
+pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
+    let started = Instant::now();
+    let ctx = &input.context;
+    let speed = ctx.test_speed_mps;
+    if !(speed.is_finite() && speed > 0.0) {
+        return Err(FitError::BadContext {
+            tire: ctx.tire.clone(),
+            field: "test_speed_mps",
+            value: speed,
+            expected: "finite and > 0",
+        });
+    }
+    let mut notes = Vec::new();
+    let (sweeps, skipped) = prepare_sweeps(input, cfg);
+    if sweeps.is_empty() {
+        return Err(FitError::NoUsableSweeps {
+            tire: ctx.tire.clone(),
+            skipped: skipped.len(),
+        });
+    }
+    let mut origins: Vec<(Coef, Option<Family>, CoefficientOrigin)> = Vec::new();
+    let mut c = Coefs::defaults();
+    for coef in Family::FIT_ORDER
+        .iter()
+        .flat_map(|f| f.coefficients().iter())
+    {
+        c[*coef] = 0.0;
+    }
+    // MFeval's defaults for the extra Mx terms (they vanish with QSX7 = QSX8 = QSX10 = 0).
+    for coef in [QSX4, QSX5, QSX6, QSX9, QSX11] {
+        c[coef] = coef.default_value();
+    }
+    let env = set_scalars(input, &sweeps, &mut c, &mut origins, &mut notes)?;
+    let spikes: usize = sweeps.iter().map(|s| s.spikes).sum();
+    if spikes > 0 {
+        notes.push(format!(
+            "despiking replaced {spikes} sample values (running-median test) in {} sweeps",
+            sweeps.len()
+        ));
+    }
+    let mut families = Vec::new();
+    let mut std_errors: Vec<(Coef, Option<f64>, bool)> = Vec::new();
+    let mut evaluations = 0;
+    let mut fitted: Vec<Family> = Vec::new();
+    let mut free_lists: Vec<(Family, Vec<Coef>)> = Vec::new();
+    for family in Family::FIT_ORDER {
+        if family == Family::My {
+            families.push(rolling_placeholder(cfg, &mut c, &mut origins, &mut notes));
+            continue;
+        }
+        let t0 = Instant::now();
+        let data = family_sweeps(family, &sweeps, &fitted);
+        let status = match data {
+            Err(reason) => {
+                families.push(FamilyFit {
+                    family,
+                    status: FamilyStatus::NoData { reason },
+                    quality: None,
+                });
+                continue;
+            }
+            Ok(data) => fit_family(
+                family,
+                &data,
+                &env,
+                cfg,
+                &mut c,
+                &mut origins,
+                &free_lists,
+                &mut notes,
+            ),
+        };
+        match status {
+            Ok((outcome, free, mut quality, extra_evals)) => {
+                quality.seconds = t0.elapsed().as_secs_f64();
+                evaluations += quality.evaluations + extra_evals;
+                for (k, coef) in free.iter().enumerate() {
+                    std_errors.push((*coef, outcome.std_errors[k], outcome.at_bounds[k]));
+                }
+                free_lists.push((family, free));
+                fitted.push(family);
+                families.push(FamilyFit {
+                    family,
+                    status: FamilyStatus::Fitted,
+                    quality: Some(quality),
+                });
+            }
+            Err(reason) => {
+                for coef in family.coefficients() {
+                    c[*coef] = if family == Family::Mx {
+                        held_value(*coef)
+                    } else {
+                        0.0
+                    };
+                }
+                origins.retain(|o| o.1 != Some(family));
+                families.push(FamilyFit {
+                    family,
+                    status: FamilyStatus::Failed { reason },
+                    quality: None,
+                });
+            }
+        }
+    }
+    let has = |f: Family| fitted.contains(&f);
+    let use_mode = match (has(Family::Fx0), has(Family::Fy0)) {
+        (true, true) if has(Family::Fx) && has(Family::Fy) => 4,
+        (true, true) => 3,
+        (false, true) => 2,
+        (true, false) => 1,
+        (false, false) => 0,
+    };
+    let coefficients = coefficient_list(&c, &origins, &std_errors);
+    Ok(Pac2002Fit {
+        model: Pac2002::new(c),
+        use_mode,
+        families,
+        coefficients,
+        skipped_sweeps: skipped,
+        notes,
+        evaluations,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// Sorts, checks and collapses the sweeps; returns the usable ones and the skipped ones.
+fn prepare_sweeps(input: &FitInput, cfg: &FitConfig) -> (Vec<CollapsedSweep>, Vec<SkippedSweep>) {
+    let mut order: Vec<usize> = (0..input.sweeps.len()).collect();
+    order.sort_by(|&a, &b| {
+        let (x, y) = (&input.sweeps[a], &input.sweeps[b]);
+        x.kind
+            .cmp(&y.kind)
+            .then(x.nominal.alpha_rad.total_cmp(&y.nominal.alpha_rad))
+            .then(x.nominal.gamma_rad.total_cmp(&y.nominal.gamma_rad))
+            .then(x.nominal.fz_n.total_cmp(&y.nominal.fz_n))
+            .then(x.id.cmp(&y.id))
+    });
+    let relaxation = if cfg.delag {
+        input.context.relaxation.as_ref()
+    } else {
+        None
+    };
+    let mut kept = Vec::new();
+    let mut skipped = Vec::new();
+    for i in order {
+        let sweep = &input.sweeps[i];
+        if !sweep.qc_ok {
+            skipped.push(SkippedSweep {
+                id: sweep.id.clone(),
+                reason: "QC flagged".to_string(),
+            });
+            continue;
+        }
+        let settings = CollapseSettings {
+            bin: match sweep.kind {
+                SweepKind::Cornering => cfg.alpha_bin_rad,
+                _ => cfg.kappa_bin,
+            },
+            despike_sigmas: cfg.despike_sigmas,
+            relaxation,
+        };
+        let c = collapse(sweep, &settings);
+        let swept: Vec<f64> = c.points.iter().map(|p| c.swept(p)).collect();
+        let span = swept.last().unwrap_or(&0.0) - swept.first().unwrap_or(&0.0);
+        let min_span = match sweep.kind {
+            SweepKind::Cornering => 2.0_f64.to_radians(),
+            _ => 0.02,
+        };
+        if c.points.len() < 8 || span < min_span {
+            skipped.push(SkippedSweep {
+                id: sweep.id.clone(),
+                reason: format!(
+                    "too short: {} collapsed points over a slip span of {span:.4}",
+                    c.points.len()
+                ),
+            });
+            continue;
+        }
+        kept.push(c);
+    }
+    (kept, skipped)
+}
+
+/// `FNOMIN`, `LONGVL`, radius, stiffness and ranges; returns the envelope.
+fn set_scalars(
+    input: &FitInput,
+    sweeps: &[CollapsedSweep],
+    c: &mut Coefs<f64>,
+    origins: &mut Vec<(Coef, Option<Family>, CoefficientOrigin)>,
+    notes: &mut Vec<String>,
+) -> Result<Envelope, FitError> {
+    let ctx = &input.context;
+    // FNOMIN: middle nominal load of the cornering matrix (else of all sweeps).
+    let matrix: Vec<&CollapsedSweep> = {
+        let cornering: Vec<&CollapsedSweep> = sweeps
+            .iter()
+            .filter(|s| s.kind == SweepKind::Cornering)
+            .collect();
+        if cornering.is_empty() {
+            sweeps.iter().collect()
+        } else {
+            cornering
+        }
+    };
+    let mut loads: Vec<f64> = matrix.iter().map(|s| s.nominal.fz_n).collect();
+    loads.sort_by(f64::total_cmp);
+    let mut levels: Vec<f64> = Vec::new();
+    for l in loads {
+        if levels
+            .last()
+            .is_none_or(|last| l - last > 0.02 * last.abs().max(1.0))
+        {
+            levels.push(l);
+        }
+    }
+    let fz0 = levels[(levels.len() - 1) / 2];
+    c[FNOMIN] = fz0;
+    c[LONGVL] = ctx.test_speed_mps;
+    origins.push((FNOMIN, None, CoefficientOrigin::Data));
+    origins.push((LONGVL, None, CoefficientOrigin::Context));
+    let samples = || sweeps.iter().flat_map(|s| s.samples.iter());
+    let range = |f: &dyn Fn(&super::Sample) -> f64| {
+        samples()
+            .map(f)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            })
+    };
+    let kappa = range(&|s| s.kappa);
+    let alpha = range(&|s| s.alpha_rad);
+    let gamma = range(&|s| s.gamma_rad);
+    let fz = range(&|s| s.fz_n);
+    for (coef, v) in [
+        (KPUMIN, kappa.0),
+        (KPUMAX, kappa.1),
+        (ALPMIN, alpha.0),
+        (ALPMAX, alpha.1),
+        (CAMMIN, gamma.0),
+        (CAMMAX, gamma.1),
+        (FZMIN, fz.0),
+        (FZMAX, fz.1),
+    ] {
+        c[coef] = v;
+        origins.push((coef, None, CoefficientOrigin::Data));
+    }
+    let rl = radius_from_rl(sweeps);
+    match (ctx.unloaded_radius_m, rl) {
+        (Some(r0), _) => {
+            c[UNLOADED_RADIUS] = r0;
+            origins.push((UNLOADED_RADIUS, None, CoefficientOrigin::Context));
+        }
+        (None, Some((r0, _))) => {
+            c[UNLOADED_RADIUS] = r0;
+            origins.push((UNLOADED_RADIUS, None, CoefficientOrigin::Data));
+            notes.push(format!(
+                "UNLOADED_RADIUS = {r0:.5} m from a line through the loaded radius at low slip \
+                 (no spring-rate result)"
+            ));
+        }
+        (None, None) => {
+            return Err(FitError::NoUnloadedRadius {
+                tire: ctx.tire.clone(),
+            });
+        }
+    }
+    match (ctx.vertical_stiffness_n_per_m, rl) {
+        (Some(cz), _) => {
+            c[VERTICAL_STIFFNESS] = cz;
+            origins.push((VERTICAL_STIFFNESS, None, CoefficientOrigin::Context));
+        }
+        (None, Some((_, Some(cz)))) => {
+            c[VERTICAL_STIFFNESS] = cz;
+            origins.push((VERTICAL_STIFFNESS, None, CoefficientOrigin::Data));
+            notes.push(format!(
+                "VERTICAL_STIFFNESS = {cz:.0} N/m from the slope of the loaded radius against \
+                 load (no spring-rate result)"
+            ));
+        }
+        _ => notes.push("VERTICAL_STIFFNESS unknown: left at 0".to_string()),
+    }
+    let vx = samples().map(|s| s.vx_mps).sum::<f64>() / samples().count().max(1) as f64;
+    Ok(Envelope {
+        fz0,
+        fz,
+        kappa,
+        alpha,
+        gamma,
+        vx,
+    })
+}
+
+/// `(R0, Cz)` from a line `RL = R0 - Fz/Cz` through the near-zero-slip samples with a loaded
+/// radius (`None` if fewer than 10 such samples).
+fn radius_from_rl(sweeps: &[CollapsedSweep]) -> Option<(f64, Option<f64>)> {
+    let pts: Vec<(f64, f64)> = sweeps
+        .iter()
+        .flat_map(|s| s.samples.iter())
+        .filter(|s| s.alpha_rad.abs() < 1f64.to_radians() && s.kappa.abs() < 0.01)
+        .filter_map(|s| s.loaded_radius_m.map(|r| (s.fz_n, r)))
+        .filter(|(f, r)| f.is_finite() && r.is_finite())
+        .collect();
+    if pts.len() < 10 {
+        return None;
+    }
+    let design: Vec<f64> = pts.iter().flat_map(|p| [1.0, p.0]).collect();
+    let y: Vec<f64> = pts.iter().map(|p| p.1).collect();
+    let b = super::linear::lstsq(&design, 2, &y)?;
+    let cz = if b[1] < 0.0 { Some(-1.0 / b[1]) } else { None };
+    Some((b[0], cz))
+}
+
+/// The sweeps a family is fitted to, or why it cannot be fitted.
+fn family_sweeps<'a>(
+    family: Family,
+    sweeps: &'a [CollapsedSweep],
+    fitted: &[Family],
+) -> Result<Vec<&'a CollapsedSweep>, String> {
+    let needs: &[Family] = match family {
+        Family::Fy0 | Family::Fx0 | Family::My => &[],
+        Family::Mz0 => &[Family::Fy0],
+        Family::Fx => &[Family::Fx0],
+        Family::Fy => &[Family::Fy0],
+        Family::Mz => &[Family::Mz0, Family::Fx, Family::Fy],
+        Family::Mx => &[Family::Fy0],
+    };
+    if let Some(missing) = needs.iter().find(|f| !fitted.contains(f)) {
+        return Err(format!(
+            "needs the {} family, which was not fitted",
+            missing.as_str()
+        ));
+    }
+    let output = output_of(family);
+    let combined_fy = fitted.contains(&Family::Fy);
+    let selected: Vec<&CollapsedSweep> = sweeps
+        .iter()
+        .filter(|s| match family {
+            Family::Fy0 | Family::Mz0 => s.kind == SweepKind::Cornering,
+            Family::Fx0 => s.kind == SweepKind::DriveBrake,
+            Family::Fx => s.kind == SweepKind::Combined,
+            Family::Fy => s.kind != SweepKind::Cornering,
+            // The cornering sweeps' Mz also carries the s Fx arm: the joint Mz refinement uses
+            // every sweep.
+            Family::Mz => true,
+            Family::Mx => s.kind == SweepKind::Cornering || combined_fy,
+            Family::My => false,
+        })
+        .filter(|s| s.points.iter().any(|p| p.output(output).is_finite()))
+        .collect();
+    let needs_combined = matches!(family, Family::Fx | Family::Fy | Family::Mz);
+    if selected.is_empty()
+        || (needs_combined && !selected.iter().any(|s| s.kind == SweepKind::Combined))
+    {
+        let what = match family {
+            Family::Fy0 | Family::Mz0 => "cornering sweeps",
+            Family::Fx0 => "drive/brake sweeps",
+            Family::Fx | Family::Fy | Family::Mz => "combined-slip sweeps",
+            _ => "sweeps",
+        };
+        return Err(format!("no {what} with {} data", output_name(output)));
+    }
+    Ok(selected)
+}
+
+fn output_of(family: Family) -> Output {
+    match family {
+        Family::Fy0 | Family::Fy => Output::Fy,
+        Family::Fx0 | Family::Fx | Family::My => Output::Fx,
+        Family::Mz0 | Family::Mz => Output::Mz,
+        Family::Mx => Output::Mx,
+    }
+}
+
+fn output_name(o: Output) -> &'static str {
+    match o {
+        Output::Fx => "Fx",
+        Output::Fy => "Fy",
+        Output::Mz => "Mz",
+        Output::Mx => "Mx",
+    }
+}
+
+/// Distinct levels of the family's sweeps.
+fn levels_of(sweeps: &[&CollapsedSweep]) -> Levels {
+    let tol_angle = 0.25_f64.to_radians();
+    let cambers = sweeps.iter().map(|s| s.nominal.gamma_rad);
+    Levels {
+        loads: count_levels(sweeps.iter().map(|s| s.nominal.fz_n), 10.0),
+        cambers: count_levels(cambers.clone(), tol_angle),
+        camber_both_signs: cambers.clone().any(|g| g > tol_angle)
+            && cambers.clone().any(|g| g < -tol_angle),
+        alphas: count_levels(
+            sweeps
+                .iter()
+                .filter(|s| s.kind != SweepKind::Cornering)
+                .map(|s| s.nominal.alpha_rad.abs()),
+            tol_angle,
+        ),
+    }
+}
+
+/// Data points of a family, weighted so every sweep counts the same: residuals are relative to
+/// the sweep's peak (floored at 5 % of the largest peak) and divided by the square root of the
+/// sweep's point count and of the number of sweeps.
+///
+/// A sweep with more than `max_per_sweep` points contributes that many, evenly spaced along the
+/// curve (a deterministic thinning: the collapsed curves are oversampled for fitting purposes).
+fn data_points(sweeps: &[&CollapsedSweep], output: Output, max_per_sweep: usize) -> Vec<DataPoint> {
+    let max_peak = sweeps.iter().map(|s| s.peak(output)).fold(0.0, f64::max);
+    let mut out = Vec::new();
+    for s in sweeps {
+        let valid: Vec<_> = s
+            .points
+            .iter()
+            .filter(|p| p.output(output).is_finite())
+            .collect();
+        let n = valid.len();
+        if n == 0 {
+            continue;
+        }
+        let m = n.min(max_per_sweep.max(2));
+        let peak = s.peak(output).max(0.05 * max_peak).max(1e-9);
+        let w = 1.0 / (peak * ((m * sweeps.len()) as f64).sqrt());
+        out.extend((0..m).map(|k| {
+            let i = if m == n {
+                k
+            } else {
+                ((k * (n - 1)) as f64 / (m - 1) as f64).round() as usize
+            };
+            DataPoint {
+                input: valid[i].input,
+                value: valid[i].output(output),
+                weight: w,
+            }
+        }));
+    }
+    out
+}
+
+type FamilyResult = Result<(FitOutcome, Vec<Coef>, FitQuality, usize), String>;
+
+/// Fits one family: held coefficients, starting values, bounds and penalties, refinement.
+#[allow(clippy::too_many_arguments)]
+fn fit_family(
+    family: Family,
+    sweeps: &[&CollapsedSweep],
+    env: &Envelope,
+    cfg: &FitConfig,
+    c: &mut Coefs<f64>,
+    origins: &mut Vec<(Coef, Option<Family>, CoefficientOrigin)>,
+    previous: &[(Family, Vec<Coef>)],
+    notes: &mut Vec<String>,
+) -> FamilyResult {
+    let levels = levels_of(sweeps);
+    let mut coefs: Vec<Coef> = family.coefficients().to_vec();
+    if family == Family::Mx {
+        coefs.truncate(3);
+    }
+    let mut free: Vec<Coef> = Vec::new();
+    for coef in &coefs {
+        match unidentifiable(*coef, &levels) {
+            Some(reason) => {
+                c[*coef] = held_value(*coef);
+                origins.push((*coef, Some(family), CoefficientOrigin::Fixed { reason }));
+            }
+            None => free.push(*coef),
+        }
+    }
+    let setup = Setup {
+        free: &free,
+        fz0: env.fz0,
+        r0: c[UNLOADED_RADIUS],
+    };
+    match family {
+        Family::Fy0 => initial::pure_lateral(sweeps, &setup, c)?,
+        Family::Mz0 => initial::pure_aligning(sweeps, &setup, c)?,
+        Family::Fx0 => initial::pure_longitudinal(sweeps, &setup, c)?,
+        Family::Fx => initial::combined_longitudinal(sweeps, &setup, c),
+        Family::Fy => initial::combined_lateral(sweeps, &setup, c),
+        Family::Mz => {}
+        Family::Mx => initial::overturning(sweeps, &setup, c),
+        Family::My => unreachable!("My is a placeholder"),
+    }
+    let output = output_of(family);
+    let mut evals = 0;
+    if family == Family::Mz {
+        // The s Fx arm alone on the slip-ratio sweeps, then jointly with the Mz0 coefficients
+        // on every sweep's Mz.
+        let slip: Vec<&CollapsedSweep> = sweeps
+            .iter()
+            .copied()
+            .filter(|s| s.kind != SweepKind::Cornering)
+            .collect();
+        let points = data_points(&slip, output, cfg.max_points_per_sweep);
+        let (_, q) = refine(family, &free, &points, &slip, env, cfg, c)?;
+        evals += q.evaluations;
+        let mz0: &[Coef] = previous
+            .iter()
+            .find(|(f, _)| *f == Family::Mz0)
+            .map_or(&[], |(_, v)| v.as_slice());
+        free = mz0.iter().chain(free.iter()).copied().collect();
+    }
+    let points = data_points(sweeps, output, cfg.max_points_per_sweep);
+    let (outcome, mut quality) = refine(family, &free, &points, sweeps, env, cfg, c)?;
+    let mut outcome = outcome;
+    if family == Family::Mx && cfg.mx_form == MxForm::Auto {
+        let (ext, q) = extended_mx(&points, sweeps, env, cfg, c, &levels, &quality);
+        evals += q.evaluations;
+        let kept = ext.is_some();
+        notes.push(format!(
+            "Mx: core form RMSE {:.4} N m, with QSX4..QSX11 {:.4} N m: {} form kept",
+            quality.rmse,
+            q.rmse,
+            if kept { "extended" } else { "core" }
+        ));
+        if let Some((ext_outcome, ext_free, ext_quality)) = ext {
+            outcome = ext_outcome;
+            quality = ext_quality;
+            free = ext_free;
+        }
+    }
+    for coef in free
+        .iter()
+        .filter(|coef| family.coefficients().contains(coef))
+    {
+        origins.push((*coef, Some(family), CoefficientOrigin::Fitted));
+    }
+    Ok((outcome, free, quality, evals))
+}
+
+/// Bounds of the free coefficients, some depending on the signs found by the starting values
+/// and on the envelope.
+fn bounds_of(free: &[Coef], c: &Coefs<f64>, env: &Envelope) -> Bounds {
+    let inf = f64::INFINITY;
+    let g = env.gamma_max_abs().max(1e-3);
+    let signed = |v: f64, lo: f64, hi: f64| if v < 0.0 { (-hi, -lo) } else { (lo, hi) };
+    let (lower, upper) = free
+        .iter()
+        .map(|coef| match coef {
+            PCY1 | PCX1 | QCZ1 => (0.3, 2.5),
+            PDY1 => signed(c[PDY1], 0.02, 10.0),
+            PDX1 => signed(c[PDX1], 0.02, 10.0),
+            PKY1 => signed(c[PKY1], 0.05, 2000.0),
+            PKY2 => (0.05, 50.0),
+            PKY3 => (-50.0, 0.9 / g),
+            PDY3 | PDX3 => (-50.0, 0.9 / (g * g)),
+            PKX1 => signed(c[PKX1], 0.05, 2000.0),
+            PKX3 => (-10.0, 10.0),
+            QBZ1 => (0.05, 200.0),
+            QBZ9 => (0.0, 200.0),
+            RBX1 | RBY1 => (0.0, 500.0),
+            RBX2 | RBY2 | RVY4 | RVY6 => (0.0, 500.0),
+            RCX1 | RCY1 => (0.3, 2.0),
+            RHX1 | RBY3 => (-0.1, 0.1),
+            RHY1 | RHY2 => (-0.3, 0.3),
+            RVY5 => (0.0, 3.0),
+            QSX5 | QSX6 | QSX9 | QSX11 => (0.0, 100.0),
+            _ => (-inf, inf),
+        })
+        .unzip();
+    Bounds { lower, upper }
+}
+
+/// Physical-constraint penalties and asymmetry priors of a family.
+fn penalties_of(family: Family, free: &[Coef], env: &Envelope, cfg: &FitConfig) -> Vec<Penalty> {
+    let w = cfg.constraint_weight;
+    let at_most = |quantity, limit| Penalty::AtMost {
+        quantity,
+        limit,
+        weight: w,
+    };
+    let gammas = [env.gamma.0, env.gamma.1];
+    let mut out = Vec::new();
+    match family {
+        Family::Fy0 => {
+            for dfz in env.dfz_grid() {
+                for gamma in gammas {
+                    for sign in [-1.0, 1.0] {
+                        out.push(at_most(Quantity::Ey { dfz, gamma, sign }, 1.0));
+                    }
+                }
+            }
+        }
+        Family::Fx0 => {
+            for dfz in env.dfz_grid() {
+                for sign in [-1.0, 1.0] {
+                    out.push(at_most(Quantity::Ex { dfz, sign }, 1.0));
+                }
+            }
+        }
+        Family::Mz0 | Family::Mz if free.iter().any(|c| Family::Mz0.coefficients().contains(c)) => {
+            for dfz in env.dfz_grid() {
+                for gamma in gammas {
+                    for a in [-1.0, 1.0] {
+                        out.push(at_most(Quantity::Et { dfz, gamma, a }, 1.0));
+                    }
+                    out.push(at_most(Quantity::NegBt { dfz, gamma }, -0.1));
+                }
+            }
+        }
+        Family::Fx | Family::Fy => {
+            for dfz in env.dfz_grid() {
+                let q = if family == Family::Fx {
+                    Quantity::Exa { dfz }
+                } else {
+                    Quantity::Eyk { dfz }
+                };
+                out.push(at_most(q, 1.0));
+            }
+            for input in envelope_grid(env) {
+                let q = if family == Family::Fx {
+                    Quantity::NegGxa { input }
+                } else {
+                    Quantity::NegGyk { input }
+                };
+                out.push(at_most(q, -0.01));
+            }
+            let prior = |coef| Penalty::Prior {
+                coef,
+                centre: 0.0,
+                weight: cfg.asymmetry_weight / 0.01,
+            };
+            for coef in [RHX1, RBY3] {
+                if free.contains(&coef) {
+                    out.push(prior(coef));
+                }
+            }
+        }
+        Family::Mz0 | Family::Mz | Family::Mx | Family::My => {}
+    }
+    out
+}
+
+/// Operating points spanning the envelope (for the weighting-function sign constraints).
+fn envelope_grid(env: &Envelope) -> Vec<SlipInput> {
+    let mut out = Vec::new();
+    for fz in [env.fz.0, env.fz.1] {
+        for i in 0..9 {
+            let alpha = env.alpha.0 + (env.alpha.1 - env.alpha.0) * i as f64 / 8.0;
+            for j in 0..5 {
+                let kappa = env.kappa.0 + (env.kappa.1 - env.kappa.0) * j as f64 / 4.0;
+                out.push(SlipInput {
+                    fz_n: fz,
+                    kappa,
+                    alpha_rad: alpha,
+                    gamma_rad: 0.0,
+                    vx_mps: env.vx,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Joint refinement of `free` from the current values in `c` (updated in place).
+fn refine(
+    family: Family,
+    free: &[Coef],
+    points: &[DataPoint],
+    sweeps: &[&CollapsedSweep],
+    env: &Envelope,
+    cfg: &FitConfig,
+    c: &mut Coefs<f64>,
+) -> Result<(FitOutcome, FitQuality), String> {
+    let bounds = bounds_of(free, c, env);
+    let penalties = penalties_of(family, free, env, cfg);
+    let start: Vec<f64> = free.iter().map(|coef| c[*coef]).collect();
+    let output = output_of(family);
+    let all_points = data_points(sweeps, output, usize::MAX);
+    let initial_rmse = rmse_on_points(&all_points, c, family);
+    let problem = FamilyProblem::new(c, free, family, points, &penalties);
+    let options = Options {
+        max_iterations: cfg.max_iterations,
+        xtol: 1e-10,
+        ftol: 1e-12,
+        gtol: 1e-9,
+        loss: cfg.loss,
+        irls_rounds: 3,
+        scale_floor: 1e-5 / (points.len().max(1) as f64).sqrt(),
+    };
+    let outcome = minimize(&problem, &start, &bounds, &options);
+    if outcome.termination == crate::numerics::bounded_least_squares::Termination::NonFiniteStart {
+        return Err("the starting values give non-finite residuals".to_string());
+    }
+    let fitted = problem.coefs_at(&outcome.params);
+    *c = fitted;
+    let quality = quality_of(
+        family,
+        output,
+        &all_points,
+        sweeps,
+        c,
+        &outcome,
+        initial_rmse,
+    );
+    Ok((outcome, quality))
+}
+
+fn rmse_on_points(points: &[DataPoint], c: &Coefs<f64>, family: Family) -> f64 {
+    let ss: f64 = points
+        .iter()
+        .map(|p| (channel_value(c, &p.input, family) - p.value).powi(2))
+        .sum();
+    (ss / points.len().max(1) as f64).sqrt()
+}
+
+fn quality_of(
+    family: Family,
+    output: Output,
+    points: &[DataPoint],
+    sweeps: &[&CollapsedSweep],
+    c: &Coefs<f64>,
+    outcome: &FitOutcome,
+    initial_rmse: f64,
+) -> FitQuality {
+    let n = points.len();
+    let rmse = rmse_on_points(points, c, family);
+    let peak = points.iter().map(|p| p.value.abs()).fold(0.0, f64::max);
+    let mean = points.iter().map(|p| p.value).sum::<f64>() / n.max(1) as f64;
+    let ss_tot: f64 = points.iter().map(|p| (p.value - mean).powi(2)).sum();
+    let r2 = if ss_tot > 0.0 {
+        1.0 - rmse * rmse * n as f64 / ss_tot
+    } else {
+        f64::NAN
+    };
+    let (mut ss, mut n_samples) = (0.0, 0usize);
+    for s in sweeps {
+        for sample in &s.samples {
+            let y = output.of(sample);
+            if !y.is_finite() {
+                continue;
+            }
+            let input = SlipInput {
+                fz_n: sample.fz_n,
+                kappa: sample.kappa,
+                alpha_rad: sample.alpha_rad,
+                gamma_rad: sample.gamma_rad,
+                vx_mps: sample.vx_mps,
+            };
+            ss += (channel_value(c, &input, family) - y).powi(2);
+            n_samples += 1;
+        }
+    }
+    FitQuality {
+        n,
+        rmse,
+        rmse_pct_of_peak: if peak > 0.0 {
+            100.0 * rmse / peak
+        } else {
+            f64::NAN
+        },
+        r2,
+        n_samples,
+        sample_rmse: (ss / n_samples.max(1) as f64).sqrt(),
+        initial_rmse,
+        iterations: outcome.iterations,
+        termination: outcome.termination,
+        evaluations: outcome.evaluations,
+        seconds: 0.0,
+    }
+}
+
+type Extended = (Option<(FitOutcome, Vec<Coef>, FitQuality)>, FitQuality);
+
+/// Tries the `Mx` form with `QSX4..QSX11`; returns it when it lowers the RMSE by >= 10 %.
+fn extended_mx(
+    points: &[DataPoint],
+    sweeps: &[&CollapsedSweep],
+    env: &Envelope,
+    cfg: &FitConfig,
+    c: &mut Coefs<f64>,
+    levels: &Levels,
+    core: &FitQuality,
+) -> Extended {
+    let mut trial = c.clone();
+    for (coef, v) in [
+        (QSX4, 0.1),
+        (QSX5, 1.0),
+        (QSX6, 1.0),
+        (QSX7, 0.0),
+        (QSX8, 0.0),
+        (QSX9, 0.5),
+        (QSX10, 0.0),
+        (QSX11, 1.0),
+    ] {
+        trial[coef] = v;
+    }
+    let free: Vec<Coef> = Family::Mx
+        .coefficients()
+        .iter()
+        .copied()
+        .filter(|coef| unidentifiable(*coef, levels).is_none())
+        .collect();
+    match refine(Family::Mx, &free, points, sweeps, env, cfg, &mut trial) {
+        Ok((outcome, quality)) => {
+            let q = quality.clone();
+            if quality.rmse <= 0.9 * core.rmse {
+                *c = trial;
+                (Some((outcome, free, quality)), q)
+            } else {
+                (None, q)
+            }
+        }
+        Err(_) => (None, core.clone()),
+    }
+}
+
+/// `My`: TTC records no rolling resistance moment; `QSY1` is set to the thesis's constant
+/// coefficient and the family is flagged as a placeholder.
+fn rolling_placeholder(
+    cfg: &FitConfig,
+    c: &mut Coefs<f64>,
+    origins: &mut Vec<(Coef, Option<Family>, CoefficientOrigin)>,
+    notes: &mut Vec<String>,
+) -> FamilyFit {
+    let qsy1 = cfg.rolling_resistance_placeholder;
+    c[QSY1] = qsy1;
+    for coef in [QSY2, QSY3, QSY4] {
+        c[coef] = 0.0;
+    }
+    for coef in Family::My.coefficients() {
+        origins.push((*coef, Some(Family::My), CoefficientOrigin::Placeholder));
+    }
+    let reason = format!(
+        "no My channel in the data: QSY1 = {qsy1} (constant rolling resistance coefficient, \
+         thesis section 8.2), QSY2..QSY4 = 0"
+    );
+    notes.push(format!("My not fitted: {reason}"));
+    FamilyFit {
+        family: Family::My,
+        status: FamilyStatus::Placeholder { reason },
+        quality: None,
+    }
+}
+
+/// Every coefficient the stage set, in catalogue order.
+fn coefficient_list(
+    c: &Coefs<f64>,
+    origins: &[(Coef, Option<Family>, CoefficientOrigin)],
+    std_errors: &[(Coef, Option<f64>, bool)],
+) -> Vec<FittedCoefficient> {
+    Coef::ALL
+        .iter()
+        .filter_map(|coef| {
+            let (_, family, origin) = origins.iter().rev().find(|o| o.0 == *coef)?;
+            let (std_error, at_bound) = match origin {
+                CoefficientOrigin::Fitted => std_errors
+                    .iter()
+                    .rev()
+                    .find(|s| s.0 == *coef)
+                    .map_or((None, false), |s| (s.1, s.2)),
+                _ => (None, false),
+            };
+            Some(FittedCoefficient {
+                coef: *coef,
+                family: *family,
+                value: c[*coef],
+                std_error,
+                at_bound,
+                origin: origin.clone(),
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,794 @@
+//! Bounded nonlinear least squares: a projected Levenberg-Marquardt with an active set, Moré's
+//! diagonal scaling and Nielsen's damping update, plus an optional robust loss by iteratively
+//! reweighted least squares (IRLS).
+//!
+//! In: a [`LeastSquaresProblem`] (residuals, and residuals with their Jacobian written into
+//! caller-owned slices), a start point, box [`Bounds`] and [`Options`]. Out: a [`FitOutcome`]
+//! with the parameters, their standard errors, which parameters ended on a bound, the iteration
+//! and evaluation counts, why the solver stopped, the cost and the data RMSE. Not converging is
+//! reported in [`FitOutcome::termination`], never raised: the caller decides what a
+//! `MaxIterations` fit is worth.
+//!
+//! Why not a crate: neither `levenberg-marquardt` nor `argmin` takes bounds, and the tire fits
+//! need them (shape factors `C > 0`, combined-slip shifts kept small, sign conventions of
+//! symmetric parameters). The method is the textbook one (Moré 1978 for the scaling and the
+//! stopping tests, Nielsen 1999 for the damping update, Kanzow et al. 2004 for the projection):
+//! a step solves `(J_F^T J_F + lambda D_F^2) d_F = -g_F` over the free set `F` (parameters not
+//! held on a bound by a gradient pushing outward), the trial point is clipped into the box, and
+//! it is accepted when it lowers the cost.
+//!
+//! Robust loss: the problem declares its first [`LeastSquaresProblem::n_data`] residuals as data
+//! (the rest are penalties and priors, never down-weighted). With [`RobustLoss::Huber`] or
+//! [`RobustLoss::Cauchy`] the solver fits, re-weights each data residual from its size relative
+//! to a robust scale (1.4826 x the median absolute data residual, floored at
+//! [`Options::scale_floor`]), and refits from the previous solution, [`Options::irls_rounds`]
+//! times.
+//!
+//! Deliberately not here: constraints other than boxes (callers add penalty residuals), global
+//! search, and anything about tires.
+
+use nalgebra::{DMatrix, DVector};
+
+/// A nonlinear least-squares problem: minimise `0.5 |r(p)|^2` over the box.
+///
+/// The Jacobian is row-major: `jac[i * n_params + j] = d r_i / d p_j`.
+pub trait LeastSquaresProblem {
+    /// Number of parameters.
+    fn n_params(&self) -> usize;
+    /// Number of residuals (data and penalties).
+    fn n_residuals(&self) -> usize;
+    /// The first `n_data()` residuals are data (subject to the robust loss); the rest are
+    /// penalties. Default: all residuals are data.
+    fn n_data(&self) -> usize {
+        self.n_residuals()
+    }
+    /// Residuals at `p` into `r` (`r.len() == n_residuals()`).
+    fn residuals(&self, p: &[f64], r: &mut [f64]);
+    /// Residuals and Jacobian at `p` (`jac.len() == n_residuals() * n_params()`).
+    fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]);
+}
+
+/// Box bounds, one `[lower, upper]` pair per parameter (infinite for unbounded).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bounds {
+    /// Lower bounds.
+    pub lower: Vec<f64>,
+    /// Upper bounds.
+    pub upper: Vec<f64>,
+}
+
+impl Bounds {
+    /// No bounds on `n` parameters.
+    pub fn unbounded(n: usize) -> Self {
+        Bounds {
+            lower: vec![f64::NEG_INFINITY; n],
+            upper: vec![f64::INFINITY; n],
+        }
+    }
+
+    fn clamp(&self, j: usize, v: f64) -> f64 {
+        v.max(self.lower[j]).min(self.upper[j])
+    }
+}
+
+/// Robust loss on the data residuals (applied by IRLS).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum RobustLoss {
+    /// Plain least squares.
+    None,
+    /// Huber: quadratic within `k` robust scales, linear beyond (weight `min(1, k s / |r|)`).
+    Huber {
+        /// Threshold in robust scales (1.345 to 2.5 are usual).
+        k: f64,
+    },
+    /// Cauchy: weight `1 / (1 + (r / (k s))^2)`; rejects gross outliers more firmly than Huber.
+    Cauchy {
+        /// Scale multiplier (2.385 is the usual 95 %-efficiency choice).
+        k: f64,
+    },
+}
+
+/// Stopping rules and the robust loss.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Maximum number of trial steps (each solves one damped system) per IRLS round.
+    pub max_iterations: usize,
+    /// Stop when the scaled step `|D d|` is below `xtol (|D p| + xtol)`.
+    pub xtol: f64,
+    /// Stop when an accepted step lowers the cost by less than `ftol` relative.
+    pub ftol: f64,
+    /// Stop when every free scaled gradient component `|g_j| / (D_j |r|)` is below `gtol`.
+    pub gtol: f64,
+    /// Robust loss on the data residuals.
+    pub loss: RobustLoss,
+    /// Number of re-weighting rounds when `loss` is not `None`.
+    pub irls_rounds: usize,
+    /// Smallest robust scale, in residual units (keeps a near-exact fit from re-weighting
+    /// round-off).
+    pub scale_floor: f64,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            max_iterations: 200,
+            xtol: 1e-10,
+            ftol: 1e-12,
+            gtol: 1e-10,
+            loss: RobustLoss::None,
+            irls_rounds: 3,
+            scale_floor: 1e-12,
+        }
+    }
+}
+
+/// Why the solver stopped.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Termination {
+    /// The projected gradient vanished (first-order optimality within `gtol`).
+    SmallGradient,
+    /// Steps became negligible (`xtol`).
+    SmallStep,
+    /// The cost stopped decreasing (`ftol`).
+    SmallCostChange,
+    /// The iteration budget ran out.
+    MaxIterations,
+    /// No downhill step could be found even with very strong damping.
+    Stalled,
+    /// The residuals were not finite at the start point.
+    NonFiniteStart,
+}
+
+impl Termination {
+    /// True for the three stopping tests, false for budget, stall and bad start.
+    pub fn converged(self) -> bool {
+        matches!(
+            self,
+            Termination::SmallGradient | Termination::SmallStep | Termination::SmallCostChange
+        )
+    }
+
+    /// Short snake-case name (for tables).
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            Termination::SmallGradient => "small_gradient",
+            Termination::SmallStep => "small_step",
+            Termination::SmallCostChange => "small_cost_change",
+            Termination::MaxIterations => "max_iterations",
+            Termination::Stalled => "stalled",
+            Termination::NonFiniteStart => "non_finite_start",
+        }
+    }
+}
+
+/// The result of [`minimize`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitOutcome {
+    /// Final parameters (inside the bounds).
+    pub params: Vec<f64>,
+    /// Standard error of each parameter, `sqrt(diag(s^2 (J^T J)^-1))` over the parameters not on
+    /// a bound, `s^2 = |r|^2 / (n_data - n_free)`; `None` on a bound, when the normal matrix is
+    /// singular, or without spare degrees of freedom.
+    pub std_errors: Vec<Option<f64>>,
+    /// Which parameters ended on (within 1e-12 relative of) a bound.
+    pub at_bounds: Vec<bool>,
+    /// Trial steps taken, over all IRLS rounds.
+    pub iterations: usize,
+    /// Residual evaluations plus Jacobian evaluations.
+    pub evaluations: usize,
+    /// Jacobian evaluations alone (each also yields the residuals).
+    pub jacobian_evaluations: usize,
+    /// Why the last round stopped.
+    pub termination: Termination,
+    /// Final cost `0.5 |r|^2` with the final robust weights, penalties included.
+    pub cost: f64,
+    /// Root mean square of the data residuals, without robust weights.
+    pub rmse: f64,
+    /// Final robust weight of each data residual (all 1 without a robust loss).
+    pub robust_weights: Vec<f64>,
+}
+
+/// Minimises `0.5 |w . r(p)|^2` over the box from `start` (clipped into the box first).
+///
+/// # Panics
+/// If `start` or the bounds do not have `problem.n_params()` entries, or a lower bound exceeds
+/// its upper bound.
+pub fn minimize(
+    problem: &impl LeastSquaresProblem,
+    start: &[f64],
+    bounds: &Bounds,
+    options: &Options,
+) -> FitOutcome {
+    let n = problem.n_params();
+    assert_eq!(start.len(), n, "minimize: start length");
+    assert_eq!(bounds.lower.len(), n, "minimize: lower bounds length");
+    assert_eq!(bounds.upper.len(), n, "minimize: upper bounds length");
+    for j in 0..n {
+        assert!(
+            bounds.lower[j] <= bounds.upper[j],
+            "minimize: bound {j} is empty"
+        );
+    }
+    let m = problem.n_residuals();
+    let n_data = problem.n_data().min(m);
+    let mut state = Solver {
+        problem,
+        bounds,
+        options,
+        n,
+        m,
+        weights: vec![1.0; m],
+        evaluations: 0,
+        jacobian_evaluations: 0,
+        iterations: 0,
+    };
+    let mut p: Vec<f64> = (0..n).map(|j| bounds.clamp(j, start[j])).collect();
+    let rounds = match options.loss {
+        RobustLoss::None => 0,
+        _ => options.irls_rounds,
+    };
+    let mut termination = state.levenberg_marquardt(&mut p);
+    for _ in 0..rounds {
+        if termination == Termination::NonFiniteStart {
+            break;
+        }
+        let mut r = vec![0.0; m];
+        problem.residuals(&p, &mut r);
+        state.evaluations += 1;
+        state.weights[..n_data].copy_from_slice(&robust_weights(
+            &r[..n_data],
+            options.loss,
+            options.scale_floor,
+        ));
+        termination = state.levenberg_marquardt(&mut p);
+    }
+    state.finish(p, termination, n_data)
+}
+
+/// Square roots of the IRLS weights of `r` (they multiply residuals and Jacobian rows).
+fn robust_weights(r: &[f64], loss: RobustLoss, floor: f64) -> Vec<f64> {
+    let mut abs: Vec<f64> = r.iter().map(|x| x.abs()).collect();
+    abs.sort_by(f64::total_cmp);
+    let median = if abs.is_empty() {
+        0.0
+    } else if abs.len() % 2 == 1 {
+        abs[abs.len() / 2]
+    } else {
+        0.5 * (abs[abs.len() / 2 - 1] + abs[abs.len() / 2])
+    };
+    let s = (1.4826 * median).max(floor);
+    r.iter()
+        .map(|x| {
+            let u = x.abs() / s;
+            let w = match loss {
+                RobustLoss::None => 1.0,
+                RobustLoss::Huber { k } => {
+                    if u <= k {
+                        1.0
+                    } else {
+                        k / u
+                    }
+                }
+                RobustLoss::Cauchy { k } => 1.0 / (1.0 + (u / k) * (u / k)),
+            };
+            w.sqrt()
+        })
+        .collect()
+}
+
+/// Mutable solver state shared by the IRLS rounds.
+struct Solver<'a, P: LeastSquaresProblem> {
+    problem: &'a P,
+    bounds: &'a Bounds,
+    options: &'a Options,
+    n: usize,
+    m: usize,
+    /// Square-root robust weight per residual (1 for penalties).
+    weights: Vec<f64>,
+    evaluations: usize,
+    jacobian_evaluations: usize,
+    iterations: usize,
+}
+
+impl<P: LeastSquaresProblem> Solver<'_, P> {
+    fn weighted_residuals(&mut self, p: &[f64], r: &mut [f64]) -> f64 {
+        self.problem.residuals(p, r);
+        self.evaluations += 1;
+        for (x, w) in r.iter_mut().zip(&self.weights) {
+            *x *= w;
+        }
+        0.5 * r.iter().map(|x| x * x).sum::<f64>()
+    }
+
+    fn weighted_jacobian(&mut self, p: &[f64], r: &mut [f64], jac: &mut [f64]) -> f64 {
+        self.problem.residuals_and_jacobian(p, r, jac);
+        self.evaluations += 1;
+        self.jacobian_evaluations += 1;
+        let n = self.n;
+        for (i, (x, w)) in r.iter_mut().zip(&self.weights).enumerate() {
+            *x *= w;
+            jac[i * n..(i + 1) * n].iter_mut().for_each(|v| *v *= w);
+        }
+        0.5 * r.iter().map(|x| x * x).sum::<f64>()
+    }
+
+    /// One Levenberg-Marquardt run from `p` (updated in place) with the current weights.
+    fn levenberg_marquardt(&mut self, p: &mut [f64]) -> Termination {
+        let (n, m) = (self.n, self.m);
+        let mut r = vec![0.0; m];
+        let mut jac = vec![0.0; m * n];
+        let mut cost = self.weighted_jacobian(p, &mut r, &mut jac);
+        if !cost.is_finite() {
+            return Termination::NonFiniteStart;
+        }
+        let mut normal = normal_equations(&jac, &r, n);
+        let mut scale: Vec<f64> = (0..n).map(|j| normal.a[j * n + j].sqrt()).collect();
+        floor_scale(&mut scale);
+        let mut lambda = 1e-3;
+        let mut nu = 2.0;
+        let mut r_trial = vec![0.0; m];
+        let mut trial = vec![0.0; n];
+        let mut steps = 0;
+        loop {
+            if cost <= 0.0 {
+                return Termination::SmallGradient;
+            }
+            let free = self.free_set(p, &normal.g);
+            let r_norm = (2.0 * cost).sqrt();
+            let gmax = free
+                .iter()
+                .map(|&j| normal.g[j].abs() / (scale[j] * r_norm))
+                .fold(0.0, f64::max);
+            if gmax <= self.options.gtol {
+                return Termination::SmallGradient;
+            }
+            if steps >= self.options.max_iterations {
+                return Termination::MaxIterations;
+            }
+            steps += 1;
+            self.iterations += 1;
+            let Some(step) = damped_step(&normal, &free, &scale, lambda, n) else {
+                lambda *= nu;
+                nu *= 2.0;
+                if lambda > 1e30 {
+                    return Termination::Stalled;
+                }
+                continue;
+            };
+            for j in 0..n {
+                trial[j] = self.bounds.clamp(j, p[j] + step[j]);
+            }
+            let s: Vec<f64> = (0..n).map(|j| trial[j] - p[j]).collect();
+            let cost_trial = self.weighted_residuals(&trial, &mut r_trial);
+            let predicted = -(dot(&normal.g, &s) + 0.5 * quad(&normal.a, &s, n));
+            if cost_trial.is_finite() && cost_trial < cost {
+                let rho = if predicted > 0.0 {
+                    (cost - cost_trial) / predicted
+                } else {
+                    0.5
+                };
+                lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+                nu = 2.0;
+                let step_norm = s
+                    .iter()
+                    .zip(&scale)
+                    .map(|(a, d)| (a * d).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                let p_norm = p
+                    .iter()
+                    .zip(&scale)
+                    .map(|(a, d)| (a * d).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                let small_step = step_norm <= self.options.xtol * (p_norm + self.options.xtol);
+                let small_cost = cost - cost_trial <= self.options.ftol * cost;
+                p.copy_from_slice(&trial);
+                cost = self.weighted_jacobian(p, &mut r, &mut jac);
+                normal = normal_equations(&jac, &r, n);
+                for (j, d) in scale.iter_mut().enumerate() {
+                    *d = d.max(normal.a[j * n + j].sqrt());
+                }
+                floor_scale(&mut scale);
+                if small_step {
+                    return Termination::SmallStep;
+                }
+                if small_cost {
+                    return Termination::SmallCostChange;
+                }
+            } else {
+                // A step the local model says cannot gain more than `ftol` is a converged fit
+                // (round-off decides the sign of the actual change), not a stall.
+                if predicted >= 0.0 && predicted <= self.options.ftol * cost {
+                    return Termination::SmallCostChange;
+                }
+                lambda *= nu;
+                nu *= 2.0;
+                let all_clipped = s.iter().all(|x| *x == 0.0);
+                if lambda > 1e30 || all_clipped {
+                    return Termination::Stalled;
+                }
+            }
+        }
+    }
+
+    /// Parameters not held on a bound by a gradient pointing out of the box.
+    fn free_set(&self, p: &[f64], g: &[f64]) -> Vec<usize> {
+        (0..self.n)
+            .filter(|&j| {
+                let at_lower = p[j] <= self.bounds.lower[j] && g[j] > 0.0;
+                let at_upper = p[j] >= self.bounds.upper[j] && g[j] < 0.0;
+                !(at_lower || at_upper)
+            })
+            .collect()
+    }
+
+    fn finish(mut self, p: Vec<f64>, termination: Termination, n_data: usize) -> FitOutcome {
+        let (n, m) = (self.n, self.m);
+        let mut r = vec![0.0; m];
+        let mut jac = vec![0.0; m * n];
+        let cost = self.weighted_jacobian(&p, &mut r, &mut jac);
+        let at_bounds: Vec<bool> = (0..n)
+            .map(|j| {
+                let tol = 1e-12 * (1.0 + p[j].abs());
+                p[j] - self.bounds.lower[j] <= tol || self.bounds.upper[j] - p[j] <= tol
+            })
+            .collect();
+        let free: Vec<usize> = (0..n).filter(|&j| !at_bounds[j]).collect();
+        let weighted_data_ss: f64 = r[..n_data].iter().map(|x| x * x).sum();
+        let std_errors = standard_errors(&jac, n, &free, weighted_data_ss, n_data);
+        let mut raw = vec![0.0; m];
+        self.problem.residuals(&p, &mut raw);
+        self.evaluations += 1;
+        let rmse = if n_data == 0 {
+            0.0
+        } else {
+            (raw[..n_data].iter().map(|x| x * x).sum::<f64>() / n_data as f64).sqrt()
+        };
+        let robust_weights = self.weights[..n_data].iter().map(|w| w * w).collect();
+        FitOutcome {
+            params: p,
+            std_errors,
+            at_bounds,
+            iterations: self.iterations,
+            evaluations: self.evaluations,
+            jacobian_evaluations: self.jacobian_evaluations,
+            termination,
+            cost,
+            rmse,
+            robust_weights,
+        }
+    }
+}
+
+/// Keeps every scale positive: a parameter with no effect at the current point (a zero
+/// Jacobian column, e.g. a factor multiplied by a term that is zero there) gets a scale of 1e-8
+/// of the largest, so the damped system stays positive definite and its step is zero.
+fn floor_scale(scale: &mut [f64]) {
+    let largest = scale.iter().copied().fold(0.0, f64::max);
+    let floor = if largest > 0.0 { 1e-8 * largest } else { 1.0 };
+    for d in scale.iter_mut() {
+        if d.is_nan() || *d < floor {
+            *d = floor;
+        }
+    }
+}
+
+/// `J^T J` (row-major `n x n`) and `J^T r`.
+struct Normal {
+    a: Vec<f64>,
+    g: Vec<f64>,
+}
+
+fn normal_equations(jac: &[f64], r: &[f64], n: usize) -> Normal {
+    let mut a = vec![0.0; n * n];
+    let mut g = vec![0.0; n];
+    for (row, ri) in jac.chunks_exact(n).zip(r) {
+        for j in 0..n {
+            let rj = row[j];
+            if rj == 0.0 {
+                continue;
+            }
+            g[j] += rj * ri;
+            for k in j..n {
+                a[j * n + k] += rj * row[k];
+            }
+        }
+    }
+    for j in 0..n {
+        for k in 0..j {
+            a[j * n + k] = a[k * n + j];
+        }
+    }
+    Normal { a, g }
+}
+
+/// Solves `(A_FF + lambda D_F^2) d_F = -g_F`; zero outside `free`. `None` if not positive
+/// definite.
+fn damped_step(
+    normal: &Normal,
+    free: &[usize],
+    scale: &[f64],
+    lambda: f64,
+    n: usize,
+) -> Option<Vec<f64>> {
+    let k = free.len();
+    let mut step = vec![0.0; n];
+    if k == 0 {
+        return Some(step);
+    }
+    let mut m = DMatrix::<f64>::zeros(k, k);
+    let mut rhs = DVector::<f64>::zeros(k);
+    for (a, &ja) in free.iter().enumerate() {
+        for (b, &jb) in free.iter().enumerate() {
+            m[(a, b)] = normal.a[ja * n + jb];
+        }
+        m[(a, a)] += lambda * scale[ja] * scale[ja];
+        rhs[a] = -normal.g[ja];
+    }
+    let chol = m.cholesky()?;
+    let d = chol.solve(&rhs);
+    if d.iter().any(|x| !x.is_finite()) {
+        return None;
+    }
+    for (a, &ja) in free.iter().enumerate() {
+        step[ja] = d[a];
+    }
+    Some(step)
+}
+
+fn standard_errors(
+    jac: &[f64],
+    n: usize,
+    free: &[usize],
+    weighted_data_ss: f64,
+    n_data: usize,
+) -> Vec<Option<f64>> {
+    let mut out = vec![None; n];
+    let k = free.len();
+    if k == 0 || n_data <= k {
+        return out;
+    }
+    let s2 = weighted_data_ss / (n_data - k) as f64;
+    let mut a = DMatrix::<f64>::zeros(k, k);
+    for row in jac.chunks_exact(n) {
+        for (x, &jx) in free.iter().enumerate() {
+            let v = row[jx];
+            if v == 0.0 {
+                continue;
+            }
+            for (y, &jy) in free.iter().enumerate() {
+                a[(x, y)] += v * row[jy];
+            }
+        }
+    }
+    // Scale to unit diagonal before inverting: the coefficients differ by orders of magnitude.
+    let d: Vec<f64> = (0..k).map(|x| a[(x, x)].sqrt()).collect();
+    if d.iter().any(|v| *v <= 0.0 || !v.is_finite()) {
+        return out;
+    }
+    for x in 0..k {
+        for y in 0..k {
+            a[(x, y)] /= d[x] * d[y];
+        }
+    }
+    let Some(chol) = a.cholesky() else {
+        return out;
+    };
+    let inv = chol.inverse();
+    for (x, &jx) in free.iter().enumerate() {
+        let var = s2 * inv[(x, x)] / (d[x] * d[x]);
+        if var.is_finite() && var >= 0.0 {
+            out[jx] = Some(var.sqrt());
+        }
+    }
+    out
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// `s^T A s` for row-major `A`.
+fn quad(a: &[f64], s: &[f64], n: usize) -> f64 {
+    let mut acc = 0.0;
+    for j in 0..n {
+        if s[j] == 0.0 {
+            continue;
+        }
+        acc += s[j] * dot(&a[j * n..(j + 1) * n], s);
+    }
+    acc
+}
+
+/// Central finite-difference Jacobian (row-major), for checking analytic Jacobians in tests.
+pub fn finite_difference_jacobian(
+    problem: &impl LeastSquaresProblem,
+    p: &[f64],
+    rel_step: f64,
+) -> Vec<f64> {
+    let (n, m) = (problem.n_params(), problem.n_residuals());
+    let mut jac = vec![0.0; m * n];
+    let mut plus = vec![0.0; m];
+    let mut minus = vec![0.0; m];
+    let mut q = p.to_vec();
+    for j in 0..n {
+        let h = rel_step * p[j].abs().max(1e-3);
+        q[j] = p[j] + h;
+        problem.residuals(&q, &mut plus);
+        q[j] = p[j] - h;
+        problem.residuals(&q, &mut minus);
+        q[j] = p[j];
+        for i in 0..m {
+            jac[i * n + j] = (plus[i] - minus[i]) / (2.0 * h);
+        }
+    }
+    jac
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `y = a exp(b x) + c` on a grid, with optional outliers.
+    struct Exp {
+        x: Vec<f64>,
+        y: Vec<f64>,
+    }
+
+    impl LeastSquaresProblem for Exp {
+        fn n_params(&self) -> usize {
+            3
+        }
+        fn n_residuals(&self) -> usize {
+            self.x.len()
+        }
+        fn residuals(&self, p: &[f64], r: &mut [f64]) {
+            for ((ri, x), y) in r.iter_mut().zip(&self.x).zip(&self.y) {
+                *ri = p[0] * (p[1] * x).exp() + p[2] - y;
+            }
+        }
+        fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
+            self.residuals(p, r);
+            for (i, x) in self.x.iter().enumerate() {
+                let e = (p[1] * x).exp();
+                jac[i * 3] = e;
+                jac[i * 3 + 1] = p[0] * x * e;
+                jac[i * 3 + 2] = 1.0;
+            }
+        }
+    }
+
+    fn exp_data(outliers: bool) -> Exp {
+        let x: Vec<f64> = (0..60).map(|i| i as f64 * 0.05).collect();
+        let mut y: Vec<f64> = x.iter().map(|x| 2.5 * (-0.7 * x).exp() + 0.3).collect();
+        // Deterministic small "noise" so the robust scale is not zero.
+        for (i, v) in y.iter_mut().enumerate() {
+            *v += 1e-3 * ((i * 37 % 11) as f64 - 5.0) / 5.0;
+        }
+        if outliers {
+            y[7] += 1.0;
+            y[31] -= 0.8;
+        }
+        Exp { x, y }
+    }
+
+    #[test]
+    fn recovers_exponential_unbounded() {
+        let problem = exp_data(false);
+        let out = minimize(
+            &problem,
+            &[1.0, 0.0, 0.0],
+            &Bounds::unbounded(3),
+            &Options::default(),
+        );
+        assert!(out.termination.converged(), "{:?}", out.termination);
+        assert!((out.params[0] - 2.5).abs() < 5e-3, "{:?}", out.params);
+        assert!((out.params[1] + 0.7).abs() < 5e-3, "{:?}", out.params);
+        assert!(out.std_errors.iter().all(|s| s.is_some()));
+        let fd = finite_difference_jacobian(&problem, &out.params, 1e-6);
+        let mut r = vec![0.0; problem.n_residuals()];
+        let mut jac = vec![0.0; fd.len()];
+        problem.residuals_and_jacobian(&out.params, &mut r, &mut jac);
+        let worst = fd
+            .iter()
+            .zip(&jac)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-7, "jacobian vs finite differences: {worst}");
+    }
+
+    #[test]
+    fn active_bound_is_respected_and_reported() {
+        let problem = exp_data(false);
+        let bounds = Bounds {
+            lower: vec![f64::NEG_INFINITY, f64::NEG_INFINITY, 0.4],
+            upper: vec![f64::INFINITY, f64::INFINITY, 1.0],
+        };
+        let out = minimize(&problem, &[1.0, 0.0, 0.9], &bounds, &Options::default());
+        assert!((out.params[2] - 0.4).abs() < 1e-15, "{:?}", out.params);
+        assert_eq!(out.at_bounds, vec![false, false, true]);
+        assert!(out.std_errors[2].is_none());
+        assert!(out.termination.converged(), "{:?}", out.termination);
+    }
+
+    #[test]
+    fn huber_irls_resists_outliers() {
+        let problem = exp_data(true);
+        let plain = minimize(
+            &problem,
+            &[1.0, 0.0, 0.0],
+            &Bounds::unbounded(3),
+            &Options::default(),
+        );
+        let robust = minimize(
+            &problem,
+            &[1.0, 0.0, 0.0],
+            &Bounds::unbounded(3),
+            &Options {
+                loss: RobustLoss::Huber { k: 1.5 },
+                irls_rounds: 6,
+                ..Options::default()
+            },
+        );
+        let err = |p: &[f64]| (p[0] - 2.5).abs() + (p[1] + 0.7).abs() + (p[2] - 0.3).abs();
+        assert!(
+            err(&robust.params) < 0.2 * err(&plain.params),
+            "robust {:?} vs plain {:?}",
+            robust.params,
+            plain.params
+        );
+        assert!(robust.robust_weights[7] < 0.1 && robust.robust_weights[31] < 0.1);
+    }
+
+    /// A parameter without effect at the start (zero Jacobian column) does not stall the solver.
+    struct Product;
+
+    impl LeastSquaresProblem for Product {
+        fn n_params(&self) -> usize {
+            2
+        }
+        fn n_residuals(&self) -> usize {
+            20
+        }
+        fn residuals(&self, p: &[f64], r: &mut [f64]) {
+            // y = p0 + p1 * x with a zero-effect third... here p1 multiplies x^2 * p0^0.
+            for (i, ri) in r.iter_mut().enumerate() {
+                let x = i as f64 / 10.0;
+                *ri = p[0] * x + p[0] * p[1] * x * x - (0.5 * x + 0.5 * 0.4 * x * x);
+            }
+        }
+        fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
+            self.residuals(p, r);
+            for i in 0..20 {
+                let x = i as f64 / 10.0;
+                jac[2 * i] = x + p[1] * x * x;
+                jac[2 * i + 1] = p[0] * x * x;
+            }
+        }
+    }
+
+    #[test]
+    fn zero_jacobian_column_does_not_stall() {
+        let out = minimize(
+            &Product,
+            &[0.0, 1.0],
+            &Bounds::unbounded(2),
+            &Options::default(),
+        );
+        assert!(out.termination.converged(), "{:?}", out.termination);
+        assert!((out.params[0] - 0.5).abs() < 1e-8 && (out.params[1] - 0.4).abs() < 1e-8);
+    }
+
+    #[test]
+    fn non_finite_start_is_reported_not_raised() {
+        let problem = exp_data(false);
+        let out = minimize(
+            &problem,
+            &[1.0, 1e6, 0.0],
+            &Bounds::unbounded(3),
+            &Options::default(),
+        );
+        assert_eq!(out.termination, Termination::NonFiniteStart);
+    }
+}

@@ -1,0 +1,905 @@
+//! Physical plausibility of a PAC2002 file over its own operating envelope.
+//!
+//! In: a [`TirFile`]. Out: a [`LintReport`]: findings with a [`Severity`], a stable kebab-case
+//! code and a one-line message naming the worst value and where it occurs, plus the envelope
+//! that was sampled.
+//!
+//! The envelope comes from the range sections: `Fz` in `[max(FZMIN, 0.05 FNOMIN),
+//! min(FZMAX, 4 FNOMIN)]`, inclination in `[CAMMIN, CAMMAX]` (at most 15 deg), `kappa` in
+//! `[KPUMIN, KPUMAX]` (at most |1|), `alpha` in `[ALPMIN, ALPMAX]` (at most 45 deg): the caps
+//! keep "no limit" defaults from sampling meaningless states. Checks run only for the force
+//! families the declared `USE_MODE` uses (1 Fx, 2 Fy + Mz, 3 both uncombined, 4 combined,
+//! +10 relaxation; 4 when absent):
+//! - errors: `FNOMIN`, `UNLOADED_RADIUS`, `LFZO` <= 0; inverted ranges; a missing (absent or
+//!   zero) defining coefficient of a used family; a shape factor `C <= 0`; `mu_x <= 0`,
+//!   `mu_y` or `Ky_alpha` changing sign or vanishing; `Kx_kappa <= 0`; `Ky_alpha > 0` (an
+//!   SAE-signed file: ISO-W needs `alpha > 0 -> Fy < 0`; the sign of `PDY1` alone is free);
+//!   `Gxa` or `Gyk` <= 0; more than two sign changes of `dF/dslip` along a pure slip sweep
+//!   (oscillation); non-finite outputs.
+//! - warnings: oscillation along a combined-slip sweep (at half the slip limits of the other
+//!   slip, where fitted data rarely reach); `E > 1` before the clamp (limits and raw mode then disagree); `C >= 2` (force
+//!   reverses at large slip); `|RHX1| > 0.05` rad; `Gxa` or `Gyk` above 1.05 (combined slip
+//!   raises the force); `FZMAX < FNOMIN`; `LONGVL <= 0`; an inflation pressure below 10 kPa
+//!   (not in Pa?).
+//!
+//! Deliberately not here: reading (see `read.rs`; its warnings are the caller's to print),
+//! comparing with measurements (a fitting stage's job).
+
+use std::f64::consts::PI;
+
+use super::TirFile;
+use super::units::PLACEHOLDER;
+use crate::tire_model::factors::slip_factors;
+use crate::tire_model::pac2002::{Pac2002, load};
+use crate::tire_model::params::{Coef, Coef::*, Coefs};
+use crate::tire_model::{Mode, SlipInput};
+
+/// How bad a finding is.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Severity {
+    /// Suspicious but usable.
+    Warning,
+    /// The model is physically wrong somewhere in its envelope (or cannot be evaluated).
+    Error,
+}
+
+impl std::fmt::Display for Severity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Severity::Warning => "warning",
+            Severity::Error => "error",
+        })
+    }
+}
+
+/// One problem.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Finding {
+    /// Error or warning.
+    pub severity: Severity,
+    /// Stable kebab-case code, e.g. `curvature-above-one`.
+    pub code: &'static str,
+    /// One line: what, the worst value, where.
+    pub message: String,
+}
+
+impl std::fmt::Display for Finding {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}[{}]: {}", self.severity, self.code, self.message)
+    }
+}
+
+/// The sampled operating envelope (SI, ISO-W).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Envelope {
+    /// Vertical load range, N.
+    pub fz_n: (f64, f64),
+    /// Longitudinal slip range.
+    pub kappa: (f64, f64),
+    /// Slip angle range, rad.
+    pub alpha_rad: (f64, f64),
+    /// Inclination range, rad.
+    pub gamma_rad: (f64, f64),
+    /// Speed used, m/s.
+    pub vx_mps: f64,
+}
+
+/// Everything `lint` found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LintReport {
+    /// Findings, errors first, then in check order.
+    pub findings: Vec<Finding>,
+    /// The envelope sampled (`None` when a basic error made sampling meaningless).
+    pub envelope: Option<Envelope>,
+    /// Number of operating points evaluated.
+    pub points: usize,
+}
+
+impl LintReport {
+    /// Number of errors.
+    pub fn errors(&self) -> usize {
+        self.findings
+            .iter()
+            .filter(|f| f.severity == Severity::Error)
+            .count()
+    }
+
+    /// Number of warnings.
+    pub fn warnings(&self) -> usize {
+        self.findings.len() - self.errors()
+    }
+}
+
+/// Which force families the declared `USE_MODE` uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Families {
+    fx: bool,
+    fy_mz: bool,
+    combined: bool,
+    relaxation: bool,
+}
+
+/// A family and the coefficients without which it is no model at all.
+const FAMILY_KEYS: [(&str, &[Coef]); 6] = [
+    ("pure Fx", &[PCX1, PDX1, PKX1]),
+    ("pure Fy", &[PCY1, PDY1, PKY1, PKY2]),
+    ("pure Mz", &[QBZ1, QCZ1, QDZ1]),
+    ("combined Fx", &[RBX1, RCX1]),
+    ("combined Fy", &[RBY1, RCY1]),
+    ("relaxation", &[PTX1, PTY1, PTY2]),
+];
+
+/// Lint a file over its envelope.
+pub fn lint(file: &TirFile) -> LintReport {
+    let mut l = Linter {
+        findings: Vec::new(),
+    };
+    let c = &file.coefs;
+    let families = l.use_mode(file.use_mode);
+    l.missing_families(file, families);
+    let basic_ok = l.basics(c);
+    l.scalars(file, families);
+    let (envelope, points) = if basic_ok {
+        let env = envelope(c);
+        let points = Grid::new(c, env, families).run(&mut l);
+        (Some(env), points)
+    } else {
+        (None, 0)
+    };
+    let mut findings = l.findings;
+    findings.sort_by_key(|f| std::cmp::Reverse(f.severity));
+    LintReport {
+        findings,
+        envelope,
+        points,
+    }
+}
+
+/// The envelope to sample (see the module docs for the caps).
+fn envelope(c: &Coefs<f64>) -> Envelope {
+    let fz0 = c[FNOMIN];
+    let fz_hi = if c[FZMAX].abs() < PLACEHOLDER {
+        c[FZMAX].min(4.0 * fz0)
+    } else {
+        2.0 * fz0
+    };
+    let fz_lo = c[FZMIN].max(0.05 * fz0).min(fz_hi);
+    let cap = |lo: f64, hi: f64, limit: f64| (lo.max(-limit), hi.min(limit));
+    let vx = if c[LONGVL] > c[VXLOW] && c[LONGVL] > 0.0 {
+        c[LONGVL]
+    } else {
+        c[VXLOW].max(0.0) + 10.0
+    };
+    Envelope {
+        fz_n: (fz_lo, fz_hi),
+        kappa: cap(c[KPUMIN], c[KPUMAX], 1.0),
+        alpha_rad: cap(c[ALPMIN], c[ALPMAX], PI / 4.0),
+        gamma_rad: cap(c[CAMMIN], c[CAMMAX], PI / 12.0),
+        vx_mps: vx,
+    }
+}
+
+struct Linter {
+    findings: Vec<Finding>,
+}
+
+impl Linter {
+    fn push(&mut self, severity: Severity, code: &'static str, message: String) {
+        self.findings.push(Finding {
+            severity,
+            code,
+            message,
+        });
+    }
+
+    fn use_mode(&mut self, use_mode: Option<i64>) -> Families {
+        let mode = use_mode.unwrap_or_else(|| {
+            self.push(
+                Severity::Warning,
+                "use-mode-missing",
+                "no USE_MODE; checked as 4 (combined Fx, Fy, Mx, My, Mz)".to_string(),
+            );
+            4
+        });
+        let digit = mode.unsigned_abs() % 10;
+        if digit > 4 {
+            self.push(
+                Severity::Warning,
+                "use-mode-unknown",
+                format!("USE_MODE {mode}: unknown calculation digit {digit}; checked as 4"),
+            );
+        }
+        let digit = if digit > 4 { 4 } else { digit };
+        Families {
+            fx: matches!(digit, 1 | 3 | 4),
+            fy_mz: matches!(digit, 2..=4),
+            combined: digit == 4,
+            relaxation: mode.unsigned_abs() >= 10,
+        }
+    }
+
+    fn missing_families(&mut self, file: &TirFile, families: Families) {
+        let used = [
+            families.fx,
+            families.fy_mz,
+            families.fy_mz,
+            families.combined && families.fx,
+            families.combined && families.fy_mz,
+            families.relaxation,
+        ];
+        for ((name, keys), used) in FAMILY_KEYS.iter().zip(used) {
+            if !used {
+                continue;
+            }
+            let missing: Vec<&str> = keys
+                .iter()
+                .filter(|k| !file.present[**k] || file.coefs[**k].abs() < 1e-300)
+                .map(|k| k.name())
+                .collect();
+            if !missing.is_empty() {
+                self.push(
+                    Severity::Error,
+                    "missing-family",
+                    format!(
+                        "USE_MODE {} uses {name}, but {} {} absent or zero",
+                        file.use_mode.unwrap_or(4),
+                        missing.join(", "),
+                        if missing.len() == 1 { "is" } else { "are" }
+                    ),
+                );
+            }
+        }
+    }
+
+    /// Checks without which nothing can be evaluated; false when one fails.
+    fn basics(&mut self, c: &Coefs<f64>) -> bool {
+        let mut ok = true;
+        for (k, what) in [
+            (FNOMIN, "nominal load"),
+            (UNLOADED_RADIUS, "unloaded radius"),
+            (LFZO, "nominal load scale factor"),
+        ] {
+            if c[k].is_nan() || c[k] <= 0.0 {
+                let code = if k == FNOMIN {
+                    "fnomin-not-positive"
+                } else {
+                    "not-positive"
+                };
+                self.push(
+                    Severity::Error,
+                    code,
+                    format!("{} = {} ({what}) must be positive", k.name(), c[k]),
+                );
+                ok = false;
+            }
+        }
+        for (lo, hi) in [
+            (KPUMIN, KPUMAX),
+            (ALPMIN, ALPMAX),
+            (CAMMIN, CAMMAX),
+            (FZMIN, FZMAX),
+        ] {
+            if c[lo].is_nan() || c[hi].is_nan() || c[lo] >= c[hi] {
+                self.push(
+                    Severity::Error,
+                    "range-inverted",
+                    format!(
+                        "{} = {} is not below {} = {}",
+                        lo.name(),
+                        c[lo],
+                        hi.name(),
+                        c[hi]
+                    ),
+                );
+                ok = false;
+            }
+        }
+        ok
+    }
+
+    /// Single-coefficient checks.
+    fn scalars(&mut self, file: &TirFile, fam: Families) {
+        let c = &file.coefs;
+        let shape = |l: &mut Self, k: Coef, scale: Coef, used: bool, what: &str| {
+            if !used {
+                return;
+            }
+            let v = c[k] * c[scale];
+            if v <= 0.0 {
+                l.push(
+                    Severity::Error,
+                    "shape-factor",
+                    format!(
+                        "{what} = {} * {} = {v} must be positive",
+                        k.name(),
+                        scale.name()
+                    ),
+                );
+            } else if v >= 2.0 {
+                l.push(
+                    Severity::Warning,
+                    "shape-factor",
+                    format!("{what} = {v} >= 2: the force reverses sign at large slip"),
+                );
+            }
+        };
+        shape(self, PCX1, LCX, fam.fx, "Cx");
+        shape(self, PCY1, LCY, fam.fy_mz, "Cy");
+        shape(self, QCZ1, LFZO, fam.fy_mz, "Ct");
+        shape(self, RCX1, LFZO, fam.combined && fam.fx, "Cxa");
+        shape(self, RCY1, LFZO, fam.combined && fam.fy_mz, "Cyk");
+        if fam.combined && fam.fx && c[RHX1].abs() > 0.05 {
+            self.push(
+                Severity::Warning,
+                "rhx1-large",
+                format!(
+                    "RHX1 = {} rad ({:.1} deg): Gxa peaks away from alpha = 0 and exceeds 1 there",
+                    c[RHX1],
+                    c[RHX1].to_degrees()
+                ),
+            );
+        }
+        if c[FZMAX].abs() < PLACEHOLDER && c[FZMAX] < c[FNOMIN] {
+            self.push(
+                Severity::Warning,
+                "fzmax-below-fnomin",
+                format!("FZMAX = {} N is below FNOMIN = {} N", c[FZMAX], c[FNOMIN]),
+            );
+        }
+        if c[LONGVL] <= 0.0 && fam.fx {
+            self.push(
+                Severity::Warning,
+                "longvl-not-positive",
+                format!("LONGVL = {} m/s: My divides by it", c[LONGVL]),
+            );
+        }
+        for (name, p) in [
+            ("IP", file.pressure.inflation_pa),
+            ("IP_NOM", file.pressure.nominal_pa),
+        ] {
+            if let Some(p) = p.filter(|p| *p < 1e4) {
+                self.push(
+                    Severity::Warning,
+                    "pressure-units",
+                    format!("{name} = {p} Pa is below 10 kPa: is [UNITS] PRESSURE right?"),
+                );
+            }
+        }
+    }
+}
+
+/// Worst value of one quantity over the grid, and where.
+#[derive(Clone, Copy)]
+struct Worst {
+    count: usize,
+    value: f64,
+    at: SlipInput,
+}
+
+impl Worst {
+    fn new() -> Worst {
+        Worst {
+            count: 0,
+            value: f64::NAN,
+            at: SlipInput::default(),
+        }
+    }
+
+    /// Record a violation; `worse(a, b)` says whether `a` is worse than the stored `b`.
+    fn hit(&mut self, value: f64, at: &SlipInput, worse: impl Fn(f64, f64) -> bool) {
+        if self.count == 0 || worse(value, self.value) {
+            self.value = value;
+            self.at = *at;
+        }
+        self.count += 1;
+    }
+}
+
+fn describe(p: &SlipInput) -> String {
+    format!(
+        "Fz = {:.0} N, gamma = {:.2} deg, kappa = {:.3}, alpha = {:.2} deg",
+        p.fz_n,
+        p.gamma_rad.to_degrees(),
+        p.kappa,
+        p.alpha_rad.to_degrees()
+    )
+}
+
+/// The sampled grid and its accumulators.
+struct Grid<'a> {
+    c: &'a Coefs<f64>,
+    env: Envelope,
+    fam: Families,
+}
+
+const N_FZ: usize = 7;
+const N_GAMMA: usize = 5;
+const N_SLIP: usize = 161;
+const N_COMBINED: usize = 41;
+
+fn linspace(range: (f64, f64), n: usize) -> impl Iterator<Item = f64> {
+    (0..n).map(move |i| range.0 + (range.1 - range.0) * i as f64 / (n - 1) as f64)
+}
+
+impl<'a> Grid<'a> {
+    fn new(c: &'a Coefs<f64>, env: Envelope, fam: Families) -> Self {
+        Grid { c, env, fam }
+    }
+
+    fn input(&self, fz: f64, gamma: f64, kappa: f64, alpha: f64) -> SlipInput {
+        SlipInput {
+            fz_n: fz,
+            kappa,
+            alpha_rad: alpha,
+            gamma_rad: gamma,
+            vx_mps: self.env.vx_mps,
+        }
+    }
+
+    /// Run every grid check; returns the number of points evaluated.
+    fn run(&self, l: &mut Linter) -> usize {
+        let model = Pac2002::new(self.c.clone());
+        let mut acc = Accumulators::default();
+        let mut points = 0;
+        for fz in linspace(self.env.fz_n, N_FZ) {
+            for gamma in linspace(self.env.gamma_rad, N_GAMMA) {
+                points += self.factors_at(fz, gamma, &mut acc);
+                points += self.sweeps_at(&model, fz, gamma, &mut acc);
+            }
+        }
+        acc.report(l, self.fam);
+        points
+    }
+
+    /// Factor checks over the combined (kappa, alpha) grid at one load and inclination.
+    fn factors_at(&self, fz: f64, gamma: f64, acc: &mut Accumulators) -> usize {
+        let mut n = 0;
+        for kappa in linspace(self.env.kappa, N_COMBINED) {
+            for alpha in linspace(self.env.alpha_rad, N_COMBINED) {
+                let p = self.input(fz, gamma, kappa, alpha);
+                let f = slip_factors(self.c, &load(self.c, &p, Mode::Raw));
+                acc.point(&p, &f);
+                n += 1;
+            }
+        }
+        n
+    }
+
+    /// Slip sweeps at one load and inclination: pure and combined, oscillation and finiteness.
+    fn sweeps_at(&self, model: &Pac2002, fz: f64, gamma: f64, acc: &mut Accumulators) -> usize {
+        let (k_lo, k_hi) = self.env.kappa;
+        let (a_lo, a_hi) = self.env.alpha_rad;
+        let mut n = 0;
+        let mut sweep = |other: f64, along_kappa: bool, acc: &mut Accumulators| {
+            let range = if along_kappa {
+                self.env.kappa
+            } else {
+                self.env.alpha_rad
+            };
+            let mut values = Vec::with_capacity(N_SLIP);
+            let mut first = None;
+            for s in linspace(range, N_SLIP) {
+                let p = if along_kappa {
+                    self.input(fz, gamma, s, other)
+                } else {
+                    self.input(fz, gamma, other, s)
+                };
+                first.get_or_insert(p);
+                let e = model.eval(&p, Mode::Limits);
+                acc.finite(&p, &[e.fx_n, e.fy_n, e.mx_nm, e.my_nm, e.mz_nm]);
+                values.push(if along_kappa { e.fx_n } else { e.fy_n });
+            }
+            n += values.len();
+            if let Some(p) = first {
+                acc.oscillation(&values, &p, along_kappa, other);
+            }
+        };
+        if self.fam.fx {
+            sweep(0.0, true, acc);
+            if self.fam.combined {
+                sweep(0.5 * a_lo, true, acc);
+                sweep(0.5 * a_hi, true, acc);
+            }
+        }
+        if self.fam.fy_mz {
+            sweep(0.0, false, acc);
+            if self.fam.combined {
+                sweep(0.5 * k_lo, false, acc);
+                sweep(0.5 * k_hi, false, acc);
+            }
+        }
+        n
+    }
+}
+
+/// Violations collected over the grid.
+struct Accumulators {
+    e_above_one: [Worst; 4],
+    mux: Worst,
+    muy_sign: (Option<f64>, Worst),
+    kya_sign: (Option<f64>, Worst),
+    kxk: Worst,
+    kya_positive: Worst,
+    g_low: [Worst; 2],
+    g_high: [Worst; 2],
+    non_finite: Worst,
+    /// Pure x, pure y, combined x, combined y.
+    oscillation: [Worst; 4],
+}
+
+impl Default for Accumulators {
+    fn default() -> Self {
+        let w = Worst::new();
+        Accumulators {
+            e_above_one: [w; 4],
+            mux: w,
+            muy_sign: (None, w),
+            kya_sign: (None, w),
+            kxk: w,
+            kya_positive: w,
+            g_low: [w; 2],
+            g_high: [w; 2],
+            non_finite: w,
+            oscillation: [w; 4],
+        }
+    }
+}
+
+const E_NAMES: [&str; 4] = ["Ex", "Ey", "Exa", "Eyk"];
+
+/// Record `value` when its sign differs from the first sign seen (or is zero).
+fn sign_flip(state: &mut (Option<f64>, Worst), value: f64, p: &SlipInput) {
+    let s = value.signum();
+    match state.0 {
+        _ if value == 0.0 || value.is_nan() => state.1.hit(value, p, |_, _| false),
+        None => state.0 = Some(s),
+        Some(first) if first != s => state.1.hit(value, p, |a, b| a.abs() > b.abs()),
+        Some(_) => {}
+    }
+}
+
+impl Accumulators {
+    fn point(&mut self, p: &SlipInput, f: &crate::tire_model::factors::SlipFactors) {
+        let above = |a: f64, b: f64| a > b;
+        let below = |a: f64, b: f64| a < b;
+        for (i, e) in [f.fx0.e, f.fy0.e, f.gxa.e, f.gyk.e].into_iter().enumerate() {
+            if e > 1.0 {
+                self.e_above_one[i].hit(e, p, above);
+            }
+        }
+        if f.mux.is_nan() || f.mux <= 0.0 {
+            self.mux.hit(f.mux, p, below);
+        }
+        sign_flip(&mut self.muy_sign, f.muy, p);
+        sign_flip(&mut self.kya_sign, f.kya_n_per_rad, p);
+        if f.kxk_n.is_nan() || f.kxk_n <= 0.0 {
+            self.kxk.hit(f.kxk_n, p, below);
+        }
+        if f.kya_n_per_rad > 0.0 {
+            self.kya_positive.hit(f.kya_n_per_rad, p, above);
+        }
+        for (i, g) in [f.gxa.g, f.gyk.g].into_iter().enumerate() {
+            if g.is_nan() || g <= 0.0 {
+                self.g_low[i].hit(g, p, below);
+            } else if g > 1.05 {
+                self.g_high[i].hit(g, p, above);
+            }
+        }
+    }
+
+    fn finite(&mut self, p: &SlipInput, values: &[f64]) {
+        if values.iter().any(|v| !v.is_finite()) {
+            self.non_finite.hit(f64::NAN, p, |_, _| false);
+        }
+    }
+
+    /// More than two sign changes of dF along a sweep (a normal curve has at most its two
+    /// peaks).
+    fn oscillation(&mut self, values: &[f64], p: &SlipInput, along_kappa: bool, other: f64) {
+        let scale = values.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        let tol = 1e-9 * scale.max(1.0);
+        let mut changes = 0;
+        let mut last = 0.0;
+        for w in values.windows(2) {
+            let d = w[1] - w[0];
+            if d.abs() <= tol {
+                continue;
+            }
+            let s = d.signum();
+            if last != 0.0 && s != last {
+                changes += 1;
+            }
+            last = s;
+        }
+        if changes > 2 {
+            let i = usize::from(!along_kappa) + if other == 0.0 { 0 } else { 2 };
+            self.oscillation[i].hit(changes as f64, p, |a, b| a > b);
+        }
+    }
+
+    fn report(&self, l: &mut Linter, fam: Families) {
+        use Severity::{Error, Warning};
+        let e_used = [
+            fam.fx,
+            fam.fy_mz,
+            fam.combined && fam.fx,
+            fam.combined && fam.fy_mz,
+        ];
+        for ((w, name), used) in self.e_above_one.iter().zip(E_NAMES).zip(e_used) {
+            if used && w.count > 0 {
+                l.push(
+                    Warning,
+                    "curvature-above-one",
+                    format!(
+                        "{name} > 1 before clamping at {} grid points (max {:.4} at {}); limits and raw mode differ there",
+                        w.count,
+                        w.value,
+                        describe(&w.at)
+                    ),
+                );
+            }
+        }
+        let mut err = |w: &Worst, used: bool, code: &'static str, what: &str| {
+            if used && w.count > 0 {
+                l.push(
+                    Error,
+                    code,
+                    format!(
+                        "{what} at {} grid points (worst {:.6} at {})",
+                        w.count,
+                        w.value,
+                        describe(&w.at)
+                    ),
+                );
+            }
+        };
+        err(&self.mux, fam.fx, "friction-sign", "mu_x <= 0");
+        err(
+            &self.muy_sign.1,
+            fam.fy_mz,
+            "friction-sign",
+            "mu_y changes sign or vanishes",
+        );
+        err(&self.kxk, fam.fx, "stiffness-sign", "Kx_kappa <= 0");
+        err(
+            &self.kya_sign.1,
+            fam.fy_mz,
+            "stiffness-sign",
+            "Ky_alpha changes sign or vanishes",
+        );
+        err(
+            &self.kya_positive,
+            fam.fy_mz,
+            "stiffness-sign",
+            "Ky_alpha > 0: alpha > 0 gives Fy > 0 (SAE-signed coefficients? PAC2002 is ISO-W)",
+        );
+        let c_fx = fam.combined && fam.fx;
+        let c_fy = fam.combined && fam.fy_mz;
+        err(
+            &self.g_low[0],
+            c_fx,
+            "combined-weight",
+            "Gxa <= 0 (Fx flips sign with slip angle)",
+        );
+        err(
+            &self.g_low[1],
+            c_fy,
+            "combined-weight",
+            "Gyk <= 0 (Fy flips sign with slip ratio)",
+        );
+        err(
+            &self.oscillation[0],
+            fam.fx,
+            "oscillation",
+            "pure Fx oscillates along kappa (> 2 sign changes of dFx/dkappa)",
+        );
+        err(
+            &self.oscillation[1],
+            fam.fy_mz,
+            "oscillation",
+            "pure Fy oscillates along alpha (> 2 sign changes of dFy/dalpha)",
+        );
+        err(
+            &self.non_finite,
+            true,
+            "non-finite",
+            "NaN or infinite force or moment",
+        );
+        for (w, used, what) in [
+            (
+                &self.oscillation[2],
+                c_fx,
+                "combined Fx oscillates along kappa",
+            ),
+            (
+                &self.oscillation[3],
+                c_fy,
+                "combined Fy oscillates along alpha",
+            ),
+        ] {
+            if used && w.count > 0 {
+                l.push(
+                    Warning,
+                    "oscillation",
+                    format!(
+                        "{what} at half the other slip's limit ({} sweeps, {} sign changes of the slope at {})",
+                        w.count,
+                        w.value,
+                        describe(&w.at)
+                    ),
+                );
+            }
+        }
+        for (w, used, name) in [
+            (&self.g_high[0], c_fx, "Gxa"),
+            (&self.g_high[1], c_fy, "Gyk"),
+        ] {
+            if used && w.count > 0 {
+                l.push(
+                    Warning,
+                    "combined-weight",
+                    format!(
+                        "{name} > 1.05 at {} grid points (max {:.4} at {}): combined slip raises the force",
+                        w.count,
+                        w.value,
+                        describe(&w.at)
+                    ),
+                );
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const FSAE: &str =
+        include_str!("../../../../tests/fixtures/reference/fsae-demo/fsae_demo_pac2002.tir");
+    const MFEVAL: &str = include_str!(
+        "../../../../tests/fixtures/reference/mfeval-sample/MagicFormula52_Parameters.tir"
+    );
+
+    fn lint_text(text: &str) -> LintReport {
+        lint(&TirFile::parse(text).unwrap().0)
+    }
+
+    fn codes(r: &LintReport, severity: Severity) -> Vec<&'static str> {
+        r.findings
+            .iter()
+            .filter(|f| f.severity == severity)
+            .map(|f| f.code)
+            .collect()
+    }
+
+    #[test]
+    fn fsae_demo_is_clean() {
+        let r = lint_text(FSAE);
+        assert!(r.findings.is_empty(), "{:#?}", r.findings);
+        assert!(r.points > 50_000, "{}", r.points);
+        let env = r.envelope.unwrap();
+        assert_eq!(env.fz_n, (100.0, 2500.0));
+    }
+
+    #[test]
+    fn mfeval_sample_has_warnings_only() {
+        let r = lint_text(MFEVAL);
+        for f in &r.findings {
+            println!("{f}");
+        }
+        assert_eq!(r.errors(), 0, "{:#?}", r.findings);
+        let w = codes(&r, Severity::Warning);
+        assert!(w.contains(&"curvature-above-one"), "{:#?}", r.findings);
+        let ex = r
+            .findings
+            .iter()
+            .find(|f| f.message.starts_with("Ex > 1"))
+            .expect("the sample's Ex = 1.31 at 2 Fz0 (docs section 3)");
+        assert!(ex.message.contains("max 1."), "{}", ex.message);
+    }
+
+    fn with(text: &str, key: &str, value: &str) -> String {
+        let mut out = String::new();
+        for line in text.lines() {
+            if line.split('=').next().map(str::trim) == Some(key) {
+                out.push_str(&format!("{key} = {value}\n"));
+            } else {
+                out.push_str(line);
+                out.push('\n');
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn each_problem_is_found() {
+        let cases = [
+            ("FNOMIN", "-1100", "fnomin-not-positive"),
+            ("PCY1", "-1.45", "shape-factor"),
+            ("PDX1", "-2.55", "friction-sign"),
+            ("PDY2", "-40", "friction-sign"),
+            ("PKY2", "-1.75", "stiffness-sign"),
+            ("PKX1", "-52", "stiffness-sign"),
+            ("RBX1", "0", "missing-family"),
+            ("RCY1", "-1.05", "shape-factor"),
+            ("KPUMIN", "0.5", "range-inverted"),
+            ("PCY1", "3.9", "oscillation"),
+            ("PKY1", "42", "stiffness-sign"),
+            ("RCX1", "3.5", "combined-weight"),
+        ];
+        // A stiff tire, so that Cy = 3.9 reaches 3 pi / 2 inside the slip range.
+        let stiff = with(FSAE, "PKY1", "-300");
+        assert_eq!(lint_text(&stiff).errors(), 0);
+        for (key, value, code) in cases {
+            let base = if key == "PCY1" && value == "3.9" {
+                &stiff
+            } else {
+                FSAE
+            };
+            let r = lint_text(&with(base, key, value));
+            assert!(
+                codes(&r, Severity::Error).contains(&code),
+                "{key} = {value}: expected {code}, got {:#?}",
+                r.findings
+            );
+        }
+        let warnings = [
+            ("RHX1", "0.2", "rhx1-large"),
+            ("PEY1", "1.5", "curvature-above-one"),
+            ("FZMAX", "900", "fzmax-below-fnomin"),
+            ("PCX1", "2.2", "shape-factor"),
+        ];
+        for (key, value, code) in warnings {
+            let r = lint_text(&with(FSAE, key, value));
+            assert!(
+                codes(&r, Severity::Warning).contains(&code),
+                "{key} = {value}: expected {code}, got {:#?}",
+                r.findings
+            );
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 24, ..Default::default() })]
+
+        /// Any finite coefficient vector lints without panicking, and every finding is one line.
+        #[test]
+        fn random_coefficients_never_panic(
+            values in proptest::collection::vec(
+                proptest::prop_oneof![-1e3..1e3f64, proptest::num::f64::NORMAL],
+                crate::tire_model::params::N_COEFS,
+            ),
+            use_mode in -15i64..15,
+        ) {
+            let mut coefs = Coefs::defaults();
+            coefs.0.copy_from_slice(&values);
+            let mut file = TirFile::from_coefs(coefs);
+            file.use_mode = Some(use_mode);
+            let report = lint(&file);
+            for f in &report.findings {
+                proptest::prop_assert!(!f.to_string().contains('\n'), "{}", f);
+            }
+        }
+    }
+
+    #[test]
+    fn use_mode_decides_the_families() {
+        // A USE_MODE 2 file (Fy + Mz) with every Fx coefficient zero is fine.
+        let mut t = with(FSAE, "USE_MODE", "2");
+        for k in ["PCX1", "PDX1", "PKX1", "RBX1", "RCX1"] {
+            t = with(&t, k, "0");
+        }
+        let r = lint_text(&t);
+        assert_eq!(r.errors(), 0, "{:#?}", r.findings);
+        // The same file declared USE_MODE 14 lacks Fx, combined Fx and relaxation.
+        let r = lint_text(&with(&t, "USE_MODE", "14"));
+        let missing: Vec<&str> = r
+            .findings
+            .iter()
+            .filter(|f| f.code == "missing-family")
+            .map(|f| f.message.as_str())
+            .collect();
+        assert_eq!(missing.len(), 3, "{missing:#?}");
+        assert!(missing.iter().any(|m| m.contains("relaxation")));
+    }
+}

@@ -1,0 +1,272 @@
+//! Deterministic example run files in each round's exact layout, for tests, benchmarks and fuzz
+//! seeds.
+//!
+//! In: a [`RoundStyle`] and a row count. Out: `.dat` bytes (via [`render_dat`]) or TTC `.mat`
+//! bytes (via [`MatWriter`]) holding smooth made-up signals: sinusoidal slip-angle sweeps at a
+//! 250 lb (1112 N) load, SAE axes, each channel in the style's unit. Deliberately not physics:
+//! the virtual test machine (synth) makes realistic rounds; these only exercise the formats.
+//! Never real TTC data.
+
+use super::dat::{DatColumn, Line1, render_dat};
+use super::mat::{Compression, MatWriter};
+use super::{Channel, Unit};
+
+/// Header and unit conventions of one round's files (see `shared/docs/ttc-format.md`).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum RoundStyle {
+    /// Round 4, US customary: `sec mph ... deg F ... none [SAE]`, `AMBTMP`, 50 Hz.
+    R4Uscs,
+    /// Round 4, SI, with the ambient temperature in deg F.
+    R4Si,
+    /// Round 8, US customary: `s mph ... deg f ... SAE`, `AmbTmp`, ISO False, 100 Hz.
+    R8Uscs,
+    /// Round 9, SI: `s kph ... Nm ... deg c ... SAE`, Tire_Name/Rim_Width, 100 Hz.
+    R9Si,
+}
+
+impl RoundStyle {
+    pub const ALL: [RoundStyle; 4] = [
+        RoundStyle::R4Uscs,
+        RoundStyle::R4Si,
+        RoundStyle::R8Uscs,
+        RoundStyle::R9Si,
+    ];
+
+    /// Sample rate, Hz.
+    pub fn sample_rate_hz(self) -> f64 {
+        match self {
+            RoundStyle::R4Uscs | RoundStyle::R4Si => 50.0,
+            RoundStyle::R8Uscs | RoundStyle::R9Si => 100.0,
+        }
+    }
+
+    /// The unit string this style writes for `channel`.
+    pub fn unit(self, channel: Channel) -> &'static str {
+        let uscs = matches!(self, RoundStyle::R4Uscs | RoundStyle::R8Uscs);
+        let r4 = matches!(self, RoundStyle::R4Uscs | RoundStyle::R4Si);
+        match channel {
+            Channel::Et => {
+                if r4 {
+                    "sec"
+                } else {
+                    "s"
+                }
+            }
+            Channel::V => {
+                if uscs {
+                    "mph"
+                } else {
+                    "kph"
+                }
+            }
+            Channel::N => "rpm",
+            Channel::Sa | Channel::Ia => "deg",
+            Channel::Rl | Channel::Re => {
+                if uscs {
+                    "in"
+                } else {
+                    "cm"
+                }
+            }
+            Channel::P => {
+                if uscs {
+                    "psi"
+                } else {
+                    "kPa"
+                }
+            }
+            Channel::Fx | Channel::Fy | Channel::Fz => {
+                if uscs {
+                    "lb"
+                } else {
+                    "N"
+                }
+            }
+            Channel::Mx | Channel::Mz => match self {
+                RoundStyle::R9Si => "Nm",
+                RoundStyle::R4Si => "N-m",
+                _ => "ft-lb",
+            },
+            Channel::Nfx | Channel::Nfy => "none",
+            Channel::Rst | Channel::Tsti | Channel::Tstc | Channel::Tsto => match self {
+                RoundStyle::R4Uscs => "deg F",
+                RoundStyle::R4Si => "deg C",
+                RoundStyle::R8Uscs => "deg f",
+                RoundStyle::R9Si => "deg c",
+            },
+            Channel::Ambtmp => match self {
+                RoundStyle::R4Uscs | RoundStyle::R4Si => "deg F",
+                RoundStyle::R8Uscs => "deg f",
+                RoundStyle::R9Si => "deg c",
+            },
+            Channel::Sr => {
+                if r4 {
+                    "none"
+                } else {
+                    "SAE"
+                }
+            }
+            Channel::Sl => "SAE",
+        }
+    }
+
+    /// Line 1 in this round's style.
+    pub fn line1(self) -> Line1 {
+        let base = |project, run| Line1 {
+            project,
+            run,
+            ..Line1::default()
+        };
+        match self {
+            RoundStyle::R4Uscs | RoundStyle::R4Si => base(1320, 125),
+            RoundStyle::R8Uscs => Line1 {
+                date: Some("08-01-2018".into()),
+                time: Some("19:19".into()),
+                iso: Some(false),
+                id: Some("3Scoi1N".into()),
+                ..base(1965, 51)
+            },
+            RoundStyle::R9Si => Line1 {
+                date: Some("01-18-2022".into()),
+                time: Some("12:51".into()),
+                tire_name: Some("Example 16.0X7.5-10, R20, C2000".into()),
+                rim_width_in: Some(7.0),
+                iso: Some(false),
+                id: Some("j8dxoI9".into()),
+                ..base(2356, 4)
+            },
+        }
+    }
+}
+
+/// Decimals per channel, as TIRF writes them.
+fn decimals(channel: Channel) -> usize {
+    match channel {
+        Channel::Et | Channel::Sa | Channel::Ia => 3,
+        Channel::Nfx | Channel::Nfy | Channel::Sr | Channel::Sl => 4,
+        _ => 2,
+    }
+}
+
+/// The example signal of `channel` at sample `i`, canonical units (s, km/h, rpm, rad, m, kPa,
+/// N, N m, degC, 1), SAE axes.
+pub fn example_value(channel: Channel, i: usize, rate_hz: f64) -> f64 {
+    let t = i as f64 / rate_hz;
+    let sa_deg = 12.0 * (t * 0.5).sin();
+    let fz = -1112.06 + 30.0 * (t * 3.0).sin();
+    let fy = -2.4 * fz * (sa_deg.to_radians() * 8.0).atan().sin();
+    let fx = 40.0 * (t * 0.7).cos();
+    match channel {
+        Channel::Et => 26.84 + t,
+        Channel::V => 40.2336 + 0.2 * (t * 2.0).sin(),
+        Channel::N => 370.0 + (t * 2.0).sin(),
+        Channel::Sa => sa_deg.to_radians(),
+        Channel::Ia => (f64::from((i / 500 % 5) as u32)).to_radians(),
+        Channel::Rl => 0.2 + 0.001 * (t * 3.0).sin(),
+        Channel::Re => 0.21,
+        Channel::P => 82.7 + 0.3 * (t * 0.1).sin(),
+        Channel::Fx => fx,
+        Channel::Fy => fy,
+        Channel::Fz => fz,
+        Channel::Mx => -0.02 * fy,
+        Channel::Mz => -0.015 * fy * (1.0 - (sa_deg / 12.0).abs()),
+        Channel::Nfx => fx / fz,
+        Channel::Nfy => fy / fz,
+        Channel::Rst => 30.0,
+        Channel::Tsti => 55.0 + 10.0 * (t * 0.05).sin(),
+        Channel::Tstc => 50.0 + 10.0 * (t * 0.05).sin(),
+        Channel::Tsto => 45.0 + 10.0 * (t * 0.05).sin(),
+        Channel::Ambtmp => 24.0,
+        Channel::Sr => 0.02 * (t * 0.3).sin() + 0.003,
+        Channel::Sl => 0.02 * (t * 0.3).sin(),
+    }
+}
+
+/// The columns of an example run: the 21 standard channels (22 with `with_sl`), in file units.
+pub fn example_columns(style: RoundStyle, rows: usize, with_sl: bool) -> Vec<DatColumn> {
+    let rate = style.sample_rate_hz();
+    Channel::ALL
+        .into_iter()
+        .filter(|c| with_sl || *c != Channel::Sl)
+        .map(|channel| {
+            let unit_text = style.unit(channel);
+            let unit = Unit::parse(unit_text).expect("style units are known spellings");
+            let name = match (channel, style) {
+                (Channel::Ambtmp, RoundStyle::R8Uscs | RoundStyle::R9Si) => "AmbTmp",
+                _ => channel.name(),
+            };
+            DatColumn {
+                name: name.to_string(),
+                unit: unit_text.to_string(),
+                decimals: decimals(channel),
+                values: (0..rows)
+                    .map(|i| unit.from_canonical(example_value(channel, i, rate)))
+                    .collect(),
+            }
+        })
+        .collect()
+}
+
+/// An example `.dat` file.
+pub fn example_dat(style: RoundStyle, rows: usize, with_sl: bool) -> Vec<u8> {
+    render_dat(&style.line1(), &example_columns(style, rows, with_sl))
+}
+
+/// An example TTC `.mat` file (SI, the real variable set: 22 channels with SL, `RUN` as uint8,
+/// the `channel` struct, `source`, `testid`, `tireid`), values rounded like the `.dat`.
+pub fn example_mat(rows: usize, compression: Compression) -> Vec<u8> {
+    let style = RoundStyle::R4Si;
+    let columns = example_columns(style, rows, true);
+    let mut writer = MatWriter::new("MATLAB 5.0 MAT-file, Platform: PCWIN64, Created on: example");
+    for column in &columns {
+        let rounded: Vec<f64> = column
+            .values
+            .iter()
+            .map(|v| {
+                format!("{:.*}", column.decimals, v)
+                    .parse()
+                    .expect("number")
+            })
+            .collect();
+        let name = if column.name == "AmbTmp" {
+            "AMBTMP"
+        } else {
+            &column.name
+        };
+        writer
+            .push_column(name, &rounded, compression)
+            .expect("valid column");
+    }
+    let run: Vec<u8> = vec![7; rows];
+    writer
+        .push_uint8_column("RUN", &run, compression)
+        .expect("valid RUN");
+    let names: Vec<&str> = columns
+        .iter()
+        .map(|c| {
+            if c.name == "AmbTmp" {
+                "AMBTMP"
+            } else {
+                c.name.as_str()
+            }
+        })
+        .collect();
+    let units: Vec<&str> = columns.iter().map(|c| c.unit.as_str()).collect();
+    writer
+        .push_struct_of_text_cells(
+            "channel",
+            &[("name", &names), ("units", &units)],
+            compression,
+        )
+        .expect("valid channel struct");
+    writer
+        .push_text("source", "example", compression)
+        .expect("valid text");
+    writer
+        .push_text("testid", "Cornering", compression)
+        .expect("valid text");
+    writer
+        .push_text("tireid", "Example 18.0x6.0-10 R20, 7 inch rim", compression)
+        .expect("valid text");
+    writer.finish()
+}

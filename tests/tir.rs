@@ -1,0 +1,386 @@
+//! `tirebase tir eval | lint | convert`, driven through the real binary in temp dirs.
+//!
+//! In: the reference grids and `.tir` corpus under `tests/fixtures/`. Out: assertions that the
+//! CSV interface reproduces MFeval to 1e-9 (relative to max(|ref|, 1)), that hand-made variants
+//! of the FSAE reference file (CRLF/MF_05, D exponents, mm/deg/psi units, unknown sections)
+//! evaluate to the same reference, that convert round-trips exactly, and the exit codes.
+//! Deliberately not here: unit tests of the reader and model (in tirebase-core).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const TOL: f64 = 1e-9;
+const FORCES: [&str; 5] = ["Fx_N", "Fy_N", "Mx_Nm", "My_Nm", "Mz_Nm"];
+
+fn fixture(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(rel)
+}
+
+fn tirebase(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tirebase"))
+        .args(args)
+        .output()
+        .expect("run tirebase")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// A CSV as header + rows of strings.
+fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let header = r.headers().unwrap().iter().map(str::to_string).collect();
+    let rows = r
+        .records()
+        .map(|rec| rec.unwrap().iter().map(str::to_string).collect())
+        .collect();
+    (header, rows)
+}
+
+fn column(header: &[String], name: &str) -> usize {
+    header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("no column {name} in {header:?}"))
+}
+
+/// Run `tir eval` and return the output CSV's path (inside `dir`).
+fn eval(dir: &Path, tir: &Path, input: &Path, mode: &str) -> PathBuf {
+    let out = dir.join(format!(
+        "{}-{}-{mode}.csv",
+        tir.file_stem().unwrap().to_string_lossy(),
+        input.file_stem().unwrap().to_string_lossy()
+    ));
+    let o = tirebase(&[
+        "tir",
+        "eval",
+        "--tir",
+        tir.to_str().unwrap(),
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        out.to_str().unwrap(),
+        "--mode",
+        mode,
+    ]);
+    assert!(o.status.success(), "eval failed: {}", text(&o.stderr));
+    out
+}
+
+/// Compare the model columns of `out` with the force columns of the reference CSV, row by row;
+/// returns the maximum relative error per force.
+fn compare(out: &Path, reference: &Path) -> [f64; 5] {
+    let (oh, orows) = read_csv(out);
+    let (rh, rrows) = read_csv(reference);
+    assert_eq!(orows.len(), rrows.len(), "row count");
+    // Every input column is repeated, in order, with the same text.
+    for (i, name) in rh.iter().enumerate() {
+        let renamed = if FORCES.contains(&name.as_str()) {
+            format!("{name}_input")
+        } else {
+            name.clone()
+        };
+        assert_eq!(oh[i], renamed);
+    }
+    let mut worst = [0.0f64; 5];
+    for (k, name) in FORCES.iter().enumerate() {
+        let (oi, ri) = (column(&oh, name), column(&rh, name));
+        for (row, (o, r)) in orows.iter().zip(&rrows).enumerate() {
+            assert_eq!(
+                o[..rh.len()],
+                r[..],
+                "row {row}: input columns repeated verbatim"
+            );
+            let (ours, reference): (f64, f64) = (o[oi].parse().unwrap(), r[ri].parse().unwrap());
+            let rel = (ours - reference).abs() / reference.abs().max(1.0);
+            assert!(
+                rel <= TOL,
+                "{}: row {} {name}: ours {ours} reference {reference} (rel {rel:.2e})",
+                out.display(),
+                row + 2
+            );
+            worst[k] = worst[k].max(rel);
+        }
+    }
+    worst
+}
+
+const FSAE_TIR: &str = "reference/fsae-demo/fsae_demo_pac2002.tir";
+const FSAE_COMBINED: &str = "reference/fsae-demo/fsae_demo_pac2002_combined_mode111.csv";
+const FSAE_PURE: &str = "reference/fsae-demo/fsae_demo_pac2002_pure_mode111.csv";
+const MFEVAL_TIR: &str = "reference/mfeval-sample/MagicFormula52_Parameters.tir";
+
+#[test]
+fn eval_reproduces_every_reference_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (
+            MFEVAL_TIR,
+            "reference/mfeval-sample/mfeval_pac2002_combined_mode111.csv",
+            "limits",
+        ),
+        (
+            MFEVAL_TIR,
+            "reference/mfeval-sample/mfeval_pac2002_combined_mode211.csv",
+            "raw",
+        ),
+        (
+            MFEVAL_TIR,
+            "reference/mfeval-sample/mfeval_pac2002_pure_mode111.csv",
+            "limits",
+        ),
+        (FSAE_TIR, FSAE_COMBINED, "limits"),
+        (FSAE_TIR, FSAE_PURE, "limits"),
+    ];
+    for (tir, csv, mode) in cases {
+        let out = eval(dir.path(), &fixture(tir), &fixture(csv), mode);
+        let worst = compare(&out, &fixture(csv));
+        let worst: Vec<String> = worst.iter().map(|w| format!("{w:.2e}")).collect();
+        println!(
+            "{csv} ({mode}): max relative error Fx Fy Mx My Mz = {}",
+            worst.join(" ")
+        );
+    }
+}
+
+#[test]
+fn limits_and_raw_modes_differ_on_the_mfeval_211_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = fixture("reference/mfeval-sample/mfeval_pac2002_combined_mode211.csv");
+    let out = eval(dir.path(), &fixture(MFEVAL_TIR), &csv, "limits");
+    let (oh, rows) = read_csv(&out);
+    let (fx, fx_ref) = (column(&oh, "Fx_N"), column(&oh, "Fx_N_input"));
+    let differing = rows
+        .iter()
+        .filter(|r| {
+            let (a, b): (f64, f64) = (r[fx].parse().unwrap(), r[fx_ref].parse().unwrap());
+            (a - b).abs() > 1e-6 * b.abs().max(1.0)
+        })
+        .count();
+    assert!(
+        differing > 100,
+        "limits mode must not reproduce the 211 grid ({differing} rows differ)"
+    );
+}
+
+/// Hand-made variants of the FSAE reference file (other layouts, units, number spellings)
+/// evaluate to the same MFeval reference: nothing is tuned to one file's text.
+#[test]
+fn corpus_variants_of_the_fsae_file_reproduce_its_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    for variant in [
+        "tir/mf05_crlf_wrapped_comments.tir",
+        "tir/d_exponents.tir",
+        "tir/mm_deg_psi_units.tir",
+        "tir/unknown_sections.tir",
+    ] {
+        let out = eval(
+            dir.path(),
+            &fixture(variant),
+            &fixture(FSAE_COMBINED),
+            "limits",
+        );
+        compare(&out, &fixture(FSAE_COMBINED));
+    }
+}
+
+#[test]
+fn input_columns_in_any_order_with_extras() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in.csv");
+    std::fs::write(
+        &input,
+        "\u{feff}note,Vx_mps,gamma_rad,alpha_rad,kappa,Fz_N\r\n\
+         a,11.176,0,-0.05235987755982988,0,1100\n\
+         \"b, quoted\",11.176,0.03490658503988659,0.08726646259971647,0.05,1100\n",
+    )
+    .unwrap();
+    let out = eval(dir.path(), &fixture(FSAE_TIR), &input, "limits");
+    let (h, rows) = read_csv(&out);
+    assert_eq!(
+        h[..6],
+        ["note", "Vx_mps", "gamma_rad", "alpha_rad", "kappa", "Fz_N"]
+    );
+    assert_eq!(h[6..], FORCES);
+    assert_eq!(rows[1][0], "b, quoted");
+    // Row 1 is the reference grid's Fz 1100, kappa 0, alpha -3 deg, gamma 0 (README spot value).
+    let fy: f64 = rows[0][column(&h, "Fy_N")].parse().unwrap();
+    assert!((fy - 1754.189175).abs() < 1e-6, "{fy}");
+}
+
+#[test]
+fn eval_input_errors_name_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let tir = fixture(FSAE_TIR);
+    let bad_value = dir.path().join("bad_value.csv");
+    std::fs::write(
+        &bad_value,
+        "Fz_N,kappa,alpha_rad,gamma_rad,Vx_mps\n1000,0,0,0,11\n1000,x,0,0,11\n",
+    )
+    .unwrap();
+    let missing = dir.path().join("missing.csv");
+    std::fs::write(&missing, "Fz_N,kappa,alpha_rad,gamma_rad\n1000,0,0,0\n").unwrap();
+    for (input, expected) in [
+        (&bad_value, "line 3: column kappa: 'x' is not a number"),
+        (&missing, "line 1: no column Vx_mps"),
+    ] {
+        let out = dir.path().join("out.csv");
+        let o = tirebase(&[
+            "tir",
+            "eval",
+            "--tir",
+            tir.to_str().unwrap(),
+            "--input",
+            input.to_str().unwrap(),
+            "--output",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2));
+        let err = text(&o.stderr);
+        assert!(err.contains(expected), "{err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    }
+}
+
+#[test]
+fn lint_exit_codes() {
+    let run = |path: &Path| {
+        let o = tirebase(&["tir", "lint", path.to_str().unwrap()]);
+        (o.status.code(), text(&o.stdout), text(&o.stderr))
+    };
+    let (code, out, _) = run(&fixture(FSAE_TIR));
+    assert_eq!(code, Some(0), "{out}");
+    assert!(out.contains("0 errors, 0 warnings"), "{out}");
+    let (code, out, _) = run(&fixture(MFEVAL_TIR));
+    assert_eq!(code, Some(0), "{out}");
+    assert!(
+        out.contains("warning[curvature-above-one]: Ex > 1"),
+        "{out}"
+    );
+    let (code, out, _) = run(&fixture("tir/mf05_crlf_wrapped_comments.tir"));
+    assert_eq!(code, Some(0), "{out}");
+    assert!(out.contains("warning[read]: line "), "{out}");
+
+    let dir = tempfile::tempdir().unwrap();
+    let broken = dir.path().join("negative_cy.tir");
+    let t = std::fs::read_to_string(fixture(FSAE_TIR)).unwrap();
+    std::fs::write(
+        &broken,
+        t.replace("PCY1                     =  1.45", "PCY1 = -1.45"),
+    )
+    .unwrap();
+    let (code, out, _) = run(&broken);
+    assert_eq!(code, Some(1), "{out}");
+    assert!(
+        out.contains("error[shape-factor]: Cy = PCY1 * LCY = -1.45"),
+        "{out}"
+    );
+
+    for bad in [
+        "unterminated_section",
+        "non_numeric_value",
+        "fittyp62",
+        "missing_fnomin",
+        "missing_unloaded_radius",
+        "unknown_unit",
+        "binary_garbage",
+    ] {
+        let path = fixture(&format!("tir/bad/{bad}.tir"));
+        let (code, out, err) = run(&path);
+        assert_eq!(code, Some(2), "{bad}: {out}{err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{bad}: one line: {err}");
+        assert!(err.contains(".tir: line "), "{bad}: names the line: {err}");
+    }
+    let (code, _, err) = run(&dir.path().join("does_not_exist.tir"));
+    assert_eq!(code, Some(2));
+    assert!(err.contains("does_not_exist.tir: cannot read"), "{err}");
+}
+
+#[test]
+fn convert_round_trip_is_exact_and_idempotent() {
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = [
+        FSAE_TIR,
+        MFEVAL_TIR,
+        "tir/pac2002_supplier_layout.tir",
+        "tir/mf05_crlf_wrapped_comments.tir",
+        "tir/mf52_fittyp6.tir",
+        "tir/empty_values_and_placeholders.tir",
+        "tir/d_exponents.tir",
+        "tir/mm_deg_psi_units.tir",
+        "tir/unknown_sections.tir",
+    ];
+    let grid = fixture(FSAE_COMBINED);
+    for input in inputs {
+        let stem = Path::new(input)
+            .file_stem()
+            .unwrap()
+            .to_string_lossy()
+            .to_string();
+        let once = dir.path().join(format!("{stem}.once.tir"));
+        let twice = dir.path().join(format!("{stem}.twice.tir"));
+        for (from, to) in [(fixture(input), &once), (once.clone(), &twice)] {
+            let o = tirebase(&[
+                "tir",
+                "convert",
+                "--input",
+                from.to_str().unwrap(),
+                "--output",
+                to.to_str().unwrap(),
+            ]);
+            assert!(o.status.success(), "{input}: {}", text(&o.stderr));
+        }
+        let a = std::fs::read(&once).unwrap();
+        assert_eq!(
+            a,
+            std::fs::read(&twice).unwrap(),
+            "{input}: convert is idempotent"
+        );
+        let written = String::from_utf8(a).unwrap();
+        assert!(!written.contains('\r'));
+        assert!(written.contains("PROPERTY_FILE_FORMAT     = 'PAC2002'"));
+        assert!(written.contains("FITTYP                   =  6"));
+        // The converted file evaluates bit-identically to its source.
+        let before = eval(dir.path(), &fixture(input), &grid, "limits");
+        let after = eval(dir.path(), &once, &grid, "limits");
+        let (_, b) = read_csv(&before);
+        let (_, c) = read_csv(&after);
+        assert_eq!(b, c, "{input}: converted file evaluates differently");
+        // And lints the same way (no reader warnings left after conversion).
+        let o = tirebase(&["tir", "lint", once.to_str().unwrap()]);
+        assert!(
+            !text(&o.stdout).contains("warning[read]"),
+            "{input}: {}",
+            text(&o.stdout)
+        );
+    }
+}
+
+#[test]
+fn help_states_units_and_axes() {
+    for sub in ["eval", "lint", "convert"] {
+        let o = tirebase(&["tir", sub, "--help"]);
+        assert!(o.status.success());
+        let help = text(&o.stdout);
+        assert!(
+            help.contains("ISO-W") || help.contains("SI units"),
+            "{sub}: {help}"
+        );
+    }
+    let help = text(&tirebase(&["tir", "eval", "--help"]).stdout);
+    for needle in [
+        "Fz_N",
+        "kappa",
+        "alpha_rad",
+        "gamma_rad",
+        "Vx_mps",
+        "N m",
+        "rad",
+        "m/s",
+    ] {
+        assert!(help.contains(needle), "eval --help lacks {needle}");
+    }
+}
