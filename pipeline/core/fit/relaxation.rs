@@ -141,8 +141,12 @@ pub struct RelaxationConfig {
     pub sigma_range_m: (f64, f64),
     /// Nuisance parameters.
     pub nuisance: Nuisance,
-    /// Half width of the moving average applied to the measured load before the model, samples.
-    pub load_smoothing_half: usize,
+    /// Half width of the moving average applied to the measured load before the model, s (noise
+    /// on the model's input would favour a longer, smoothing lag).
+    pub load_smoothing_half_s: f64,
+    /// Sweeps: half width of the moving average applied to the measured slip, s (not used for
+    /// step steers, whose steps it would blur).
+    pub slip_smoothing_half_s: f64,
     /// A segment needs at least this many counted samples.
     pub min_samples: usize,
     /// A segment needs at least this mean road speed, km/h.
@@ -162,7 +166,8 @@ impl Default for RelaxationConfig {
             settle_s: 0.2,
             sigma_range_m: (0.005, 3.0),
             nuisance: Nuisance::ScaleOffset,
-            load_smoothing_half: 5,
+            load_smoothing_half_s: 0.15,
+            slip_smoothing_half_s: 0.04,
             min_samples: 30,
             min_speed_kph: 5.0,
             contact: ContactLength::default(),
@@ -291,7 +296,7 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
     for input in inputs {
         let mut groups: BTreeMap<GroupKey, Vec<Prepared>> = BTreeMap::new();
         for seg in input.segments {
-            let Some((direction, method)) = role(seg.kind) else {
+            let Some((direction, method)) = role(seg) else {
                 continue;
             };
             match prepare(input, seg, direction, method, cfg) {
@@ -376,13 +381,33 @@ impl Prepared {
     }
 }
 
-fn role(kind: SegmentKind) -> Option<(Direction, Method)> {
-    match kind {
-        SegmentKind::Cornering | SegmentKind::ColdToWarm | SegmentKind::SpeedSweep => {
+/// What a segment measures; a speed sweep is a slip-angle or a slip-ratio sweep, told apart by
+/// which slip moves more (1 deg of slip angle against 0.01 of slip ratio).
+fn role(seg: &MeasuredSegment) -> Option<(Direction, Method)> {
+    match seg.kind {
+        SegmentKind::Cornering | SegmentKind::ColdToWarm => {
             Some((Direction::Lateral, Method::Sweep))
         }
         SegmentKind::StepSteer => Some((Direction::Lateral, Method::StepSteer)),
         SegmentKind::DriveBrake => Some((Direction::Longitudinal, Method::Sweep)),
+        SegmentKind::SpeedSweep => {
+            let span = |v: &[f64]| {
+                let (lo, hi) = v
+                    .iter()
+                    .filter(|x| x.is_finite())
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                        (a.min(x), b.max(x))
+                    });
+                if hi >= lo { hi - lo } else { 0.0 }
+            };
+            let alpha_deg = span(&seg.channels.alpha_rad).to_degrees();
+            let kappa_pct = 100.0 * span(&seg.channels.kappa);
+            Some(if kappa_pct > alpha_deg {
+                (Direction::Longitudinal, Method::Sweep)
+            } else {
+                (Direction::Lateral, Method::Sweep)
+            })
+        }
         _ => None,
     }
 }
@@ -651,18 +676,36 @@ pub fn lag_problem(
 ) -> Result<LagProblem, String> {
     let c = &seg.channels;
     let n = c.len();
-    let fz = moving_average(&c.fz_n, cfg.load_smoothing_half);
+    let hz = {
+        let mut d: Vec<f64> = c
+            .et_s
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .filter(|d| *d > 0.0)
+            .collect();
+        d.sort_by(f64::total_cmp);
+        d.get(d.len() / 2).map_or(1.0, |d| 1.0 / d)
+    };
+    let half = |s: f64| (s * hz).round() as usize;
+    let fz = moving_average(&c.fz_n, half(cfg.load_smoothing_half_s));
+    let slip_half = if method == Method::Sweep {
+        half(cfg.slip_smoothing_half_s)
+    } else {
+        0
+    };
+    let alpha = moving_average(&c.alpha_rad, slip_half);
+    let kappa = moving_average(&c.kappa, slip_half);
     let mut f_ss = Vec::with_capacity(n);
     let mut ok = Vec::with_capacity(n);
     for (i, &fz_i) in fz.iter().enumerate() {
         let input = SlipInput {
             fz_n: fz_i,
-            kappa: if direction == Direction::Lateral && !c.kappa[i].is_finite() {
+            kappa: if direction == Direction::Lateral && !kappa[i].is_finite() {
                 0.0
             } else {
-                c.kappa[i]
+                kappa[i]
             },
-            alpha_rad: c.alpha_rad[i],
+            alpha_rad: alpha[i],
             gamma_rad: c.gamma_rad[i],
             vx_mps: c.speed_mps(i),
         };
