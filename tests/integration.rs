@@ -2,4 +2,5 @@
 //! binary in temporary directories.
 
 mod inertia;
+mod synth;
 mod tir;

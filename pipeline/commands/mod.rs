@@ -3,7 +3,7 @@
 
 use std::process::ExitCode;
 
-use crate::cli::{Cli, Command, SynthCommand};
+use crate::cli::{Cli, Command};
 
 pub mod inertia;
 pub mod query;
@@ -16,8 +16,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Tir(cmd) => tir::run(cmd),
         Command::Query(args) => query::run(&args),
         Command::Inertia(args) => inertia::run(&args),
-        Command::Synth {
-            what: SynthCommand::Inertia(args),
-        } => synth::inertia(&args),
+        Command::Synth { what } => synth::run(&what),
     }
 }

@@ -1,17 +1,150 @@
-//! `tirebase synth ...`: write synthetic data sets with known answers.
+//! `tirebase synth ...`: resolve the configuration, run the virtual machine (`synth round`) or
+//! the inertia-session generator (`synth inertia`), write the files.
 //!
-//! In: an output directory and a seed. Out: for `synth inertia`, one directory per validation
-//! case with `session.toml`, the run CSVs and `expected.toml`; the case names on stdout.
-//! Deliberately no analysis: `tirebase inertia` reads what this writes.
+//! In: the parsed `synth round` arguments (and the `[synth]` table of `--config`). Out: the round
+//! directory (raw files, catalog, truth) and a one-screen summary on stderr. All simulation is
+//! in `tirebase_core::synth`; this layer only resolves configuration, parallelises over run files
+//! (rayon; every run has its own random stream, so the bytes do not depend on the thread count)
+//! and writes each file atomically (temporary name, then rename).
 
 use std::fs;
 use std::io::Write as _;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Instant;
 
 use anyhow::Context;
+use rayon::prelude::*;
+use serde::Deserialize;
+
+use crate::cli::{SynthCommand, SynthInertiaArgs, SynthRoundArgs, SynthSize};
 use tirebase_core::synth::inertia::validation_sessions;
 
-use crate::cli::SynthInertiaArgs;
+use crate::core::synth::round::{
+    OutFile, RunSummary, Size, SynthConfig, plan_round, render_run, render_truth,
+};
+
+/// Run one `synth` subcommand.
+pub fn run(cmd: &SynthCommand) -> anyhow::Result<ExitCode> {
+    match cmd {
+        SynthCommand::Round(args) => round(args),
+        SynthCommand::Inertia(args) => inertia(args),
+    }
+}
+
+/// The part of a configuration file this command reads.
+#[derive(Deserialize)]
+struct ConfigFile {
+    #[serde(default)]
+    synth: Option<SynthConfig>,
+}
+
+/// Defaults < `[synth]` of `--config` < flags.
+pub fn resolve_config(args: &SynthRoundArgs) -> anyhow::Result<SynthConfig> {
+    let mut cfg = match &args.config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("{}: cannot read", path.display()))?;
+            let file: ConfigFile =
+                toml::from_str(&text).with_context(|| format!("{}: invalid", path.display()))?;
+            file.synth.unwrap_or_default()
+        }
+        None => SynthConfig::default(),
+    };
+    if let Some(seed) = args.seed {
+        cfg.seed = seed;
+    }
+    if let Some(size) = args.size {
+        cfg.size = match size {
+            SynthSize::Demo => Size::Demo,
+            SynthSize::Full => Size::Full,
+        };
+    }
+    if args.defects {
+        cfg.defects = true;
+    }
+    if args.ideal || args.no_noise {
+        cfg.realism.noise_scale = 0.0;
+    }
+    if args.ideal || args.no_lag {
+        cfg.realism.lag = false;
+    }
+    if args.ideal || args.no_heat {
+        cfg.realism.heat = false;
+    }
+    Ok(cfg)
+}
+
+fn round(args: &SynthRoundArgs) -> anyhow::Result<ExitCode> {
+    let started = Instant::now();
+    let cfg = resolve_config(args)?;
+    let plan = plan_round(&cfg)?;
+    let out = &args.out;
+    for owned in ["raw", "truth"] {
+        let dir = out.join(owned);
+        if dir.exists() {
+            std::fs::remove_dir_all(&dir)
+                .with_context(|| format!("{}: cannot replace", dir.display()))?;
+        }
+    }
+    std::fs::create_dir_all(out.join("raw"))
+        .with_context(|| format!("{}: cannot create", out.join("raw").display()))?;
+    std::fs::create_dir_all(out.join("truth/tir"))
+        .with_context(|| format!("{}: cannot create", out.join("truth/tir").display()))?;
+
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.jobs.unwrap_or(0))
+        .build()
+        .context("cannot start worker threads")?;
+    let results: Vec<anyhow::Result<(RunSummary, usize)>> = pool.install(|| {
+        (0..plan.runs.len())
+            .into_par_iter()
+            .map(|i| {
+                let output = render_run(&plan, i)?;
+                let bytes = output.file.bytes.len();
+                write_atomic(out, &output.file)?;
+                Ok((output.summary, bytes))
+            })
+            .collect()
+    });
+    let mut summaries = Vec::with_capacity(results.len());
+    let mut total_bytes = 0usize;
+    for r in results {
+        let (s, b) = r?;
+        total_bytes += b;
+        summaries.push(s);
+    }
+    summaries.sort_by_key(|s| s.spec.run);
+    for file in render_truth(&plan, &summaries)? {
+        write_atomic(out, &file)?;
+    }
+    let rows: usize = summaries.iter().map(|s| s.rows).sum();
+    let segments: usize = summaries.iter().map(|s| s.segments.len()).sum();
+    let defects: usize = summaries.iter().map(|s| s.defects.len()).sum();
+    eprintln!(
+        "synth round: {} run files ({} rows, {:.1} MB), {} tire/rim combinations, {} truth models, {} segments, {} defects -> {} in {:.1} s",
+        summaries.len(),
+        rows,
+        total_bytes as f64 / 1e6,
+        plan.combos.len(),
+        plan.truths.len(),
+        segments,
+        defects,
+        out.display(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Write `file` under `root` via a temporary name and a rename.
+fn write_atomic(root: &Path, file: &OutFile) -> anyhow::Result<()> {
+    let path: PathBuf = root.join(&file.path);
+    let tmp = path.with_extension("tmp-synth");
+    std::fs::write(&tmp, &file.bytes)
+        .with_context(|| format!("{}: cannot write", tmp.display()))?;
+    std::fs::rename(&tmp, &path).with_context(|| format!("{}: cannot rename", path.display()))?;
+    Ok(())
+}
 
 /// Writes every synthetic inertia session under `args.out`.
 pub fn inertia(args: &SynthInertiaArgs) -> anyhow::Result<ExitCode> {

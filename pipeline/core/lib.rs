@@ -13,6 +13,7 @@
 pub mod fit;
 pub mod frame;
 pub mod inertia;
+pub mod naming;
 pub mod numerics;
 pub mod synth;
 pub mod tire_model;

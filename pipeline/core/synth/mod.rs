@@ -1,6 +1,20 @@
-//! Synthetic data with known answers: rig-inertia sessions ([`inertia`]).
+//! Synthetic data with known answers: the virtual TTC test machine (a whole round of raw run
+//! files and its truth) and rig-inertia sessions ([`inertia`]).
 //!
-//! In: parameters and a seed. Out: file contents in memory (the command layer writes them).
-//! Deliberately no file-system access here.
+//! Data flow of a round: `tires` (truth models) + `schedule` (commanded programs) -> `machine`
+//! (physics from `physics`, sensors, `noise`) -> `dat` (axes, units, decimals, `.dat`) -> `round`
+//! (run list, `.mat`, `defects`, truth files). Nothing here touches the file system: the command
+//! layer writes what these functions return.
 
+pub mod dat;
+pub mod defects;
 pub mod inertia;
+pub mod machine;
+pub mod noise;
+pub mod physics;
+pub mod round;
+pub mod schedule;
+pub mod tires;
+
+#[cfg(test)]
+mod tests;

@@ -624,7 +624,10 @@ fn files_from_the_independent_python_encoder_read_correctly() {
     let dat = read_path(&dir.join("example_A1965run51.dat")).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(dat.len(), 12);
     assert_close("Fz", dat.tire.fz_n[0], 250.0 * 4.448_221_615_260_5, 1e-9);
-    for name in ["example_B1320run15.mat", "example_B1320run16_compressed.mat"] {
+    for name in [
+        "example_B1320run15.mat",
+        "example_B1320run16_compressed.mat",
+    ] {
         let mat = read_path(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(mat.len(), 12, "{name}");
         assert_eq!(
