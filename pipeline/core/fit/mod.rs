@@ -14,3 +14,5 @@ pub mod thermal;
 
 #[cfg(test)]
 mod testkit;
+#[cfg(test)]
+mod virtual_round;

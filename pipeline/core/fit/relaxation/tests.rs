@@ -187,8 +187,10 @@ fn noise_free_sweeps_recover_sigma_at_every_load() {
         let fit = p.fit(cfg.sigma_range_m).unwrap();
         let truth = sigma_alpha(&model, load);
         let err = fit.sigma_m / truth - 1.0;
+        // Noise-free, the only error left is the slip smoothing (+-0.04 s) rounding the kinks of
+        // the slip program: 0.3 % low at 222 N, less above.
         assert!(
-            err.abs() < 2e-3,
+            err.abs() < 5e-3,
             "Fz {load}: sigma {} vs {truth} ({err:+.2e})",
             fit.sigma_m
         );
@@ -351,7 +353,8 @@ fn run_fits_pty_and_ptx_laws_and_eq_14_15_columns() {
         } else {
             sk
         };
-        assert!((r.sigma_m / truth - 1.0).abs() < 5e-3, "{r:?} vs {truth}");
+        // Slip smoothing rounds the program's kinks: up to 0.7 % low at 222 N (longitudinal).
+        assert!((r.sigma_m / truth - 1.0).abs() < 1e-2, "{r:?} vs {truth}");
         let a = ContactLength::default().half_length_m(r.fz_n_mean / 137_800.0, 0.2612);
         assert!((r.contact_half_length_m - a).abs() < 1e-12);
         assert!((r.carcass_stiffness_n_per_m - r.slip_stiffness / (r.sigma_m - a)).abs() < 1e-6);
@@ -389,7 +392,8 @@ fn run_fits_pty_and_ptx_laws_and_eq_14_15_columns() {
             m2.relaxation_lengths(fz, 0.0).0,
             model.relaxation_lengths(fz, 0.0).0,
         );
-        assert!((a / b - 1.0).abs() < 5e-3, "Fz {fz}: {a} vs {b}");
+        // The rows carry the smoothing bias (up to 0.7 % low at 222 N).
+        assert!((a / b - 1.0).abs() < 1e-2, "Fz {fz}: {a} vs {b}");
     }
 }
 
