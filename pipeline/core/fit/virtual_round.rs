@@ -264,3 +264,123 @@ fn demo_round_meets_the_issue_6_tolerances() {
         );
     }
 }
+
+/// The sweeps of one tire as the PAC2002 stage wants them.
+fn pac2002_input(
+    key: &TireKey,
+    segs: &[MeasuredSegment],
+    cz: f64,
+    r0: f64,
+) -> super::pac2002::FitInput {
+    use super::pac2002::{FitContext, FitInput, Sample, Sweep, SweepKind, SweepNominal};
+    let sweeps = segs
+        .iter()
+        .filter_map(|s| {
+            let kind = match s.kind {
+                SegmentKind::Cornering => SweepKind::Cornering,
+                SegmentKind::DriveBrake => SweepKind::DriveBrake,
+                SegmentKind::Combined => SweepKind::Combined,
+                _ => return None,
+            };
+            let c = &s.channels;
+            Some(Sweep {
+                id: s.segment_id.clone(),
+                kind,
+                nominal: SweepNominal {
+                    fz_n: s.nominal.fz_n? as f64,
+                    gamma_rad: (s.nominal.ia_deg? as f64).to_radians(),
+                    alpha_rad: (s.nominal.alpha_deg.unwrap_or(0) as f64).to_radians(),
+                },
+                qc_ok: true,
+                samples: (0..c.len())
+                    .map(|i| Sample {
+                        et_s: c.et_s[i],
+                        fz_n: c.fz_n[i],
+                        kappa: c.kappa[i],
+                        alpha_rad: c.alpha_rad[i],
+                        gamma_rad: c.gamma_rad[i],
+                        vx_mps: c.speed_mps(i),
+                        fx_n: c.fx_n[i],
+                        fy_n: c.fy_n[i],
+                        mz_nm: c.mz_nm[i],
+                        mx_nm: f64::NAN,
+                        loaded_radius_m: c.loaded_radius_m.as_ref().map(|v| v[i]),
+                    })
+                    .collect(),
+            })
+        })
+        .collect();
+    FitInput {
+        context: FitContext {
+            tire: key.tire.clone(),
+            rim_in: key.rim_in as f64,
+            pressure_kpa_nom: key.pressure_kpa_nom as f64,
+            test_speed_mps: crate::synth::tires::V_REF_MPS,
+            vertical_stiffness_n_per_m: Some(cz),
+            unloaded_radius_m: Some(r0),
+            relaxation: None,
+        },
+        sweeps,
+    }
+}
+
+#[test]
+fn demo_round_relaxation_with_the_fitted_pac2002_model() {
+    // The pipeline's order: spring rate -> PAC2002 fit -> relaxation with the fitted model.
+    let round = build(SynthConfig::default());
+    let truth = truths(&round.plan);
+    let sr = spring_rate::run(
+        &round.segments,
+        &BTreeMap::new(),
+        &SpringRateConfig::default(),
+    );
+    let mut per_key: BTreeMap<TireKey, Vec<MeasuredSegment>> = BTreeMap::new();
+    for s in &round.segments {
+        per_key.entry(s.key.clone()).or_default().push(s.clone());
+    }
+    let mut fitted = BTreeMap::new();
+    for (k, segs) in &per_key {
+        let v = sr.vertical.iter().find(|v| &v.key == k).expect("vertical");
+        let input = pac2002_input(k, segs, v.vertical_stiffness_n_per_m, v.unloaded_radius_m);
+        let fit = super::pac2002::fit(&input, &super::pac2002::FitConfig::default()).expect("fit");
+        fitted.insert(
+            k.clone(),
+            (fit.model, v.vertical_stiffness_n_per_m, v.unloaded_radius_m),
+        );
+    }
+    let inputs: Vec<RelaxationInput> = per_key
+        .iter()
+        .map(|(k, segs)| RelaxationInput {
+            key: k.clone(),
+            model: &fitted[k].0,
+            unloaded_radius_m: fitted[k].2,
+            vertical_stiffness_n_per_m: fitted[k].1,
+            segments: segs,
+        })
+        .collect();
+    let rx = relaxation::run(&inputs, &RelaxationConfig::default());
+    assert!(rx.failures.is_empty(), "{:?}", rx.failures);
+    let mut worst = (0.0_f64, 0.0_f64);
+    for r in &rx.rows {
+        let (sk, sa) = truth[&r.key].model.relaxation_lengths(r.fz_n_mean, 0.0);
+        let t = if r.direction == Direction::Lateral {
+            sa
+        } else {
+            sk
+        };
+        let (e, el) = (r.sigma_m / t - 1.0, r.sigma_law_m / t - 1.0);
+        println!(
+            "fitted-model relax {} {} {} Fz {:>5}: sigma {:+.2} %, law {:+.2} %, scale {:.3}",
+            r.key,
+            r.direction.as_str(),
+            r.method.as_str(),
+            r.fz_n_nom,
+            100.0 * e,
+            100.0 * el,
+            r.model_scale
+        );
+        worst = (worst.0.max(e.abs()), worst.1.max(el.abs()));
+    }
+    println!("fitted-model relaxation worst |error| (row, law): {worst:?}");
+    assert!(worst.0 < 0.05 && worst.1 < 0.05, "{worst:?}");
+}
