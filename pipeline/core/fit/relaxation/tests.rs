@@ -524,3 +524,31 @@ fn pac2002_sigma_law_cannot_follow_table_15_at_the_lowest_load() {
         "{pty1} {pty2}"
     );
 }
+
+#[test]
+fn thesis_table_16_longitudinal_a_and_cx() {
+    // Table 16: `Fz, z, a, CF, sigma_x, c_x`. Its CF column is labelled N/% but Eq. 15 only
+    // reproduces c_x with CF taken as printed (c_x = CF/(sigma - a)): the label or the unit of
+    // c_x is off by 100 in the thesis. a is printed to 0.5 mm.
+    let rows: [(f64, f64, f64, f64, f64, f64); 4] = [
+        (222.0, 0.0016, 0.034, 22348.0, 0.140, 210871.0),
+        (667.0, 0.0049, 0.060, 60297.0, 0.363, 198790.0),
+        (1112.0, 0.0082, 0.079, 89147.0, 0.531, 197128.0),
+        (1557.0, 0.0114, 0.094, 108942.0, 0.699, 180304.0),
+    ];
+    let r0 = 20.5 * 0.0254 / 2.0;
+    let contact = ContactLength::default();
+    for (fz, z, a_tab, cf, sigma, cx_tab) in rows {
+        let a = contact.half_length_m(z, r0);
+        let dadz = contact.q_a1 / (2.0 * (z * r0).sqrt()) + contact.q_a2;
+        let tol = dadz * 0.5e-4 + 0.5e-3;
+        assert!((a - a_tab).abs() <= tol, "Fz {fz}: a {a:.4} vs {a_tab}");
+        // sigma is printed to 0.5 mm: c_x to |c/(sigma - a)| * 0.5 mm, plus the rounding of a.
+        let cx = carcass_stiffness(cf, sigma, a).unwrap();
+        let tol_c = (cx / (sigma - a)).abs() * (0.5e-3 + dadz * 0.5e-4);
+        assert!(
+            (cx - cx_tab).abs() <= tol_c,
+            "Fz {fz}: c_x {cx:.0} vs {cx_tab} (tol {tol_c:.0})"
+        );
+    }
+}
