@@ -31,7 +31,7 @@
 //!    hot side is not observed and `k_h = k_c` (the thesis: "drops off at a similar rate").
 //!    Grip changing during a sweep moves the maximum of `|FY/FZ|(t)` off the force curve's own
 //!    peak (lower); each peak is corrected from its time curvature, its `dT/dt` and the fitted
-//!    slope of `mu(T)`, and the curve refitted ([`peak_shift_factor`]).
+//!    slope of `mu(T)`, and the curve refitted (`peak_shift_factor`).
 //!    `gain_peak_over_cold = 1/(1 - k_c (T_cold - T_peak)^2) - 1` with `T_cold` the ambient
 //!    temperature of the test (the cold tire's temperature), else the tread temperature at its
 //!    start: the same meaning as the virtual machine's truth.
