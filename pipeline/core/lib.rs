@@ -15,6 +15,7 @@ pub mod frame;
 pub mod inertia;
 pub mod naming;
 pub mod numerics;
+pub mod segment;
 pub mod synth;
 pub mod tire_model;
 pub mod ttc;

@@ -3,12 +3,19 @@
 //!
 //! Pure code: no file system, no serde, no Arrow. Reading a `.tir` takes a `&str`.
 
+mod batch;
 pub mod factors;
+pub mod jacobian;
+mod lanes;
 pub mod pac2002;
 pub mod params;
 pub mod real;
 pub mod tir;
 
+pub use jacobian::{Channel, MAX_BLOCK};
 pub use pac2002::{Evaluation, Mode, Pac2002, SlipInput, TrailPeak};
 pub use params::{Coef, Coefs, Section};
 pub use real::{Dual, Real};
+
+#[cfg(test)]
+pub(crate) mod test_support;

@@ -1,0 +1,238 @@
+//! Segmentation: one run's channels -> a list of classified segments covering every sample,
+//! without any hand-typed test schedule.
+//!
+//! In: [`RunSignals`] (slices, ISO-W, SI-ish units, see there) and a [`SegmentConfig`].
+//! Out: `Vec<`[`Segment`]`>` (sorted, contiguous, each sample in exactly one segment; `other`
+//! for dwells and transitions) and a [`RunSegmentation`] report (counts by kind, run class,
+//! warnings). Deliberately not here: reading files, units and frames (readers and
+//! [`crate::frame`]), writing the store (the command layer), and anything that needs more than
+//! one run.
+//!
+//! The passes, one module each, in order:
+//! ```text
+//! gaps      ET -> sample period, gap-free blocks, ET anomalies
+//! prepare   channels -> smoothed working channels (deg, SL vs free rolling), dropouts bridged
+//! plateau   (used by sweep) held levels of P, IA, FZ, V
+//! sweep     slip activity -> set-point pieces -> SA/SL sweep cycles, step steers;
+//!           quiet stretches -> spring-rate staircases, IA ramps
+//! binning   measured means/std and nominal bins of every candidate
+//! classify  whole-run rules: cold-to-warm, conditioning, matrix kinds, speed sweeps
+//! qc        flags per segment
+//! ```
+//! `run` joins them and fills everything undetected with `other` segments (cut at ET gaps).
+
+mod binning;
+mod classify;
+mod config;
+mod gaps;
+mod output;
+mod plateau;
+mod prepare;
+mod qc;
+mod signals;
+mod sweep;
+
+#[cfg(test)]
+mod synthetic;
+#[cfg(test)]
+mod tests;
+
+use std::collections::BTreeMap;
+use std::ops::Range;
+
+pub use config::{
+    ActivityConfig, ClassifyConfig, GapConfig, IaSweepConfig, LevelConfig, PlateauConfig, QcConfig,
+    SegmentConfig, SmoothingConfig, SpringRateConfig, StepSteerConfig, SweepConfig, Tolerance,
+};
+pub use output::{
+    ChannelStats, Level, MeasuredLevels, NominalLevels, QcFlag, RunClass, RunSegmentation, Segment,
+    SegmentKind, SweepVariable,
+};
+pub use signals::{RunSignals, TreadTemps};
+
+/// Bad input or configuration; one line naming the channel, sample or key.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SegmentError {
+    /// A channel's length differs from ET's.
+    #[error("channel {channel}: {found} samples, expected {expected} (the length of et_s)")]
+    LengthMismatch {
+        channel: String,
+        expected: usize,
+        found: usize,
+    },
+    /// A NaN or infinity in a channel.
+    #[error("channel {channel}: sample {index} is not a finite number")]
+    NonFinite { channel: String, index: usize },
+    /// A configuration value out of range.
+    #[error("segment config key {key}: {reason}")]
+    Config { key: &'static str, reason: String },
+}
+
+/// Segment one run. Deterministic: same input, same output.
+pub fn run(
+    signals: &RunSignals,
+    cfg: &SegmentConfig,
+) -> Result<(Vec<Segment>, RunSegmentation), SegmentError> {
+    cfg.validate()?;
+    signals.validate()?;
+    let timeline = gaps::split_gaps(signals.et_s, &cfg.gaps);
+    let prep = prepare::prepare(signals, &timeline, cfg);
+    let detections = sweep::detect(&prep, &timeline, cfg);
+
+    let source = binning::StatsSource::new(signals, &prep.dropouts);
+    let measured: Vec<MeasuredLevels> = detections
+        .iter()
+        .map(|d| source.measure(d.samples.clone()))
+        .collect();
+    let bins: Vec<NominalLevels> = measured
+        .iter()
+        .map(|m| binning::bin_all(m, &cfg.levels))
+        .collect();
+    let speeds: Vec<f64> = measured.iter().map(|m| m.speed_kph.mean).collect();
+    let centre = signals.tread_temps.map(|t| t.centre_c);
+    let (classes, main_speed) = classify::classify(&detections, &bins, &speeds, centre, cfg);
+    let (detections, classes) = classify::merge_warm_up_blocks(detections, classes);
+    let measured: Vec<MeasuredLevels> = detections
+        .iter()
+        .map(|d| source.measure(d.samples.clone()))
+        .collect();
+
+    let mut segments = Vec::new();
+    let mut extras: Vec<(usize, Option<f64>, Option<f64>)> = Vec::new();
+    let mut cursor = 0;
+    let push_other = |segments: &mut Vec<Segment>, extras: &mut Vec<_>, range: Range<usize>| {
+        for block in &timeline.blocks {
+            let r = range.start.max(block.start)..range.end.min(block.end);
+            if r.start < r.end {
+                segments.push(draft(r, SegmentKind::Other, None));
+                extras.push((0, None, None));
+            }
+        }
+    };
+    for ((d, c), m) in detections.iter().zip(&classes).zip(&measured) {
+        if d.samples.start > cursor {
+            push_other(&mut segments, &mut extras, cursor..d.samples.start);
+        }
+        let mut s = draft(d.samples.clone(), c.kind, c.sweep);
+        s.measured = *m;
+        segments.push(s);
+        extras.push((d.parts, d.rate, d.held_sa_deg));
+        cursor = d.samples.end;
+    }
+    if cursor < signals.len() {
+        push_other(&mut segments, &mut extras, cursor..signals.len());
+    }
+
+    let drafts: Vec<qc::Draft> = segments
+        .iter()
+        .zip(&extras)
+        .map(|(s, e)| qc::Draft {
+            samples: s.samples.clone(),
+            kind: s.kind,
+            parts: e.0,
+        })
+        .collect();
+    let flags = qc::flag(signals, &timeline, &prep.dropouts.p, &drafts, cfg);
+    for (index, ((s, e), f)) in segments.iter_mut().zip(&extras).zip(flags).enumerate() {
+        finish(s, index, e.1, e.2, f, signals, &source, cfg);
+    }
+
+    let mut counts: BTreeMap<SegmentKind, usize> =
+        SegmentKind::ALL.iter().map(|k| (*k, 0)).collect();
+    for s in &segments {
+        *counts.entry(s.kind).or_default() += 1;
+    }
+    let report = RunSegmentation {
+        run_class: classify::run_class(&counts),
+        counts,
+        sample_period_s: timeline.period_s,
+        n_blocks: timeline.blocks.len(),
+        main_speed_kph: main_speed,
+        warnings: warnings(signals, &timeline, &segments),
+    };
+    Ok((segments, report))
+}
+
+/// A segment with its range and kind; levels, ET and flags are filled by [`finish`].
+fn draft(samples: Range<usize>, kind: SegmentKind, sweep: Option<SweepVariable>) -> Segment {
+    Segment {
+        index: 0,
+        n_samples: samples.len(),
+        samples,
+        kind,
+        sweep,
+        nominal: NominalLevels::default(),
+        measured: MeasuredLevels::default(),
+        et_start_s: 0.0,
+        et_end_s: 0.0,
+        sweep_rate: None,
+        qc: Vec::new(),
+    }
+}
+
+/// Fill ET range, levels and flags of a drafted segment.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    s: &mut Segment,
+    index: usize,
+    rate: Option<f64>,
+    held_sa_deg: Option<f64>,
+    mut flags: Vec<QcFlag>,
+    signals: &RunSignals,
+    source: &binning::StatsSource,
+    cfg: &SegmentConfig,
+) {
+    s.index = index;
+    s.et_start_s = signals.et_s[s.samples.start];
+    s.et_end_s = signals.et_s[s.samples.end - 1];
+    if s.kind == SegmentKind::Other {
+        s.measured = source.measure(s.samples.clone());
+    }
+    let bins = binning::bin_all(&s.measured, &cfg.levels);
+    let held =
+        held_sa_deg.map(|a| binning::nearest(a, &cfg.levels.alpha_deg, cfg.levels.alpha_tol));
+    let (nominal, off) = binning::nominal_for(s.kind, s.sweep, &bins, held);
+    s.nominal = nominal;
+    s.sweep_rate = rate;
+    flags.extend(off.into_iter().map(QcFlag::OffNominal));
+    flags.sort();
+    flags.dedup();
+    s.qc = flags;
+}
+
+/// Run-level warnings: empty run, no detection at all, channels zero throughout.
+fn warnings(signals: &RunSignals, timeline: &gaps::Timeline, segments: &[Segment]) -> Vec<String> {
+    let mut out = Vec::new();
+    if signals.is_empty() {
+        out.push("run has no samples".to_string());
+        return out;
+    }
+    if segments.iter().all(|s| s.kind == SegmentKind::Other) {
+        out.push("no sweep, step steer, spring rate or IA sweep detected".to_string());
+    }
+    for (name, x) in [
+        ("pressure_kpa", signals.pressure_kpa),
+        ("fz_n", signals.fz_n),
+        ("fy_n", signals.fy_n),
+        ("speed_kph", signals.speed_kph),
+    ] {
+        if x.iter().all(|v| prepare::is_exact_zero(*v)) {
+            out.push(format!("channel {name} is zero throughout the run"));
+        }
+    }
+    if !timeline.non_monotonic.is_empty() {
+        out.push(format!(
+            "ET steps back {} time(s), first at sample {}",
+            timeline.non_monotonic.len(),
+            timeline.non_monotonic[0]
+        ));
+    }
+    if !timeline.duplicated.is_empty() {
+        out.push(format!(
+            "ET repeats {} time(s), first at sample {}",
+            timeline.duplicated.len(),
+            timeline.duplicated[0]
+        ));
+    }
+    out
+}

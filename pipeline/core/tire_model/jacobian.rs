@@ -1,0 +1,642 @@
+//! Residual-ready channel values and their exact derivatives with respect to chosen coefficients,
+//! for the least-squares fitter.
+//!
+//! In: a [`Pac2002`] tire, one output [`Channel`] (pure `Fx0`, `Fy0`, `Mz0`; combined `Fx`, `Fy`,
+//! `Mz`; `Mx`; `My`), the free coefficients (`&[Coef]`) and operating points. Out: the channel's
+//! value at every point and the Jacobian `d value / d coef`, row-major `n_points x n_free`, written
+//! into caller-owned slices so a solver iteration allocates nothing.
+//!
+//! Derivatives are forward-mode dual numbers ([`Dual<N>`]) through the same generic equations as
+//! the `f64` evaluation, so they are exact up to round-off and follow the branch the value takes
+//! (a clamped `E` has zero derivative, `kappa == 0` in combined `Mz` uses `alpha_eq = alpha`).
+//! `N` is a compile-time width: the free list is cut into blocks of at most [`MAX_BLOCK`]
+//! coefficients and each block runs on the narrowest of `Dual<4|8|16|24|32>` that holds it.
+//! Only the families a channel needs are evaluated (an `Fy0` Jacobian never touches `Mz`).
+//!
+//! Deliberately not here: the solver, residual weighting, and derivatives with respect to the
+//! input ranges (`KPUMIN` ... `FZMAX`), `VXLOW` and `LONGVL`: the equations use those as
+//! plain numbers (limits and switches), so their Jacobian columns are zero.
+
+use super::pac2002::{
+    Evaluation, Mode, Pac2002, SlipInput, TrailPeak, combined_fx, combined_fy, combined_mz, load,
+    overturning_mx, pure_fx0, pure_fy0, pure_mz0, rolling_my, trail_terms,
+};
+use super::params::{Coef, Coef::*, Coefs};
+use super::real::{Dual, Real};
+
+/// Points per batch-evaluator call in [`Pac2002::channel_into`] (a stack buffer, no allocation).
+const CHANNEL_CHUNK: usize = 256;
+
+/// Widest dual number used; longer free lists are evaluated in blocks of this many coefficients.
+pub const MAX_BLOCK: usize = 32;
+
+/// One model output a fit can target.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Channel {
+    /// Pure longitudinal force `Fx0(kappa)`, N (slip angle ignored).
+    Fx0,
+    /// Pure lateral force `Fy0(alpha)`, N (longitudinal slip ignored).
+    Fy0,
+    /// Pure aligning moment `Mz0 = -t0 Fy0 + Mzr0`, N m (no `s Fx` term).
+    Mz0,
+    /// Combined-slip longitudinal force `Fx`, N.
+    Fx,
+    /// Combined-slip lateral force `Fy`, N.
+    Fy,
+    /// Combined-slip aligning moment `Mz`, N m.
+    Mz,
+    /// Overturning moment `Mx`, N m (uses combined `Fy`).
+    Mx,
+    /// Rolling resistance moment `My`, N m (uses combined `Fx`).
+    My,
+}
+
+impl Channel {
+    /// Every channel, pure first, in the order a staged fit visits them.
+    pub const ALL: [Channel; 8] = [
+        Channel::Fx0,
+        Channel::Fy0,
+        Channel::Mz0,
+        Channel::Fx,
+        Channel::Fy,
+        Channel::Mz,
+        Channel::Mx,
+        Channel::My,
+    ];
+
+    /// The coefficients this channel's own equations introduce (its family in a staged fit).
+    /// The channel also depends on earlier families (combined `Fy` on the `Fy0` family, `Mz` on
+    /// `Fx0`, `Fy0`, `Mz0`, `Fx`, `Fy`), which a staged fit holds fixed; scaling factors are not
+    /// listed.
+    pub const fn family(self) -> &'static [Coef] {
+        match self {
+            Channel::Fx0 => &[
+                PCX1, PDX1, PDX2, PDX3, PEX1, PEX2, PEX3, PEX4, PKX1, PKX2, PKX3, PHX1, PHX2, PVX1,
+                PVX2,
+            ],
+            Channel::Fy0 => &[
+                PCY1, PDY1, PDY2, PDY3, PEY1, PEY2, PEY3, PEY4, PKY1, PKY2, PKY3, PHY1, PHY2, PHY3,
+                PVY1, PVY2, PVY3, PVY4,
+            ],
+            Channel::Mz0 => &[
+                QBZ1, QBZ2, QBZ3, QBZ4, QBZ5, QBZ9, QBZ10, QCZ1, QDZ1, QDZ2, QDZ3, QDZ4, QDZ6,
+                QDZ7, QDZ8, QDZ9, QEZ1, QEZ2, QEZ3, QEZ4, QEZ5, QHZ1, QHZ2, QHZ3, QHZ4,
+            ],
+            Channel::Fx => &[RBX1, RBX2, RCX1, REX1, REX2, RHX1],
+            Channel::Fy => &[
+                RBY1, RBY2, RBY3, RCY1, REY1, REY2, RHY1, RHY2, RVY1, RVY2, RVY3, RVY4, RVY5, RVY6,
+            ],
+            Channel::Mz => &[SSZ1, SSZ2, SSZ3, SSZ4],
+            Channel::Mx => &[
+                QSX1, QSX2, QSX3, QSX4, QSX5, QSX6, QSX7, QSX8, QSX9, QSX10, QSX11,
+            ],
+            Channel::My => &[QSY1, QSY2, QSY3, QSY4],
+        }
+    }
+}
+
+/// The value of one channel at one point, evaluating only the families it needs.
+#[inline(always)]
+pub fn channel_value<T: Real>(
+    c: &Coefs<T>,
+    input: &SlipInput,
+    mode: Mode,
+    trail_peak: TrailPeak,
+    channel: Channel,
+) -> T {
+    let l = load(c, input, mode);
+    match channel {
+        Channel::Fx0 => pure_fx0(c, &l).fx0,
+        Channel::Fy0 => pure_fy0(c, &l).fy0,
+        Channel::Mz0 => {
+            let py = pure_fy0(c, &l);
+            let tt = trail_terms(c, &l, &py, trail_peak);
+            pure_mz0(&l, &py, &tt)
+        }
+        Channel::Fx => combined_fx(c, &l, pure_fx0(c, &l).fx0),
+        Channel::Fy => combined_fy(c, &l, &pure_fy0(c, &l)).fy,
+        Channel::Mz => {
+            let px = pure_fx0(c, &l);
+            let py = pure_fy0(c, &l);
+            let tt = trail_terms(c, &l, &py, trail_peak);
+            let fx = combined_fx(c, &l, px.fx0);
+            let fy = combined_fy(c, &l, &py);
+            combined_mz(c, &l, px.kxk, &tt, fx, &fy).mz
+        }
+        Channel::Mx => overturning_mx(c, &l, combined_fy(c, &l, &pure_fy0(c, &l)).fy),
+        Channel::My => rolling_my(c, &l, combined_fx(c, &l, pure_fx0(c, &l).fx0)),
+    }
+}
+
+impl Pac2002 {
+    /// One channel at every point (the residual side of a fit); `values.len() == points.len()`.
+    ///
+    /// The pure channels run the scalar per-family equations (only the families they need);
+    /// the combined channels and `Mx`, `My` need almost the whole model and run the batch
+    /// evaluator of [`Pac2002::eval_batch`] (within `1e-12` relative of the scalar path).
+    ///
+    /// # Panics
+    /// If the lengths differ.
+    pub fn channel_into(
+        &self,
+        channel: Channel,
+        points: &[SlipInput],
+        mode: Mode,
+        values: &mut [f64],
+    ) {
+        assert_eq!(points.len(), values.len(), "channel_into: values length");
+        let pick: fn(&Evaluation<f64>) -> f64 = match channel {
+            Channel::Fx0 | Channel::Fy0 | Channel::Mz0 => {
+                for (p, v) in points.iter().zip(values.iter_mut()) {
+                    *v = channel_value(&self.coefs, p, mode, self.trail_peak, channel);
+                }
+                return;
+            }
+            Channel::Fx => |e| e.fx_n,
+            Channel::Fy => |e| e.fy_n,
+            Channel::Mz => |e| e.mz_nm,
+            Channel::Mx => |e| e.mx_nm,
+            Channel::My => |e| e.my_nm,
+        };
+        let mut buffer = [Evaluation::default(); CHANNEL_CHUNK];
+        for (pts, vals) in points
+            .chunks(CHANNEL_CHUNK)
+            .zip(values.chunks_mut(CHANNEL_CHUNK))
+        {
+            let evals = &mut buffer[..pts.len()];
+            self.eval_batch(pts, mode, evals);
+            for (v, e) in vals.iter_mut().zip(evals.iter()) {
+                *v = pick(e);
+            }
+        }
+    }
+
+    /// One channel at every point and its Jacobian with respect to the `free` coefficients.
+    ///
+    /// `values[i]` is the channel at `points[i]`; `jac[i * free.len() + j]` is
+    /// `d values[i] / d coefs[free[j]]` (row-major `n_points x n_free`; nalgebra:
+    /// `DMatrix::from_row_slice(n_points, n_free, jac)`). Any number of free coefficients is
+    /// accepted; more than [`MAX_BLOCK`] are evaluated block by block.
+    ///
+    /// # Panics
+    /// If `values.len() != points.len()`, `jac.len() != points.len() * free.len()`, or `free`
+    /// names a coefficient twice.
+    pub fn jacobian_into(
+        &self,
+        channel: Channel,
+        free: &[Coef],
+        points: &[SlipInput],
+        mode: Mode,
+        values: &mut [f64],
+        jac: &mut [f64],
+    ) {
+        assert_eq!(points.len(), values.len(), "jacobian_into: values length");
+        assert_eq!(
+            points.len() * free.len(),
+            jac.len(),
+            "jacobian_into: jacobian length (n_points * n_free)"
+        );
+        for (i, a) in free.iter().enumerate() {
+            assert!(
+                !free[..i].contains(a),
+                "jacobian_into: coefficient {} listed twice",
+                a.name()
+            );
+        }
+        if free.is_empty() {
+            self.channel_into(channel, points, mode, values);
+            return;
+        }
+        let n_free = free.len();
+        for (b, block) in free.chunks(MAX_BLOCK).enumerate() {
+            let cols = Columns {
+                free: block,
+                first: b * MAX_BLOCK,
+                n_free,
+            };
+            match block.len() {
+                1..=4 => self.jacobian_block::<4>(channel, cols, points, mode, values, jac),
+                5..=8 => self.jacobian_block::<8>(channel, cols, points, mode, values, jac),
+                9..=16 => self.jacobian_block::<16>(channel, cols, points, mode, values, jac),
+                17..=24 => self.jacobian_block::<24>(channel, cols, points, mode, values, jac),
+                _ => self.jacobian_block::<MAX_BLOCK>(channel, cols, points, mode, values, jac),
+            }
+        }
+    }
+
+    /// [`Self::jacobian_block_inline`], in the widest instruction set the CPU has (the dual
+    /// numbers' derivative arrays are where the time goes; no fused multiply-add is enabled, so
+    /// every build gives the same bits).
+    fn jacobian_block<const N: usize>(
+        &self,
+        channel: Channel,
+        cols: Columns<'_>,
+        points: &[SlipInput],
+        mode: Mode,
+        values: &mut [f64],
+        jac: &mut [f64],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU supports AVX-512F (checked just above).
+                unsafe {
+                    self.jacobian_block_avx512::<N>(channel, cols, points, mode, values, jac)
+                };
+                return;
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2 (checked just above).
+                unsafe { self.jacobian_block_avx2::<N>(channel, cols, points, mode, values, jac) };
+                return;
+            }
+        }
+        self.jacobian_block_inline::<N>(channel, cols, points, mode, values, jac);
+    }
+
+    /// [`Self::jacobian_block_inline`] compiled with AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn jacobian_block_avx512<const N: usize>(
+        &self,
+        channel: Channel,
+        cols: Columns<'_>,
+        points: &[SlipInput],
+        mode: Mode,
+        values: &mut [f64],
+        jac: &mut [f64],
+    ) {
+        self.jacobian_block_inline::<N>(channel, cols, points, mode, values, jac);
+    }
+
+    /// [`Self::jacobian_block_inline`] compiled with AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn jacobian_block_avx2<const N: usize>(
+        &self,
+        channel: Channel,
+        cols: Columns<'_>,
+        points: &[SlipInput],
+        mode: Mode,
+        values: &mut [f64],
+        jac: &mut [f64],
+    ) {
+        self.jacobian_block_inline::<N>(channel, cols, points, mode, values, jac);
+    }
+
+    /// Values and the Jacobian columns of one block of at most `N` free coefficients.
+    #[inline(always)]
+    fn jacobian_block_inline<const N: usize>(
+        &self,
+        channel: Channel,
+        cols: Columns<'_>,
+        points: &[SlipInput],
+        mode: Mode,
+        values: &mut [f64],
+        jac: &mut [f64],
+    ) {
+        debug_assert!(cols.free.len() <= N);
+        let mut c: Coefs<Dual<N>> = Coefs(self.coefs.0.map(Dual::cst));
+        for (k, &coef) in cols.free.iter().enumerate() {
+            c[coef] = Dual::var(self.coefs[coef], k);
+        }
+        let width = cols.free.len();
+        for ((p, v), row) in points
+            .iter()
+            .zip(values.iter_mut())
+            .zip(jac.chunks_exact_mut(cols.n_free))
+        {
+            let r = channel_value(&c, p, mode, self.trail_peak, channel);
+            *v = r.v;
+            row[cols.first..cols.first + width].copy_from_slice(&r.d[..width]);
+        }
+    }
+}
+
+/// Where one block of free coefficients lands in the Jacobian row.
+#[derive(Copy, Clone)]
+struct Columns<'a> {
+    /// The block's coefficients.
+    free: &'a [Coef],
+    /// Column of `free[0]`.
+    first: usize,
+    /// Row length (all free coefficients).
+    n_free: usize,
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+    use proptest::test_runner::RngSeed;
+
+    use super::*;
+    use crate::tire_model::test_support::{FSAE_DEMO_TIR, MFEVAL_SAMPLE_TIR, coefs_from_tir};
+
+    /// Scaling factors added to every free list (most channels depend on a few of them).
+    const SCALINGS: [Coef; 10] = [LFZO, LMUX, LMUY, LKX, LKY, LTR, LRES, LS, LMX, LMY];
+
+    /// Every coefficient family `channel` depends on, plus [`SCALINGS`].
+    fn free_for(channel: Channel) -> Vec<Coef> {
+        use Channel::*;
+        let families: &[Channel] = match channel {
+            Fx0 => &[Fx0],
+            Fy0 => &[Fy0],
+            Mz0 => &[Fy0, Mz0],
+            Fx => &[Fx0, Fx],
+            Fy => &[Fy0, Fy],
+            Mz => &[Fx0, Fy0, Mz0, Fx, Fy, Mz],
+            Mx => &[Fy0, Fy, Mx],
+            My => &[Fx0, Fx, My],
+        };
+        let mut free: Vec<Coef> = families
+            .iter()
+            .flat_map(|f| f.family().iter().copied())
+            .collect();
+        free.extend(SCALINGS);
+        free
+    }
+
+    /// Finite-difference step for coefficient value `c`: `1e-5` relative, floor `1e-7`.
+    fn step(c: f64) -> f64 {
+        1e-5 * c.abs().max(0.01)
+    }
+
+    /// Fourth-order central difference `d channel / d coef` at one point.
+    fn central_difference(
+        tire: &Pac2002,
+        coef: Coef,
+        p: &SlipInput,
+        mode: Mode,
+        ch: Channel,
+    ) -> f64 {
+        let h = step(tire.coefs[coef]);
+        let at = |k: f64| {
+            let mut c = tire.coefs.clone();
+            c[coef] += k * h;
+            channel_value(&c, p, mode, tire.trail_peak, ch)
+        };
+        (at(-2.0) - 8.0 * at(-1.0) + 8.0 * at(1.0) - at(2.0)) / (12.0 * h)
+    }
+
+    /// Compare the dual Jacobian with finite differences; returns the worst error ratio
+    /// `|ad - fd| / allowed` (must be <= 1). Allowed error, per entry:
+    /// `1e-7 max(|ad|, |fd|)` (the 5-point stencil's truncation at a 1e-5 relative step is
+    /// ~1e-20 relative, so this bounds round-off in the derivative itself) plus
+    /// `1e3 eps max(|f|, 1) / h` (round-off of the four evaluations, each accurate to ~100 ulp
+    /// of the largest term, amplified by the stencil's `18 / 12h`).
+    fn check(tire: &Pac2002, ch: Channel, free: &[Coef], points: &[SlipInput], mode: Mode) -> f64 {
+        let n = free.len();
+        let mut values = vec![0.0; points.len()];
+        let mut jac = vec![0.0; points.len() * n];
+        tire.jacobian_into(ch, free, points, mode, &mut values, &mut jac);
+        let mut worst: f64 = 0.0;
+        for (i, p) in points.iter().enumerate() {
+            let f = channel_value(&tire.coefs, p, mode, tire.trail_peak, ch);
+            let scale = f.abs().max(1.0);
+            assert!(
+                (values[i] - f).abs() <= 1e-13 * scale,
+                "{ch:?} value at {p:?}: {} vs f64 path {f}",
+                values[i]
+            );
+            for (j, &coef) in free.iter().enumerate() {
+                let ad = jac[i * n + j];
+                let fd = central_difference(tire, coef, p, mode, ch);
+                let allowed = 1e-7 * ad.abs().max(fd.abs())
+                    + 1e3 * f64::EPSILON * scale / step(tire.coefs[coef]);
+                let ratio = (ad - fd).abs() / allowed;
+                assert!(
+                    ratio <= 1.0,
+                    "{ch:?} {mode:?} d/d{}: dual {ad:e} vs central difference {fd:e} \
+                     (allowed {allowed:e}) at {p:?}",
+                    coef.name()
+                );
+                worst = worst.max(ratio);
+            }
+        }
+        worst
+    }
+
+    fn tire(index: usize) -> Pac2002 {
+        Pac2002::new(coefs_from_tir([FSAE_DEMO_TIR, MFEVAL_SAMPLE_TIR][index]))
+    }
+
+    /// A point over (and a little beyond) the tire's envelope, with exact zeros of `kappa` and
+    /// `alpha` (branch points) drawn often, low loads below `FZMIN`, low and negative speeds.
+    fn point(fnomin: f64) -> impl Strategy<Value = SlipInput> {
+        (
+            0.02..2.2f64,
+            prop_oneof![1 => Just(0.0), 4 => -0.3..0.3f64],
+            prop_oneof![1 => Just(0.0), 4 => -0.26..0.26f64],
+            -0.03..0.1f64,
+            prop_oneof![6 => Just(11.176), 1 => 0.2..30.0f64, 1 => -20.0..-0.5f64],
+        )
+            .prop_map(move |(fz, kappa, alpha, gamma, vx)| SlipInput {
+                fz_n: fz * fnomin,
+                kappa,
+                alpha_rad: alpha,
+                gamma_rad: gamma,
+                vx_mps: vx,
+            })
+    }
+
+    fn case() -> impl Strategy<Value = (usize, Channel, Mode, Vec<f64>, Vec<SlipInput>)> {
+        (
+            0..2usize,
+            proptest::sample::select(Channel::ALL.to_vec()),
+            any::<bool>(),
+        )
+            .prop_flat_map(|(t, ch, raw)| {
+                let fnomin = tire(t).coefs[FNOMIN];
+                (
+                    Just(t),
+                    Just(ch),
+                    Just(if raw { Mode::Raw } else { Mode::Limits }),
+                    proptest::collection::vec(-0.2..0.2f64, free_for(ch).len()),
+                    proptest::collection::vec(point(fnomin), 6),
+                )
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig {
+            cases: 96,
+            rng_seed: RngSeed::Fixed(2002),
+            failure_persistence: None,
+            ..ProptestConfig::default()
+        })]
+
+        /// Issue 2: the Jacobian of every channel matches central finite differences, for
+        /// reference tires with every free coefficient scaled by a random factor in [0.8, 1.2].
+        #[test]
+        fn jacobian_matches_finite_differences((t, ch, mode, factors, points) in case()) {
+            let mut tire = tire(t);
+            let free = free_for(ch);
+            for (&coef, f) in free.iter().zip(&factors) {
+                tire.coefs[coef] *= 1.0 + f;
+            }
+            let worst = check(&tire, ch, &free, &points, mode);
+            prop_assert!(worst <= 1.0);
+        }
+    }
+
+    /// Where the `E <= 1` clamp acts (MFeval sample, `Fz = 2 FNOMIN`, braking: `Ex = 1.31`),
+    /// the `PEX*` columns are exactly zero in limits mode and not in raw mode; everything else
+    /// matches finite differences in both.
+    #[test]
+    fn jacobian_at_the_e_clamp() {
+        let tire = tire(1);
+        let p = SlipInput {
+            fz_n: 2.0 * tire.coefs[FNOMIN],
+            kappa: -0.15,
+            alpha_rad: 0.05,
+            gamma_rad: 0.0,
+            vx_mps: 11.1,
+        };
+        let free = free_for(Channel::Fx);
+        for mode in [Mode::Limits, Mode::Raw] {
+            check(&tire, Channel::Fx, &free, &[p], mode);
+            let mut values = [0.0];
+            let mut jac = vec![0.0; free.len()];
+            tire.jacobian_into(Channel::Fx, &free, &[p], mode, &mut values, &mut jac);
+            for (coef, d) in free.iter().zip(&jac) {
+                if [PEX1, PEX2, PEX3, PEX4].contains(coef) {
+                    assert_eq!(
+                        *d == 0.0,
+                        mode == Mode::Limits,
+                        "{mode:?} {}: {d}",
+                        coef.name()
+                    );
+                }
+            }
+        }
+    }
+
+    /// At `kappa == 0` combined `Mz` takes `alpha_eq = alpha`: derivatives stay finite (also at
+    /// `alpha == 0`, where the square-root form has none) and match finite differences.
+    #[test]
+    fn jacobian_at_zero_longitudinal_slip() {
+        for t in 0..2 {
+            let tire = tire(t);
+            let points: Vec<SlipInput> = [0.0, 1e-3, -0.1]
+                .iter()
+                .map(|&alpha_rad| SlipInput {
+                    fz_n: tire.coefs[FNOMIN],
+                    kappa: 0.0,
+                    alpha_rad,
+                    gamma_rad: 0.02,
+                    vx_mps: 11.176,
+                })
+                .collect();
+            check(
+                &tire,
+                Channel::Mz,
+                &free_for(Channel::Mz),
+                &points,
+                Mode::Limits,
+            );
+        }
+    }
+
+    /// `channel_into` (batch evaluator for combined channels) agrees with the scalar
+    /// `channel_value` to 1e-12 relative to `max(|value|, 1)`, over more than one chunk.
+    #[test]
+    fn channel_into_matches_channel_value() {
+        for t in 0..2 {
+            let tire = tire(t);
+            let points = crate::tire_model::test_support::random_points(
+                2 * CHANNEL_CHUNK + 7,
+                4,
+                tire.coefs[FNOMIN],
+            );
+            let mut values = vec![0.0; points.len()];
+            for ch in Channel::ALL {
+                tire.channel_into(ch, &points, Mode::Limits, &mut values);
+                for (p, v) in points.iter().zip(&values) {
+                    let s = channel_value(&tire.coefs, p, Mode::Limits, tire.trail_peak, ch);
+                    assert!(
+                        (v - s).abs() <= 1e-12 * s.abs().max(1.0),
+                        "{ch:?} {p:?}: {v} vs {s}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// The dispatched (AVX2/AVX-512F) Jacobian equals the baseline build bit for bit.
+    #[test]
+    fn every_instruction_set_gives_the_same_bits() {
+        let tire = tire(1);
+        let free = free_for(Channel::Mz);
+        let block = &free[..16];
+        let points = crate::tire_model::test_support::random_points(40, 8, tire.coefs[FNOMIN]);
+        let cols = Columns {
+            free: block,
+            first: 0,
+            n_free: block.len(),
+        };
+        let run = |dispatched: bool| {
+            let mut values = vec![0.0; points.len()];
+            let mut jac = vec![0.0; points.len() * block.len()];
+            let args = (Channel::Mz, cols, &points[..], Mode::Limits);
+            if dispatched {
+                tire.jacobian_block::<16>(args.0, args.1, args.2, args.3, &mut values, &mut jac);
+            } else {
+                tire.jacobian_block_inline::<16>(
+                    args.0,
+                    args.1,
+                    args.2,
+                    args.3,
+                    &mut values,
+                    &mut jac,
+                );
+            }
+            values
+                .iter()
+                .chain(&jac)
+                .map(|x| x.to_bits())
+                .collect::<Vec<u64>>()
+        };
+        assert!(run(true) == run(false));
+    }
+
+    /// More than `MAX_BLOCK` free coefficients are evaluated block by block; the columns equal a
+    /// one-block evaluation of the same coefficients.
+    #[test]
+    fn blocks_agree_with_a_single_block() {
+        let tire = tire(0);
+        let free = free_for(Channel::Mz);
+        assert!(free.len() > 2 * MAX_BLOCK);
+        let points = crate::tire_model::test_support::random_points(16, 3, tire.coefs[FNOMIN]);
+        let mut values = vec![0.0; points.len()];
+        let mut jac = vec![0.0; points.len() * free.len()];
+        tire.jacobian_into(
+            Channel::Mz,
+            &free,
+            &points,
+            Mode::Limits,
+            &mut values,
+            &mut jac,
+        );
+        for (j, &coef) in free.iter().enumerate() {
+            let mut one = vec![0.0; points.len()];
+            let mut v = vec![0.0; points.len()];
+            tire.jacobian_into(
+                Channel::Mz,
+                &[coef],
+                &points,
+                Mode::Limits,
+                &mut v,
+                &mut one,
+            );
+            for i in 0..points.len() {
+                let full = jac[i * free.len() + j];
+                assert!(
+                    (full - one[i]).abs() <= 1e-12 * full.abs().max(1e-300),
+                    "{}: {full} vs {}",
+                    coef.name(),
+                    one[i]
+                );
+            }
+        }
+    }
+}
