@@ -11,73 +11,7 @@
 
 use std::fmt;
 
-/// What a segment is (the `segments.kind` column). Same names and meaning as the segmenter's
-/// `segment::SegmentKind`; this copy exists only until the segmenter lands in main, after which
-/// this becomes `pub use crate::segment::SegmentKind`.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum SegmentKind {
-    /// Load staircase at V ~ 0, SA ~ 0.
-    SpringRateStatic,
-    /// Load staircase at road speed, SA ~ 0.
-    SpringRateDynamic,
-    /// Fast repeated SA sweeps on a cold tire.
-    ColdToWarm,
-    /// Warm-up/conditioning sweeps before the matrix.
-    Conditioning,
-    /// SA sweep of the matrix at fixed P, IA, FZ, V.
-    Cornering,
-    /// SL sweep at SA ~ 0.
-    DriveBrake,
-    /// SL sweep at a held SA != 0.
-    Combined,
-    /// Fast SA step to a held level.
-    StepSteer,
-    /// IA ramp at SA ~ 0.
-    IaSweep,
-    /// Sweep at a speed other than the run's main speed.
-    SpeedSweep,
-    /// Everything else.
-    Other,
-}
-
-impl SegmentKind {
-    /// Every kind, in a fixed order.
-    pub const ALL: [SegmentKind; 11] = [
-        SegmentKind::SpringRateStatic,
-        SegmentKind::SpringRateDynamic,
-        SegmentKind::ColdToWarm,
-        SegmentKind::Conditioning,
-        SegmentKind::Cornering,
-        SegmentKind::DriveBrake,
-        SegmentKind::Combined,
-        SegmentKind::StepSteer,
-        SegmentKind::IaSweep,
-        SegmentKind::SpeedSweep,
-        SegmentKind::Other,
-    ];
-
-    /// The snake_case name used in tables.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            SegmentKind::SpringRateStatic => "spring_rate_static",
-            SegmentKind::SpringRateDynamic => "spring_rate_dynamic",
-            SegmentKind::ColdToWarm => "cold_to_warm",
-            SegmentKind::Conditioning => "conditioning",
-            SegmentKind::Cornering => "cornering",
-            SegmentKind::DriveBrake => "drive_brake",
-            SegmentKind::Combined => "combined",
-            SegmentKind::StepSteer => "step_steer",
-            SegmentKind::IaSweep => "ia_sweep",
-            SegmentKind::SpeedSweep => "speed_sweep",
-            SegmentKind::Other => "other",
-        }
-    }
-
-    /// Parse a snake_case name (the inverse of [`SegmentKind::as_str`]).
-    pub fn parse(name: &str) -> Option<SegmentKind> {
-        SegmentKind::ALL.into_iter().find(|k| k.as_str() == name)
-    }
-}
+pub use crate::segment::SegmentKind;
 
 /// The tire, rim and nominal pressure a stage result belongs to (a `.tir` file's identity).
 #[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
