@@ -99,7 +99,92 @@ fn truths(plan: &RoundPlan) -> BTreeMap<TireKey, &TruthModel> {
 
 #[test]
 fn demo_round_meets_the_issue_6_tolerances() {
-    let round = build(SynthConfig::default());
+    check_round(&build(SynthConfig::default()));
+}
+
+#[test]
+fn demo_round_through_the_segmenter_meets_the_issue_6_tolerances() {
+    check_round(&build_segmented(SynthConfig::default()));
+}
+
+/// Like [`build`], but the segments come from the segmenter, not from the truth table.
+fn build_segmented(config: SynthConfig) -> Round {
+    use crate::segment::{self, RunSignals, SegmentConfig, TreadTemps};
+    let plan = plan_round(&config).expect("plan");
+    let mut segments = Vec::new();
+    for index in 0..plan.runs.len() {
+        let out = render_run(&plan, index).expect("render");
+        let table = read_run(&out.file.bytes, &out.file.path).expect("read");
+        let spec = &plan.runs[index];
+        let combo = plan.combos[spec.combo];
+        let empty: Vec<f64> = Vec::new();
+        let rl = table.loaded_radius_m.as_ref().unwrap_or(&empty);
+        let mut signals = RunSignals::from_iso_w(
+            &table.tire,
+            &table.et_s,
+            &table.speed_kph,
+            &table.pressure_kpa,
+            rl,
+        );
+        if let (Some(i), Some(c), Some(o)) = (
+            &table.tread_inner_temp_c,
+            &table.tread_centre_temp_c,
+            &table.tread_outer_temp_c,
+        ) {
+            signals.tread_temps = Some(TreadTemps {
+                inner_c: i,
+                centre_c: c,
+                outer_c: o,
+            });
+        }
+        let (segs, _) = segment::run(&signals, &SegmentConfig::default()).expect("segment");
+        let key = key_of(
+            combo.tire(),
+            combo.rim_in,
+            spec.pressure_psi * crate::synth::tires::KPA_PER_PSI,
+        );
+        for seg in segs {
+            let r = seg.samples.clone();
+            let opt = |v: &Option<Vec<f64>>| v.as_ref().map(|v| slice(v, r.clone()));
+            let t = &table.tire;
+            segments.push(MeasuredSegment {
+                segment_id: format!("{}-{}", out.file.path, seg.index),
+                kind: seg.kind,
+                source_file: out.file.path.clone(),
+                segment_index: seg.index as i64,
+                key: key.clone(),
+                nominal: NominalLevels {
+                    ia_deg: seg.nominal.ia_deg.map(i64::from),
+                    fz_n: seg.nominal.fz_n.map(i64::from),
+                    alpha_deg: seg.nominal.alpha_deg.map(i64::from),
+                    speed_kph: seg.nominal.speed_kph.map(i64::from),
+                },
+                channels: Channels {
+                    et_s: slice(&table.et_s, r.clone()),
+                    speed_kph: slice(&table.speed_kph, r.clone()),
+                    fz_n: slice(&t.fz_n, r.clone()),
+                    fx_n: slice(&t.fx_n, r.clone()),
+                    fy_n: slice(&t.fy_n, r.clone()),
+                    mz_nm: slice(&t.mz_nm, r.clone()),
+                    alpha_rad: slice(&t.alpha_rad, r.clone()),
+                    gamma_rad: slice(&t.gamma_rad, r.clone()),
+                    kappa: slice(&t.kappa, r.clone()),
+                    pressure_kpa: slice(&table.pressure_kpa, r.clone()),
+                    loaded_radius_m: opt(&table.loaded_radius_m),
+                    effective_radius_m: opt(&table.effective_radius_m),
+                    wheel_speed_rpm: opt(&table.wheel_speed_rpm),
+                    tread_inner_c: opt(&table.tread_inner_temp_c),
+                    tread_centre_c: opt(&table.tread_centre_temp_c),
+                    tread_outer_c: opt(&table.tread_outer_temp_c),
+                    ambient_c: opt(&table.ambient_temp_c),
+                },
+            });
+        }
+    }
+    Round { plan, segments }
+}
+
+fn check_round(round: &Round) {
     let truth = truths(&round.plan);
     let fnomin: BTreeMap<TireKey, f64> = truth
         .iter()
