@@ -19,6 +19,19 @@ const SOURCES: &[(&str, &str)] = &[
     ("segments.toml", include_str!("../schemas/segments.toml")),
     ("samples.toml", include_str!("../schemas/samples.toml")),
     ("inertia.toml", include_str!("../schemas/inertia.toml")),
+    (
+        "spring_rate.toml",
+        include_str!("../schemas/spring_rate.toml"),
+    ),
+    ("thermal.toml", include_str!("../schemas/thermal.toml")),
+    (
+        "thermal_fit.toml",
+        include_str!("../schemas/thermal_fit.toml"),
+    ),
+    (
+        "relaxation.toml",
+        include_str!("../schemas/relaxation.toml"),
+    ),
 ];
 
 /// Column data types used by tirebase tables.

@@ -2,7 +2,17 @@
 //!
 //! One module per stage; they share nothing but the numerics in [`crate::numerics`]. Pure: no
 //! file system, no Parquet (the `tirebase` crate reads the store and writes the tables).
-//! Deliberately minimal here: the spring-rate, thermal and relaxation stages become siblings of
-//! [`pac2002`].
+//! [`pac2002`] fits the steady-state model; [`spring_rate`], [`thermal`] and [`relaxation`] are
+//! the other fan-out stages, reading [`segment_data`] and sharing the 1-D minimiser [`scalar`].
 
 pub mod pac2002;
+pub mod relaxation;
+pub mod scalar;
+pub mod segment_data;
+pub mod spring_rate;
+pub mod thermal;
+
+#[cfg(test)]
+mod testkit;
+#[cfg(test)]
+mod virtual_round;

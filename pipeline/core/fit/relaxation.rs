@@ -1,0 +1,995 @@
+//! Relaxation-length stage (seed 8.6, D.8, Equations 12-15, Tables 15-16): the relaxation length
+//! of every transient-bearing segment, the contact half length and carcass stiffness at its load,
+//! and the PAC2002 relaxation coefficients `PTY1, PTY2` (lateral) and `PTX1..3` (longitudinal).
+//!
+//! In: per tire/rim/pressure a [`RelaxationInput`]: the fitted steady-state PAC2002 model, the
+//! dynamic unloaded radius and vertical stiffness (spring-rate stage), and the segments
+//! (cornering, cold-to-warm and speed sweeps and step steers: lateral; drive/brake sweeps:
+//! longitudinal; other kinds are ignored). Out: [`RelaxationOutput`]: one [`RelaxationRow`] per
+//! (direction, method, nominal load, slip rate) pooling its segments, one [`RelaxationLaw`] per
+//! tire/rim/pressure, failures as data.
+//!
+//! Method (the thesis's filter method, with a proper optimiser instead of hand iteration):
+//! 1. The steady-state force `F_ss(t)` is the model at each sample's measured load and (sweeps)
+//!    slip, both lightly smoothed, inclination and speed. Noise on the model's input would bias
+//!    `sigma` up (a longer lag filters it); on the virtual round, smoothing the slip over
+//!    +-0.04 s takes the 222 N rows from +5.6 % to +4.5 %, at the price of rounding the kinks of
+//!    the slip program (0.3-0.7 % low at 222 N on noise-free data).
+//! 2. For a trial `sigma`, `F_ss` passes through the first-order lag `dF/dt = V/sigma (F_ss - F)`,
+//!    integrated exactly on the sample times for an input linear between samples (first-order
+//!    hold), starting settled.
+//! 3. The cost is the residual sum of squares of the measured force against `s F_lag + c`,
+//!    where the nuisance scale `s` and offset `c` are solved in closed form for every `sigma`
+//!    (variable projection): they absorb a model whose grip or offset is slightly off (a warm or
+//!    cold tire) without touching the phase, which is what `sigma` sets. Sweeps count only the
+//!    samples whose `|F_ss|` is below `linear_fraction` of the segment's peak (the lag acts where
+//!    the force changes with slip; near the peak the model's thermal error dominates); step
+//!    steers count every sample after `settle_s`.
+//! 4. `sigma` is found by grid + Brent ([`super::scalar`]) on the summed cost of the segments of
+//!    one (direction, method, load, slip rate), each with its own nuisance parameters; lateral
+//!    segments at an inclination count with `sigma (1 - PKY3 |gamma|)` (PAC2002's camber law of
+//!    `sigma_alpha`), so the row's `sigma` is the one at zero inclination. Pooling matters: at
+//!    50 Hz and the machine's force noise one sweep at 222 N fixes `sigma` only to ~5 %.
+//!
+//! Equation 14 (contact half length; its printed form is lost in the text extraction of the
+//! thesis, and D.8's MATLAB does not contain it): `a = R0 (q_a1 sqrt(z/R0) + q_a2 z/R0)`, the
+//! Pacejka/MF-Swift form in the vertical deflection `z = Fz/Cz`. Fitting that form to Table 15
+//! (with `z = Fz/Cz`, `Cz = 136.2 kN/m`, `R0 = 0.2604 m`) leaves residuals below 0.03 mm, within
+//! the table's rounding, and gives the defaults `q_a1 = 1.580`, `q_a2 = 0.707` (the thesis's own
+//! two parameters are not printed). Equation 15: carcass stiffness `c = C/(sigma - a)` with `C`
+//! the model's slip stiffness at the segment's load (cornering stiffness N/rad, ISO-W negative,
+//! or longitudinal slip stiffness N).
+//!
+//! Deliberately not here: the steady-state PAC2002 fit (its own stage), reading the store,
+//! writing tables or `.tir` files, SWIFT's distribution of the carcass stiffness.
+
+use std::collections::BTreeMap;
+
+use super::scalar::{self, ScalarOptions};
+use super::segment_data::{
+    MeasuredSegment, SegmentKind, StageFailure, TireKey, finite_mean, finite_median, moving_average,
+};
+use crate::tire_model::{Coef, Mode, Pac2002, SlipInput};
+
+/// Lateral (`Fy` vs slip angle) or longitudinal (`Fx` vs slip ratio).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Direction {
+    /// `sigma_alpha`.
+    Lateral,
+    /// `sigma_kappa`.
+    Longitudinal,
+}
+
+impl Direction {
+    /// The `direction` column value.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Direction::Lateral => "lateral",
+            Direction::Longitudinal => "longitudinal",
+        }
+    }
+}
+
+/// Which kind of test the relaxation length comes from.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Method {
+    /// Up/down slip sweep (the thesis's method).
+    Sweep,
+    /// Fast slip-angle step to a held level.
+    StepSteer,
+}
+
+impl Method {
+    /// The `method` column value.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Method::Sweep => "sweep",
+            Method::StepSteer => "step_steer",
+        }
+    }
+}
+
+/// Which nuisance parameters are solved beside `sigma`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Nuisance {
+    /// None: the model is taken as exact.
+    None,
+    /// A force offset `c`.
+    Offset,
+    /// A scale `s` and an offset `c`.
+    ScaleOffset,
+}
+
+/// Equation 14's contact half length `a = R0 (q_a1 sqrt(z/R0) + q_a2 z/R0)`.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ContactLength {
+    /// Square-root term.
+    pub q_a1: f64,
+    /// Linear term.
+    pub q_a2: f64,
+}
+
+impl Default for ContactLength {
+    /// The two parameters Table 15 implies (see the module docs).
+    fn default() -> Self {
+        ContactLength {
+            q_a1: 1.580,
+            q_a2: 0.707,
+        }
+    }
+}
+
+impl ContactLength {
+    /// Contact half length `a`, m, at vertical deflection `z_m` of a tire of unloaded radius
+    /// `r0_m` (NaN for a negative deflection).
+    pub fn half_length_m(&self, z_m: f64, r0_m: f64) -> f64 {
+        let x = z_m / r0_m;
+        r0_m * (self.q_a1 * x.sqrt() + self.q_a2 * x)
+    }
+}
+
+/// Equation 15: carcass stiffness `c = C/(sigma - a)`; `None` unless `sigma > a`.
+pub fn carcass_stiffness(slip_stiffness: f64, sigma_m: f64, a_m: f64) -> Option<f64> {
+    (sigma_m > a_m).then(|| slip_stiffness / (sigma_m - a_m))
+}
+
+/// Stage knobs.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct RelaxationConfig {
+    /// Sweeps: samples count when `|F_ss|` is at most this fraction of the segment's peak.
+    pub linear_fraction: f64,
+    /// Samples in the first `settle_s` of a segment do not count (start-up transient), s.
+    pub settle_s: f64,
+    /// Search interval of `sigma`, m.
+    pub sigma_range_m: (f64, f64),
+    /// Nuisance parameters.
+    pub nuisance: Nuisance,
+    /// Half width of the moving average applied to the measured load before the model, s (noise
+    /// on the model's input would favour a longer, smoothing lag).
+    pub load_smoothing_half_s: f64,
+    /// Sweeps: half width of the moving average applied to the measured slip, s (not used for
+    /// step steers, whose steps it would blur).
+    pub slip_smoothing_half_s: f64,
+    /// A segment needs at least this many counted samples.
+    pub min_samples: usize,
+    /// A segment needs at least this mean road speed, km/h.
+    pub min_speed_kph: f64,
+    /// Eq. 14 parameters.
+    pub contact: ContactLength,
+    /// Search interval of `PTY2` and of `PTX3`.
+    pub pty2_range: (f64, f64),
+    /// Search interval of `PTX3`.
+    pub ptx3_range: (f64, f64),
+}
+
+impl Default for RelaxationConfig {
+    fn default() -> Self {
+        RelaxationConfig {
+            linear_fraction: 0.7,
+            settle_s: 0.2,
+            sigma_range_m: (0.005, 3.0),
+            nuisance: Nuisance::ScaleOffset,
+            load_smoothing_half_s: 0.15,
+            slip_smoothing_half_s: 0.04,
+            min_samples: 30,
+            min_speed_kph: 5.0,
+            contact: ContactLength::default(),
+            pty2_range: (0.05, 20.0),
+            ptx3_range: (-5.0, 5.0),
+        }
+    }
+}
+
+/// What the stage needs for one tire/rim/pressure.
+#[derive(Clone, Debug)]
+pub struct RelaxationInput<'a> {
+    /// Tire, rim, nominal pressure.
+    pub key: TireKey,
+    /// The fitted steady-state model (its `PTY*`/`PTX*` are not used).
+    pub model: &'a Pac2002,
+    /// Dynamic unloaded radius (the `.tir`'s `UNLOADED_RADIUS`), m: Eq. 14 and the `PTY`/`PTX`
+    /// normalisation.
+    pub unloaded_radius_m: f64,
+    /// Dynamic vertical stiffness, N/m: the deflection `z = Fz/Cz` of Eq. 14.
+    pub vertical_stiffness_n_per_m: f64,
+    /// The tire's segments.
+    pub segments: &'a [MeasuredSegment],
+}
+
+/// One row of `relaxation.parquet`: the segments of one (direction, method, nominal load,
+/// slip rate) pooled.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RelaxationRow {
+    /// Tire, rim, nominal pressure.
+    pub key: TireKey,
+    /// Nominal load, N (-1 when not held).
+    pub fz_n_nom: i64,
+    /// Mean measured load, N.
+    pub fz_n_mean: f64,
+    /// The members' common nominal inclination, deg (-1 when they differ).
+    pub ia_deg_nom: i64,
+    /// Lateral or longitudinal.
+    pub direction: Direction,
+    /// Sweep or step steer.
+    pub method: Method,
+    /// Median `|d slip/dt|` while the slip moves: rad/s (lateral) or 1/s (longitudinal).
+    pub slip_rate: f64,
+    /// Mean road speed, km/h.
+    pub speed_kph: f64,
+    /// Relaxation length at zero inclination, m (lateral members at other inclinations are
+    /// normalised by the model's `1 - PKY3 |gamma|`, PAC2002's own camber law of `sigma_alpha`).
+    pub sigma_m: f64,
+    /// Standard deviation of the members' own (normalised) estimates, m; NaN for one member.
+    pub sigma_spread_m: f64,
+    /// The tire's fitted PAC2002 law (`PTY1/PTY2` or `PTX1..3`) at this row's mean load, m
+    /// (NaN when the law could not be fitted): the smoothed estimate over every load.
+    pub sigma_law_m: f64,
+    /// Vertical deflection `Fz/Cz` at the mean load, m.
+    pub deflection_m: f64,
+    /// Contact half length (Eq. 14), m.
+    pub contact_half_length_m: f64,
+    /// Model slip stiffness at the mean load, zero inclination: N/rad (lateral, ISO-W) or N.
+    pub slip_stiffness: f64,
+    /// Carcass stiffness (Eq. 15), N/m; NaN when `sigma <= a`.
+    pub carcass_stiffness_n_per_m: f64,
+    /// RMS of the counted residuals, N.
+    pub residual_rms_n: f64,
+    /// Counted samples.
+    pub n: usize,
+    /// Segments pooled.
+    pub n_segments: usize,
+    /// Mean nuisance scale `s` (1 when not solved).
+    pub model_scale: f64,
+    /// Mean nuisance offset `c`, N (0 when not solved).
+    pub model_offset_n: f64,
+    /// Brent met its tolerance.
+    pub converged: bool,
+    /// `sigma` sits on a bound of its search interval.
+    pub at_bound: bool,
+}
+
+/// PAC2002 relaxation coefficients of one tire/rim/pressure, fitted to its rows' `sigma(Fz)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RelaxationLaw {
+    /// Tire, rim, nominal pressure.
+    pub key: TireKey,
+    /// `PTY1, PTY2` and the RMS error of `sigma_alpha` they leave (m), rows used.
+    pub lateral: Option<(f64, f64, f64, usize)>,
+    /// `PTX1, PTX2, PTX3` and the RMS error of `sigma_kappa` they leave (m), rows used.
+    pub longitudinal: Option<(f64, f64, f64, f64, usize)>,
+}
+
+impl RelaxationLaw {
+    /// The law's relaxation length at load `fz_n`, zero inclination, with the model's `FNOMIN`,
+    /// `LFZO`, `LSGAL`/`LSGKP` and the given `R0`, m (NaN when that direction has no law).
+    pub fn sigma_m(&self, model: &Pac2002, r0_m: f64, direction: Direction, fz_n: f64) -> f64 {
+        let mut c = model.coefs.clone();
+        c[Coef::UNLOADED_RADIUS] = r0_m;
+        match (direction, self.lateral, self.longitudinal) {
+            (Direction::Lateral, Some((pty1, pty2, ..)), _) => {
+                c[Coef::PTY1] = pty1;
+                c[Coef::PTY2] = pty2;
+                crate::tire_model::pac2002::relaxation_lengths(&c, fz_n, 0.0).1
+            }
+            (Direction::Longitudinal, _, Some((ptx1, ptx2, ptx3, ..))) => {
+                c[Coef::PTX1] = ptx1;
+                c[Coef::PTX2] = ptx2;
+                c[Coef::PTX3] = ptx3;
+                crate::tire_model::pac2002::relaxation_lengths(&c, fz_n, 0.0).0
+            }
+            _ => f64::NAN,
+        }
+    }
+}
+
+/// Everything the stage produces.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RelaxationOutput {
+    /// Rows sorted by (key, direction, method, IA, load, segment).
+    pub rows: Vec<RelaxationRow>,
+    /// One per input with at least one row.
+    pub laws: Vec<RelaxationLaw>,
+    /// Parts that could not run.
+    pub failures: Vec<StageFailure>,
+}
+
+/// Run the stage over every input.
+pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> RelaxationOutput {
+    let mut out = RelaxationOutput::default();
+    for input in inputs {
+        let mut groups: BTreeMap<GroupKey, Vec<Prepared>> = BTreeMap::new();
+        for seg in input.segments {
+            let Some((direction, method)) = role(seg) else {
+                continue;
+            };
+            match prepare(input, seg, direction, method, cfg) {
+                Ok(p) => groups.entry(p.group()).or_default().push(p),
+                Err(reason) => out.failures.push(StageFailure {
+                    key: input.key.clone(),
+                    scope: format!("{} segment {}", direction.as_str(), seg.segment_id),
+                    reason,
+                }),
+            }
+        }
+        let mut rows = Vec::new();
+        for (group, members) in &groups {
+            match group_row(input, members, cfg) {
+                Ok(row) => rows.push(row),
+                Err(reason) => out.failures.push(StageFailure {
+                    key: input.key.clone(),
+                    scope: format!("{} {} at {} N", group.0.as_str(), group.1.as_str(), group.2),
+                    reason,
+                }),
+            }
+        }
+        if rows.is_empty() {
+            out.failures.push(StageFailure {
+                key: input.key.clone(),
+                scope: "relaxation".to_string(),
+                reason: "no segment gave a relaxation length".to_string(),
+            });
+            continue;
+        }
+        let law = fit_law(input, &rows, cfg, &mut out.failures);
+        for r in &mut rows {
+            r.sigma_law_m = law.sigma_m(
+                input.model,
+                input.unloaded_radius_m,
+                r.direction,
+                r.fz_n_mean,
+            );
+        }
+        out.laws.push(law);
+        out.rows.extend(rows);
+    }
+    out.rows.sort_by(|a, b| {
+        (&a.key, a.direction, a.method, a.fz_n_nom)
+            .cmp(&(&b.key, b.direction, b.method, b.fz_n_nom))
+            .then(a.slip_rate.total_cmp(&b.slip_rate))
+    });
+    out.laws.sort_by(|a, b| a.key.cmp(&b.key));
+    out
+}
+
+/// Segments pooled into one row: direction, method, nominal load, slip-rate bin.
+type GroupKey = (Direction, Method, i64, i64);
+
+/// One segment ready to fit.
+struct Prepared {
+    direction: Direction,
+    method: Method,
+    fz_n_nom: i64,
+    ia_deg_nom: i64,
+    fz_n_mean: f64,
+    speed_kph: f64,
+    slip_rate: f64,
+    /// `sigma(segment) = factor * sigma(IA 0)`: `1 - PKY3 |gamma LGAY|` (lateral) or 1.
+    factor: f64,
+    problem: LagProblem,
+}
+
+impl Prepared {
+    fn group(&self) -> GroupKey {
+        // Slip-rate bins: 0.5 deg/s (lateral), 0.01 1/s (longitudinal).
+        let bin = match self.direction {
+            Direction::Lateral => (self.slip_rate.to_degrees() * 2.0).round() as i64,
+            Direction::Longitudinal => (self.slip_rate * 100.0).round() as i64,
+        };
+        let bin = if self.method == Method::StepSteer {
+            0
+        } else {
+            bin
+        };
+        (self.direction, self.method, self.fz_n_nom, bin)
+    }
+}
+
+/// What a segment measures; a speed sweep is a slip-angle or a slip-ratio sweep, told apart by
+/// which slip moves more (1 deg of slip angle against 0.01 of slip ratio).
+fn role(seg: &MeasuredSegment) -> Option<(Direction, Method)> {
+    match seg.kind {
+        SegmentKind::Cornering | SegmentKind::ColdToWarm => {
+            Some((Direction::Lateral, Method::Sweep))
+        }
+        SegmentKind::StepSteer => Some((Direction::Lateral, Method::StepSteer)),
+        SegmentKind::DriveBrake => Some((Direction::Longitudinal, Method::Sweep)),
+        SegmentKind::SpeedSweep => {
+            let span = |v: &[f64]| {
+                let (lo, hi) = v
+                    .iter()
+                    .filter(|x| x.is_finite())
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                        (a.min(x), b.max(x))
+                    });
+                if hi >= lo { hi - lo } else { 0.0 }
+            };
+            let alpha_deg = span(&seg.channels.alpha_rad).to_degrees();
+            let kappa_pct = 100.0 * span(&seg.channels.kappa);
+            Some(if kappa_pct > alpha_deg {
+                (Direction::Longitudinal, Method::Sweep)
+            } else {
+                (Direction::Lateral, Method::Sweep)
+            })
+        }
+        _ => None,
+    }
+}
+
+/// The transient problem of one segment: sample times, speeds, steady-state and measured force.
+pub struct LagProblem {
+    /// Sample times, s.
+    pub t_s: Vec<f64>,
+    /// Road speed, m/s.
+    pub v_mps: Vec<f64>,
+    /// Steady-state model force, N.
+    pub f_ss: Vec<f64>,
+    /// Measured force, N.
+    pub f_meas: Vec<f64>,
+    /// Which samples count in the cost.
+    pub counted: Vec<bool>,
+    /// Nuisance parameters solved in closed form.
+    pub nuisance: Nuisance,
+}
+
+/// `sigma`'s fit on a [`LagProblem`].
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct LagFit {
+    /// Relaxation length, m.
+    pub sigma_m: f64,
+    /// RMS counted residual, N.
+    pub rms_n: f64,
+    /// Nuisance scale.
+    pub scale: f64,
+    /// Nuisance offset, N.
+    pub offset_n: f64,
+    /// Counted samples.
+    pub n: usize,
+    /// Brent met its tolerance.
+    pub converged: bool,
+    /// On a bound of the search interval.
+    pub at_bound: bool,
+}
+
+/// First-order lag `dF/dt = V/sigma (u - F)` of the samples `u`, integrated exactly for an input
+/// linear between samples, starting settled (`F(t0) = u(t0)`).
+pub fn first_order_lag(t_s: &[f64], v_mps: &[f64], u: &[f64], sigma_m: f64) -> Vec<f64> {
+    let mut y = Vec::with_capacity(u.len());
+    if u.is_empty() {
+        return y;
+    }
+    y.push(u[0]);
+    for i in 1..u.len() {
+        let dt = t_s[i] - t_s[i - 1];
+        let tau = if v_mps[i] > 0.0 {
+            sigma_m / v_mps[i]
+        } else {
+            0.0
+        };
+        let prev = y[i - 1];
+        if dt <= 0.0 || tau <= 0.0 {
+            y.push(u[i]);
+            continue;
+        }
+        let slope = (u[i] - u[i - 1]) / dt;
+        let decay = (-dt / tau).exp();
+        y.push(u[i] - tau * slope + (prev - u[i - 1] + tau * slope) * decay);
+    }
+    y
+}
+
+impl LagProblem {
+    /// Residual sum of squares at `sigma`, with the nuisance parameters `(s, c)` solved.
+    pub fn cost(&self, sigma_m: f64) -> (f64, f64, f64) {
+        let y = first_order_lag(&self.t_s, &self.v_mps, &self.f_ss, sigma_m);
+        let pts = || {
+            (0..y.len())
+                .filter(|&i| self.counted[i])
+                .map(|i| (y[i], self.f_meas[i]))
+        };
+        let (s, c) = match self.nuisance {
+            Nuisance::None => (1.0, 0.0),
+            Nuisance::Offset => {
+                let (sum, n) = pts().fold((0.0, 0.0), |(a, n), (yy, m)| (a + m - yy, n + 1.0));
+                (1.0, if n > 0.0 { sum / n } else { 0.0 })
+            }
+            Nuisance::ScaleOffset => {
+                let (mut n, mut sy, mut sm, mut syy, mut sym) = (0.0, 0.0, 0.0, 0.0, 0.0);
+                for (yy, m) in pts() {
+                    n += 1.0;
+                    sy += yy;
+                    sm += m;
+                    syy += yy * yy;
+                    sym += yy * m;
+                }
+                let det = n * syy - sy * sy;
+                if n < 2.0 || det.abs() <= 1e-12 * n * syy.max(1e-300) {
+                    (1.0, if n > 0.0 { (sm - sy) / n } else { 0.0 })
+                } else {
+                    let s = (n * sym - sy * sm) / det;
+                    (s, (sm - s * sy) / n)
+                }
+            }
+        };
+        let rss = pts().map(|(yy, m)| (m - s * yy - c).powi(2)).sum();
+        (rss, s, c)
+    }
+
+    /// Find `sigma` in `range` by grid + Brent.
+    pub fn fit(&self, range: (f64, f64)) -> Result<LagFit, String> {
+        let n = self.counted.iter().filter(|c| **c).count();
+        let m = scalar::minimize(
+            &|s| self.cost(s).0,
+            range.0,
+            range.1,
+            &ScalarOptions::default(),
+        )
+        .map_err(|e| e.to_string())?;
+        let (rss, scale, offset_n) = self.cost(m.x);
+        Ok(LagFit {
+            sigma_m: m.x,
+            rms_n: (rss / n.max(1) as f64).sqrt(),
+            scale,
+            offset_n,
+            n,
+            converged: m.converged,
+            at_bound: m.at_bound,
+        })
+    }
+}
+
+/// Check a segment and build its lag problem.
+fn prepare(
+    input: &RelaxationInput<'_>,
+    seg: &MeasuredSegment,
+    direction: Direction,
+    method: Method,
+    cfg: &RelaxationConfig,
+) -> Result<Prepared, String> {
+    let c = &seg.channels;
+    if let Some((name, len)) = c.length_mismatch() {
+        return Err(format!(
+            "channel {name} has {len} samples, et_s has {}",
+            c.len()
+        ));
+    }
+    let speed_kph = finite_mean(c.speed_kph.iter().copied()).unwrap_or(f64::NAN);
+    if speed_kph.is_nan() || speed_kph < cfg.min_speed_kph {
+        return Err(format!(
+            "mean speed {speed_kph:.1} km/h, need {:.1}",
+            cfg.min_speed_kph
+        ));
+    }
+    let problem = lag_problem(input.model, seg, direction, method, cfg)?;
+    let n = problem.counted.iter().filter(|c| **c).count();
+    if n < cfg.min_samples {
+        return Err(format!("{n} counted samples, need {}", cfg.min_samples));
+    }
+    let fz_n_mean = finite_mean(c.fz_n.iter().copied()).unwrap_or(f64::NAN);
+    let coefs = &input.model.coefs;
+    let factor = match direction {
+        Direction::Lateral => {
+            let gamma = finite_mean(c.gamma_rad.iter().copied()).unwrap_or(0.0);
+            1.0 - coefs[Coef::PKY3] * (gamma * coefs[Coef::LGAY]).abs()
+        }
+        Direction::Longitudinal => 1.0,
+    };
+    if factor.is_nan() || factor <= 0.1 {
+        return Err(format!("camber factor 1 - PKY3 |gamma| = {factor:.3}"));
+    }
+    let slip: &[f64] = match direction {
+        Direction::Lateral => &c.alpha_rad,
+        Direction::Longitudinal => &c.kappa,
+    };
+    Ok(Prepared {
+        direction,
+        method,
+        fz_n_nom: seg.nominal.fz_n.unwrap_or(-1),
+        ia_deg_nom: seg.nominal.ia_deg.unwrap_or(-1),
+        fz_n_mean,
+        speed_kph,
+        slip_rate: slip_rate(&c.et_s, slip),
+        factor,
+        problem,
+    })
+}
+
+/// One pooled `sigma` (at IA 0) over the segments of a group, and Eqs. 14-15 at its load.
+fn group_row(
+    input: &RelaxationInput<'_>,
+    members: &[Prepared],
+    cfg: &RelaxationConfig,
+) -> Result<RelaxationRow, String> {
+    let first = &members[0];
+    let (lo, hi) = cfg.sigma_range_m;
+    let pooled = |sigma0: f64| -> f64 {
+        members
+            .iter()
+            .map(|m| m.problem.cost(sigma0 * m.factor).0)
+            .sum()
+    };
+    let best =
+        scalar::minimize(&pooled, lo, hi, &ScalarOptions::default()).map_err(|e| e.to_string())?;
+    let mut n = 0;
+    let (mut rss, mut scale, mut offset) = (0.0, 0.0, 0.0);
+    for m in members {
+        let (r, s, c) = m.problem.cost(best.x * m.factor);
+        rss += r;
+        scale += s;
+        offset += c;
+        n += m.problem.counted.iter().filter(|c| **c).count();
+    }
+    let k = members.len() as f64;
+    // Scatter of the members' own estimates (normalised to IA 0): the row's honest uncertainty.
+    let spread = if members.len() >= 2 {
+        let own: Vec<f64> = members
+            .iter()
+            .filter_map(|m| m.problem.fit(cfg.sigma_range_m).ok())
+            .zip(members)
+            .map(|(f, m)| f.sigma_m / m.factor)
+            .collect();
+        let mean = own.iter().sum::<f64>() / own.len() as f64;
+        let var = own.iter().map(|s| (s - mean).powi(2)).sum::<f64>() / (own.len() as f64 - 1.0);
+        var.sqrt()
+    } else {
+        f64::NAN
+    };
+    let fz_mean = members.iter().map(|m| m.fz_n_mean).sum::<f64>() / k;
+    let speed_kph = members.iter().map(|m| m.speed_kph).sum::<f64>() / k;
+    let stiffness = slip_stiffness(input.model, fz_mean, 0.0, speed_kph / 3.6, first.direction);
+    let z = fz_mean / input.vertical_stiffness_n_per_m;
+    let a = cfg.contact.half_length_m(z, input.unloaded_radius_m);
+    let ia = if members.iter().all(|m| m.ia_deg_nom == first.ia_deg_nom) {
+        first.ia_deg_nom
+    } else {
+        -1
+    };
+    Ok(RelaxationRow {
+        key: input.key.clone(),
+        fz_n_nom: first.fz_n_nom,
+        fz_n_mean: fz_mean,
+        ia_deg_nom: ia,
+        direction: first.direction,
+        method: first.method,
+        slip_rate: members.iter().map(|m| m.slip_rate).sum::<f64>() / k,
+        speed_kph,
+        sigma_m: best.x,
+        sigma_spread_m: spread,
+        sigma_law_m: f64::NAN,
+        deflection_m: z,
+        contact_half_length_m: a,
+        slip_stiffness: stiffness,
+        carcass_stiffness_n_per_m: carcass_stiffness(stiffness, best.x, a).unwrap_or(f64::NAN),
+        residual_rms_n: (rss / n.max(1) as f64).sqrt(),
+        n,
+        n_segments: members.len(),
+        model_scale: scale / k,
+        model_offset_n: offset / k,
+        converged: best.converged,
+        at_bound: best.at_bound,
+    })
+}
+
+/// Build the lag problem of a segment from the model.
+pub fn lag_problem(
+    model: &Pac2002,
+    seg: &MeasuredSegment,
+    direction: Direction,
+    method: Method,
+    cfg: &RelaxationConfig,
+) -> Result<LagProblem, String> {
+    let c = &seg.channels;
+    let n = c.len();
+    let hz = {
+        let mut d: Vec<f64> = c
+            .et_s
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .filter(|d| *d > 0.0)
+            .collect();
+        d.sort_by(f64::total_cmp);
+        d.get(d.len() / 2).map_or(1.0, |d| 1.0 / d)
+    };
+    let half = |s: f64| (s * hz).round() as usize;
+    let fz = moving_average(&c.fz_n, half(cfg.load_smoothing_half_s));
+    let slip_half = if method == Method::Sweep {
+        half(cfg.slip_smoothing_half_s)
+    } else {
+        0
+    };
+    let alpha = moving_average(&c.alpha_rad, slip_half);
+    let kappa = moving_average(&c.kappa, slip_half);
+    let mut f_ss = Vec::with_capacity(n);
+    let mut ok = Vec::with_capacity(n);
+    for (i, &fz_i) in fz.iter().enumerate() {
+        let input = SlipInput {
+            fz_n: fz_i,
+            kappa: if direction == Direction::Lateral && !kappa[i].is_finite() {
+                0.0
+            } else {
+                kappa[i]
+            },
+            alpha_rad: alpha[i],
+            gamma_rad: c.gamma_rad[i],
+            vx_mps: c.speed_mps(i),
+        };
+        let finite = [
+            input.fz_n,
+            input.kappa,
+            input.alpha_rad,
+            input.gamma_rad,
+            input.vx_mps,
+        ]
+        .iter()
+        .all(|v| v.is_finite());
+        let e = if finite {
+            Some(model.eval(&input, Mode::Limits))
+        } else {
+            None
+        };
+        let (f, meas) = match (direction, e) {
+            (Direction::Lateral, Some(e)) => (e.fy_n, c.fy_n[i]),
+            (Direction::Longitudinal, Some(e)) => (e.fx_n, c.fx_n[i]),
+            (_, None) => (f64::NAN, f64::NAN),
+        };
+        ok.push(f.is_finite() && meas.is_finite() && c.et_s[i].is_finite());
+        f_ss.push(f);
+    }
+    // Bridge invalid samples so the integration stays continuous; they never count.
+    let first_ok = ok
+        .iter()
+        .position(|v| *v)
+        .ok_or("no sample with finite inputs")?;
+    let mut last = f_ss[first_ok];
+    for (i, f) in f_ss.iter_mut().enumerate() {
+        if ok[i] {
+            last = *f;
+        } else {
+            *f = last;
+        }
+    }
+    let f_meas: Vec<f64> = match direction {
+        Direction::Lateral => c.fy_n.clone(),
+        Direction::Longitudinal => c.fx_n.clone(),
+    };
+    let peak = f_ss
+        .iter()
+        .zip(&ok)
+        .filter(|(_, o)| **o)
+        .map(|(f, _)| f.abs())
+        .fold(0.0, f64::max);
+    let t0 = c.et_s[first_ok];
+    let counted = (0..n)
+        .map(|i| {
+            ok[i]
+                && c.et_s[i] - t0 >= cfg.settle_s
+                && (method == Method::StepSteer || f_ss[i].abs() <= cfg.linear_fraction * peak)
+        })
+        .collect();
+    Ok(LagProblem {
+        t_s: c.et_s.clone(),
+        v_mps: (0..n).map(|i| c.speed_mps(i)).collect(),
+        f_ss,
+        f_meas,
+        counted,
+        nuisance: cfg.nuisance,
+    })
+}
+
+/// The model's slip stiffness at a load: `Ky_alpha` (N/rad) or `Kx_kappa` (N).
+pub fn slip_stiffness(
+    model: &Pac2002,
+    fz_n: f64,
+    gamma_rad: f64,
+    v_mps: f64,
+    dir: Direction,
+) -> f64 {
+    let e = model.eval(
+        &SlipInput {
+            fz_n,
+            kappa: 0.0,
+            alpha_rad: 0.0,
+            gamma_rad,
+            vx_mps: v_mps,
+        },
+        Mode::Limits,
+    );
+    match dir {
+        Direction::Lateral => e.kya_n_per_rad,
+        Direction::Longitudinal => e.kxk_n,
+    }
+}
+
+/// Median `|d slip/dt|` over the samples where the slip moves faster than 20 % of the fastest.
+fn slip_rate(t: &[f64], slip: &[f64]) -> f64 {
+    let rates: Vec<f64> = (1..t.len())
+        .filter(|&i| t[i] > t[i - 1])
+        .map(|i| ((slip[i] - slip[i - 1]) / (t[i] - t[i - 1])).abs())
+        .filter(|r| r.is_finite())
+        .collect();
+    let smooth = moving_average(&rates, 3);
+    let top = smooth
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    finite_median(smooth.into_iter().filter(|r| *r > 0.2 * top)).unwrap_or(f64::NAN)
+}
+
+/// Fit `PTY1, PTY2` and `PTX1..3` to the rows' `sigma(Fz)`.
+fn fit_law(
+    input: &RelaxationInput<'_>,
+    rows: &[RelaxationRow],
+    cfg: &RelaxationConfig,
+    failures: &mut Vec<StageFailure>,
+) -> RelaxationLaw {
+    let coefs = &input.model.coefs;
+    let fz0 = coefs[Coef::FNOMIN];
+    let fz0s = fz0 * coefs[Coef::LFZO];
+    let r0 = input.unloaded_radius_m;
+    let mut law = RelaxationLaw {
+        key: input.key.clone(),
+        lateral: None,
+        longitudinal: None,
+    };
+    let usable = |d: Direction| -> Vec<&RelaxationRow> {
+        rows.iter()
+            .filter(|r| r.direction == d && !r.at_bound && r.sigma_m.is_finite())
+            .collect()
+    };
+    // Lateral: sigma = PTY1 sin(2 atan(Fz/(PTY2 Fz0'))) (1 - PKY3 |gamma|) R0 LFZO LSGAL.
+    let lat = usable(Direction::Lateral);
+    let lat_pts: Vec<(f64, f64, f64)> = lat
+        .iter()
+        .map(|r| {
+            let g = r0 * coefs[Coef::LFZO] * coefs[Coef::LSGAL];
+            (r.fz_n_mean, g, r.sigma_m)
+        })
+        .collect();
+    match fit_pty(&lat_pts, fz0s, cfg.pty2_range) {
+        Ok(v) => law.lateral = Some(v),
+        Err(reason) if !lat.is_empty() => failures.push(StageFailure {
+            key: input.key.clone(),
+            scope: "PTY1/PTY2".to_string(),
+            reason,
+        }),
+        Err(_) => {}
+    }
+    // Longitudinal: sigma = Fz (PTX1 + PTX2 dfz) exp(-PTX3 dfz) R0/Fz0 LSGKP.
+    let lon = usable(Direction::Longitudinal);
+    let lon_pts: Vec<(f64, f64)> = lon.iter().map(|r| (r.fz_n_mean, r.sigma_m)).collect();
+    match fit_ptx(&lon_pts, fz0, fz0s, r0 * coefs[Coef::LSGKP], cfg.ptx3_range) {
+        Ok(v) => law.longitudinal = Some(v),
+        Err(reason) if !lon.is_empty() => failures.push(StageFailure {
+            key: input.key.clone(),
+            scope: "PTX1/PTX2/PTX3".to_string(),
+            reason,
+        }),
+        Err(_) => {}
+    }
+    law
+}
+
+/// `PTY1, PTY2, rms, n` from `(Fz, factor, sigma)` points: `sigma = PTY1 sin(2 atan(Fz/(PTY2
+/// Fz0'))) factor`; `PTY1` is linear given `PTY2`.
+pub fn fit_pty(
+    pts: &[(f64, f64, f64)],
+    fz0_scaled: f64,
+    range: (f64, f64),
+) -> Result<(f64, f64, f64, usize), String> {
+    let loads = distinct_loads(pts.iter().map(|p| p.0));
+    if loads < 2 {
+        return Err(format!("{loads} distinct loads, need 2 for PTY1 and PTY2"));
+    }
+    let basis = |pty2: f64, fz: f64, g: f64| (2.0 * (fz / (pty2 * fz0_scaled)).atan()).sin() * g;
+    let solve = |pty2: f64| {
+        let (sxx, sxy) = pts.iter().fold((0.0, 0.0), |(a, b), &(fz, g, s)| {
+            let x = basis(pty2, fz, g);
+            (a + x * x, b + x * s)
+        });
+        let pty1 = if sxx > 0.0 { sxy / sxx } else { f64::NAN };
+        let rss: f64 = pts
+            .iter()
+            .map(|&(fz, g, s)| (s - pty1 * basis(pty2, fz, g)).powi(2))
+            .sum();
+        (pty1, rss)
+    };
+    let m = scalar::minimize(&|p| solve(p).1, range.0, range.1, &ScalarOptions::default())
+        .map_err(|e| e.to_string())?;
+    let (pty1, rss) = solve(m.x);
+    if m.at_bound {
+        return Err(format!("PTY2 at its search bound ({:.3})", m.x));
+    }
+    Ok((pty1, m.x, (rss / pts.len() as f64).sqrt(), pts.len()))
+}
+
+/// `PTX1, PTX2, PTX3, rms, n` from `(Fz, sigma)` points: `sigma = Fz (PTX1 + PTX2 dfz)
+/// exp(-PTX3 dfz) R0/Fz0`; linear in `PTX1, PTX2` given `PTX3` (fixed at 0 with two loads).
+pub fn fit_ptx(
+    pts: &[(f64, f64)],
+    fz0: f64,
+    fz0_scaled: f64,
+    r0: f64,
+    range: (f64, f64),
+) -> Result<(f64, f64, f64, f64, usize), String> {
+    let loads = distinct_loads(pts.iter().map(|p| p.0));
+    if loads < 2 {
+        return Err(format!("{loads} distinct loads, need 2 for PTX1 and PTX2"));
+    }
+    let solve = |ptx3: f64| {
+        let (mut saa, mut sab, mut sbb, mut say, mut sby) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for &(fz, s) in pts {
+            let dfz = (fz - fz0_scaled) / fz0_scaled;
+            let w = fz * (-ptx3 * dfz).exp() * r0 / fz0;
+            let (a, b) = (w, w * dfz);
+            saa += a * a;
+            sab += a * b;
+            sbb += b * b;
+            say += a * s;
+            sby += b * s;
+        }
+        let det = saa * sbb - sab * sab;
+        if det.abs() <= 1e-14 * saa * sbb {
+            return (f64::NAN, f64::NAN, f64::INFINITY);
+        }
+        let p1 = (say * sbb - sby * sab) / det;
+        let p2 = (saa * sby - sab * say) / det;
+        let rss = pts
+            .iter()
+            .map(|&(fz, s)| {
+                let dfz = (fz - fz0_scaled) / fz0_scaled;
+                (s - fz * (p1 + p2 * dfz) * (-ptx3 * dfz).exp() * r0 / fz0).powi(2)
+            })
+            .sum();
+        (p1, p2, rss)
+    };
+    let ptx3 = if loads >= 3 {
+        let opts = ScalarOptions {
+            log_grid: false,
+            ..ScalarOptions::default()
+        };
+        let m = scalar::minimize(&|p| solve(p).2, range.0, range.1, &opts)
+            .map_err(|e| e.to_string())?;
+        if m.at_bound {
+            return Err(format!("PTX3 at its search bound ({:.3})", m.x));
+        }
+        m.x
+    } else {
+        0.0
+    };
+    let (p1, p2, rss) = solve(ptx3);
+    if !rss.is_finite() {
+        return Err("PTX1/PTX2: degenerate loads".to_string());
+    }
+    Ok((p1, p2, ptx3, (rss / pts.len() as f64).sqrt(), pts.len()))
+}
+
+/// Number of loads more than 5 % apart.
+fn distinct_loads(fz: impl Iterator<Item = f64>) -> usize {
+    let mut v: Vec<f64> = fz.filter(|f| f.is_finite()).collect();
+    v.sort_by(f64::total_cmp);
+    let mut count = 0;
+    let mut last = f64::NEG_INFINITY;
+    for f in v {
+        if f > last * 1.05 + 1e-9 {
+            count += 1;
+            last = f;
+        }
+    }
+    count
+}
+
+/// Per-load summary for reports: mean `sigma` (IA 0) by (direction, nominal load).
+pub fn sigma_by_load(rows: &[RelaxationRow]) -> BTreeMap<(Direction, i64), f64> {
+    let mut acc: BTreeMap<(Direction, i64), (f64, usize)> = BTreeMap::new();
+    for r in rows.iter().filter(|r| !r.at_bound) {
+        let e = acc.entry((r.direction, r.fz_n_nom)).or_default();
+        e.0 += r.sigma_m;
+        e.1 += 1;
+    }
+    acc.into_iter()
+        .map(|(k, (s, n))| (k, s / n as f64))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests;

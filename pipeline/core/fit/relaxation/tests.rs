@@ -1,0 +1,554 @@
+//! Relaxation stage against generated signals: a known sigma law applied to a PAC2002 model with
+//! the first-order lag (integrated independently by fine RK4 on the continuous slip program),
+//! and the thesis's Table 15 for Equations 14-15.
+
+use super::*;
+use crate::fit::segment_data::Channels;
+use crate::fit::testkit::{add_noise, blank, fsae_model, key};
+use crate::numerics::ode::integrate_sampled;
+use crate::numerics::random::SplitMix64;
+use crate::tire_model::Coef;
+
+const PT: [f64; 5] = [1.75, 1.5, 2.05, -0.6, 0.1];
+const V_MPS: f64 = 11.176;
+const LOADS: [f64; 5] = [222.0, 445.0, 667.0, 1112.0, 1557.0];
+
+/// A piecewise-linear slip program through `points` at `rate` per second.
+struct Program {
+    t: Vec<f64>,
+    x: Vec<f64>,
+}
+
+impl Program {
+    fn new(points: &[f64], rate: f64, hold_s: f64) -> Program {
+        let mut t = vec![0.0, hold_s];
+        let mut x = vec![points[0], points[0]];
+        for w in points.windows(2) {
+            t.push(t.last().unwrap() + (w[1] - w[0]).abs() / rate);
+            x.push(w[1]);
+        }
+        Program { t, x }
+    }
+
+    fn at(&self, t: f64) -> f64 {
+        crate::fit::segment_data::interpolate(
+            &self.t,
+            &self.x,
+            t.clamp(0.0, *self.t.last().unwrap()),
+        )
+        .unwrap()
+    }
+
+    fn duration(&self) -> f64 {
+        *self.t.last().unwrap()
+    }
+}
+
+/// The measured segment of `program` on `truth` (grip scaled by `grip`) at `load`, lagged with
+/// the truth model's own relaxation length, sampled at `hz`, with force noise `noise_n`.
+#[allow(clippy::too_many_arguments)]
+fn measured(
+    truth: &Pac2002,
+    program: &Program,
+    dir: Direction,
+    kind: SegmentKind,
+    load: f64,
+    hz: f64,
+    noise_n: f64,
+    grip: f64,
+    seed: u64,
+) -> MeasuredSegment {
+    measured_at(
+        truth, program, dir, kind, load, 0.0, hz, noise_n, grip, seed,
+    )
+}
+
+/// [`measured`] at inclination `ia_deg`.
+#[allow(clippy::too_many_arguments)]
+fn measured_at(
+    truth: &Pac2002,
+    program: &Program,
+    dir: Direction,
+    kind: SegmentKind,
+    load: f64,
+    ia_deg: f64,
+    hz: f64,
+    noise_n: f64,
+    grip: f64,
+    seed: u64,
+) -> MeasuredSegment {
+    let mut model = truth.clone();
+    model.coefs[Coef::LMUY] = grip;
+    model.coefs[Coef::LMUX] = grip;
+    let gamma = ia_deg.to_radians();
+    let (sk, sa) = truth.relaxation_lengths(load, gamma);
+    let sigma = if dir == Direction::Lateral { sa } else { sk };
+    let f_ss = |t: f64| {
+        let x = program.at(t);
+        let (alpha, kappa) = if dir == Direction::Lateral {
+            (x, 0.0)
+        } else {
+            (0.0, x)
+        };
+        let e = model.eval(
+            &SlipInput {
+                fz_n: load,
+                kappa,
+                alpha_rad: alpha,
+                gamma_rad: gamma,
+                vx_mps: V_MPS,
+            },
+            Mode::Limits,
+        );
+        if dir == Direction::Lateral {
+            e.fy_n
+        } else {
+            e.fx_n
+        }
+    };
+    let n = (program.duration() * hz).floor() as usize + 1;
+    let states = integrate_sampled(
+        |t, y: &[f64; 1]| [V_MPS / sigma * (f_ss(t) - y[0])],
+        0.0,
+        [f_ss(0.0)],
+        1.0 / hz,
+        n,
+        20,
+    );
+    let k = key("T", 83);
+    let mut s = blank("seg", kind, &k, "run", 0.0, n, hz, V_MPS * 3.6);
+    s.nominal.fz_n = Some(load as i64);
+    s.nominal.ia_deg = Some(ia_deg as i64);
+    s.channels.gamma_rad = vec![gamma; n];
+    let mut rng = SplitMix64::new(seed);
+    let mut f: Vec<f64> = states.iter().map(|y| y[0]).collect();
+    add_noise(&mut f, noise_n, &mut rng);
+    let mut fz = vec![load; n];
+    add_noise(&mut fz, 4.0 * noise_n / 6.0, &mut rng);
+    let c: &mut Channels = &mut s.channels;
+    c.fz_n = fz;
+    let x: Vec<f64> = c.et_s.iter().map(|&t| program.at(t)).collect();
+    if dir == Direction::Lateral {
+        c.alpha_rad = x;
+        c.fy_n = f;
+    } else {
+        c.kappa = x;
+        c.fx_n = f;
+    }
+    s
+}
+
+fn sweep_program() -> Program {
+    // ISO-W 4 -> -12 -> 12 -> -3 -> 0 deg at 4 deg/s after a 1 s hold (round-4 shape).
+    let pts: Vec<f64> = [0.0, 4.0, -12.0, 12.0, -3.0, 0.0]
+        .iter()
+        .map(|d: &f64| d.to_radians())
+        .collect();
+    Program::new(&pts, 4.0_f64.to_radians(), 1.0)
+}
+
+fn sigma_alpha(m: &Pac2002, fz: f64) -> f64 {
+    m.relaxation_lengths(fz, 0.0).1
+}
+
+#[test]
+fn lag_of_a_ramp_is_a_time_shift_of_sigma_over_v() {
+    let hz = 50.0;
+    let t: Vec<f64> = (0..200).map(|i| i as f64 / hz).collect();
+    let v = vec![10.0; t.len()];
+    let u: Vec<f64> = t.iter().map(|t| 3.0 * t).collect();
+    let y = first_order_lag(&t, &v, &u, 0.25);
+    // tau = 0.025 s: after the transient y(t) = 3 (t - tau) to round-off.
+    let last = t.len() - 1;
+    assert!(
+        (y[last] - 3.0 * (t[last] - 0.025)).abs() < 1e-12,
+        "{}",
+        y[last]
+    );
+}
+
+#[test]
+fn noise_free_sweeps_recover_sigma_at_every_load() {
+    let model = fsae_model(PT);
+    let cfg = RelaxationConfig::default();
+    for &load in &LOADS {
+        let seg = measured(
+            &model,
+            &sweep_program(),
+            Direction::Lateral,
+            SegmentKind::Cornering,
+            load,
+            50.0,
+            0.0,
+            1.0,
+            1,
+        );
+        let p = lag_problem(&model, &seg, Direction::Lateral, Method::Sweep, &cfg).unwrap();
+        let fit = p.fit(cfg.sigma_range_m).unwrap();
+        let truth = sigma_alpha(&model, load);
+        let err = fit.sigma_m / truth - 1.0;
+        // Noise-free, the only error left is the slip smoothing (+-0.04 s) rounding the kinks of
+        // the slip program: 0.3 % low at 222 N, less above.
+        assert!(
+            err.abs() < 5e-3,
+            "Fz {load}: sigma {} vs {truth} ({err:+.2e})",
+            fit.sigma_m
+        );
+        assert!((fit.scale - 1.0).abs() < 1e-3 && fit.converged, "{fit:?}");
+    }
+}
+
+#[test]
+fn noisy_round_4_matrix_pools_inclinations_and_stays_within_five_percent() {
+    // Round 4: every load swept at IA 0..4 deg, 50 Hz, the virtual machine's force noise, and
+    // each sweep on a tire gripping 0-8 % more than the fitted model (temperature).
+    let model = fsae_model(PT);
+    let cfg = RelaxationConfig::default();
+    let mut segs = Vec::new();
+    for (i, &load) in LOADS.iter().enumerate() {
+        for ia in 0..5 {
+            let grip = 1.0 + 0.02 * ia as f64;
+            let seed = 100 + 10 * i as u64 + ia as u64;
+            let mut s = measured_at(
+                &model,
+                &sweep_program(),
+                Direction::Lateral,
+                SegmentKind::Cornering,
+                load,
+                ia as f64,
+                50.0,
+                6.0,
+                grip,
+                seed,
+            );
+            s.segment_id = format!("{load}-{ia}");
+            segs.push(s);
+        }
+    }
+    let input = RelaxationInput {
+        key: key("T", 83),
+        model: &model,
+        unloaded_radius_m: 0.2612,
+        vertical_stiffness_n_per_m: 137_800.0,
+        segments: &segs,
+    };
+    let out = run(&[input], &cfg);
+    assert!(out.failures.is_empty(), "{:?}", out.failures);
+    assert_eq!(out.rows.len(), 5);
+    for r in &out.rows {
+        let truth = sigma_alpha(&model, r.fz_n_mean);
+        let err = r.sigma_m / truth - 1.0;
+        assert_eq!((r.n_segments, r.ia_deg_nom), (5, -1));
+        assert!(
+            err.abs() < 0.05,
+            "Fz {}: sigma {:.4} vs {truth:.4} ({err:+.3})",
+            r.fz_n_nom,
+            r.sigma_m
+        );
+        // The PTY1/PTY2 law over all loads is the steadier estimate.
+        let law_err = r.sigma_law_m / truth - 1.0;
+        assert!(
+            law_err.abs() < 0.03,
+            "Fz {}: law {:.4} vs {truth:.4}",
+            r.fz_n_nom,
+            r.sigma_law_m
+        );
+        // The members' scatter is of the size single-sweep noise predicts (< 10 % at 222 N).
+        assert!(r.sigma_spread_m < 0.1 * truth, "{r:?}");
+    }
+}
+
+#[test]
+fn step_steer_recovers_sigma() {
+    let model = fsae_model(PT);
+    let cfg = RelaxationConfig::default();
+    let pts: Vec<f64> = [0.0, 1.0, 1.0, 0.0]
+        .iter()
+        .map(|d: &f64| d.to_radians())
+        .collect();
+    let mut prog = Program::new(&pts[..2], 60.0_f64.to_radians(), 0.5);
+    prog.t.push(prog.duration() + 2.0);
+    prog.x.push(pts[2]);
+    prog.t.push(prog.duration() + 1.0 / 60.0);
+    prog.x.push(0.0);
+    prog.t.push(prog.duration() + 0.5);
+    prog.x.push(0.0);
+    let seg = measured(
+        &model,
+        &prog,
+        Direction::Lateral,
+        SegmentKind::StepSteer,
+        1112.0,
+        100.0,
+        6.0,
+        1.0,
+        5,
+    );
+    let p = lag_problem(&model, &seg, Direction::Lateral, Method::StepSteer, &cfg).unwrap();
+    let fit = p.fit(cfg.sigma_range_m).unwrap();
+    let truth = sigma_alpha(&model, 1112.0);
+    assert!(
+        (fit.sigma_m / truth - 1.0).abs() < 0.03,
+        "{} vs {truth}",
+        fit.sigma_m
+    );
+}
+
+#[test]
+fn run_fits_pty_and_ptx_laws_and_eq_14_15_columns() {
+    let model = fsae_model(PT);
+    let cfg = RelaxationConfig::default();
+    let mut segs = Vec::new();
+    for &load in &LOADS {
+        segs.push(measured(
+            &model,
+            &sweep_program(),
+            Direction::Lateral,
+            SegmentKind::Cornering,
+            load,
+            50.0,
+            0.0,
+            1.0,
+            1,
+        ));
+    }
+    let kprog = Program::new(&[0.0, 0.2, -0.2, 0.2, 0.0], 0.15, 1.0);
+    for &load in &[222.0, 667.0, 1112.0, 1557.0] {
+        segs.push(measured(
+            &model,
+            &kprog,
+            Direction::Longitudinal,
+            SegmentKind::DriveBrake,
+            load,
+            50.0,
+            0.0,
+            1.0,
+            2,
+        ));
+    }
+    segs.push(blank(
+        "other",
+        SegmentKind::Other,
+        &key("T", 83),
+        "run",
+        0.0,
+        10,
+        50.0,
+        40.0,
+    ));
+    let input = RelaxationInput {
+        key: key("T", 83),
+        model: &model,
+        unloaded_radius_m: model.coefs[Coef::UNLOADED_RADIUS],
+        vertical_stiffness_n_per_m: 137_800.0,
+        segments: &segs,
+    };
+    let out = run(&[input], &cfg);
+    assert!(out.failures.is_empty(), "{:?}", out.failures);
+    assert_eq!(out.rows.len(), 9);
+    for r in &out.rows {
+        let (sk, sa) = model.relaxation_lengths(r.fz_n_mean, 0.0);
+        let truth = if r.direction == Direction::Lateral {
+            sa
+        } else {
+            sk
+        };
+        // Slip smoothing rounds the program's kinks: up to 0.7 % low at 222 N (longitudinal).
+        assert!((r.sigma_m / truth - 1.0).abs() < 1e-2, "{r:?} vs {truth}");
+        let a = ContactLength::default().half_length_m(r.fz_n_mean / 137_800.0, 0.2612);
+        assert!((r.contact_half_length_m - a).abs() < 1e-12);
+        assert!((r.carcass_stiffness_n_per_m - r.slip_stiffness / (r.sigma_m - a)).abs() < 1e-6);
+        if r.direction == Direction::Lateral {
+            assert!(
+                r.slip_stiffness < 0.0 && r.carcass_stiffness_n_per_m < 0.0,
+                "{r:?}"
+            );
+            assert!(
+                (r.slip_rate - 4.0_f64.to_radians()).abs() < 1e-3,
+                "{}",
+                r.slip_rate
+            );
+        } else {
+            assert!((r.slip_rate - 0.15).abs() < 1e-3, "{}", r.slip_rate);
+        }
+    }
+    let law = &out.laws[0];
+    let (pty1, pty2, rms, n) = law.lateral.unwrap();
+    assert_eq!(n, 5);
+    assert!(
+        (pty1 / PT[0] - 1.0).abs() < 5e-3 && (pty2 / PT[1] - 1.0).abs() < 1e-2,
+        "{pty1} {pty2}"
+    );
+    assert!(rms < 1e-3, "{rms}");
+    let (ptx1, ptx2, ptx3, _, n) = law.longitudinal.unwrap();
+    assert_eq!(n, 4);
+    // PTX1..3 trade off; the law they give must reproduce sigma_kappa over the tested loads.
+    let mut m2 = model.clone();
+    m2.coefs[Coef::PTX1] = ptx1;
+    m2.coefs[Coef::PTX2] = ptx2;
+    m2.coefs[Coef::PTX3] = ptx3;
+    for fz in [222.0, 445.0, 1112.0, 1557.0] {
+        let (a, b) = (
+            m2.relaxation_lengths(fz, 0.0).0,
+            model.relaxation_lengths(fz, 0.0).0,
+        );
+        // The rows carry the smoothing bias (up to 0.7 % low at 222 N).
+        assert!((a / b - 1.0).abs() < 1e-2, "Fz {fz}: {a} vs {b}");
+    }
+}
+
+#[test]
+fn a_bad_segment_fails_alone() {
+    let model = fsae_model(PT);
+    let good = measured(
+        &model,
+        &sweep_program(),
+        Direction::Lateral,
+        SegmentKind::Cornering,
+        667.0,
+        50.0,
+        0.0,
+        1.0,
+        1,
+    );
+    let mut standing = good.clone();
+    standing.segment_id = "standing".into();
+    standing
+        .channels
+        .speed_kph
+        .iter_mut()
+        .for_each(|v| *v = 0.0);
+    let mut short = good.clone();
+    short.segment_id = "broken".into();
+    short.channels.fy_n.truncate(10);
+    let segs = [good, standing, short];
+    let input = RelaxationInput {
+        key: key("T", 83),
+        model: &model,
+        unloaded_radius_m: 0.2612,
+        vertical_stiffness_n_per_m: 137_800.0,
+        segments: &segs,
+    };
+    let out = run(&[input], &RelaxationConfig::default());
+    assert_eq!(out.rows.len(), 1);
+    assert!(
+        out.failures
+            .iter()
+            .any(|f| f.scope.contains("standing") && f.reason.contains("speed"))
+    );
+    assert!(
+        out.failures
+            .iter()
+            .any(|f| f.scope.contains("broken") && f.reason.contains("fy_n"))
+    );
+    // One load only: PTY1/PTY2 cannot be fitted, said so.
+    assert!(
+        out.failures.iter().any(|f| f.scope == "PTY1/PTY2"),
+        "{:?}",
+        out.failures
+    );
+}
+
+/// Table 15 (Hoosier 20.5x7.0-13 R25B, 12 psi): `Fz, z, a, CF, sigma(4 deg/s), c_y`.
+const TABLE_15: [(f64, f64, f64, f64, f64, f64); 5] = [
+    (222.0, 0.0016, 0.0337, -15540.0, 0.1956, -96011.0),
+    (445.0, 0.0033, 0.0484, -30109.0, 0.2794, -130349.0),
+    (667.0, 0.0049, 0.0599, -42756.0, 0.3353, -155264.0),
+    (1112.0, 0.0082, 0.0786, -60997.0, 0.4191, -179156.0),
+    (1557.0, 0.0114, 0.0943, -70208.0, 0.4750, -184422.0),
+];
+
+#[test]
+fn thesis_table_15_a_and_cy_from_z_cf_and_sigma() {
+    // R0 of a 20.5 in tire. Tolerances are the table's rounding: z is printed to 0.05 mm, so a
+    // carries |da/dz| * 0.05 mm; a itself is printed to 0.05 mm.
+    let r0 = 20.5 * 0.0254 / 2.0;
+    let contact = ContactLength::default();
+    for &(fz, z, a_tab, cf, sigma, cy_tab) in &TABLE_15 {
+        let a = contact.half_length_m(z, r0);
+        let dadz = contact.q_a1 / (2.0 * (z * r0).sqrt()) + contact.q_a2;
+        let tol = dadz * 0.5e-4 + 0.5e-4;
+        assert!(
+            (a - a_tab).abs() <= tol,
+            "Fz {fz}: a {a:.5} vs {a_tab} (tol {tol:.1e})"
+        );
+        // c_y from Eq. 15 with our a: the rounding of a propagates as c/(sigma - a) * da.
+        let cy = carcass_stiffness(cf, sigma, a).unwrap();
+        let tol_c = (cy / (sigma - a)).abs() * tol + 0.5;
+        assert!(
+            (cy - cy_tab).abs() <= tol_c,
+            "Fz {fz}: c_y {cy:.0} vs {cy_tab} (tol {tol_c:.0})"
+        );
+        // And with the table's own a, Eq. 15 reproduces c_y to the printed digits of sigma.
+        let cy_direct = carcass_stiffness(cf, sigma, a_tab).unwrap();
+        assert!(
+            (cy_direct / cy_tab - 1.0).abs() < 5e-4,
+            "Fz {fz}: {cy_direct:.0} vs {cy_tab}"
+        );
+        // Plausibility: a grows like sqrt(z) and stays below sigma (carcass stiffness finite).
+        assert!(a < sigma && a > 0.02 && a < 0.1);
+    }
+    // Deflection is Fz over one vertical stiffness (~136 kN/m) for every row.
+    for &(fz, z, ..) in &TABLE_15 {
+        assert!(
+            (fz / z / 136_200.0 - 1.0).abs() < 0.025,
+            "Fz {fz}: {}",
+            fz / z
+        );
+    }
+}
+
+#[test]
+fn pac2002_sigma_law_cannot_follow_table_15_at_the_lowest_load() {
+    // Table 15's sigma grows like sqrt(Fz) (0.196 m at 222 N, 0.475 m at 1557 N); PAC2002's
+    // sigma_alpha = PTY1 sin(2 atan(Fz/(PTY2 Fz0))) R0 is linear at low load. The best PTY1/PTY2
+    // (Fz0 = 1112 N) stay within 8 % from 445 N up but miss 222 N by 20-30 %: a .tir written from
+    // such data under-predicts the low-load relaxation length. This test pins that finding.
+    let r0 = 20.5 * 0.0254 / 2.0;
+    let pts: Vec<(f64, f64, f64)> = TABLE_15.iter().map(|r| (r.0, r0, r.4)).collect();
+    let (pty1, pty2, _, _) = fit_pty(&pts, 1112.0, (0.05, 20.0)).unwrap();
+    for &(fz, _, s) in &pts {
+        let m = pty1 * (2.0 * (fz / (pty2 * 1112.0)).atan()).sin() * r0;
+        let err = m / s - 1.0;
+        if fz < 300.0 {
+            assert!(
+                (-0.30..-0.20).contains(&err),
+                "Fz {fz}: {m:.4} vs {s} ({err:+.3})"
+            );
+        } else {
+            assert!(err.abs() < 0.08, "Fz {fz}: {m:.4} vs {s} ({err:+.3})");
+        }
+    }
+    assert!(
+        (1.5..2.0).contains(&pty1) && (1.0..1.5).contains(&pty2),
+        "{pty1} {pty2}"
+    );
+}
+
+#[test]
+fn thesis_table_16_longitudinal_a_and_cx() {
+    // Table 16: `Fz, z, a, CF, sigma_x, c_x`. Its CF column is labelled N/% but Eq. 15 only
+    // reproduces c_x with CF taken as printed (c_x = CF/(sigma - a)): the label or the unit of
+    // c_x is off by 100 in the thesis. a is printed to 0.5 mm.
+    let rows: [(f64, f64, f64, f64, f64, f64); 4] = [
+        (222.0, 0.0016, 0.034, 22348.0, 0.140, 210871.0),
+        (667.0, 0.0049, 0.060, 60297.0, 0.363, 198790.0),
+        (1112.0, 0.0082, 0.079, 89147.0, 0.531, 197128.0),
+        (1557.0, 0.0114, 0.094, 108942.0, 0.699, 180304.0),
+    ];
+    let r0 = 20.5 * 0.0254 / 2.0;
+    let contact = ContactLength::default();
+    for (fz, z, a_tab, cf, sigma, cx_tab) in rows {
+        let a = contact.half_length_m(z, r0);
+        let dadz = contact.q_a1 / (2.0 * (z * r0).sqrt()) + contact.q_a2;
+        let tol = dadz * 0.5e-4 + 0.5e-3;
+        assert!((a - a_tab).abs() <= tol, "Fz {fz}: a {a:.4} vs {a_tab}");
+        // sigma is printed to 0.5 mm: c_x to |c/(sigma - a)| * 0.5 mm, plus the rounding of a.
+        let cx = carcass_stiffness(cf, sigma, a).unwrap();
+        let tol_c = (cx / (sigma - a)).abs() * (0.5e-3 + dadz * 0.5e-4);
+        assert!(
+            (cx - cx_tab).abs() <= tol_c,
+            "Fz {fz}: c_x {cx:.0} vs {cx_tab} (tol {tol_c:.0})"
+        );
+    }
+}

@@ -1,0 +1,471 @@
+//! The spring-rate, thermal and relaxation stages against a virtual round's truth, through the raw
+//! files: `synth` renders the demo round's run files, the TTC reader parses them, the truth
+//! segment table (`truth/segments.csv` rows) cuts them into segments, the stages run, and their
+//! results are compared with the truth models (issue 6 "Done when"). Test-only.
+
+use std::collections::BTreeMap;
+
+use super::relaxation::{self, Direction, RelaxationConfig, RelaxationInput};
+use super::segment_data::{Channels, MeasuredSegment, NominalLevels, SegmentKind, TireKey};
+use super::spring_rate::{self, Condition, SpringRateConfig};
+use super::thermal::{self, ThermalConfig};
+use crate::synth::round::{RoundPlan, SynthConfig, plan_round, render_run};
+use crate::synth::tires::TruthModel;
+use crate::tire_model::{Coef, Pac2002};
+use crate::ttc::read_run;
+
+/// The round's segments and what the truth says per tire/rim/pressure.
+struct Round {
+    plan: RoundPlan,
+    segments: Vec<MeasuredSegment>,
+}
+
+fn key_of(tire: &str, rim_in: f64, pressure_kpa_nom: f64) -> TireKey {
+    TireKey {
+        tire: tire.to_string(),
+        rim_in: rim_in.round() as i64,
+        pressure_kpa_nom: pressure_kpa_nom.round() as i64,
+    }
+}
+
+fn slice(v: &[f64], r: std::ops::Range<usize>) -> Vec<f64> {
+    v[r].to_vec()
+}
+
+fn build(config: SynthConfig) -> Round {
+    let plan = plan_round(&config).expect("plan");
+    let mut segments = Vec::new();
+    for index in 0..plan.runs.len() {
+        let out = render_run(&plan, index).expect("render");
+        let table = read_run(&out.file.bytes, &out.file.path).expect("read");
+        for (k, row) in out.summary.segments.iter().enumerate() {
+            let Some(kind) = SegmentKind::parse(row.kind.as_str()) else {
+                continue;
+            };
+            let a = row.row_first - 1;
+            let r = a..a + row.n_samples;
+            let opt = |v: &Option<Vec<f64>>| v.as_ref().map(|v| slice(v, r.clone()));
+            let t = &table.tire;
+            segments.push(MeasuredSegment {
+                segment_id: format!("{}-{k}", out.file.path),
+                kind,
+                source_file: out.file.path.clone(),
+                segment_index: k as i64,
+                key: key_of(&row.tire, row.rim_in, row.pressure_kpa_nom),
+                nominal: NominalLevels {
+                    ia_deg: row.ia_deg_nom.map(|v| v.round() as i64),
+                    fz_n: row.fz_n_nom.map(|v| v.round() as i64),
+                    alpha_deg: row.alpha_deg_nom.map(|v| v.round() as i64),
+                    speed_kph: row.speed_kph_nom.map(|v| v.round() as i64),
+                },
+                channels: Channels {
+                    et_s: slice(&table.et_s, r.clone()),
+                    speed_kph: slice(&table.speed_kph, r.clone()),
+                    fz_n: slice(&t.fz_n, r.clone()),
+                    fx_n: slice(&t.fx_n, r.clone()),
+                    fy_n: slice(&t.fy_n, r.clone()),
+                    mz_nm: slice(&t.mz_nm, r.clone()),
+                    alpha_rad: slice(&t.alpha_rad, r.clone()),
+                    gamma_rad: slice(&t.gamma_rad, r.clone()),
+                    kappa: slice(&t.kappa, r.clone()),
+                    pressure_kpa: slice(&table.pressure_kpa, r.clone()),
+                    loaded_radius_m: opt(&table.loaded_radius_m),
+                    effective_radius_m: opt(&table.effective_radius_m),
+                    wheel_speed_rpm: opt(&table.wheel_speed_rpm),
+                    tread_inner_c: opt(&table.tread_inner_temp_c),
+                    tread_centre_c: opt(&table.tread_centre_temp_c),
+                    tread_outer_c: opt(&table.tread_outer_temp_c),
+                    ambient_c: opt(&table.ambient_temp_c),
+                },
+            });
+        }
+    }
+    Round { plan, segments }
+}
+
+fn truths(plan: &RoundPlan) -> BTreeMap<TireKey, &TruthModel> {
+    plan.truths
+        .iter()
+        .map(|t| {
+            let c = plan
+                .combos
+                .iter()
+                .find(|c| c.tire_index == t.tire_index && (c.rim_in - t.rim_in).abs() < 1e-9)
+                .unwrap();
+            (key_of(c.tire(), t.rim_in, t.pressure_kpa()), t)
+        })
+        .collect()
+}
+
+#[test]
+fn demo_round_meets_the_issue_6_tolerances() {
+    check_round(&build(SynthConfig::default()));
+}
+
+#[test]
+fn demo_round_through_the_segmenter_meets_the_issue_6_tolerances() {
+    check_round(&build_segmented(SynthConfig::default()));
+}
+
+/// Like [`build`], but the segments come from the segmenter, not from the truth table.
+fn build_segmented(config: SynthConfig) -> Round {
+    use crate::segment::{self, RunSignals, SegmentConfig, TreadTemps};
+    let plan = plan_round(&config).expect("plan");
+    let mut segments = Vec::new();
+    for index in 0..plan.runs.len() {
+        let out = render_run(&plan, index).expect("render");
+        let table = read_run(&out.file.bytes, &out.file.path).expect("read");
+        let spec = &plan.runs[index];
+        let combo = plan.combos[spec.combo];
+        let empty: Vec<f64> = Vec::new();
+        let rl = table.loaded_radius_m.as_ref().unwrap_or(&empty);
+        let mut signals = RunSignals::from_iso_w(
+            &table.tire,
+            &table.et_s,
+            &table.speed_kph,
+            &table.pressure_kpa,
+            rl,
+        );
+        if let (Some(i), Some(c), Some(o)) = (
+            &table.tread_inner_temp_c,
+            &table.tread_centre_temp_c,
+            &table.tread_outer_temp_c,
+        ) {
+            signals.tread_temps = Some(TreadTemps {
+                inner_c: i,
+                centre_c: c,
+                outer_c: o,
+            });
+        }
+        let (segs, _) = segment::run(&signals, &SegmentConfig::default()).expect("segment");
+        let key = key_of(
+            combo.tire(),
+            combo.rim_in,
+            spec.pressure_psi * crate::synth::tires::KPA_PER_PSI,
+        );
+        for seg in segs {
+            let r = seg.samples.clone();
+            let opt = |v: &Option<Vec<f64>>| v.as_ref().map(|v| slice(v, r.clone()));
+            let t = &table.tire;
+            segments.push(MeasuredSegment {
+                segment_id: format!("{}-{}", out.file.path, seg.index),
+                kind: seg.kind,
+                source_file: out.file.path.clone(),
+                segment_index: seg.index as i64,
+                key: key.clone(),
+                nominal: NominalLevels {
+                    ia_deg: seg.nominal.ia_deg.map(i64::from),
+                    fz_n: seg.nominal.fz_n.map(i64::from),
+                    alpha_deg: seg.nominal.alpha_deg.map(i64::from),
+                    speed_kph: seg.nominal.speed_kph.map(i64::from),
+                },
+                channels: Channels {
+                    et_s: slice(&table.et_s, r.clone()),
+                    speed_kph: slice(&table.speed_kph, r.clone()),
+                    fz_n: slice(&t.fz_n, r.clone()),
+                    fx_n: slice(&t.fx_n, r.clone()),
+                    fy_n: slice(&t.fy_n, r.clone()),
+                    mz_nm: slice(&t.mz_nm, r.clone()),
+                    alpha_rad: slice(&t.alpha_rad, r.clone()),
+                    gamma_rad: slice(&t.gamma_rad, r.clone()),
+                    kappa: slice(&t.kappa, r.clone()),
+                    pressure_kpa: slice(&table.pressure_kpa, r.clone()),
+                    loaded_radius_m: opt(&table.loaded_radius_m),
+                    effective_radius_m: opt(&table.effective_radius_m),
+                    wheel_speed_rpm: opt(&table.wheel_speed_rpm),
+                    tread_inner_c: opt(&table.tread_inner_temp_c),
+                    tread_centre_c: opt(&table.tread_centre_temp_c),
+                    tread_outer_c: opt(&table.tread_outer_temp_c),
+                    ambient_c: opt(&table.ambient_temp_c),
+                },
+            });
+        }
+    }
+    Round { plan, segments }
+}
+
+fn check_round(round: &Round) {
+    let truth = truths(&round.plan);
+    let fnomin: BTreeMap<TireKey, f64> = truth
+        .iter()
+        .map(|(k, t)| (k.clone(), t.model.coefs[Coef::FNOMIN]))
+        .collect();
+
+    // Spring rate: every static/dynamic row within 1 % and 0.5 mm.
+    let sr = spring_rate::run(&round.segments, &fnomin, &SpringRateConfig::default());
+    // Speed sweeps run at one load only: no stiffness from them, said so.
+    let unexpected: Vec<_> = sr
+        .failures
+        .iter()
+        .filter(|f| !(f.scope.starts_with("sweep") && f.reason.contains("load span")))
+        .collect();
+    assert!(unexpected.is_empty(), "{unexpected:?}");
+    let mut worst = (0.0_f64, 0.0_f64);
+    for r in &sr.rows {
+        let t = truth[&r.key];
+        let (cz, r0) = match r.condition {
+            Condition::Static => (t.vertical.cz_static_n_per_m, t.vertical.r0_static_m),
+            _ => (
+                t.vertical.cz_at(r.speed_kph / 3.6),
+                t.vertical.r0_at(r.speed_kph / 3.6),
+            ),
+        };
+        let (e_cz, e_r0) = (r.stiffness_n_per_m / cz - 1.0, r.unloaded_radius_m - r0);
+        println!(
+            "spring {} {:>7} ia {:>2}: Cz {:+.4} %, R0 {:+.4} mm (n {})",
+            r.key,
+            r.condition.as_str(),
+            r.ia_deg_nom,
+            100.0 * e_cz,
+            1e3 * e_r0,
+            r.n
+        );
+        worst = (worst.0.max(e_cz.abs()), worst.1.max(e_r0.abs()));
+        assert!(e_cz.abs() < 0.01 && e_r0.abs() < 0.5e-3, "{r:?}");
+    }
+    println!(
+        "spring worst: Cz {:.3} %, R0 {:.3} mm",
+        100.0 * worst.0,
+        1e3 * worst.1
+    );
+    for v in &sr.vertical {
+        let t = truth[&v.key];
+        let law = v.effective_radius.as_ref().expect("RE law");
+        let mut worst_re = 0.0_f64;
+        for fz in [222.0, 445.0, 667.0, 1112.0, 1557.0] {
+            let re = spring_rate::effective_radius_m(
+                law,
+                v.unloaded_radius_m,
+                v.vertical_stiffness_n_per_m,
+                fz,
+            );
+            worst_re = worst_re.max((re - t.effective_radius(fz, v.speed_kph / 3.6)).abs());
+        }
+        println!(
+            "RE law {}: BREFF {:.3} DREFF {:.4} FREFF {:.4}, worst RE error {:.4} mm",
+            v.key,
+            law.breff,
+            law.dreff,
+            law.freff,
+            1e3 * worst_re
+        );
+        assert!(worst_re < 0.1e-3, "{v:?}");
+    }
+
+    // Relaxation with the truth model as the "fitted" steady state.
+    let mut inputs = Vec::new();
+    let models: BTreeMap<TireKey, Pac2002> = truth
+        .iter()
+        .map(|(k, t)| (k.clone(), t.model.clone()))
+        .collect();
+    let mut per_key: BTreeMap<TireKey, Vec<MeasuredSegment>> = BTreeMap::new();
+    for s in &round.segments {
+        per_key.entry(s.key.clone()).or_default().push(s.clone());
+    }
+    for (k, segs) in &per_key {
+        let t = truth[k];
+        inputs.push(RelaxationInput {
+            key: k.clone(),
+            model: &models[k],
+            unloaded_radius_m: t.vertical.r0_dynamic_m,
+            vertical_stiffness_n_per_m: t.vertical.cz_dynamic_n_per_m,
+            segments: segs,
+        });
+    }
+    let rx = relaxation::run(&inputs, &RelaxationConfig::default());
+    println!("relaxation failures: {:?}", rx.failures);
+    let mut worst = BTreeMap::new();
+    for r in &rx.rows {
+        let (sk, sa) = models[&r.key].relaxation_lengths(r.fz_n_mean, 0.0);
+        let t = if r.direction == Direction::Lateral {
+            sa
+        } else {
+            sk
+        };
+        let e = r.sigma_m / t - 1.0;
+        let el = r.sigma_law_m / t - 1.0;
+        println!(
+            "relax {} {} {} Fz {:>5} rate {:.3}: sigma {:.4} truth {:.4} ({:+.2} %), law {:+.2} %, spread {:.4}, a {:.4}, c {:.0}, n_seg {}",
+            r.key,
+            r.direction.as_str(),
+            r.method.as_str(),
+            r.fz_n_nom,
+            r.slip_rate,
+            r.sigma_m,
+            t,
+            100.0 * e,
+            100.0 * el,
+            r.sigma_spread_m,
+            r.contact_half_length_m,
+            r.carcass_stiffness_n_per_m,
+            r.n_segments
+        );
+        let w = worst
+            .entry(r.direction.as_str())
+            .or_insert((0.0_f64, 0.0_f64));
+        *w = (w.0.max(e.abs()), w.1.max(el.abs()));
+        // Issue 6: within 5 % of the truth law at every tested load. The lowest load (222 N)
+        // carries ~2-3 % statistical scatter from the force noise (see relaxation's docs), so
+        // this margin is real but not wide.
+        assert!(e.abs() < 0.05 && el.abs() < 0.05, "{r:?}: truth {t}");
+    }
+    println!("relaxation worst |error| (row, law): {worst:?}");
+    assert!(rx.failures.is_empty(), "{:?}", rx.failures);
+    assert_eq!(rx.laws.len(), truth.len());
+
+    // Thermal.
+    let th = thermal::run(&round.segments, &ThermalConfig::default());
+    assert!(th.failures.is_empty(), "{:?}", th.failures);
+    assert_eq!(th.fits.len(), truth.len());
+    for f in &th.fits {
+        let ci = round
+            .plan
+            .combos
+            .iter()
+            .position(|c| c.tire() == f.key.tire && (c.rim_in.round() as i64) == f.key.rim_in)
+            .unwrap();
+        let tt = round.plan.thermal[ci];
+        println!(
+            "thermal {}: T_peak {:.2} vs {:.2} ({:+.2} degC), gain {:.4} vs {:.4} ({:+.2} %), T_cold {:.2} vs {:.2}, falloff {:.3} (obs {}), n {}, rmse {:.4}",
+            f.key,
+            f.t_peak_c,
+            tt.t_peak_c,
+            f.t_peak_c - tt.t_peak_c,
+            f.gain_peak_over_cold,
+            tt.gain_peak_over_cold,
+            100.0 * (f.gain_peak_over_cold / tt.gain_peak_over_cold - 1.0),
+            f.t_cold_c,
+            tt.t_cold_c,
+            f.hot_falloff,
+            f.hot_side_observed,
+            f.n,
+            f.rmse
+        );
+        // Issue 6: peak temperature within 3 degC, peak gain within 3 % (relative).
+        assert!((f.t_peak_c - tt.t_peak_c).abs() < 3.0, "{f:?}");
+        assert!(
+            (f.gain_peak_over_cold / tt.gain_peak_over_cold - 1.0).abs() < 0.03,
+            "{f:?}"
+        );
+    }
+}
+
+/// The sweeps of one tire as the PAC2002 stage wants them.
+fn pac2002_input(
+    key: &TireKey,
+    segs: &[MeasuredSegment],
+    cz: f64,
+    r0: f64,
+) -> super::pac2002::FitInput {
+    use super::pac2002::{FitContext, FitInput, Sample, Sweep, SweepKind, SweepNominal};
+    let sweeps = segs
+        .iter()
+        .filter_map(|s| {
+            let kind = match s.kind {
+                SegmentKind::Cornering => SweepKind::Cornering,
+                SegmentKind::DriveBrake => SweepKind::DriveBrake,
+                SegmentKind::Combined => SweepKind::Combined,
+                _ => return None,
+            };
+            let c = &s.channels;
+            Some(Sweep {
+                id: s.segment_id.clone(),
+                kind,
+                nominal: SweepNominal {
+                    fz_n: s.nominal.fz_n? as f64,
+                    gamma_rad: (s.nominal.ia_deg? as f64).to_radians(),
+                    alpha_rad: (s.nominal.alpha_deg.unwrap_or(0) as f64).to_radians(),
+                },
+                qc_ok: true,
+                samples: (0..c.len())
+                    .map(|i| Sample {
+                        et_s: c.et_s[i],
+                        fz_n: c.fz_n[i],
+                        kappa: c.kappa[i],
+                        alpha_rad: c.alpha_rad[i],
+                        gamma_rad: c.gamma_rad[i],
+                        vx_mps: c.speed_mps(i),
+                        fx_n: c.fx_n[i],
+                        fy_n: c.fy_n[i],
+                        mz_nm: c.mz_nm[i],
+                        mx_nm: f64::NAN,
+                        loaded_radius_m: c.loaded_radius_m.as_ref().map(|v| v[i]),
+                    })
+                    .collect(),
+            })
+        })
+        .collect();
+    FitInput {
+        context: FitContext {
+            tire: key.tire.clone(),
+            rim_in: key.rim_in as f64,
+            pressure_kpa_nom: key.pressure_kpa_nom as f64,
+            test_speed_mps: crate::synth::tires::V_REF_MPS,
+            vertical_stiffness_n_per_m: Some(cz),
+            unloaded_radius_m: Some(r0),
+            relaxation: None,
+        },
+        sweeps,
+    }
+}
+
+#[test]
+fn demo_round_relaxation_with_the_fitted_pac2002_model() {
+    // The pipeline's order: spring rate -> PAC2002 fit -> relaxation with the fitted model.
+    let round = build(SynthConfig::default());
+    let truth = truths(&round.plan);
+    let sr = spring_rate::run(
+        &round.segments,
+        &BTreeMap::new(),
+        &SpringRateConfig::default(),
+    );
+    let mut per_key: BTreeMap<TireKey, Vec<MeasuredSegment>> = BTreeMap::new();
+    for s in &round.segments {
+        per_key.entry(s.key.clone()).or_default().push(s.clone());
+    }
+    let mut fitted = BTreeMap::new();
+    for (k, segs) in &per_key {
+        let v = sr.vertical.iter().find(|v| &v.key == k).expect("vertical");
+        let input = pac2002_input(k, segs, v.vertical_stiffness_n_per_m, v.unloaded_radius_m);
+        let fit = super::pac2002::fit(&input, &super::pac2002::FitConfig::default()).expect("fit");
+        fitted.insert(
+            k.clone(),
+            (fit.model, v.vertical_stiffness_n_per_m, v.unloaded_radius_m),
+        );
+    }
+    let inputs: Vec<RelaxationInput> = per_key
+        .iter()
+        .map(|(k, segs)| RelaxationInput {
+            key: k.clone(),
+            model: &fitted[k].0,
+            unloaded_radius_m: fitted[k].2,
+            vertical_stiffness_n_per_m: fitted[k].1,
+            segments: segs,
+        })
+        .collect();
+    let rx = relaxation::run(&inputs, &RelaxationConfig::default());
+    assert!(rx.failures.is_empty(), "{:?}", rx.failures);
+    let mut worst = (0.0_f64, 0.0_f64);
+    for r in &rx.rows {
+        let (sk, sa) = truth[&r.key].model.relaxation_lengths(r.fz_n_mean, 0.0);
+        let t = if r.direction == Direction::Lateral {
+            sa
+        } else {
+            sk
+        };
+        let (e, el) = (r.sigma_m / t - 1.0, r.sigma_law_m / t - 1.0);
+        println!(
+            "fitted-model relax {} {} {} Fz {:>5}: sigma {:+.2} %, law {:+.2} %, scale {:.3}",
+            r.key,
+            r.direction.as_str(),
+            r.method.as_str(),
+            r.fz_n_nom,
+            100.0 * e,
+            100.0 * el,
+            r.model_scale
+        );
+        worst = (worst.0.max(e.abs()), worst.1.max(el.abs()));
+    }
+    println!("fitted-model relaxation worst |error| (row, law): {worst:?}");
+    assert!(worst.0 < 0.05 && worst.1 < 0.05, "{worst:?}");
+}
