@@ -25,6 +25,9 @@ pub enum Command {
     Tir(TirCommand),
     /// Read raw TTC run files into the store (SI units, ISO-W axes, segmented, hive Parquet).
     Ingest(IngestArgs),
+    /// Fit every tire, rim and pressure of a store: PAC2002 .tir files, spring rate, thermal,
+    /// relaxation tables.
+    Fit(FitArgs),
     /// Run SQL over a store's tables and print the result.
     Query(QueryArgs),
     /// Rig inertia: process vehicle inertia/CG rig sessions into OUT/inertia.parquet.
@@ -175,6 +178,66 @@ pub struct IngestArgs {
     /// Worker threads (0 = one per core). Results do not depend on it.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub jobs: usize,
+    /// Fail at once if another tirebase process holds the store, instead of waiting.
+    #[arg(long)]
+    pub no_wait: bool,
+}
+
+/// `tirebase fit`.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+Fit every (tire, rim, nominal pressure) of a store and write the results to OUT. Stages, in
+dependency order, per group (groups run in parallel; the output does not depend on --jobs):
+
+  spring_rate  spring-rate holds and free-rolling sweep crossings: RL = R0 - Fz/Cz per
+               IA and condition (static/dynamic/sweep); effective rolling radius law.
+               -> OUT/spring_rate.parquet (stiffness_n_per_m N/m, unloaded_radius_m m, ...)
+  pac2002      PAC2002 (MF 5.2) on the cornering, drive/brake and combined sweeps (QC-flagged
+               segments whose flags spoil forces are left out): Fy0 -> Mz0 -> Fx0 -> Fx, Fy
+               -> Mz -> Mx (My a placeholder), Cz and R0 from spring_rate.
+               -> OUT/tir/<tire>__<rim>in__<P>kPa.tir (SI units, ISO-W axes; tire, rim and
+               pressure in [MDI_HEADER], IP/IP_NOM in Pa, USE_MODE = families fitted, +10
+               with PTY*/PTX*), OUT/coefficients.parquet (long form: name, value SI,
+               std_error, at_bound, origin), OUT/fit_quality.parquet (per channel Fy0 Mz0 Fx0
+               Fx Fy Mz Mx: n, rmse N or N m, rmse_pct_of_peak %, r2, iterations, seconds),
+               OUT/lint.parquet (findings of tirebase tir lint on every written file).
+  relaxation   relaxation length sigma (m) per load, slip rate and direction with the fitted
+               model through a first-order lag; contact half length (m), carcass stiffness
+               (N/m); PTY1/PTY2, PTX1..3 into the .tir. With [fit] delag (default) PAC2002 is
+               refitted on de-lagged sweeps first. -> OUT/relaxation.parquet
+  thermal      cold-to-warm tests: peak |Fy/Fz| per sweep quadrant against the IR-lag-corrected
+               centre tread temperature (degC); mu(T) curve per group.
+               -> OUT/thermal.parquet, OUT/thermal_fit.parquet (t_peak_c degC,
+               gain_peak_over_cold)
+
+Every table starts with tire, rim_in (in), pressure_kpa (nominal, kPa). A stage that fails for
+a group is a row of OUT/fit_failures.parquet (stage, scope, fatal, reason) and a line on stderr;
+the other groups and stages are still written.
+
+Exit codes: 0 every stage of every group produced its result; 1 some failed (fatal rows in
+fit_failures; everything else was written); 2 nothing could be fitted (no group, or no group
+produced anything) or a usage/store error.")]
+pub struct FitArgs {
+    /// Store root directory (written by `tirebase ingest`).
+    #[arg(long, value_name = "DIR")]
+    pub store: PathBuf,
+    /// Output directory (created); tables and tir/ are replaced file by file.
+    #[arg(long, value_name = "OUT")]
+    pub out: PathBuf,
+    /// Fit only this tire (its name as stored, e.g. "Hoosier 20.5x7.0-13 R25B", or its file-name
+    /// form hoosier_20.5x7.0-13_r25b).
+    #[arg(long, value_name = "NAME")]
+    pub tire: Option<String>,
+    /// Comma-separated stages to run: spring_rate, pac2002, relaxation, thermal, or all.
+    #[arg(long, value_name = "LIST", default_value = "all")]
+    pub stages: String,
+    /// Worker threads (0 = one per core). Results do not depend on it.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub jobs: usize,
+    /// Configuration file (TOML, see config/default.toml: the [fit] table); overrides the
+    /// defaults.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
     /// Fail at once if another tirebase process holds the store, instead of waiting.
     #[arg(long)]
     pub no_wait: bool,

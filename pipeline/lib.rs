@@ -21,6 +21,7 @@ pub mod catalog;
 pub mod cli;
 pub mod commands;
 pub mod config;
+pub mod fit;
 pub mod ingest;
 pub mod progress;
 pub mod query;

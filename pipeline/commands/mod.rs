@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use crate::cli::{Cli, Command};
 
+pub mod fit;
 pub mod inertia;
 pub mod ingest;
 pub mod query;
@@ -16,6 +17,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Tir(cmd) => tir::run(cmd),
         Command::Ingest(args) => ingest::run(&args),
+        Command::Fit(args) => fit::run(&args),
         Command::Query(args) => query::run(&args),
         Command::Inertia(args) => inertia::run(&args),
         Command::Synth { what } => synth::run(&what),
