@@ -14,6 +14,7 @@ use crate::cli::FitArgs;
 use crate::config::Config;
 use crate::fit::{self, FitOptions, StageSet};
 use crate::progress;
+use crate::store::layout::runs_file;
 use crate::store::lock::{LockWait, StoreLock};
 
 /// Fit the store's groups.
@@ -31,6 +32,14 @@ pub fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
         stages,
         jobs: args.jobs,
     };
+    if !args.store.join(runs_file()).is_file() {
+        eprintln!(
+            "error: {} is not a tirebase store (no {}): ingest first",
+            args.store.display(),
+            runs_file().display()
+        );
+        return Ok(ExitCode::from(2));
+    }
     let progress = progress::for_stderr();
     let wait = if args.no_wait {
         LockWait::Refuse

@@ -262,7 +262,7 @@ pub fn load_segments(store: &Path, rows: &[&SegmentRow]) -> Result<Vec<LoadedSeg
                 segment: rows[wanted[0]].segment_id.clone(),
             });
         }
-        let df = read_parquet(path)?;
+        let df = read_sample_columns(path)?;
         let file = SampleColumns::read(&df, path)?;
         for &k in wanted {
             out[k] = Some(file.segment(rows[k], path)?);
@@ -271,9 +271,25 @@ pub fn load_segments(store: &Path, rows: &[&SegmentRow]) -> Result<Vec<LoadedSeg
     Ok(out.into_iter().flatten().collect())
 }
 
+/// Read the columns the stages use from one samples file.
+fn read_sample_columns(path: &Path) -> Result<DataFrame, FitError> {
+    let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
+    let columns: Vec<String> = ["segment_id", "sample_index", "kappa_measured"]
+        .into_iter()
+        .chain(REQUIRED)
+        .chain(OPTIONAL)
+        .map(str::to_string)
+        .collect();
+    Ok(ParquetReader::new(file)
+        .with_columns(Some(columns))
+        .finish()
+        .map_err(polars_err(path))?)
+}
+
 /// The columns of one samples file.
 struct SampleColumns {
-    segment_id: Vec<Option<String>>,
+    /// Row indices of each segment, in file order.
+    rows_of: BTreeMap<String, Vec<usize>>,
     sample_index: Vec<Option<i64>>,
     kappa_measured: Vec<Option<bool>>,
     required: BTreeMap<&'static str, Vec<Option<f64>>>,
@@ -313,8 +329,12 @@ impl SampleColumns {
         for name in OPTIONAL {
             optional.insert(name, f64_column(df, name, path)?);
         }
+        let mut rows_of: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+        for (i, id) in str_column(df, "segment_id", path)?.into_iter().enumerate() {
+            rows_of.entry(id.unwrap_or_default()).or_default().push(i);
+        }
         Ok(SampleColumns {
-            segment_id: str_column(df, "segment_id", path)?,
+            rows_of,
             sample_index: i64_column(df, "sample_index", path)?,
             kappa_measured: bool_column(df, "kappa_measured", path)?,
             required,
@@ -324,9 +344,11 @@ impl SampleColumns {
 
     /// The rows of one segment, in sample order.
     fn segment(&self, row: &SegmentRow, path: &Path) -> Result<LoadedSegment, FitError> {
-        let mut idx: Vec<usize> = (0..self.segment_id.len())
-            .filter(|&i| self.segment_id[i].as_deref() == Some(row.segment_id.as_str()))
-            .collect();
+        let mut idx = self
+            .rows_of
+            .get(&row.segment_id)
+            .cloned()
+            .unwrap_or_default();
         if idx.is_empty() {
             return Err(FitError::MissingSamples {
                 path: path.to_path_buf(),
