@@ -170,8 +170,8 @@ impl fmt::Display for StageSet {
     }
 }
 
-/// What to fit.
-#[derive(Clone, Debug, PartialEq)]
+/// What to fit (default: every tire, every stage, one thread per core).
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct FitOptions {
     /// Only this tire (its name as stored, or its sanitised file-name form).
     pub tire: Option<String>,
@@ -181,15 +181,6 @@ pub struct FitOptions {
     pub jobs: usize,
 }
 
-impl Default for FitOptions {
-    fn default() -> Self {
-        FitOptions {
-            tire: None,
-            stages: StageSet::default(),
-            jobs: 0,
-        }
-    }
-}
 
 /// One (tire, rim, nominal pressure) group and the hash of everything its fit depends on: the
 /// sorted (segment_id, source_sha256, qc_flags) of its usable segments, the resolved stage

@@ -280,10 +280,10 @@ fn read_sample_columns(path: &Path) -> Result<DataFrame, FitError> {
         .chain(OPTIONAL)
         .map(str::to_string)
         .collect();
-    Ok(ParquetReader::new(file)
+    ParquetReader::new(file)
         .with_columns(Some(columns))
         .finish()
-        .map_err(polars_err(path))?)
+        .map_err(polars_err(path))
 }
 
 /// The columns of one samples file.
