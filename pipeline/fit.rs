@@ -181,7 +181,6 @@ pub struct FitOptions {
     pub jobs: usize,
 }
 
-
 /// One (tire, rim, nominal pressure) group and the hash of everything its fit depends on: the
 /// sorted (segment_id, source_sha256, qc_flags) of its usable segments, the resolved stage
 /// configurations, the stage set and the tool version.
@@ -248,6 +247,45 @@ impl fmt::Display for FitFailure {
     }
 }
 
+/// Effort of one group (wall time is not deterministic; for reports and benchmarks).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GroupStats {
+    /// The group.
+    pub key: Option<TireKey>,
+    /// Wall time per stage (`load`, `spring_rate`, `pac2002`, `relaxation`, `thermal`), s.
+    pub stage_seconds: BTreeMap<String, f64>,
+    /// PAC2002 fits run (2 when refitted on de-lagged sweeps).
+    pub pac2002_fits: usize,
+    /// Model evaluations (residual vectors plus Jacobians) of those fits.
+    pub pac2002_evaluations: usize,
+}
+
+impl fmt::Display for GroupStats {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let Some(k) = &self.key {
+            write!(f, "{k}:")?;
+        }
+        for (stage, s) in &self.stage_seconds {
+            write!(f, " {stage} {s:.3} s")?;
+            if stage == "pac2002" {
+                write!(
+                    f,
+                    " ({} fits, {} evaluations)",
+                    self.pac2002_fits, self.pac2002_evaluations
+                )?;
+            }
+            write!(f, ",")?;
+        }
+        let fitting: f64 = self
+            .stage_seconds
+            .iter()
+            .filter(|(s, _)| s.as_str() != "load")
+            .map(|(_, t)| t)
+            .sum();
+        write!(f, " all stages {fitting:.3} s")
+    }
+}
+
 /// Everything a fit produced.
 #[derive(Clone, Debug, Default)]
 pub struct FitOutcome {
@@ -262,6 +300,8 @@ pub struct FitOutcome {
     pub failures: Vec<FitFailure>,
     /// Wall time per stage summed over groups (plus `load`), s.
     pub stage_seconds: BTreeMap<String, f64>,
+    /// Per group (in group order): wall time per stage and PAC2002 effort.
+    pub group_stats: Vec<GroupStats>,
     /// Groups fitted (planned).
     pub groups: usize,
     /// Groups with at least one fatal failure.
@@ -438,6 +478,12 @@ pub fn fit_groups(
         for (stage, s) in &result.stage_seconds {
             *outcome.stage_seconds.entry(stage.clone()).or_default() += s;
         }
+        outcome.group_stats.push(GroupStats {
+            key: Some(result.key.clone()),
+            stage_seconds: result.stage_seconds.clone(),
+            pac2002_fits: result.pac2002_fits,
+            pac2002_evaluations: result.pac2002_evaluations,
+        });
         let produced = model.is_some()
             || result
                 .spring_rate

@@ -75,6 +75,9 @@ pub fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|(s, t)| format!("{s} {t:.1} s"))
         .collect();
+    for g in &outcome.group_stats {
+        eprintln!("timing: {g}");
+    }
     eprintln!("{}", outcome.summary());
     eprintln!("stage time summed over groups: {}", seconds.join(", "));
     Ok(if outcome.groups_empty == outcome.groups {

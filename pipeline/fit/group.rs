@@ -61,6 +61,10 @@ pub struct GroupResult {
     pub pressure_kpa_mean: f64,
     /// Force-clean segments the PAC2002 stage was given.
     pub n_pac2002_segments: usize,
+    /// PAC2002 fits run (2 when the sweeps were refitted de-lagged).
+    pub pac2002_fits: usize,
+    /// Model evaluations of those fits.
+    pub pac2002_evaluations: usize,
     /// Failures (fatal and partial).
     pub failures: Vec<FitFailure>,
     /// Wall time per stage, s.
@@ -77,6 +81,8 @@ impl GroupResult {
             thermal: None,
             pressure_kpa_mean: f64::NAN,
             n_pac2002_segments: 0,
+            pac2002_fits: 0,
+            pac2002_evaluations: 0,
             failures: Vec::new(),
             stage_seconds: BTreeMap::new(),
         }
@@ -422,6 +428,10 @@ fn run_pac2002_and_relaxation(
     .unwrap_or(f64::NAN);
     let first = pac2002::fit(&input, &cfg.pac2002);
     out.time("pac2002", started);
+    out.pac2002_fits += 1;
+    if let Ok(f) = &first {
+        out.pac2002_evaluations += f.evaluations;
+    }
     let first = match first {
         Ok(f) => f,
         Err(e) => {
@@ -482,8 +492,10 @@ fn run_pac2002_and_relaxation(
     {
         let started = Instant::now();
         input.context.relaxation = Some(lengths);
+        out.pac2002_fits += 1;
         match pac2002::fit(&input, &cfg.pac2002) {
             Ok(second) => {
+                out.pac2002_evaluations += second.evaluations;
                 fit = second;
                 out.time("pac2002", started);
                 let started = Instant::now();
