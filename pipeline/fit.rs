@@ -258,6 +258,9 @@ pub struct GroupStats {
     pub pac2002_fits: usize,
     /// Model evaluations (residual vectors plus Jacobians) of those fits.
     pub pac2002_evaluations: usize,
+    /// CPU time of the thread that ran the stages (load excluded), s; `None` where the OS
+    /// does not tell (non-Linux). Unlike wall time it does not grow on a loaded machine.
+    pub cpu_seconds: Option<f64>,
 }
 
 impl fmt::Display for GroupStats {
@@ -282,8 +285,23 @@ impl fmt::Display for GroupStats {
             .filter(|(s, _)| s.as_str() != "load")
             .map(|(_, t)| t)
             .sum();
-        write!(f, " all stages {fitting:.3} s")
+        write!(f, " all stages {fitting:.3} s wall")?;
+        if let Some(cpu) = self.cpu_seconds {
+            write!(f, ", {cpu:.2} s CPU")?;
+        }
+        Ok(())
     }
+}
+
+/// CPU time of the calling thread, s, from `/proc/thread-self/stat` (Linux, 100 ticks/s);
+/// `None` elsewhere.
+fn thread_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/thread-self/stat").ok()?;
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let utime: f64 = fields.get(11)?.parse().ok()?;
+    let stime: f64 = fields.get(12)?.parse().ok()?;
+    Some((utime + stime) / 100.0)
 }
 
 /// Everything a fit produced.
@@ -400,6 +418,7 @@ pub fn plan_groups(
 struct GroupOutput {
     result: group::GroupResult,
     model: Option<tir::WrittenModel>,
+    cpu_seconds: Option<f64>,
 }
 
 fn fit_one(
@@ -416,7 +435,9 @@ fn fit_one(
         .collect();
     let segments = load::load_segments(store, &mine)?;
     let load_seconds = started.elapsed().as_secs_f64();
+    let cpu0 = thread_cpu_seconds();
     let mut result = group::run(&plan.key, &segments, &opts.stages, cfg);
+    let cpu_seconds = cpu0.zip(thread_cpu_seconds()).map(|(a, b)| b - a);
     result
         .stage_seconds
         .insert("load".to_string(), load_seconds);
@@ -434,7 +455,11 @@ fn fit_one(
             )),
         }
     }
-    Ok(GroupOutput { result, model })
+    Ok(GroupOutput {
+        result,
+        model,
+        cpu_seconds,
+    })
 }
 
 /// Fit the given groups in parallel (a rayon pool of `opts.jobs` threads, 0 = one per core); a
@@ -474,7 +499,11 @@ pub fn fit_groups(
         ..FitOutcome::default()
     };
     for out in outputs {
-        let GroupOutput { result, model } = out?;
+        let GroupOutput {
+            result,
+            model,
+            cpu_seconds,
+        } = out?;
         for (stage, s) in &result.stage_seconds {
             *outcome.stage_seconds.entry(stage.clone()).or_default() += s;
         }
@@ -483,6 +512,7 @@ pub fn fit_groups(
             stage_seconds: result.stage_seconds.clone(),
             pac2002_fits: result.pac2002_fits,
             pac2002_evaluations: result.pac2002_evaluations,
+            cpu_seconds,
         });
         let produced = model.is_some()
             || result

@@ -517,6 +517,22 @@ fn run_pac2002_and_relaxation(
                 true,
                 "no relaxation length law (PTY1/PTY2, PTX1..3)",
             );
+        } else if rx
+            .laws
+            .iter()
+            .all(|l| l.lateral.is_none() && l.longitudinal.is_none())
+        {
+            // e.g. a lag-free (ideal) round: every sigma at its lower search bound.
+            let at_bound = rx.rows.iter().filter(|r| r.at_bound).count();
+            out.fail(
+                "relaxation",
+                "PTY1/PTY2, PTX1..3",
+                false,
+                format!(
+                    "no law: {at_bound} of {} relaxation lengths sit on a search bound (no measurable lag?)",
+                    rx.rows.len()
+                ),
+            );
         }
         out.relaxation = Some(rx);
     }
