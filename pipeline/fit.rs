@@ -32,10 +32,7 @@ use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
 use rayon::prelude::*;
-use tirebase_core::fit::relaxation::RelaxationConfig;
 use tirebase_core::fit::segment_data::TireKey;
-use tirebase_core::fit::spring_rate::SpringRateConfig;
-use tirebase_core::fit::thermal::ThermalConfig;
 use tirebase_core::naming::sanitize_tire;
 
 pub use group::StageConfigs;
@@ -352,14 +349,14 @@ impl FitOutcome {
     }
 }
 
-/// The resolved configuration of every stage: `[fit]` for PAC2002, the core defaults for the
-/// others (they have no configuration table yet).
+/// The resolved configuration of every stage: `[fit]` for PAC2002, `[fit.spring_rate]`,
+/// `[fit.thermal]`, `[fit.relaxation]` for the others.
 pub fn stage_configs(config: &Config) -> StageConfigs {
     StageConfigs {
         pac2002: config.fit.pac2002(),
-        spring_rate: SpringRateConfig::default(),
-        thermal: ThermalConfig::default(),
-        relaxation: RelaxationConfig::default(),
+        spring_rate: config.fit.spring_rate,
+        thermal: config.fit.thermal,
+        relaxation: config.fit.relaxation,
     }
 }
 
@@ -392,7 +389,7 @@ pub fn plan_groups(
     let config_text = format!(
         "{}\n{:?}\nstages {}\ntirebase {}\n",
         toml::to_string(&config.fit).unwrap_or_default(),
-        cfg,
+        cfg.pac2002,
         opts.stages,
         env!("CARGO_PKG_VERSION")
     );
