@@ -301,3 +301,66 @@ pub fn relaxation(results: &[GroupResult]) -> Result<DataFrame, FitError> {
     }
     f.finish()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nan_is_null_only_where_the_schema_allows_it() {
+        let key = TireKey {
+            tire: "T".into(),
+            rim_in: 7,
+            pressure_kpa_nom: 83,
+        };
+        let failures = vec![FitFailure::new(
+            &key,
+            "pac2002",
+            "pac2002",
+            true,
+            "no\nsweeps".into(),
+        )];
+        let df = fit_failures(&failures).unwrap();
+        assert_eq!(df.height(), 1);
+        assert_eq!(
+            df.get_column_names()
+                .iter()
+                .map(|c| c.as_str())
+                .collect::<Vec<_>>(),
+            [
+                "tire",
+                "rim_in",
+                "pressure_kpa",
+                "stage",
+                "scope",
+                "fatal",
+                "reason"
+            ]
+        );
+        let reason = df.column("reason").unwrap().str().unwrap().get(0).unwrap();
+        assert_eq!(reason, "no sweeps", "one-line reasons");
+
+        let mut f = Frame::new("coefficients");
+        f.key(&key)
+            .s("model", "PAC2002")
+            .s("family", "Fy0")
+            .s("name", "PDY1")
+            .f("value", -2.5)
+            .f("std_error", f64::NAN)
+            .b("at_bound", false)
+            .s("origin", "fitted");
+        let df = f.finish().unwrap();
+        assert_eq!(df.column("std_error").unwrap().null_count(), 1);
+        assert_eq!(df.column("value").unwrap().null_count(), 0);
+    }
+
+    #[test]
+    fn empty_tables_have_every_column() {
+        let df = relaxation(&[]).unwrap();
+        assert_eq!(df.height(), 0);
+        assert_eq!(
+            df.width(),
+            schema::table("relaxation").file_columns().count()
+        );
+    }
+}
