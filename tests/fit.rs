@@ -645,3 +645,38 @@ fn bad_stage_names_and_empty_stores_are_usage_errors() {
         String::from_utf8_lossy(&o.stderr)
     );
 }
+
+/// Issue 5: families without data are left out and USE_MODE says so (a tire tested on
+/// drive/brake only: pure and combined Fx, USE_MODE 1), and that is not a failure.
+#[test]
+fn drive_brake_only_group_is_written_with_use_mode_1() {
+    let f = ideal();
+    let dir = tempfile::tempdir().unwrap();
+    let (raw, store, out) = (
+        dir.path().join("raw"),
+        dir.path().join("store"),
+        dir.path().join("out"),
+    );
+    std::fs::create_dir_all(&raw).unwrap();
+    // B2410run2.dat: the 20.5 in tire at 83 kPa, drive/brake and combined sweeps.
+    std::fs::copy(f.round.join("raw/B2410run2.dat"), raw.join("B2410run2.dat")).unwrap();
+    let catalog = f.round.join("catalog.toml");
+    ok(
+        &tirebase(&[
+            "ingest",
+            p(&raw),
+            "--store",
+            p(&store),
+            "--catalog",
+            p(&catalog),
+        ]),
+        "ingest",
+    );
+    let o = tirebase(&["fit", "--store", p(&store), "--out", p(&out), "--jobs", "1"]);
+    ok(&o, "fit");
+    let name = tir_file_name("Hoosier 20.5x7.0-13 R25B", 7.0, 83.0);
+    let m = model(&out.join("tir").join(&name));
+    assert_eq!(m.use_mode, Some(1), "{name}");
+    let q = read_table(&out, "fit_quality");
+    assert_eq!(strs(&q, "channel"), ["Fx0", "Fx"], "{q}");
+}
