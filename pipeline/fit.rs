@@ -430,7 +430,15 @@ fn fit_one(
         .iter()
         .filter(|r| r.key == plan.key && group::used_by(&opts.stages, r.kind))
         .collect();
-    let segments = load::load_segments(store, &mine)?;
+    // polars parallelises reads on its own rayon pool. Called from a worker of our pool, that
+    // `install` would let the waiting worker steal and run *another group* meanwhile (nested
+    // groups, their memory held at once, time charged to the wrong group). A plain scoped thread
+    // makes the wait a real block.
+    let segments = std::thread::scope(|s| {
+        s.spawn(|| load::load_segments(store, &mine))
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+    })?;
     let load_seconds = started.elapsed().as_secs_f64();
     let cpu0 = thread_cpu_seconds();
     let mut result = group::run(&plan.key, &segments, &opts.stages, cfg);
