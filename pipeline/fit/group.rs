@@ -419,6 +419,7 @@ fn run_pac2002_and_relaxation(
         return;
     };
     out.n_pac2002_segments = input.sweeps.len();
+    record_unusable_sweeps(out, all);
     out.pressure_kpa_mean = median(
         all.iter()
             .filter(|s| pac2002_segment(s))
@@ -480,6 +481,7 @@ fn run_pac2002_and_relaxation(
                 },
             );
         }
+        record_fit_notes(out, &first);
         out.pac2002 = Some(first);
         return;
     }
@@ -540,5 +542,55 @@ fn run_pac2002_and_relaxation(
         // relaxation alone still needed the steady-state model; it is not written.
         return;
     }
+    record_fit_notes(out, &fit);
     out.pac2002 = Some(fit);
+}
+
+/// Force-clean matrix segments the PAC2002 stage could not be given, as partial failures (one
+/// row per reason).
+fn record_unusable_sweeps(out: &mut GroupResult, all: &[&LoadedSegment]) {
+    let mut by_reason: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+    for s in all.iter().filter(|s| pac2002_segment(s)) {
+        let reason = if s.segment.kind != SegmentKind::Cornering && !s.kappa_measured {
+            "no measured longitudinal slip (SL) channel"
+        } else if sweep_of(s).is_none() {
+            "no nominal load or inclination (off-nominal level)"
+        } else {
+            continue;
+        };
+        by_reason
+            .entry(reason)
+            .or_default()
+            .push(&s.segment.segment_id);
+    }
+    for (reason, ids) in by_reason {
+        out.fail(
+            "pac2002",
+            &format!("{} sweeps", ids.len()),
+            false,
+            format!("{reason}: {}", ids.join(", ")),
+        );
+    }
+}
+
+/// Sweeps the PAC2002 stage skipped and families it could not fit, as partial failures.
+fn record_fit_notes(out: &mut GroupResult, fit: &Pac2002Fit) {
+    for s in &fit.skipped_sweeps {
+        out.fail(
+            "pac2002",
+            &format!("sweep {}", s.id),
+            false,
+            s.reason.clone(),
+        );
+    }
+    for f in &fit.families {
+        if let pac2002::FamilyStatus::Failed { reason } = &f.status {
+            out.fail(
+                "pac2002",
+                &format!("family {}", f.family.as_str()),
+                false,
+                reason.clone(),
+            );
+        }
+    }
 }
