@@ -520,10 +520,11 @@ pub fn fit_groups(
             cpu_seconds,
         });
         let produced = model.is_some()
-            || result
-                .spring_rate
-                .as_ref()
-                .is_some_and(|s| !s.rows.is_empty())
+            || (opts.stages.spring_rate
+                && result
+                    .spring_rate
+                    .as_ref()
+                    .is_some_and(|s| !s.rows.is_empty()))
             || result.thermal.as_ref().is_some_and(|t| !t.rows.is_empty())
             || result
                 .relaxation
