@@ -24,5 +24,6 @@ pub mod config;
 pub mod ingest;
 pub mod progress;
 pub mod query;
+pub mod report;
 pub mod schema;
 pub mod store;

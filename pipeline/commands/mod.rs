@@ -8,6 +8,7 @@ use crate::cli::{Cli, Command};
 pub mod inertia;
 pub mod ingest;
 pub mod query;
+pub mod report;
 pub mod synth;
 pub mod tir;
 
@@ -17,6 +18,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Tir(cmd) => tir::run(cmd),
         Command::Ingest(args) => ingest::run(&args),
         Command::Query(args) => query::run(&args),
+        Command::Report(args) => report::run(&args),
         Command::Inertia(args) => inertia::run(&args),
         Command::Synth { what } => synth::run(&what),
     }
