@@ -2,5 +2,6 @@
 //! binary in temporary directories.
 
 mod inertia;
+mod report;
 mod synth;
 mod tir;

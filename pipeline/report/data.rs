@@ -10,13 +10,16 @@
 //! Deliberately not here: what is plotted (pages.rs) and any fitting.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
 use tirebase_core::tire_model::Pac2002;
 use tirebase_core::tire_model::tir::TirFile;
 
+use rayon::prelude::*;
+
 use crate::query;
+use crate::store::layout::{PartitionKey, SWEPT, partition_dir, source_part_name};
 
 /// Result tables the report looks for (others in the directory are ignored).
 pub const TABLES: [&str; 8] = [
@@ -34,7 +37,7 @@ pub const TABLES: [&str; 8] = [
 pub const SLIP_KINDS: [&str; 3] = ["cornering", "drive_brake", "combined"];
 
 /// Samples kept per segment for plotting (evenly strided).
-pub const MAX_POINTS_PER_SEGMENT: usize = 160;
+pub const MAX_POINTS_PER_SEGMENT: usize = 100;
 
 /// One plotted sample (SI, ISO-W).
 #[derive(Clone, Copy, Debug, Default)]
@@ -176,6 +179,11 @@ fn load_models(results: &Path, data: &mut ReportData) {
 }
 
 /// Live, QC-clean slip-test segments with their samples.
+///
+/// Samples are read straight from the partition file each segment lives in (its kind, tire,
+/// rim and nominal levels name the directory, its source file and hash the file) with only the
+/// numeric columns plotted, and split by the segment's sample-index range: far cheaper than a
+/// hive scan with string columns, which matters because the report runs after every fit.
 fn load_segments(store: &Path, data: &mut ReportData) -> Result<(), super::ReportError> {
     let mut ctx = query::context(store).map_err(|source| super::ReportError::Store {
         path: store.to_path_buf(),
@@ -191,60 +199,114 @@ fn load_segments(store: &Path, data: &mut ReportData) -> Result<(), super::Repor
             return Ok(());
         }
     };
-    let sample_sql = format!(
-        "SELECT segment_id, sample_index, alpha_rad, kappa, fx_n, fy_n, fz_n, mz_nm \
-         FROM samples WHERE test IN ({kinds})"
-    );
-    let samples = match ctx.execute(&sample_sql).and_then(|lf| lf.collect()) {
-        Ok(df) => df,
-        Err(e) => {
-            data.notes
-                .push(format!("{}: samples unreadable: {e}", store.display()));
-            DataFrame::empty()
+    let mut segments = build_segments(&segs);
+    let mut by_file: BTreeMap<PathBuf, Vec<usize>> = BTreeMap::new();
+    for (i, (_, src)) in segments.iter().enumerate() {
+        by_file.entry(store.join(&src.file)).or_default().push(i);
+    }
+    let read: Vec<(PathBuf, Result<FileSamples, String>)> = by_file
+        .keys()
+        .cloned()
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .map(|path| {
+            let r = read_samples(&path);
+            (path, r)
+        })
+        .collect();
+    for (path, result) in read {
+        match result {
+            Ok(file) => {
+                for &i in &by_file[&path] {
+                    let (seg, src) = &mut segments[i];
+                    let full = file.rows(src.sample_range);
+                    seg.stats = segment_stats(&full);
+                    seg.samples = decimate(&full, MAX_POINTS_PER_SEGMENT);
+                }
+            }
+            Err(e) => data.notes.push(format!("{}: {e}", path.display())),
         }
-    };
-    let by_segment = group_samples(&samples);
-    data.segments = build_segments(&segs, by_segment);
+    }
+    data.segments = segments.into_iter().map(|(s, _)| s).collect();
     Ok(())
 }
 
-/// Samples grouped by segment id, each in sample order: (full-rate samples).
-fn group_samples(df: &DataFrame) -> BTreeMap<String, Vec<(i64, Sample)>> {
-    let mut out: BTreeMap<String, Vec<(i64, Sample)>> = BTreeMap::new();
-    if df.height() == 0 {
-        return out;
+/// Where a segment's samples are.
+struct SampleSource {
+    /// Partition file, relative to the store root.
+    file: PathBuf,
+    /// Sample indices `[start, end)` in the raw file.
+    sample_range: (i64, i64),
+}
+
+/// The plotted columns of one partition file, in file order.
+struct FileSamples {
+    sample_index: Vec<i64>,
+    samples: Vec<Sample>,
+}
+
+impl FileSamples {
+    /// Samples whose index lies in `[start, end)`, ordered by index.
+    fn rows(&self, (start, end): (i64, i64)) -> Vec<Sample> {
+        let mut rows: Vec<(i64, Sample)> = self
+            .sample_index
+            .iter()
+            .zip(&self.samples)
+            .filter(|(k, _)| (start..end).contains(*k))
+            .map(|(k, s)| (*k, *s))
+            .collect();
+        rows.sort_by_key(|(k, _)| *k);
+        rows.into_iter().map(|(_, s)| s).collect()
     }
-    let ids = str_col(df, "segment_id");
-    let idx = i64_col(df, "sample_index");
+}
+
+fn read_samples(path: &Path) -> Result<FileSamples, String> {
+    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let columns = [
+        "sample_index",
+        "alpha_rad",
+        "kappa",
+        "fx_n",
+        "fy_n",
+        "fz_n",
+        "mz_nm",
+    ];
+    let df = ParquetReader::new(file)
+        .with_columns(Some(columns.iter().map(|c| c.to_string()).collect()))
+        .finish()
+        .map_err(|e| e.to_string())?;
+    let sample_index: Vec<i64> = i64_col(&df, "sample_index")
+        .into_iter()
+        .map(|v| v.unwrap_or(-1))
+        .collect();
     let [alpha, kappa, fx, fy, fz, mz] =
-        ["alpha_rad", "kappa", "fx_n", "fy_n", "fz_n", "mz_nm"].map(|c| f64_col(df, c));
-    for i in 0..df.height() {
-        let Some(id) = &ids[i] else { continue };
-        let s = Sample {
+        ["alpha_rad", "kappa", "fx_n", "fy_n", "fz_n", "mz_nm"].map(|c| f64_col(&df, c));
+    let samples = (0..df.height())
+        .map(|i| Sample {
             alpha_rad: alpha[i],
             kappa: kappa[i],
             fx_n: fx[i],
             fy_n: fy[i],
             fz_n: fz[i],
             mz_nm: mz[i],
-        };
-        out.entry(id.clone())
-            .or_default()
-            .push((idx[i].unwrap_or(i as i64), s));
-    }
-    for v in out.values_mut() {
-        v.sort_by_key(|(k, _)| *k);
-    }
-    out
+        })
+        .collect();
+    Ok(FileSamples {
+        sample_index,
+        samples,
+    })
 }
 
-fn build_segments(
-    segs: &DataFrame,
-    mut samples: BTreeMap<String, Vec<(i64, Sample)>>,
-) -> Vec<Segment> {
+/// Segments (without samples yet) and where their samples are, sorted by
+/// (tire, rim, pressure, kind, id).
+fn build_segments(segs: &DataFrame) -> Vec<(Segment, SampleSource)> {
     let ids = str_col(segs, "segment_id");
     let kinds = str_col(segs, "kind");
     let tires = str_col(segs, "tire");
+    let sources = str_col(segs, "source_file");
+    let shas = str_col(segs, "source_sha256");
+    let starts = i64_col(segs, "sample_start");
+    let ends = i64_col(segs, "sample_end");
     let rims = i64_col(segs, "rim_in");
     let p_nom = i64_col(segs, "pressure_kpa_nom");
     let ia_nom = i64_col(segs, "ia_deg_nom");
@@ -260,17 +322,29 @@ fn build_segments(
     let k_max = f64_col(segs, "kappa_max");
     let mut out = Vec::new();
     for i in 0..segs.height() {
-        let (Some(id), Some(kind), Some(tire), Some(p)) = (&ids[i], &kinds[i], &tires[i], p_nom[i])
-        else {
+        let (Some(id), Some(kind), Some(tire), Some(p), Some(source), Some(sha)) = (
+            &ids[i],
+            &kinds[i],
+            &tires[i],
+            p_nom[i],
+            &sources[i],
+            &shas[i],
+        ) else {
             continue;
         };
-        let full: Vec<Sample> = samples
-            .remove(id)
-            .unwrap_or_default()
-            .into_iter()
-            .map(|(_, s)| s)
-            .collect();
-        out.push(Segment {
+        let key = PartitionKey {
+            test: kind.clone(),
+            tire: tire.clone(),
+            rim_in: rims[i].unwrap_or(0),
+            pressure_kpa_nom: p,
+            ia_deg_nom: ia_nom[i].unwrap_or(SWEPT),
+            fz_n_nom: fz_nom[i].unwrap_or(SWEPT),
+        };
+        let src = SampleSource {
+            file: partition_dir(&key).join(source_part_name(source, sha)),
+            sample_range: (starts[i].unwrap_or(0), ends[i].unwrap_or(i64::MAX)),
+        };
+        let seg = Segment {
             id: id.clone(),
             kind: kind.clone(),
             tire: tire.clone(),
@@ -285,11 +359,15 @@ fn build_segments(
             alpha_deg_mean: a_mean[i],
             alpha_deg_range: (a_min[i], a_max[i]),
             kappa_range: (k_min[i], k_max[i]),
-            stats: segment_stats(&full),
-            samples: decimate(&full, MAX_POINTS_PER_SEGMENT),
-        });
+            samples: Vec::new(),
+            stats: SegmentStats {
+                mu_y_peak: f64::NAN,
+                cornering_stiffness_n_per_rad: f64::NAN,
+            },
+        };
+        out.push((seg, src));
     }
-    out.sort_by(|a, b| {
+    out.sort_by(|(a, _), (b, _)| {
         (&a.tire, a.rim_in, a.pressure_kpa_nom, &a.kind, &a.id).cmp(&(
             &b.tire,
             b.rim_in,
@@ -319,9 +397,10 @@ fn segment_stats(samples: &[Sample]) -> SegmentStats {
         .map(|s| (s.fy_n / s.fz_n).abs())
         .filter(|m| m.is_finite())
         .collect();
-    mus.sort_by(|a, b| b.total_cmp(a));
     let mu_y_peak = if mus.len() >= 20 {
-        mus[..5].iter().sum::<f64>() / 5.0
+        let k = mus.len() - 5;
+        mus.select_nth_unstable_by(k, f64::total_cmp);
+        mus[k..].iter().sum::<f64>() / 5.0
     } else {
         f64::NAN
     };

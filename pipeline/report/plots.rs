@@ -19,7 +19,7 @@ use super::svg::{Axis, Plot, Series, Style};
 /// Points along a model curve.
 const CURVE_POINTS: usize = 81;
 /// Measured points per (plot, load) series after pooling segments.
-const MAX_POINTS_PER_SERIES: usize = 240;
+const MAX_POINTS_PER_SERIES: usize = 100;
 
 /// Which signal a slip chart shows.
 #[derive(Clone, Copy)]
