@@ -26,10 +26,7 @@ fn tirebase(args: &[&std::ffi::OsStr]) -> std::process::Output {
     let bin = std::env::var_os("TIREBASE_TEST_BIN")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_tirebase")));
-    Command::new(bin)
-        .args(args)
-        .output()
-        .expect("run tirebase")
+    Command::new(bin).args(args).output().expect("run tirebase")
 }
 
 fn ok(output: &std::process::Output, what: &str) {
@@ -502,7 +499,7 @@ fn report_renders_every_plot_in_headless_chromium() {
     ok(&output, "report on a sparse result directory");
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(
-        stderr.contains("spring_rate.parquet: not present"),
+        stderr.contains("note: spring_rate.parquet: not present"),
         "{stderr}"
     );
     let index = std::fs::read_to_string(out2.join("index.html")).unwrap();

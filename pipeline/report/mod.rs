@@ -80,7 +80,7 @@ pub fn write_report(
         });
     }
     let data = data::load(store, results)?;
-    let built = pages::build(&data, results);
+    let built = pages::build(&data);
     crate::store::files::ensure_dir(out_dir).map_err(|source| ReportError::Write {
         path: out_dir.to_path_buf(),
         source,

@@ -9,7 +9,6 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
-use std::path::Path;
 
 use polars::prelude::{AnyValue, DataFrame};
 use tirebase_core::naming::sanitize_tire;
@@ -44,7 +43,7 @@ svg.plot{border:1px solid #ddd;background:#fafafa}\
 .warn{color:#a33}";
 
 /// Build every page.
-pub fn build(data: &ReportData, results: &Path) -> Built {
+pub fn build(data: &ReportData) -> Built {
     let names = page_names(&data.tires);
     let worst = worst_fit_rows(data);
     let mut built = Built {
@@ -59,14 +58,7 @@ pub fn build(data: &ReportData, results: &Path) -> Built {
         built.plots_without_data += missing;
         tire_pages.push((file.clone(), html));
     }
-    let index = index_page(
-        data,
-        results,
-        &names,
-        &worst,
-        built.plots,
-        built.plots_without_data,
-    );
+    let index = index_page(data, &names, &worst, built.plots, built.plots_without_data);
     built.pages.push(("index.html".to_string(), index));
     built.pages.extend(tire_pages);
     built
@@ -408,7 +400,6 @@ fn at_bound_section(data: &ReportData, tire: &str) -> String {
 
 fn index_page(
     data: &ReportData,
-    results: &Path,
     names: &[String],
     worst: &BTreeSet<usize>,
     drawn: usize,
@@ -417,9 +408,8 @@ fn index_page(
     let mut out = head("tirebase report");
     let _ = writeln!(
         out,
-        "<h1>tirebase round report</h1>\n<p class=\"note\">results: {} · {} tires · {} models · \
+        "<h1>tirebase round report</h1>\n<p class=\"note\">{} tires · {} models · \
          {} slip-test segments · {drawn} charts drawn, {missing} without data</p>",
-        escape(&results.display().to_string()),
         data.tires.len(),
         data.models.len(),
         data.segments.len()
@@ -533,7 +523,7 @@ mod tests {
     #[test]
     fn an_empty_round_still_gives_an_index() {
         let data = ReportData::default();
-        let built = build(&data, Path::new("/r"));
+        let built = build(&data);
         assert_eq!(built.pages.len(), 1);
         assert!(built.pages[0].1.contains("no tires"));
     }

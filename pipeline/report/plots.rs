@@ -21,6 +21,9 @@ const CURVE_POINTS: usize = 81;
 /// Measured points per (plot, load) series after pooling segments.
 const MAX_POINTS_PER_SERIES: usize = 100;
 
+/// Points by (rim, pressure) and then by a series label.
+type PointsByGroup = BTreeMap<(i64, i64), BTreeMap<String, Vec<(f64, f64)>>>;
+
 /// Which signal a slip chart shows.
 #[derive(Clone, Copy)]
 enum SlipChart {
@@ -559,12 +562,12 @@ fn tire_groups_from_models(data: &ReportData, tire: &str, file: &str) -> Vec<(i6
         let rims = i64_col(df, "rim_in");
         let ps = i64_col(df, "pressure_kpa");
         for i in 0..df.height() {
-            if tires[i].as_deref() == Some(tire) {
-                if let (Some(r), Some(p)) = (rims[i], ps[i]) {
-                    if tir_file_name(tire, r as f64, p as f64) == file && !out.contains(&(r, p)) {
-                        out.push((r, p));
-                    }
-                }
+            if tires[i].as_deref() == Some(tire)
+                && let (Some(r), Some(p)) = (rims[i], ps[i])
+                && tir_file_name(tire, r as f64, p as f64) == file
+                && !out.contains(&(r, p))
+            {
+                out.push((r, p));
             }
         }
     }
@@ -648,7 +651,7 @@ pub fn mu_temperature(data: &ReportData, tire: &str) -> Vec<Plot> {
         let quads = str_col(df, "quadrant");
         let t = f64_col(df, "t_centre_peak_c");
         let mu = f64_col(df, "mu_peak");
-        let mut by_quad: BTreeMap<(i64, i64), BTreeMap<String, Vec<(f64, f64)>>> = BTreeMap::new();
+        let mut by_quad: PointsByGroup = BTreeMap::new();
         for i in rows_of(df, tire) {
             let key = (rims[i].unwrap_or(0), ps[i].unwrap_or(0));
             by_quad
@@ -745,7 +748,7 @@ pub fn relaxation(data: &ReportData, tire: &str) -> Vec<Plot> {
         let fz = f64_col(df, "fz_n_mean");
         let sigma = f64_col(df, "sigma_m");
         let ok = bool_col(df, "converged");
-        let mut series: BTreeMap<(i64, i64), BTreeMap<String, Vec<(f64, f64)>>> = BTreeMap::new();
+        let mut series: PointsByGroup = BTreeMap::new();
         for i in rows_of(df, tire) {
             if dirs[i].as_deref() != Some(direction) || ok[i] == Some(false) {
                 continue;
