@@ -9,7 +9,7 @@
 //!
 //! Deliberately not here: what is plotted (pages.rs) and any fitting.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
@@ -113,6 +113,8 @@ pub struct ReportData {
     pub segments: Vec<Segment>,
     /// Tires seen anywhere (segments, tables), sorted.
     pub tires: Vec<String>,
+    /// (rim, nominal pressure) groups each tire has rows for in any result table.
+    pub result_groups: BTreeMap<String, BTreeSet<(i64, i64)>>,
     /// What could not be read, one line each.
     pub notes: Vec<String>,
 }
@@ -123,11 +125,21 @@ pub fn load(store: &Path, results: &Path) -> Result<ReportData, super::ReportErr
     load_tables(results, &mut data);
     load_models(results, &mut data);
     load_segments(store, &mut data)?;
-    let mut tires: std::collections::BTreeSet<String> =
-        data.segments.iter().map(|s| s.tire.clone()).collect();
     for df in data.tables.values() {
-        tires.extend(str_col(df, "tire").into_iter().flatten());
+        let tires = str_col(df, "tire");
+        let rims = i64_col(df, "rim_in");
+        let ps = i64_col(df, "pressure_kpa");
+        for i in 0..df.height() {
+            if let Some(t) = &tires[i] {
+                let groups = data.result_groups.entry(t.clone()).or_default();
+                if let (Some(r), Some(p)) = (rims[i], ps[i]) {
+                    groups.insert((r, p));
+                }
+            }
+        }
     }
+    let mut tires: BTreeSet<String> = data.segments.iter().map(|s| s.tire.clone()).collect();
+    tires.extend(data.result_groups.keys().cloned());
     data.tires = tires.into_iter().collect();
     Ok(data)
 }

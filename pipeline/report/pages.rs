@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 use polars::prelude::{AnyValue, DataFrame};
 use tirebase_core::naming::sanitize_tire;
 
-use super::data::{ReportData, f64_col, i64_col};
+use super::data::{ReportData, f64_col};
 use super::plots;
 use super::svg::{Plot, escape};
 
@@ -330,14 +330,8 @@ fn group_summary(data: &ReportData, tire: &str) -> String {
             .entry(s.kind.clone())
             .or_default() += 1;
     }
-    for df in data.tables.values() {
-        let rims = i64_col(df, "rim_in");
-        let ps = i64_col(df, "pressure_kpa");
-        for i in plots::rows_of(df, tire) {
-            if let (Some(r), Some(p)) = (rims[i], ps[i]) {
-                counts.entry((r, p)).or_default();
-            }
-        }
+    for &key in data.result_groups.get(tire).into_iter().flatten() {
+        counts.entry(key).or_default();
     }
     if counts.is_empty() {
         return String::new();
@@ -484,13 +478,9 @@ fn tire_levels(data: &ReportData, tire: &str) -> (BTreeSet<i64>, BTreeSet<i64>) 
         rims.insert(s.rim_in);
         pressures.insert(s.pressure_kpa_nom);
     }
-    for df in data.tables.values() {
-        let r = i64_col(df, "rim_in");
-        let p = i64_col(df, "pressure_kpa");
-        for i in plots::rows_of(df, tire) {
-            rims.extend(r[i]);
-            pressures.extend(p[i]);
-        }
+    for &(r, p) in data.result_groups.get(tire).into_iter().flatten() {
+        rims.insert(r);
+        pressures.insert(p);
     }
     (rims, pressures)
 }

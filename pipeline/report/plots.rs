@@ -475,8 +475,8 @@ pub fn peak_mu_and_stiffness(data: &ReportData, tire: &str) -> Vec<Plot> {
             .push(seg);
     }
     // Models without data still get their curves (at 25 % to 175 % of FNOMIN).
-    for name in data.models.keys() {
-        for &(rim, p) in &tire_groups_from_models(data, tire, name) {
+    for &(rim, p) in data.result_groups.get(tire).into_iter().flatten() {
+        if model_for(data, tire, rim, p).is_some() {
             groups.entry((rim, p)).or_default();
         }
     }
@@ -552,26 +552,6 @@ pub fn peak_mu_and_stiffness(data: &ReportData, tire: &str) -> Vec<Plot> {
     mu.missing_reason = "no cornering data at IA 0 and no model".to_string();
     ky.missing_reason = mu.missing_reason.clone();
     vec![mu, ky]
-}
-
-/// (rim, pressure) of a model file if it belongs to `tire`.
-fn tire_groups_from_models(data: &ReportData, tire: &str, file: &str) -> Vec<(i64, i64)> {
-    let mut out = Vec::new();
-    for df in data.tables.values() {
-        let tires = str_col(df, "tire");
-        let rims = i64_col(df, "rim_in");
-        let ps = i64_col(df, "pressure_kpa");
-        for i in 0..df.height() {
-            if tires[i].as_deref() == Some(tire)
-                && let (Some(r), Some(p)) = (rims[i], ps[i])
-                && tir_file_name(tire, r as f64, p as f64) == file
-                && !out.contains(&(r, p))
-            {
-                out.push((r, p));
-            }
-        }
-    }
-    out
 }
 
 /// Row indices of a result table that belong to `tire`.
