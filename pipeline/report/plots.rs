@@ -605,7 +605,8 @@ pub fn spring_rate(data: &ReportData, tire: &str) -> Vec<Plot> {
             pts,
         ));
     }
-    plot.missing_reason = "no spring_rate rows for this tire".to_string();
+    plot.missing_reason =
+        "no spring_rate rows for this tire with pressure_kpa and stiffness_n_per_m".to_string();
     vec![plot]
 }
 
@@ -621,7 +622,8 @@ pub fn mu_temperature(data: &ReportData, tire: &str) -> Vec<Plot> {
             Axis::new("centre tread temperature (°C)"),
             Axis::new("peak |Fy|/Fz (-)"),
         );
-        plot.missing_reason = "no usable thermal rows".to_string();
+        plot.missing_reason =
+            "no finite t_centre_peak_c/mu_peak (thermal) or mu(T) curve (thermal_fit)".to_string();
         plot
     };
     let mut ranges: BTreeMap<(i64, i64), (f64, f64)> = BTreeMap::new();
@@ -764,7 +766,9 @@ pub fn relaxation(data: &ReportData, tire: &str) -> Vec<Plot> {
                 plot.series.push(Series::new("", color, Style::Line, law));
             }
         }
-        plot.missing_reason = format!("no converged {direction} relaxation rows for this tire");
+        plot.missing_reason = format!(
+            "no converged {direction} relaxation rows for this tire with fz_n_mean and sigma_m"
+        );
         plots.push(plot);
     }
     plots
@@ -790,6 +794,27 @@ mod tests {
         assert_eq!(hull.len(), 4, "{hull:?}");
         for c in [(0.0, 0.0), (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)] {
             assert!(hull.contains(&c));
+        }
+    }
+
+    #[test]
+    fn tables_with_unexpected_columns_give_notes_not_panics() {
+        let mut data = ReportData::default();
+        for name in super::super::data::TABLES {
+            let df = polars::prelude::df!("tire" => ["X", "X"], "something" => [1.0, 2.0]).unwrap();
+            data.tables.insert(name.to_string(), df);
+        }
+        let empty = polars::prelude::df!("tire" => Vec::<String>::new()).unwrap();
+        data.tables.insert("relaxation".to_string(), empty);
+        for plots in [
+            spring_rate(&data, "X"),
+            mu_temperature(&data, "X"),
+            relaxation(&data, "X"),
+        ] {
+            for p in plots {
+                assert!(!p.has_data(), "{}", p.title);
+                assert!(p.render().contains("plot-missing"));
+            }
         }
     }
 

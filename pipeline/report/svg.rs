@@ -415,10 +415,10 @@ fn padded_range(values: impl Iterator<Item = f64>, include_zero: bool) -> (f64, 
         lo = lo.min(0.0);
         hi = hi.max(0.0);
     }
-    if !(lo.is_finite() && hi.is_finite()) {
+    let span = hi - lo;
+    if !span.is_finite() {
         return (0.0, 1.0);
     }
-    let span = hi - lo;
     if span <= 1e-12 * hi.abs().max(lo.abs()).max(1e-300) {
         let half = (0.05 * hi.abs()).max(1.0);
         return (lo - half, hi + half);
