@@ -45,7 +45,8 @@ svg.plot{border:1px solid #ddd;background:#fafafa}\
 /// Build every page.
 pub fn build(data: &ReportData) -> Built {
     let names = page_names(&data.tires);
-    let worst = worst_fit_rows(data);
+    let worst_order = worst_fit_rows(data);
+    let worst: BTreeSet<usize> = worst_order.iter().copied().collect();
     let mut built = Built {
         pages: Vec::new(),
         plots: 0,
@@ -58,7 +59,13 @@ pub fn build(data: &ReportData) -> Built {
         built.plots_without_data += missing;
         tire_pages.push((file.clone(), html));
     }
-    let index = index_page(data, &names, &worst, built.plots, built.plots_without_data);
+    let index = index_page(
+        data,
+        &names,
+        &worst_order,
+        built.plots,
+        built.plots_without_data,
+    );
     built.pages.push(("index.html".to_string(), index));
     built.pages.extend(tire_pages);
     built
@@ -89,28 +96,24 @@ fn head(title: &str) -> String {
     )
 }
 
-/// Row indices of the fit-quality table flagged as the worst of the round: the largest RMSE in
-/// percent of the channel's peak (or lowest R² when that column is missing).
-fn worst_fit_rows(data: &ReportData) -> BTreeSet<usize> {
+/// Row indices of the fit-quality table flagged as the worst of the round, worst first: the
+/// largest RMSE in percent of the channel's peak, or the lowest R² when no row has that column.
+fn worst_fit_rows(data: &ReportData) -> Vec<usize> {
     let Some(df) = data.tables.get("fit_quality") else {
-        return BTreeSet::new();
+        return Vec::new();
     };
     let pct = f64_col(df, "rmse_pct_of_peak");
-    let r2 = f64_col(df, "r2");
-    let badness: Vec<f64> = (0..df.height())
-        .map(|i| {
-            if pct[i].is_finite() {
-                pct[i]
-            } else {
-                1.0 - r2[i]
-            }
-        })
-        .collect();
+    let badness: Vec<f64> = if pct.iter().any(|v| v.is_finite()) {
+        pct
+    } else {
+        f64_col(df, "r2").iter().map(|r| 1.0 - r).collect()
+    };
     let mut order: Vec<usize> = (0..df.height())
         .filter(|&i| badness[i].is_finite())
         .collect();
     order.sort_by(|&a, &b| badness[b].total_cmp(&badness[a]).then(a.cmp(&b)));
-    order.into_iter().take(WORST_FITS).collect()
+    order.truncate(WORST_FITS);
+    order
 }
 
 /// A result table (selected rows and columns present) as HTML; `worst` rows highlighted.
@@ -395,7 +398,7 @@ fn at_bound_section(data: &ReportData, tire: &str) -> String {
 fn index_page(
     data: &ReportData,
     names: &[String],
-    worst: &BTreeSet<usize>,
+    worst: &[usize],
     drawn: usize,
     missing: usize,
 ) -> String {
@@ -432,13 +435,20 @@ fn index_page(
         }
         out.push_str("</table>\n");
     }
+    let worst_set: BTreeSet<usize> = worst.iter().copied().collect();
+    if let Some(df) = data.tables.get("fit_quality")
+        && !worst.is_empty()
+    {
+        out.push_str("<h2 id=\"worst-fits\">Worst fits</h2>\n");
+        out.push_str(&table_html(df, worst, &FIT_QUALITY_COLUMNS, &worst_set));
+    }
     out.push_str(&table_section(
         data,
         "fit_quality",
         "Fit quality (worst highlighted)",
         None,
         &FIT_QUALITY_COLUMNS,
-        worst,
+        &worst_set,
     ));
     out.push_str(&table_section(
         data,
