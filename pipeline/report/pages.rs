@@ -207,7 +207,9 @@ fn table_section(
     out
 }
 
-const FIT_QUALITY_COLUMNS: [&str; 12] = [
+/// Fit-quality columns shown (those present). `seconds` (wall time) is left out so the same
+/// results give the same report bytes.
+const FIT_QUALITY_COLUMNS: [&str; 11] = [
     "tire",
     "rim_in",
     "pressure_kpa",
@@ -216,10 +218,10 @@ const FIT_QUALITY_COLUMNS: [&str; 12] = [
     "rmse",
     "rmse_pct_of_peak",
     "r2",
+    "sample_rmse",
+    "initial_rmse",
     "iterations",
     "termination",
-    "seconds",
-    "model",
 ];
 
 /// One tire's page and its (drawn, missing) chart counts.
