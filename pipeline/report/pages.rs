@@ -209,7 +209,7 @@ fn table_section(
 
 /// Fit-quality columns shown (those present). `seconds` (wall time) is left out so the same
 /// results give the same report bytes.
-const FIT_QUALITY_COLUMNS: [&str; 11] = [
+const FIT_QUALITY_COLUMNS: [&str; 12] = [
     "tire",
     "rim_in",
     "pressure_kpa",
