@@ -30,6 +30,8 @@ pub enum Command {
     Fit(FitArgs),
     /// Run SQL over a store's tables and print the result.
     Query(QueryArgs),
+    /// Write the HTML report (data vs model charts, fit quality, lint) of a result directory.
+    Report(ReportArgs),
     /// Rig inertia: process vehicle inertia/CG rig sessions into OUT/inertia.parquet.
     Inertia(InertiaArgs),
     /// Write synthetic data with known answers.
@@ -277,6 +279,47 @@ pub struct QueryArgs {
     /// The SQL statement.
     #[arg(value_name = "SQL")]
     pub sql: String,
+}
+
+/// `tirebase report`.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+Write a self-contained HTML report (inline SVG charts and CSS, no script, nothing loaded from a
+network) of a result directory: OUT/index.html and one OUT/tire-<name>.html per tire.
+
+index.html: the round overview (tires, rims, nominal pressures, segments and models per tire),
+the fit-quality table with the three worst fits (largest RMSE in percent of the channel's peak)
+highlighted, lint warnings, failures and every input that was missing or unreadable.
+
+Each tire page draws, with measured samples of QC-clean segments as markers (decimated) and the
+fitted PAC2002 model of RESULTS/tir/<tire>__<rim>in__<P>kPa.tir as lines (evaluated at the
+segments' mean load and inclination over the swept range):
+  - Fy (N) and Mz (N m) against slip angle (deg), per load, one chart per rim, pressure and IA
+  - Fx (N) against longitudinal slip kappa (-), per load
+  - the friction envelope, Fx (N) against Fy (N): combined-slip data and the model's outline
+  - peak mu_y (-) and cornering stiffness K_ya (N/rad) against load Fz (N), per pressure
+  - vertical stiffness (kN/m) against pressure (kPa) and IA (spring_rate table)
+  - peak |Fy|/Fz against centre tread temperature (degC): thermal points and the thermal_fit
+    mu(T) curve
+  - relaxation length (mm) against load (N), lateral and longitudinal (relaxation table, with
+    the model's PTY/PTX law)
+  - the tire's fit quality, coefficients at a bound, lint warnings and failures.
+All quantities SI and ISO-W (x forward, y left, z up; positive slip angle gives negative Fy). A
+chart whose table, column or model is missing shows a \"no data\" note instead.
+
+RESULTS is laid out as the fit stage writes it: <table>.parquet (coefficients, fit_quality,
+spring_rate, thermal, thermal_fit, relaxation, lint, fit_failures) and tir/*.tir, e.g. a
+published STORE/versions/v000003. Existing pages in OUT are replaced.")]
+pub struct ReportArgs {
+    /// Store root directory (the measured segments and samples).
+    #[arg(long, value_name = "DIR")]
+    pub store: PathBuf,
+    /// Result directory: <table>.parquet files and tir/*.tir.
+    #[arg(long, value_name = "DIR")]
+    pub results: PathBuf,
+    /// Output directory for index.html and the tire pages (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
 }
 
 /// `tirebase tir ...`

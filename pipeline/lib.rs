@@ -25,5 +25,6 @@ pub mod fit;
 pub mod ingest;
 pub mod progress;
 pub mod query;
+pub mod report;
 pub mod schema;
 pub mod store;

@@ -3,5 +3,6 @@
 
 mod fit;
 mod inertia;
+mod report;
 mod synth;
 mod tir;

@@ -9,6 +9,7 @@ pub mod fit;
 pub mod inertia;
 pub mod ingest;
 pub mod query;
+pub mod report;
 pub mod synth;
 pub mod tir;
 
@@ -19,6 +20,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Ingest(args) => ingest::run(&args),
         Command::Fit(args) => fit::run(&args),
         Command::Query(args) => query::run(&args),
+        Command::Report(args) => report::run(&args),
         Command::Inertia(args) => inertia::run(&args),
         Command::Synth { what } => synth::run(&what),
     }
