@@ -441,25 +441,43 @@ fn fit_one(
     })?;
     let load_seconds = started.elapsed().as_secs_f64();
     let cpu0 = thread_cpu_seconds();
-    let mut result = group::run(&plan.key, &segments, &opts.stages, cfg);
+    // A bug in a stage must not take the other groups down: a panic becomes a fatal failure of
+    // this group (the panic message is also printed by the default hook).
+    let fitted = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let mut result = group::run(&plan.key, &segments, &opts.stages, cfg);
+        let mut model = None;
+        if opts.stages.pac2002
+            && let Some(fit) = &result.pac2002
+        {
+            match tir::build(&result, &fit.notes) {
+                Ok(m) => model = Some(m),
+                Err(reason) => result.failures.push(FitFailure::new(
+                    &plan.key, "pac2002", "pac2002", true, reason,
+                )),
+            }
+        }
+        (result, model)
+    }));
+    let (mut result, model) = fitted.unwrap_or_else(|panic| {
+        let message = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".to_string());
+        let mut result = group::GroupResult::new(&plan.key);
+        result.failures.push(FitFailure::new(
+            &plan.key,
+            "fit",
+            "panic",
+            true,
+            format!("internal error (a bug; please report): {message}"),
+        ));
+        (result, None)
+    });
     let cpu_seconds = cpu0.zip(thread_cpu_seconds()).map(|(a, b)| b - a);
     result
         .stage_seconds
         .insert("load".to_string(), load_seconds);
-    let mut model = None;
-    if opts.stages.pac2002 && result.pac2002.is_some() {
-        let notes = result
-            .pac2002
-            .as_ref()
-            .map(|f| f.notes.clone())
-            .unwrap_or_default();
-        match tir::build(&result, &notes) {
-            Ok(m) => model = Some(m),
-            Err(reason) => result.failures.push(FitFailure::new(
-                &plan.key, "pac2002", "pac2002", true, reason,
-            )),
-        }
-    }
     Ok(GroupOutput {
         result,
         model,

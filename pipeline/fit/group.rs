@@ -73,7 +73,8 @@ pub struct GroupResult {
 }
 
 impl GroupResult {
-    fn new(key: &TireKey) -> GroupResult {
+    /// An empty result of `key` (nothing run yet).
+    pub fn new(key: &TireKey) -> GroupResult {
         GroupResult {
             key: key.clone(),
             spring_rate: None,
