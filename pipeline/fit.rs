@@ -441,9 +441,7 @@ fn fit_one(
     })?;
     let load_seconds = started.elapsed().as_secs_f64();
     let cpu0 = thread_cpu_seconds();
-    // A bug in a stage must not take the other groups down: a panic becomes a fatal failure of
-    // this group (the panic message is also printed by the default hook).
-    let fitted = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+    let (mut result, model) = guarded(&plan.key, || {
         let mut result = group::run(&plan.key, &segments, &opts.stages, cfg);
         let mut model = None;
         if opts.stages.pac2002
@@ -457,22 +455,6 @@ fn fit_one(
             }
         }
         (result, model)
-    }));
-    let (mut result, model) = fitted.unwrap_or_else(|panic| {
-        let message = panic
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| panic.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "unknown panic".to_string());
-        let mut result = group::GroupResult::new(&plan.key);
-        result.failures.push(FitFailure::new(
-            &plan.key,
-            "fit",
-            "panic",
-            true,
-            format!("internal error (a bug; please report): {message}"),
-        ));
-        (result, None)
     });
     let cpu_seconds = cpu0.zip(thread_cpu_seconds()).map(|(a, b)| b - a);
     result
@@ -482,6 +464,30 @@ fn fit_one(
         result,
         model,
         cpu_seconds,
+    })
+}
+
+/// Run one group's stages; a bug in a stage must not take the other groups down, so a panic
+/// becomes a fatal failure of this group (the default hook also prints the panic message).
+fn guarded(
+    key: &TireKey,
+    stages: impl FnOnce() -> (group::GroupResult, Option<tir::WrittenModel>),
+) -> (group::GroupResult, Option<tir::WrittenModel>) {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(stages)).unwrap_or_else(|panic| {
+        let message = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".to_string());
+        let mut result = group::GroupResult::new(key);
+        result.failures.push(FitFailure::new(
+            key,
+            "fit",
+            "panic",
+            true,
+            format!("internal error (a bug; please report): {message}"),
+        ));
+        (result, None)
     })
 }
 
@@ -604,4 +610,38 @@ pub fn write_outcome(outcome: &FitOutcome, out: &Path) -> Result<(), FitError> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panicking_group_becomes_a_fatal_failure() {
+        let key = TireKey {
+            tire: "T".into(),
+            rim_in: 7,
+            pressure_kpa_nom: 83,
+        };
+        let (result, model) = guarded(&key, || panic!("index out of bounds"));
+        assert!(model.is_none());
+        assert_eq!(result.failures.len(), 1);
+        let f = &result.failures[0];
+        assert!(f.fatal && f.stage == "fit", "{f:?}");
+        assert!(f.reason.contains("index out of bounds"), "{f:?}");
+    }
+
+    #[test]
+    fn stage_sets_print_and_parse_back() {
+        for list in [
+            "pac2002",
+            "spring_rate,thermal",
+            "all",
+            "relaxation, pac2002",
+        ] {
+            let s = StageSet::parse(list).unwrap();
+            assert_eq!(StageSet::parse(&s.to_string()).unwrap(), s);
+        }
+        assert!(StageSet::parse("").is_err());
+    }
 }
