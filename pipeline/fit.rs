@@ -5,8 +5,8 @@
 //! plan_groups:  segments table (live rows) ─▶ one GroupPlan per (tire, rim, pressure) with the
 //!               hash of everything its fit depends on
 //! fit_groups:   rayon pool of `jobs` threads, one group per task:
-//!               load samples ─▶ spring rate ─▶ PAC2002 ─▶ relaxation (─▶ de-lagged PAC2002
-//!               ─▶ relaxation) ; thermal          (fit::group)
+//!               load samples ─▶ spring rate ─▶ PAC2002 (forces) ─▶ relaxation ─▶ PAC2002
+//!               on de-lagged sweeps ─▶ relaxation ; thermal          (fit::group)
 //!               ─▶ .tir text + lint               (fit::tir)
 //!               ─▶ tables in group order          (fit::tables)
 //! write_outcome: OUT/<table>.parquet, OUT/tir/*.tir (atomic writes)

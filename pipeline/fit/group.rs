@@ -9,8 +9,10 @@
 //! stage (else the fit takes them from `RL` at low slip) -> relaxation with that model (sweeps,
 //! cold-to-warm sweeps, speed sweeps, step steers) -> when `[fit] delag` is on and relaxation
 //! gave lengths, PAC2002 again on de-lagged sweeps and relaxation again with the final model (so
-//! the written `PTY*`/`PTX*` belong to the written steady state). Thermal (cold-to-warm) is
-//! independent. Every stage's failure is recorded and the others still run.
+//! the written `PTY*`/`PTX*` belong to the written steady state). With de-lagging the first
+//! PAC2002 pass fits the force families only (relaxation reads `Fy`, `Fx`; `Mz`, `Mx` cost the
+//! most and do not change the forces). Thermal (cold-to-warm) is independent. Every stage's
+//! failure is recorded and the others still run.
 //!
 //! Deliberately not here: reading the store (`load`), tables and file text (`tables`, `tir`).
 
