@@ -328,6 +328,36 @@ fn reingest_unchanged_writes_nothing_and_a_changed_file_replaces_only_its_rows()
 }
 
 #[test]
+fn store_bytes_do_not_depend_on_the_thread_count() {
+    let tmp = tempfile::tempdir().unwrap();
+    let raw = tmp.path().join("raw");
+    good_raw(&raw);
+    for qc in ["qc_zeroed_fy.dat", "qc_duplicated_et.dat"] {
+        fs::copy(repo().join("tests/fixtures/bad").join(qc), raw.join(qc)).unwrap();
+    }
+    let stores: Vec<PathBuf> = ["1", "3"]
+        .iter()
+        .map(|jobs| {
+            let store = tmp.path().join(format!("store-{jobs}"));
+            let out = ingest(&store, &[&raw], &["--jobs", jobs]);
+            assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+            store
+        })
+        .collect();
+    let bytes = |store: &Path| -> BTreeMap<String, Vec<u8>> {
+        tree(store).into_iter().map(|(k, (b, _))| (k, b)).collect()
+    };
+    let (a, b) = (bytes(&stores[0]), bytes(&stores[1]));
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    for (name, content) in &a {
+        assert!(
+            content == &b[name],
+            "{name} differs between --jobs 1 and --jobs 3"
+        );
+    }
+}
+
+#[test]
 fn failed_reingest_of_a_good_file_keeps_its_stored_rows_and_lists_the_failure() {
     let tmp = tempfile::tempdir().unwrap();
     let (raw, store) = (tmp.path().join("raw"), tmp.path().join("store"));
