@@ -9,7 +9,8 @@
 //!   runs table commit;
 //! - `parse`: `tirebase_core::ttc::read_run` alone (parse + convert);
 //! - `polars_csv`: polars' CSV reader reading the file into a DataFrame (tab separator, line 1
-//!   skipped, names from line 2, the units line skipped, every column parsed as f64);
+//!   skipped, names from line 2, the units line skipped, every column parsed as f64 by a given
+//!   schema, so no type inference);
 //!
 //! and the ratio ingest / polars_csv (target >= 1.0). Each figure is the median of `REPS`
 //! (env `TIREBASE_BENCH_REPS`, default 5) timed runs after one warm-up, interleaved.
@@ -62,12 +63,22 @@ fn parse_once(file: &Path) {
     assert!(!run.is_empty());
 }
 
-fn polars_once(file: &Path) {
+/// Every column of a `.dat` as f64, named from line 2 (so polars need not infer types).
+fn dat_schema(file: &Path) -> SchemaRef {
+    let text = std::fs::read_to_string(file).expect("read");
+    let names = text.lines().nth(1).expect("line 2");
+    let fields = names
+        .split('\t')
+        .map(|n| Field::new(n.trim().into(), DataType::Float64));
+    Arc::new(Schema::from_iter(fields))
+}
+
+fn polars_once(file: &Path, schema: &SchemaRef) {
     let df = CsvReadOptions::default()
         .with_has_header(true)
         .with_skip_rows(1)
         .with_skip_rows_after_header(1)
-        .with_infer_schema_length(None)
+        .with_schema(Some(schema.clone()))
         .with_parse_options(CsvParseOptions::default().with_separator(b'\t'))
         .try_into_reader_with_file_path(Some(file.to_path_buf()))
         .expect("csv reader")
@@ -125,13 +136,14 @@ fn main() {
     let (mut total_mb, mut total) = (0.0, [0.0f64; 3]);
     for file in &files {
         let mb = std::fs::metadata(file).expect("stat").len() as f64 / 1e6;
+        let schema = dat_schema(file);
         ingest_once(file, scratch.path(), &segment);
-        polars_once(file);
+        polars_once(file, &schema);
         let mut t = [Vec::new(), Vec::new(), Vec::new()];
         for _ in 0..reps {
             t[0].push(time(|| ingest_once(file, scratch.path(), &segment)));
             t[1].push(time(|| parse_once(file)));
-            t[2].push(time(|| polars_once(file)));
+            t[2].push(time(|| polars_once(file, &schema)));
         }
         let s = t.map(median);
         println!(
