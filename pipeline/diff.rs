@@ -285,13 +285,19 @@ fn force_deltas(old: &TirFile, new: &TirFile) -> [(&'static str, f64, f64); 3] {
     ]
 }
 
-/// The columns that identify a row of a result table: strings, `rim_in`, `pressure_kpa` and
-/// nominal levels (`*_nom`); every other column except wall times is a value.
+/// Free-text columns: neither keys nor compared values.
+const TEXT_COLUMNS: [&str; 5] = ["diagnostics", "units", "reason", "warnings", "notes"];
+
+/// The columns that identify a row of a result table: strings (except free text), `rim_in`,
+/// `pressure_kpa` and nominal levels (`*_nom`); every other column except wall times is a value.
 fn split_columns(df: &DataFrame) -> (Vec<String>, Vec<String>) {
     let mut keys = Vec::new();
     let mut values = Vec::new();
     for c in df.columns() {
         let name = c.name().to_string();
+        if TEXT_COLUMNS.contains(&name.as_str()) {
+            continue;
+        }
         let is_key = matches!(c.dtype(), DataType::String)
             || name == "rim_in"
             || name == "pressure_kpa"
@@ -377,8 +383,12 @@ fn table_rows(
             None
         })
     };
-    let (Some(da), Some(db)) = (read(a)?, read(b)?) else {
-        return Ok(());
+    // A table only one version has is compared with an empty table of the same columns.
+    let (da, db) = match (read(a)?, read(b)?) {
+        (None, None) => return Ok(()),
+        (Some(da), None) => (da.clone(), da.clear()),
+        (None, Some(db)) => (db.clear(), db),
+        (Some(da), Some(db)) => (da, db),
     };
     let (ta, tb) = (keyed(&da, tire), keyed(&db, tire));
     if ta.keys != tb.keys || ta.values != tb.values {
