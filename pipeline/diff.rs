@@ -286,7 +286,14 @@ fn force_deltas(old: &TirFile, new: &TirFile) -> [(&'static str, f64, f64); 3] {
 }
 
 /// Free-text columns: neither keys nor compared values.
-const TEXT_COLUMNS: [&str; 5] = ["diagnostics", "units", "reason", "warnings", "notes"];
+const TEXT_COLUMNS: [&str; 6] = [
+    "diagnostics",
+    "units",
+    "reason",
+    "warnings",
+    "notes",
+    "termination",
+];
 
 /// The columns that identify a row of a result table: strings (except free text), `rim_in`,
 /// `pressure_kpa` and nominal levels (`*_nom`); every other column except wall times is a value.

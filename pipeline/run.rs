@@ -705,11 +705,12 @@ fn failure_lines(staging: &Path) -> Result<Vec<String>, StoreError> {
     Ok((0..df.height())
         .map(|i| {
             format!(
-                "{} on {} in rim at {} kPa: {}: {}",
+                "{} on {} in rim at {} kPa: {} {}: {}",
                 text("tire", i),
                 text("rim_in", i),
                 text("pressure_kpa", i),
                 text("stage", i),
+                text("scope", i),
                 text("reason", i)
             )
         })
@@ -717,10 +718,10 @@ fn failure_lines(staging: &Path) -> Result<Vec<String>, StoreError> {
 }
 
 /// The worst row of `fit_quality` by its normalised error (the first column found of
-/// `nrmse`, `rmse_rel`, `r2`), as one line.
+/// `rmse_pct_of_peak`, `nrmse`, `r2`), as one line naming the group and channel.
 fn worst_fit(staging: &Path) -> Option<String> {
     let df = read_parquet(&staging.join("fit_quality.parquet")).ok()?;
-    let (column, higher_is_worse) = [("nrmse", true), ("rmse_rel", true), ("r2", false)]
+    let (column, higher_is_worse) = [("rmse_pct_of_peak", true), ("nrmse", true), ("r2", false)]
         .into_iter()
         .find(|(c, _)| df.column(c).is_ok_and(|c| c.dtype() == &DataType::Float64))?;
     let values = df.column(column).ok()?.f64().ok()?.clone();
@@ -738,7 +739,7 @@ fn worst_fit(staging: &Path) -> Option<String> {
     let label: Vec<String> = df
         .columns()
         .iter()
-        .filter(|c| matches!(c.dtype(), DataType::String | DataType::Int64))
+        .filter(|c| GROUP_COLUMNS.contains(&c.name().as_str()) || c.name() == "channel")
         .filter_map(|c| {
             c.get(i)
                 .ok()

@@ -2,5 +2,6 @@
 //! binary in temporary directories.
 
 mod inertia;
+mod run;
 mod synth;
 mod tir;
