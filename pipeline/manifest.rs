@@ -101,8 +101,10 @@ pub struct Counts {
     pub groups_fitted: u64,
     /// Groups whose results were taken from an earlier version.
     pub groups_reused: u64,
-    /// Failed (group, stage) fits in this version (fitted or reused).
+    /// (group, stage) fits of this version (fitted or reused) that produced nothing.
     pub fit_failures: u64,
+    /// Skipped parts of stages (one load, one sweep) whose stage result was still written.
+    pub fit_skipped: u64,
     /// `.tir` files in this version.
     pub tir_files: u64,
     /// Inertia sessions processed.
@@ -119,7 +121,7 @@ pub struct Counts {
 pub struct InputFile {
     /// File name (the store's `source_file`).
     pub name: String,
-    /// Path as found under the input.
+    /// Path relative to the input directory.
     pub path: String,
     /// Size, bytes.
     pub size: u64,

@@ -124,8 +124,12 @@ pub struct RunReport {
     pub version_dir: Option<PathBuf>,
     /// Input files that failed to ingest: (file, reason).
     pub failed_files: Vec<(String, String)>,
-    /// Failed fits of this version (fitted now or reused), one line each.
+    /// Stages that produced nothing for a group in this version (fitted now or reused), one
+    /// line each.
     pub fit_failures: Vec<String>,
+    /// Parts of stages that were skipped (one load, one sweep) while the stage's result was
+    /// written, one line each.
+    pub fit_skipped: Vec<String>,
     /// Failed inertia runs, one line each.
     pub inertia_errors: Vec<String>,
     /// The report could not be written.
@@ -180,17 +184,17 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     let files_unchanged = previous
         .as_ref()
         .is_some_and(|(_, _, m)| same_files(&m.files, &fingerprint.files));
+    // The fast path reads no samples and no segments: the group plan is a function of the live
+    // segments (named by the content hashes the runs table commits), the configuration and the
+    // tool version, so an unchanged runs table, config and tool mean unchanged group hashes.
     if let Some((n, _, prev)) = &previous
         && files_unchanged
         && same_settings(prev, &fingerprint, opts.store)?
     {
-        let plan = fit::plan_groups(opts.store, opts.config, &fit_opts)?;
-        if same_groups(&prev.groups, &plan) {
-            return Ok(RunOutcome::UpToDate {
-                version: *n,
-                seconds: started.elapsed().as_secs_f64(),
-            });
-        }
+        return Ok(RunOutcome::UpToDate {
+            version: *n,
+            seconds: started.elapsed().as_secs_f64(),
+        });
     }
 
     // Ingest (skipped when every input file has the size and mtime recorded last time).
@@ -310,7 +314,7 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
         })
         .collect();
     report.failed_files = ingest_failed;
-    report.fit_failures = failure_lines(&staging)?;
+    (report.fit_failures, report.fit_skipped) = failure_lines(&staging)?;
     report.worst_fit = worst_fit(&staging);
     let groups: Vec<GroupRecord> = plan
         .iter()
@@ -335,6 +339,7 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
         groups_fitted: to_fit.len() as u64,
         groups_reused: reused.len() as u64,
         fit_failures: report.fit_failures.len() as u64,
+        fit_skipped: report.fit_skipped.len() as u64,
         tir_files: tir_files as u64,
         inertia_sessions: fingerprint.inertia_sessions.len() as u64,
         inertia_results: inertia.as_ref().map_or(0, |d| d.results.len() as u64),
@@ -406,7 +411,11 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
             .map_or(0, |d| d.as_nanos() as i64);
         files.push(InputFile {
             name: source_file_name(path),
-            path: path.display().to_string(),
+            path: path
+                .strip_prefix(opts.input)
+                .unwrap_or(path)
+                .display()
+                .to_string(),
             size: meta.len(),
             mtime_ns,
             sha256: String::new(),
@@ -684,11 +693,13 @@ fn publish_tir(
     Ok(n)
 }
 
-/// One line per row of the version's `fit_failures` table.
-fn failure_lines(staging: &Path) -> Result<Vec<String>, StoreError> {
+/// One line per row of the version's `fit_failures` table: (fatal, skipped parts). A row is
+/// fatal when the stage produced nothing for the group (`fatal` column; every row when the
+/// table has no such column).
+fn failure_lines(staging: &Path) -> Result<(Vec<String>, Vec<String>), StoreError> {
     let path = staging.join("fit_failures.parquet");
     if !path.exists() {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), Vec::new()));
     }
     let df = read_parquet(&path)?;
     let text = |name: &str, i: usize| -> String {
@@ -702,19 +713,34 @@ fn failure_lines(staging: &Path) -> Result<Vec<String>, StoreError> {
             })
             .unwrap_or_default()
     };
-    Ok((0..df.height())
-        .map(|i| {
-            format!(
-                "{} on {} in rim at {} kPa: {} {}: {}",
-                text("tire", i),
-                text("rim_in", i),
-                text("pressure_kpa", i),
-                text("stage", i),
-                text("scope", i),
-                text("reason", i)
-            )
-        })
-        .collect())
+    let fatal = |i: usize| {
+        df.column("fatal")
+            .ok()
+            .and_then(|c| c.get(i).ok())
+            .is_none_or(|v| !matches!(v, AnyValue::Boolean(false)))
+    };
+    let (mut fatal_lines, mut skipped) = (Vec::new(), Vec::new());
+    for i in 0..df.height() {
+        let (stage, scope) = (text("stage", i), text("scope", i));
+        let part = if scope.is_empty() || scope == stage {
+            stage
+        } else {
+            format!("{stage} ({scope})")
+        };
+        let line = format!(
+            "{} on {} in rim at {} kPa: {part}: {}",
+            text("tire", i),
+            text("rim_in", i),
+            text("pressure_kpa", i),
+            text("reason", i)
+        );
+        if fatal(i) {
+            fatal_lines.push(line);
+        } else {
+            skipped.push(line);
+        }
+    }
+    Ok((fatal_lines, skipped))
 }
 
 /// The worst row of `fit_quality` by its normalised error (the first column found of

@@ -129,6 +129,12 @@ fn print_failures(report: &RunReport) {
         )
         .chain(
             report
+                .fit_skipped
+                .iter()
+                .map(|l| format!("warning: skipped: {l}")),
+        )
+        .chain(
+            report
                 .inertia_errors
                 .iter()
                 .map(|l| format!("failed inertia run: {l}")),
@@ -178,8 +184,8 @@ fn print_summary(report: &RunReport) {
         kinds.join(", ")
     );
     eprintln!(
-        "  fits      {} groups: {} fitted, {} reused; {} failed stage fits; {} .tir files",
-        c.groups, c.groups_fitted, c.groups_reused, c.fit_failures, c.tir_files
+        "  fits      {} groups: {} fitted, {} reused; {} failed stage fits, {} skipped parts; {} .tir files",
+        c.groups, c.groups_fitted, c.groups_reused, c.fit_failures, c.fit_skipped, c.tir_files
     );
     if let Some(w) = &report.worst_fit {
         eprintln!("  worst fit {w}");
