@@ -644,9 +644,7 @@ fn merge_tables(
 }
 
 fn has_group_columns(df: &DataFrame) -> bool {
-    GROUP_COLUMNS
-        .iter()
-        .all(|c| df.column(c).is_ok_and(|_| true))
+    GROUP_COLUMNS.iter().all(|c| df.column(c).is_ok())
 }
 
 /// The rows of `df` whose (tire, rim_in, pressure_kpa) is in `keys`.
@@ -888,4 +886,85 @@ pub fn describe_changes(prev: Option<&Manifest>, now: &Manifest) -> String {
     let reused = now.groups.len() - g_added - g_refit;
     parts.push(format!("{reused} groups reused"));
     parts.join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn group(tire: &str, p: i64, sha: &str) -> GroupRecord {
+        GroupRecord {
+            tire: tire.into(),
+            rim_in: 7,
+            pressure_kpa: p,
+            input_sha256: sha.into(),
+            n_segments: 3,
+            from_version: 1,
+        }
+    }
+
+    fn file(name: &str, sha: &str) -> InputFile {
+        InputFile {
+            name: name.into(),
+            path: format!("raw/{name}"),
+            size: 10,
+            mtime_ns: 5,
+            sha256: sha.into(),
+            status: "ok".into(),
+        }
+    }
+
+    #[test]
+    fn change_summary_names_files_config_and_groups() {
+        let prev = Manifest {
+            tool_version: "0.1.0".into(),
+            files: vec![file("a.dat", "1"), file("b.dat", "2")],
+            groups: vec![group("T", 69, "x"), group("T", 83, "y")],
+            ..Default::default()
+        };
+        let mut now = prev.clone();
+        now.files = vec![file("a.dat", "1"), file("b.dat", "3"), file("c.dat", "4")];
+        now.groups = vec![group("T", 69, "x"), group("T", 83, "z"), group("U", 69, "w")];
+        now.input.config_sha256 = "other".into();
+        assert_eq!(
+            describe_changes(Some(&prev), &now),
+            "1 files added, 1 files changed, config changed, 1 groups added, 1 groups refit, 1 groups reused"
+        );
+        assert!(describe_changes(None, &now).starts_with("first version: 3 files"));
+    }
+
+    #[test]
+    fn stat_identity_and_content_identity() {
+        let a = vec![file("a.dat", "1")];
+        let mut touched = a.clone();
+        touched[0].mtime_ns = 6;
+        assert!(same_files(&a, &a));
+        assert!(!same_files(&a, &touched), "a new mtime is a possible change");
+        assert!(same_content(&a, &touched), "same bytes are no change");
+        let mut edited = a.clone();
+        edited[0].sha256 = "2".into();
+        assert!(!same_content(&a, &edited));
+    }
+
+    #[test]
+    fn rows_of_reused_groups_are_selected_by_key() {
+        let df = df!(
+            "tire" => ["T", "T", "U"],
+            "rim_in" => [7i64, 7, 7],
+            "pressure_kpa" => [69i64, 83, 69],
+            "value" => [1.0, 2.0, 3.0],
+        )
+        .unwrap();
+        let keys = BTreeSet::from([("T".to_string(), 7, 83), ("U".to_string(), 7, 69)]);
+        let out = rows_of_groups(&df, &keys).unwrap();
+        let v: Vec<f64> = out
+            .column("value")
+            .unwrap()
+            .f64()
+            .unwrap()
+            .into_no_null_iter()
+            .collect();
+        assert_eq!(v, vec![2.0, 3.0]);
+        assert!(has_group_columns(&df));
+    }
 }

@@ -1,5 +1,6 @@
-//! `tirebase versions --store DIR`: one line per published version (number, date, inputs,
-//! groups, table rows, what changed), read from the manifests; stdout.
+//! `tirebase versions --store DIR`: per published version a line (number, date, input files,
+//! groups fitted/reused, coefficient rows, .tir files, what changed) and a line of row counts per
+//! table, read from the manifests; stdout.
 //!
 //! Deliberately not here: anything that writes.
 
@@ -33,6 +34,12 @@ pub fn run(args: &VersionsArgs) -> anyhow::Result<ExitCode> {
                     c.tir_files,
                     m.summary
                 );
+                let tables: Vec<String> = m
+                    .tables
+                    .iter()
+                    .map(|(t, rows)| format!("{t} {rows}"))
+                    .collect();
+                println!("{:8} rows: {}", "", tables.join(", "));
             }
             Err(e) => println!("v{n:06} unreadable manifest: {e}"),
         }
