@@ -259,6 +259,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
     check(&d, "diff 2 3");
     let df = CsvReadOptions::default()
         .with_has_header(true)
+        .with_infer_schema_length(None)
         .into_reader_with_file_handle(std::io::Cursor::new(d.stdout.clone()))
         .finish()
         .unwrap();
