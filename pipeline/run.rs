@@ -924,7 +924,11 @@ mod tests {
         };
         let mut now = prev.clone();
         now.files = vec![file("a.dat", "1"), file("b.dat", "3"), file("c.dat", "4")];
-        now.groups = vec![group("T", 69, "x"), group("T", 83, "z"), group("U", 69, "w")];
+        now.groups = vec![
+            group("T", 69, "x"),
+            group("T", 83, "z"),
+            group("U", 69, "w"),
+        ];
         now.input.config_sha256 = "other".into();
         assert_eq!(
             describe_changes(Some(&prev), &now),
@@ -939,7 +943,10 @@ mod tests {
         let mut touched = a.clone();
         touched[0].mtime_ns = 6;
         assert!(same_files(&a, &a));
-        assert!(!same_files(&a, &touched), "a new mtime is a possible change");
+        assert!(
+            !same_files(&a, &touched),
+            "a new mtime is a possible change"
+        );
         assert!(same_content(&a, &touched), "same bytes are no change");
         let mut edited = a.clone();
         edited[0].sha256 = "2".into();
