@@ -31,8 +31,13 @@ pub enum Command {
     Tir(TirCommand),
     /// Read raw TTC run files into the store (SI units, ISO-W axes, segmented, hive Parquet).
     Ingest(IngestArgs),
+    /// Fit every tire, rim and pressure of a store: PAC2002 .tir files, spring rate, thermal,
+    /// relaxation tables.
+    Fit(FitArgs),
     /// Run SQL over a store's tables and print the result.
     Query(QueryArgs),
+    /// Write the HTML report (data vs model charts, fit quality, lint) of a result directory.
+    Report(ReportArgs),
     /// Rig inertia: process vehicle inertia/CG rig sessions into OUT/inertia.parquet.
     Inertia(InertiaArgs),
     /// Write synthetic data with known answers.
@@ -186,6 +191,66 @@ pub struct IngestArgs {
     pub no_wait: bool,
 }
 
+/// `tirebase fit`.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+Fit every (tire, rim, nominal pressure) of a store and write the results to OUT. Stages, in
+dependency order, per group (groups run in parallel; the output does not depend on --jobs):
+
+  spring_rate  spring-rate holds and free-rolling sweep crossings: RL = R0 - Fz/Cz per
+               IA and condition (static/dynamic/sweep); effective rolling radius law.
+               -> OUT/spring_rate.parquet (stiffness_n_per_m N/m, unloaded_radius_m m, ...)
+  pac2002      PAC2002 (MF 5.2) on the cornering, drive/brake and combined sweeps (QC-flagged
+               segments whose flags spoil forces are left out): Fy0 -> Mz0 -> Fx0 -> Fx, Fy
+               -> Mz -> Mx (My a placeholder), Cz and R0 from spring_rate.
+               -> OUT/tir/<tire>__<rim>in__<P>kPa.tir (SI units, ISO-W axes; tire, rim and
+               pressure in [MDI_HEADER], IP/IP_NOM in Pa, USE_MODE = families fitted, +10
+               with PTY*/PTX*), OUT/coefficients.parquet (long form: name, value SI,
+               std_error, at_bound, origin), OUT/fit_quality.parquet (per channel Fy0 Mz0 Fx0
+               Fx Fy Mz Mx: n, rmse N or N m, rmse_pct_of_peak %, r2, iterations, seconds),
+               OUT/lint.parquet (findings of tirebase tir lint on every written file).
+  relaxation   relaxation length sigma (m) per load, slip rate and direction with the fitted
+               model through a first-order lag; contact half length (m), carcass stiffness
+               (N/m); PTY1/PTY2, PTX1..3 into the .tir. With [fit] delag (default) PAC2002 is
+               refitted on de-lagged sweeps first. -> OUT/relaxation.parquet
+  thermal      cold-to-warm tests: peak |Fy/Fz| per sweep quadrant against the IR-lag-corrected
+               centre tread temperature (degC); mu(T) curve per group.
+               -> OUT/thermal.parquet, OUT/thermal_fit.parquet (t_peak_c degC,
+               gain_peak_over_cold)
+
+Every table starts with tire, rim_in (in), pressure_kpa (nominal, kPa). A stage that fails for
+a group is a row of OUT/fit_failures.parquet (stage, scope, fatal, reason) and a line on stderr;
+the other groups and stages are still written.
+
+Exit codes: 0 every stage of every group produced its result; 1 some failed (fatal rows in
+fit_failures; everything else was written); 2 nothing could be fitted (no group, or no group
+produced anything) or a usage/store error.")]
+pub struct FitArgs {
+    /// Store root directory (written by `tirebase ingest`).
+    #[arg(long, value_name = "DIR")]
+    pub store: PathBuf,
+    /// Output directory (created); tables and tir/ are replaced file by file.
+    #[arg(long, value_name = "OUT")]
+    pub out: PathBuf,
+    /// Fit only this tire (its name as stored, e.g. "Hoosier 20.5x7.0-13 R25B", or its file-name
+    /// form hoosier_20.5x7.0-13_r25b).
+    #[arg(long, value_name = "NAME")]
+    pub tire: Option<String>,
+    /// Comma-separated stages to run: spring_rate, pac2002, relaxation, thermal, or all.
+    #[arg(long, value_name = "LIST", default_value = "all")]
+    pub stages: String,
+    /// Worker threads (0 = one per core). Results do not depend on it.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub jobs: usize,
+    /// Configuration file (TOML, see config/default.toml: the [fit] table); overrides the
+    /// defaults.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Fail at once if another tirebase process holds the store, instead of waiting.
+    #[arg(long)]
+    pub no_wait: bool,
+}
+
 /// Output formats for tables printed to stdout.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum OutputFormat {
@@ -220,6 +285,47 @@ pub struct QueryArgs {
     /// The SQL statement.
     #[arg(value_name = "SQL")]
     pub sql: String,
+}
+
+/// `tirebase report`.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+Write a self-contained HTML report (inline SVG charts and CSS, no script, nothing loaded from a
+network) of a result directory: OUT/index.html and one OUT/tire-<name>.html per tire.
+
+index.html: the round overview (tires, rims, nominal pressures, segments and models per tire),
+the fit-quality table with the three worst fits (largest RMSE in percent of the channel's peak)
+highlighted, lint warnings, failures and every input that was missing or unreadable.
+
+Each tire page draws, with measured samples of QC-clean segments as markers (decimated) and the
+fitted PAC2002 model of RESULTS/tir/<tire>__<rim>in__<P>kPa.tir as lines (evaluated at the
+segments' mean load and inclination over the swept range):
+  - Fy (N) and Mz (N m) against slip angle (deg), per load, one chart per rim, pressure and IA
+  - Fx (N) against longitudinal slip kappa (-), per load
+  - the friction envelope, Fx (N) against Fy (N): combined-slip data and the model's outline
+  - peak mu_y (-) and cornering stiffness K_ya (N/rad) against load Fz (N), per pressure
+  - vertical stiffness (kN/m) against pressure (kPa) and IA (spring_rate table)
+  - peak |Fy|/Fz against centre tread temperature (degC): thermal points and the thermal_fit
+    mu(T) curve
+  - relaxation length (mm) against load (N), lateral and longitudinal (relaxation table, with
+    the model's PTY/PTX law)
+  - the tire's fit quality, coefficients at a bound, lint warnings and failures.
+All quantities SI and ISO-W (x forward, y left, z up; positive slip angle gives negative Fy). A
+chart whose table, column or model is missing shows a \"no data\" note instead.
+
+RESULTS is laid out as the fit stage writes it: <table>.parquet (coefficients, fit_quality,
+spring_rate, thermal, thermal_fit, relaxation, lint, fit_failures) and tir/*.tir, e.g. a
+published STORE/versions/v000003. Existing pages in OUT are replaced.")]
+pub struct ReportArgs {
+    /// Store root directory (the measured segments and samples).
+    #[arg(long, value_name = "DIR")]
+    pub store: PathBuf,
+    /// Result directory: <table>.parquet files and tir/*.tir.
+    #[arg(long, value_name = "DIR")]
+    pub results: PathBuf,
+    /// Output directory for index.html and the tire pages (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
 }
 
 /// `tirebase tir ...`

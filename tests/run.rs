@@ -18,13 +18,13 @@ use polars::prelude::*;
 use tirebase::manifest::Manifest;
 
 /// Tables every version of a demo round must hold (inertia only with sessions).
-const TIRE_TABLES: [&str; 2] = [
+const TIRE_TABLES: [&str; 6] = [
     "coefficients",
     "fit_quality",
-    //SHIM "spring_rate",
-    //SHIM "thermal",
-    //SHIM "thermal_fit",
-    //SHIM "relaxation",
+    "spring_rate",
+    "thermal",
+    "thermal_fit",
+    "relaxation",
 ];
 
 fn bin() -> Command {

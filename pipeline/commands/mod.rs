@@ -6,9 +6,11 @@ use std::process::ExitCode;
 use crate::cli::{Cli, Command};
 
 pub mod diff;
+pub mod fit;
 pub mod inertia;
 pub mod ingest;
 pub mod query;
+pub mod report;
 pub mod run;
 pub mod synth;
 pub mod tir;
@@ -22,7 +24,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Diff(args) => diff::run(&args),
         Command::Tir(cmd) => tir::run(cmd),
         Command::Ingest(args) => ingest::run(&args),
+        Command::Fit(args) => fit::run(&args),
         Command::Query(args) => query::run(&args),
+        Command::Report(args) => report::run(&args),
         Command::Inertia(args) => inertia::run(&args),
         Command::Synth { what } => synth::run(&what),
     }

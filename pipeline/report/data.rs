@@ -1,0 +1,533 @@
+//! Everything the report reads, loaded once and forgivingly.
+//!
+//! In: a store root (live `segments` and the `samples` of the slip tests: cornering, drive/brake,
+//! combined) and a result directory (`<table>.parquet`, `tir/*.tir`). Out: [`ReportData`]: result
+//! tables by name, parsed models by `.tir` file name, QC-clean segments with their samples
+//! decimated for plotting, and [`ReportData::notes`], one line per thing that could not be read.
+//! A missing or unreadable table, model or column is a note, never an error: the pages show
+//! "no data" where it was needed.
+//!
+//! Deliberately not here: what is plotted (pages.rs) and any fitting.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+use polars::prelude::*;
+use tirebase_core::tire_model::Pac2002;
+use tirebase_core::tire_model::tir::TirFile;
+
+use rayon::prelude::*;
+
+use crate::query;
+use crate::store::layout::{PartitionKey, SWEPT, partition_dir, source_part_name};
+
+/// Result tables the report looks for (others in the directory are ignored).
+pub const TABLES: [&str; 8] = [
+    "coefficients",
+    "fit_quality",
+    "spring_rate",
+    "thermal",
+    "thermal_fit",
+    "relaxation",
+    "lint",
+    "fit_failures",
+];
+
+/// Segment kinds whose samples are plotted.
+pub const SLIP_KINDS: [&str; 3] = ["cornering", "drive_brake", "combined"];
+
+/// Samples kept per segment for plotting (evenly strided).
+pub const MAX_POINTS_PER_SEGMENT: usize = 100;
+
+/// One plotted sample (SI, ISO-W).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Sample {
+    /// Slip angle, rad.
+    pub alpha_rad: f64,
+    /// Longitudinal slip.
+    pub kappa: f64,
+    /// Longitudinal force, N.
+    pub fx_n: f64,
+    /// Lateral force, N.
+    pub fy_n: f64,
+    /// Vertical load, N (> 0).
+    pub fz_n: f64,
+    /// Aligning moment, N m.
+    pub mz_nm: f64,
+}
+
+/// Peak and slope measured on a segment's full-rate samples (before decimation).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SegmentStats {
+    /// Mean of the 5 largest |Fy|/Fz (a noise-robust peak mu), NaN if too few samples.
+    pub mu_y_peak: f64,
+    /// Least-squares dFy/dalpha over |alpha| < 1 deg, N/rad (ISO-W, negative), NaN if too few.
+    pub cornering_stiffness_n_per_rad: f64,
+}
+
+/// A QC-clean slip-test segment with its decimated samples.
+#[derive(Clone, Debug)]
+pub struct Segment {
+    /// segments.segment_id.
+    pub id: String,
+    /// cornering, drive_brake or combined.
+    pub kind: String,
+    /// Tire name.
+    pub tire: String,
+    /// Rim width, in.
+    pub rim_in: i64,
+    /// Nominal pressure, kPa.
+    pub pressure_kpa_nom: i64,
+    /// Nominal inclination, deg (None when swept).
+    pub ia_deg_nom: Option<i64>,
+    /// Nominal load, N (None when swept).
+    pub fz_n_nom: Option<i64>,
+    /// Nominal held slip angle, deg (combined tests).
+    pub alpha_deg_nom: Option<i64>,
+    /// Mean measured load, N.
+    pub fz_n_mean: f64,
+    /// Mean measured inclination, deg.
+    pub ia_deg_mean: f64,
+    /// Mean road speed, km/h.
+    pub speed_kph_mean: f64,
+    /// Mean slip angle, deg.
+    pub alpha_deg_mean: f64,
+    /// Slip-angle range, deg.
+    pub alpha_deg_range: (f64, f64),
+    /// Longitudinal-slip range.
+    pub kappa_range: (f64, f64),
+    /// Decimated samples in sample order.
+    pub samples: Vec<Sample>,
+    /// Statistics of the full-rate samples.
+    pub stats: SegmentStats,
+}
+
+/// Everything loaded for one report.
+#[derive(Default)]
+pub struct ReportData {
+    /// Result tables present and readable, by name.
+    pub tables: BTreeMap<String, DataFrame>,
+    /// Models by `.tir` file name.
+    pub models: BTreeMap<String, Pac2002>,
+    /// Slip-test segments, sorted by (tire, rim, pressure, kind, id).
+    pub segments: Vec<Segment>,
+    /// Tires seen anywhere (segments, tables), sorted.
+    pub tires: Vec<String>,
+    /// (rim, nominal pressure) groups each tire has rows for in any result table.
+    pub result_groups: BTreeMap<String, BTreeSet<(i64, i64)>>,
+    /// What could not be read, one line each.
+    pub notes: Vec<String>,
+}
+
+/// Load the result directory and the store; see the module doc for what becomes a note.
+pub fn load(store: &Path, results: &Path) -> Result<ReportData, super::ReportError> {
+    let mut data = ReportData::default();
+    load_tables(results, &mut data);
+    load_models(results, &mut data);
+    load_segments(store, &mut data)?;
+    for df in data.tables.values() {
+        let tires = str_col(df, "tire");
+        let rims = i64_col(df, "rim_in");
+        let ps = i64_col(df, "pressure_kpa");
+        for i in 0..df.height() {
+            if let Some(t) = &tires[i] {
+                let groups = data.result_groups.entry(t.clone()).or_default();
+                if let (Some(r), Some(p)) = (rims[i], ps[i]) {
+                    groups.insert((r, p));
+                }
+            }
+        }
+    }
+    let mut tires: BTreeSet<String> = data.segments.iter().map(|s| s.tire.clone()).collect();
+    tires.extend(data.result_groups.keys().cloned());
+    data.tires = tires.into_iter().collect();
+    Ok(data)
+}
+
+fn load_tables(results: &Path, data: &mut ReportData) {
+    for name in TABLES {
+        let path = results.join(format!("{name}.parquet"));
+        if !path.exists() {
+            data.notes.push(format!("{name}.parquet: not present"));
+            continue;
+        }
+        let read = std::fs::File::open(&path)
+            .map_err(|e| e.to_string())
+            .and_then(|f| ParquetReader::new(f).finish().map_err(|e| e.to_string()));
+        match read {
+            Ok(df) => {
+                data.tables.insert(name.to_string(), df);
+            }
+            Err(e) => data.notes.push(format!("{name}.parquet: unreadable: {e}")),
+        }
+    }
+}
+
+fn load_models(results: &Path, data: &mut ReportData) {
+    let dir = results.join("tir");
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        data.notes.push("tir/: no .tir directory".to_string());
+        return;
+    };
+    let mut paths: Vec<_> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "tir"))
+        .collect();
+    paths.sort();
+    for path in paths {
+        let name = path
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned();
+        let parsed = std::fs::read(&path)
+            .map_err(|e| e.to_string())
+            .and_then(|bytes| TirFile::parse_bytes(&bytes).map_err(|e| e.to_string()));
+        match parsed {
+            Ok((tir, _)) => {
+                data.models.insert(name, tir.model());
+            }
+            Err(e) => data.notes.push(format!("tir/{name}: unreadable: {e}")),
+        }
+    }
+}
+
+/// Live, QC-clean slip-test segments with their samples.
+///
+/// Samples are read straight from the partition file each segment lives in (its kind, tire,
+/// rim and nominal levels name the directory, its source file and hash the file) with only the
+/// numeric columns plotted, and split by the segment's sample-index range: far cheaper than a
+/// hive scan with string columns, which matters because the report runs after every fit.
+fn load_segments(store: &Path, data: &mut ReportData) -> Result<(), super::ReportError> {
+    let mut ctx = query::context(store).map_err(|source| super::ReportError::Store {
+        path: store.to_path_buf(),
+        source,
+    })?;
+    let kinds = SLIP_KINDS.map(|k| format!("'{k}'")).join(", ");
+    let seg_sql = format!("SELECT * FROM segments WHERE kind IN ({kinds}) AND qc_ok");
+    let segs = match ctx.execute(&seg_sql).and_then(|lf| lf.collect()) {
+        Ok(df) => df,
+        Err(e) => {
+            data.notes.push(format!("store segments unreadable: {e}"));
+            return Ok(());
+        }
+    };
+    let mut segments = build_segments(&segs);
+    let mut by_file: BTreeMap<PathBuf, Vec<usize>> = BTreeMap::new();
+    for (i, (_, src)) in segments.iter().enumerate() {
+        by_file.entry(store.join(&src.file)).or_default().push(i);
+    }
+    let read: Vec<(PathBuf, Result<FileSamples, String>)> = by_file
+        .keys()
+        .cloned()
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .map(|path| {
+            let r = read_samples(&path);
+            (path, r)
+        })
+        .collect();
+    for (path, result) in read {
+        match result {
+            Ok(file) => {
+                for &i in &by_file[&path] {
+                    let (seg, src) = &mut segments[i];
+                    let full = file.rows(src.sample_range);
+                    seg.stats = segment_stats(&full);
+                    seg.samples = decimate(&full, MAX_POINTS_PER_SEGMENT);
+                }
+            }
+            Err(e) => data.notes.push(format!(
+                "store {}: unreadable: {e}",
+                path.strip_prefix(store).unwrap_or(&path).display()
+            )),
+        }
+    }
+    data.segments = segments.into_iter().map(|(s, _)| s).collect();
+    Ok(())
+}
+
+/// Where a segment's samples are.
+struct SampleSource {
+    /// Partition file, relative to the store root.
+    file: PathBuf,
+    /// Sample indices `[start, end)` in the raw file.
+    sample_range: (i64, i64),
+}
+
+/// The plotted columns of one partition file, in file order.
+struct FileSamples {
+    sample_index: Vec<i64>,
+    samples: Vec<Sample>,
+}
+
+impl FileSamples {
+    /// Samples whose index lies in `[start, end)`, ordered by index.
+    fn rows(&self, (start, end): (i64, i64)) -> Vec<Sample> {
+        let mut rows: Vec<(i64, Sample)> = self
+            .sample_index
+            .iter()
+            .zip(&self.samples)
+            .filter(|(k, _)| (start..end).contains(*k))
+            .map(|(k, s)| (*k, *s))
+            .collect();
+        rows.sort_by_key(|(k, _)| *k);
+        rows.into_iter().map(|(_, s)| s).collect()
+    }
+}
+
+fn read_samples(path: &Path) -> Result<FileSamples, String> {
+    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let columns = [
+        "sample_index",
+        "alpha_rad",
+        "kappa",
+        "fx_n",
+        "fy_n",
+        "fz_n",
+        "mz_nm",
+    ];
+    let df = ParquetReader::new(file)
+        .with_columns(Some(columns.iter().map(|c| c.to_string()).collect()))
+        .finish()
+        .map_err(|e| e.to_string())?;
+    let sample_index: Vec<i64> = i64_col(&df, "sample_index")
+        .into_iter()
+        .map(|v| v.unwrap_or(-1))
+        .collect();
+    let [alpha, kappa, fx, fy, fz, mz] =
+        ["alpha_rad", "kappa", "fx_n", "fy_n", "fz_n", "mz_nm"].map(|c| f64_col(&df, c));
+    let samples = (0..df.height())
+        .map(|i| Sample {
+            alpha_rad: alpha[i],
+            kappa: kappa[i],
+            fx_n: fx[i],
+            fy_n: fy[i],
+            fz_n: fz[i],
+            mz_nm: mz[i],
+        })
+        .collect();
+    Ok(FileSamples {
+        sample_index,
+        samples,
+    })
+}
+
+/// Segments (without samples yet) and where their samples are, sorted by
+/// (tire, rim, pressure, kind, id).
+fn build_segments(segs: &DataFrame) -> Vec<(Segment, SampleSource)> {
+    let ids = str_col(segs, "segment_id");
+    let kinds = str_col(segs, "kind");
+    let tires = str_col(segs, "tire");
+    let sources = str_col(segs, "source_file");
+    let shas = str_col(segs, "source_sha256");
+    let starts = i64_col(segs, "sample_start");
+    let ends = i64_col(segs, "sample_end");
+    let rims = i64_col(segs, "rim_in");
+    let p_nom = i64_col(segs, "pressure_kpa_nom");
+    let ia_nom = i64_col(segs, "ia_deg_nom");
+    let fz_nom = i64_col(segs, "fz_n_nom");
+    let alpha_nom = i64_col(segs, "alpha_deg_nom");
+    let fz_mean = f64_col(segs, "fz_n_mean");
+    let ia_mean = f64_col(segs, "ia_deg_mean");
+    let v_mean = f64_col(segs, "speed_kph_mean");
+    let a_mean = f64_col(segs, "alpha_deg_mean");
+    let a_min = f64_col(segs, "alpha_deg_min");
+    let a_max = f64_col(segs, "alpha_deg_max");
+    let k_min = f64_col(segs, "kappa_min");
+    let k_max = f64_col(segs, "kappa_max");
+    let mut out = Vec::new();
+    for i in 0..segs.height() {
+        let (Some(id), Some(kind), Some(tire), Some(p), Some(source), Some(sha)) = (
+            &ids[i],
+            &kinds[i],
+            &tires[i],
+            p_nom[i],
+            &sources[i],
+            &shas[i],
+        ) else {
+            continue;
+        };
+        let key = PartitionKey {
+            test: kind.clone(),
+            tire: tire.clone(),
+            rim_in: rims[i].unwrap_or(0),
+            pressure_kpa_nom: p,
+            ia_deg_nom: ia_nom[i].unwrap_or(SWEPT),
+            fz_n_nom: fz_nom[i].unwrap_or(SWEPT),
+        };
+        let src = SampleSource {
+            file: partition_dir(&key).join(source_part_name(source, sha)),
+            sample_range: (starts[i].unwrap_or(0), ends[i].unwrap_or(i64::MAX)),
+        };
+        let seg = Segment {
+            id: id.clone(),
+            kind: kind.clone(),
+            tire: tire.clone(),
+            rim_in: rims[i].unwrap_or(0),
+            pressure_kpa_nom: p,
+            ia_deg_nom: ia_nom[i],
+            fz_n_nom: fz_nom[i],
+            alpha_deg_nom: alpha_nom[i],
+            fz_n_mean: fz_mean[i],
+            ia_deg_mean: ia_mean[i],
+            speed_kph_mean: v_mean[i],
+            alpha_deg_mean: a_mean[i],
+            alpha_deg_range: (a_min[i], a_max[i]),
+            kappa_range: (k_min[i], k_max[i]),
+            samples: Vec::new(),
+            stats: SegmentStats {
+                mu_y_peak: f64::NAN,
+                cornering_stiffness_n_per_rad: f64::NAN,
+            },
+        };
+        out.push((seg, src));
+    }
+    out.sort_by(|(a, _), (b, _)| {
+        (&a.tire, a.rim_in, a.pressure_kpa_nom, &a.kind, &a.id).cmp(&(
+            &b.tire,
+            b.rim_in,
+            b.pressure_kpa_nom,
+            &b.kind,
+            &b.id,
+        ))
+    });
+    out
+}
+
+/// Every k-th sample so that at most `max` remain (the first always kept).
+pub fn decimate<T: Copy>(v: &[T], max: usize) -> Vec<T> {
+    if v.len() <= max || max == 0 {
+        return v.to_vec();
+    }
+    let stride = v.len().div_ceil(max);
+    v.iter().step_by(stride).copied().collect()
+}
+
+/// Peak mu (mean of the 5 largest |Fy|/Fz with Fz > 50 N) and the small-slip cornering
+/// stiffness (least squares of Fy on alpha over |alpha| < 1 deg, at least 10 samples).
+fn segment_stats(samples: &[Sample]) -> SegmentStats {
+    let mut mus: Vec<f64> = samples
+        .iter()
+        .filter(|s| s.fz_n > 50.0)
+        .map(|s| (s.fy_n / s.fz_n).abs())
+        .filter(|m| m.is_finite())
+        .collect();
+    let mu_y_peak = if mus.len() >= 20 {
+        let k = mus.len() - 5;
+        mus.select_nth_unstable_by(k, f64::total_cmp);
+        mus[k..].iter().sum::<f64>() / 5.0
+    } else {
+        f64::NAN
+    };
+    let lin: Vec<(f64, f64)> = samples
+        .iter()
+        .filter(|s| s.alpha_rad.abs() < 1f64.to_radians() && s.fy_n.is_finite())
+        .map(|s| (s.alpha_rad, s.fy_n))
+        .collect();
+    let cornering_stiffness_n_per_rad = if lin.len() >= 10 {
+        slope(&lin)
+    } else {
+        f64::NAN
+    };
+    SegmentStats {
+        mu_y_peak,
+        cornering_stiffness_n_per_rad,
+    }
+}
+
+/// Least-squares slope of y on x (NaN when x does not vary).
+fn slope(points: &[(f64, f64)]) -> f64 {
+    let n = points.len() as f64;
+    let mx = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = points.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    if sxx <= 1e-12 { f64::NAN } else { sxy / sxx }
+}
+
+/// A column as f64 values (null -> NaN); all NaN when absent or not numeric.
+pub fn f64_col(df: &DataFrame, name: &str) -> Vec<f64> {
+    df.column(name)
+        .ok()
+        .and_then(|c| c.cast(&DataType::Float64).ok())
+        .and_then(|c| {
+            c.f64()
+                .ok()
+                .map(|ca| ca.iter().map(|v| v.unwrap_or(f64::NAN)).collect())
+        })
+        .unwrap_or_else(|| vec![f64::NAN; df.height()])
+}
+
+/// A column as i64 values (null -> None); all None when absent or not numeric.
+pub fn i64_col(df: &DataFrame, name: &str) -> Vec<Option<i64>> {
+    df.column(name)
+        .ok()
+        .and_then(|c| c.cast(&DataType::Int64).ok())
+        .and_then(|c| c.i64().ok().map(|ca| ca.iter().collect()))
+        .unwrap_or_else(|| vec![None; df.height()])
+}
+
+/// A column as strings (null -> None); all None when absent. Non-string columns are cast.
+pub fn str_col(df: &DataFrame, name: &str) -> Vec<Option<String>> {
+    df.column(name)
+        .ok()
+        .and_then(|c| c.cast(&DataType::String).ok())
+        .and_then(|c| {
+            c.str()
+                .ok()
+                .map(|ca| ca.iter().map(|v| v.map(str::to_string)).collect())
+        })
+        .unwrap_or_else(|| vec![None; df.height()])
+}
+
+/// A column as booleans (null -> None); all None when absent.
+pub fn bool_col(df: &DataFrame, name: &str) -> Vec<Option<bool>> {
+    df.column(name)
+        .ok()
+        .and_then(|c| c.bool().ok().map(|ca| ca.iter().collect()))
+        .unwrap_or_else(|| vec![None; df.height()])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decimation_keeps_the_first_and_bounds_the_count() {
+        let v: Vec<usize> = (0..1000).collect();
+        let d = decimate(&v, 160);
+        assert!(d.len() <= 160 && d.len() >= 140, "{}", d.len());
+        assert_eq!(d[0], 0);
+        assert_eq!(decimate(&v[..10], 160).len(), 10);
+    }
+
+    #[test]
+    fn missing_columns_read_as_nan_or_none() {
+        let df = df!("a" => [1i64, 2]).unwrap();
+        assert!(f64_col(&df, "b").iter().all(|v| v.is_nan()));
+        assert_eq!(i64_col(&df, "a"), vec![Some(1), Some(2)]);
+        assert_eq!(str_col(&df, "a"), vec![Some("1".into()), Some("2".into())]);
+        assert_eq!(bool_col(&df, "a"), vec![None, None]);
+    }
+
+    #[test]
+    fn stats_recover_a_linear_slope_and_peak() {
+        let samples: Vec<Sample> = (-100..=100)
+            .map(|i| {
+                let a = (i as f64 * 0.1).to_radians();
+                Sample {
+                    alpha_rad: a,
+                    fy_n: -30_000.0 * a,
+                    fz_n: 1000.0,
+                    ..Default::default()
+                }
+            })
+            .collect();
+        let s = segment_stats(&samples);
+        assert!((s.cornering_stiffness_n_per_rad + 30_000.0).abs() < 1e-6);
+        // The five largest |alpha| are 10, 10, 9.9, 9.9, 9.8 deg: mean 9.92 deg.
+        let top = 30.0 * (9.92f64).to_radians();
+        assert!((s.mu_y_peak - top).abs() < 1e-9, "{}", s.mu_y_peak);
+    }
+}

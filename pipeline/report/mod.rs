@@ -1,0 +1,107 @@
+//! The HTML report of a fitted round: `index.html` plus one page per tire, self-contained
+//! (inline CSS and SVG, no script, nothing fetched from a network or another file except the
+//! links between the pages).
+//!
+//! In: a store (the measured samples and segments) and a result directory as
+//! `fit::write_outcome` writes it (`<table>.parquet`, `tir/*.tir`). Out: the pages in `out_dir`
+//! and a [`ReportSummary`]. Each tire page shows data against model for Fy-SA, Mz-SA and Fx-SL
+//! per load and inclination (the seed's figures 18-19), the friction envelope (figure 22), peak
+//! mu and cornering stiffness against load per pressure (figures 23-24), vertical stiffness
+//! against pressure and inclination, mu against tread temperature (figure 29), relaxation length
+//! against load, fit quality, coefficients at a bound, lint warnings and failures. A missing
+//! table, column or model leaves a "no data" note where its chart would be, never an error.
+//!
+//! Deliberately not here: fitting, deciding pass/fail of a round, anything interactive.
+
+mod data;
+mod pages;
+mod plots;
+pub mod svg;
+
+use std::path::{Path, PathBuf};
+
+pub use data::ReportData;
+
+/// Report errors: only the inputs as a whole being unusable or the output being unwritable.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// The result directory does not exist.
+    #[error("{path}: result directory not found")]
+    NoResults {
+        /// The directory.
+        path: PathBuf,
+    },
+    /// The store could not be opened.
+    #[error("{path}: cannot read the store: {source}")]
+    Store {
+        /// The store root.
+        path: PathBuf,
+        /// Why.
+        source: crate::query::QueryError,
+    },
+    /// A page could not be written.
+    #[error("{path}: cannot write the report: {source}")]
+    Write {
+        /// The file or directory.
+        path: PathBuf,
+        /// Why.
+        source: crate::store::StoreError,
+    },
+}
+
+/// What a report contains.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ReportSummary {
+    /// Pages written (index first), absolute or as given by `out_dir`.
+    pub pages: Vec<PathBuf>,
+    /// Tires with a page.
+    pub tires: usize,
+    /// Charts drawn.
+    pub plots: usize,
+    /// Chart slots shown as a "no data" note.
+    pub plots_without_data: usize,
+    /// Total bytes written.
+    pub bytes: u64,
+    /// Inputs that were missing or unreadable (also listed on the index page).
+    pub notes: Vec<String>,
+}
+
+/// Writes a self-contained HTML report (index.html + one page per tire, inline SVG, no network)
+/// into `out_dir` from the store's samples/segments and a finished result directory laid out as
+/// write_outcome writes it (tables as <name>.parquet, tir/*.tir).
+pub fn write_report(
+    store: &Path,
+    results: &Path,
+    out_dir: &Path,
+) -> Result<ReportSummary, ReportError> {
+    if !results.is_dir() {
+        return Err(ReportError::NoResults {
+            path: results.to_path_buf(),
+        });
+    }
+    let data = data::load(store, results)?;
+    let built = pages::build(&data);
+    crate::store::files::ensure_dir(out_dir).map_err(|source| ReportError::Write {
+        path: out_dir.to_path_buf(),
+        source,
+    })?;
+    let mut summary = ReportSummary {
+        tires: built.pages.len() - 1,
+        plots: built.plots,
+        plots_without_data: built.plots_without_data,
+        notes: data.notes.clone(),
+        ..Default::default()
+    };
+    for (name, html) in &built.pages {
+        let path = out_dir.join(name);
+        crate::store::files::write_bytes_atomic(&path, html.as_bytes()).map_err(|source| {
+            ReportError::Write {
+                path: path.clone(),
+                source,
+            }
+        })?;
+        summary.bytes += html.len() as u64;
+        summary.pages.push(path);
+    }
+    Ok(summary)
+}

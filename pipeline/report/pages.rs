@@ -1,0 +1,532 @@
+//! HTML pages of the report: the index (round overview, fit quality with the worst entries
+//! highlighted, lint warnings, failures, unreadable inputs, links) and one page per tire (its
+//! charts and tables).
+//!
+//! In: [`ReportData`]. Out: (file name, HTML) pairs, index first, plus chart counts. Pages are
+//! plain HTML5 with one inline `<style>`; no script, no external resource.
+//!
+//! Deliberately not here: chart contents (plots.rs), SVG drawing (svg.rs), writing files.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::fmt::Write as _;
+
+use polars::prelude::{AnyValue, DataFrame};
+use tirebase_core::naming::sanitize_tire;
+
+use super::data::{ReportData, f64_col};
+use super::plots;
+use super::svg::{Plot, escape};
+
+/// Rows of fit quality highlighted as the worst of the round.
+const WORST_FITS: usize = 3;
+
+/// The pages and what they hold.
+pub struct Built {
+    /// (file name, HTML), index first.
+    pub pages: Vec<(String, String)>,
+    /// Charts drawn.
+    pub plots: usize,
+    /// Chart slots with a "no data" note.
+    pub plots_without_data: usize,
+}
+
+const STYLE: &str = "body{font-family:sans-serif;margin:1.5em auto;max-width:1400px;color:#222}\
+h1{font-size:1.5em}h2{font-size:1.2em;margin-top:1.6em;border-bottom:1px solid #ccc}\
+table{border-collapse:collapse;font-size:.85em;margin:.5em 0}\
+th,td{border:1px solid #ccc;padding:2px 6px;text-align:left}th{background:#f0f0f0}\
+td.num{text-align:right;font-variant-numeric:tabular-nums}\
+tr.worst td{background:#fde2e2;font-weight:bold}\
+.plots{display:flex;flex-wrap:wrap;gap:10px}\
+svg.plot{border:1px solid #ddd;background:#fafafa}\
+.plot-missing{width:620px;height:120px;border:1px dashed #bbb;padding:4px 10px;color:#666}\
+.plot-missing h4{margin:.3em 0}.note{color:#666;font-size:.9em}\
+.warn{color:#a33}";
+
+/// Build every page.
+pub fn build(data: &ReportData) -> Built {
+    let names = page_names(&data.tires);
+    let worst_order = worst_fit_rows(data);
+    let worst: BTreeSet<usize> = worst_order.iter().copied().collect();
+    let mut built = Built {
+        pages: Vec::new(),
+        plots: 0,
+        plots_without_data: 0,
+    };
+    let mut tire_pages = Vec::new();
+    for (tire, file) in data.tires.iter().zip(&names) {
+        let (html, drawn, missing) = tire_page(data, tire, &worst);
+        built.plots += drawn;
+        built.plots_without_data += missing;
+        tire_pages.push((file.clone(), html));
+    }
+    let index = index_page(
+        data,
+        &names,
+        &worst_order,
+        built.plots,
+        built.plots_without_data,
+    );
+    built.pages.push(("index.html".to_string(), index));
+    built.pages.extend(tire_pages);
+    built
+}
+
+/// `tire-<sanitised name>.html`, made unique with a counter if two names sanitise alike.
+fn page_names(tires: &[String]) -> Vec<String> {
+    let mut seen = BTreeSet::new();
+    tires
+        .iter()
+        .map(|t| {
+            let base = format!("tire-{}", sanitize_tire(t));
+            let mut name = format!("{base}.html");
+            let mut k = 2;
+            while !seen.insert(name.clone()) {
+                name = format!("{base}-{k}.html");
+                k += 1;
+            }
+            name
+        })
+        .collect()
+}
+
+fn head(title: &str) -> String {
+    format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n",
+        escape(title)
+    )
+}
+
+/// Row indices of the fit-quality table flagged as the worst of the round, worst first: the
+/// largest RMSE in percent of the channel's peak, or the lowest R² when no row has that column.
+fn worst_fit_rows(data: &ReportData) -> Vec<usize> {
+    let Some(df) = data.tables.get("fit_quality") else {
+        return Vec::new();
+    };
+    let pct = f64_col(df, "rmse_pct_of_peak");
+    let badness: Vec<f64> = if pct.iter().any(|v| v.is_finite()) {
+        pct
+    } else {
+        f64_col(df, "r2").iter().map(|r| 1.0 - r).collect()
+    };
+    let mut order: Vec<usize> = (0..df.height())
+        .filter(|&i| badness[i].is_finite())
+        .collect();
+    order.sort_by(|&a, &b| badness[b].total_cmp(&badness[a]).then(a.cmp(&b)));
+    order.truncate(WORST_FITS);
+    order
+}
+
+/// A result table (selected rows and columns present) as HTML; `worst` rows highlighted.
+fn table_html(df: &DataFrame, rows: &[usize], columns: &[&str], worst: &BTreeSet<usize>) -> String {
+    let cols: Vec<&str> = if columns.is_empty() {
+        df.get_column_names().iter().map(|s| s.as_str()).collect()
+    } else {
+        columns
+            .iter()
+            .copied()
+            .filter(|c| df.column(c).is_ok())
+            .collect()
+    };
+    let mut out = String::from("<table>\n<tr>");
+    for c in &cols {
+        let _ = write!(out, "<th>{}</th>", escape(c));
+    }
+    out.push_str("</tr>\n");
+    for &i in rows {
+        let class = if worst.contains(&i) {
+            " class=\"worst\""
+        } else {
+            ""
+        };
+        let _ = write!(out, "<tr{class}>");
+        for c in &cols {
+            let v = df.column(c).ok().and_then(|col| col.get(i).ok());
+            let (text, num) = match v {
+                Some(AnyValue::Float64(x)) => (format_sig(x), true),
+                Some(AnyValue::Float32(x)) => (format_sig(x as f64), true),
+                Some(AnyValue::Int64(x)) => (x.to_string(), true),
+                Some(AnyValue::Int32(x)) => (x.to_string(), true),
+                Some(AnyValue::Null) | None => (String::new(), false),
+                Some(AnyValue::String(s)) => (s.to_string(), false),
+                Some(AnyValue::StringOwned(s)) => (s.to_string(), false),
+                Some(other) => (other.to_string(), false),
+            };
+            let class = if num { " class=\"num\"" } else { "" };
+            let _ = write!(out, "<td{class}>{}</td>", escape(&text));
+        }
+        out.push_str("</tr>\n");
+    }
+    out.push_str("</table>\n");
+    out
+}
+
+/// Up to 5 significant digits, plain notation for moderate magnitudes.
+fn format_sig(x: f64) -> String {
+    if !x.is_finite() {
+        return x.to_string();
+    }
+    let a = x.abs();
+    if a != 0.0 && !(1e-3..1e6).contains(&a) {
+        format!("{x:.4e}")
+    } else {
+        let digits = if a == 0.0 {
+            0
+        } else {
+            (4 - a.log10().floor() as i64).max(0) as usize
+        };
+        format!("{x:.digits$}")
+    }
+}
+
+/// A section showing a result table's rows for one tire (or all rows when `tire` is None).
+fn table_section(
+    data: &ReportData,
+    table: &str,
+    title: &str,
+    tire: Option<&str>,
+    columns: &[&str],
+    worst: &BTreeSet<usize>,
+) -> String {
+    let mut out = format!("<h2 id=\"{}\">{}</h2>\n", escape(table), escape(title));
+    let Some(df) = data.tables.get(table) else {
+        let _ = writeln!(
+            out,
+            "<p class=\"note\">no data: {table}.parquet not present</p>"
+        );
+        return out;
+    };
+    let rows: Vec<usize> = match tire {
+        Some(t) => plots::rows_of(df, t),
+        None => (0..df.height()).collect(),
+    };
+    if rows.is_empty() {
+        let _ = writeln!(out, "<p class=\"note\">none</p>");
+        return out;
+    }
+    out.push_str(&table_html(df, &rows, columns, worst));
+    out
+}
+
+/// Fit-quality columns shown (those present). `seconds` (wall time) is left out so the same
+/// results give the same report bytes.
+const FIT_QUALITY_COLUMNS: [&str; 12] = [
+    "tire",
+    "rim_in",
+    "pressure_kpa",
+    "channel",
+    "n",
+    "rmse",
+    "rmse_pct_of_peak",
+    "r2",
+    "sample_rmse",
+    "initial_rmse",
+    "iterations",
+    "termination",
+];
+
+/// One tire's page and its (drawn, missing) chart counts.
+fn tire_page(data: &ReportData, tire: &str, worst: &BTreeSet<usize>) -> (String, usize, usize) {
+    let mut out = head(&format!("{tire}: tirebase report"));
+    let _ = writeln!(
+        out,
+        "<p><a href=\"index.html\">← round overview</a></p>\n<h1>{}</h1>\n<p class=\"note\">Markers: \
+         measured samples (QC-clean segments, decimated); lines: the fitted PAC2002 model (.tir) \
+         evaluated at the segments' mean load and inclination. SI units, ISO-W axes (x forward, y \
+         left, z up; positive slip angle gives negative Fy).</p>",
+        escape(tire)
+    );
+    let mut groups = group_summary(data, tire);
+    if groups.is_empty() {
+        groups = "<p class=\"note\">no segments or results</p>\n".to_string();
+    }
+    out.push_str(&groups);
+    let sections: [(&str, &str, Vec<Plot>); 8] = [
+        (
+            "fy",
+            "Lateral force vs slip angle (per load and IA)",
+            plots::fy_sa(data, tire),
+        ),
+        (
+            "mz",
+            "Aligning moment vs slip angle (per load and IA)",
+            plots::mz_sa(data, tire),
+        ),
+        (
+            "fx",
+            "Longitudinal force vs slip (per load)",
+            plots::fx_sl(data, tire),
+        ),
+        ("envelope", "Friction envelope", plots::envelope(data, tire)),
+        (
+            "peak",
+            "Peak friction and cornering stiffness vs load",
+            plots::peak_mu_and_stiffness(data, tire),
+        ),
+        (
+            "spring",
+            "Vertical stiffness",
+            plots::spring_rate(data, tire),
+        ),
+        (
+            "thermal",
+            "Grip vs tread temperature",
+            plots::mu_temperature(data, tire),
+        ),
+        (
+            "relaxation",
+            "Relaxation length",
+            plots::relaxation(data, tire),
+        ),
+    ];
+    let (mut drawn, mut missing) = (0, 0);
+    for (id, title, mut charts) in sections {
+        let _ = writeln!(
+            out,
+            "<h2 id=\"{id}\">{}</h2>\n<div class=\"plots\">",
+            escape(title)
+        );
+        for (k, chart) in charts.iter_mut().enumerate() {
+            chart.id = format!("{id}-{}", k + 1);
+            if chart.has_data() {
+                drawn += 1;
+            } else {
+                missing += 1;
+            }
+            out.push_str(&chart.render());
+        }
+        out.push_str("</div>\n");
+    }
+    out.push_str(&table_section(
+        data,
+        "fit_quality",
+        "Fit quality",
+        Some(tire),
+        &FIT_QUALITY_COLUMNS,
+        worst,
+    ));
+    out.push_str(&at_bound_section(data, tire));
+    out.push_str(&table_section(
+        data,
+        "lint",
+        "Lint warnings",
+        Some(tire),
+        &[],
+        &BTreeSet::new(),
+    ));
+    out.push_str(&table_section(
+        data,
+        "fit_failures",
+        "Failures",
+        Some(tire),
+        &[],
+        &BTreeSet::new(),
+    ));
+    out.push_str("</body>\n</html>\n");
+    (out, drawn, missing)
+}
+
+/// Per (rim, pressure): segments by kind and whether a model exists.
+fn group_summary(data: &ReportData, tire: &str) -> String {
+    let mut counts: BTreeMap<(i64, i64), BTreeMap<String, usize>> = BTreeMap::new();
+    for s in data.segments.iter().filter(|s| s.tire == tire) {
+        *counts
+            .entry((s.rim_in, s.pressure_kpa_nom))
+            .or_default()
+            .entry(s.kind.clone())
+            .or_default() += 1;
+    }
+    for &key in data.result_groups.get(tire).into_iter().flatten() {
+        counts.entry(key).or_default();
+    }
+    if counts.is_empty() {
+        return String::new();
+    }
+    let mut out = String::from(
+        "<table>\n<tr><th>rim (in)</th><th>pressure (kPa)</th><th>cornering segments</th>\
+         <th>drive/brake segments</th><th>combined segments</th><th>model (.tir)</th></tr>\n",
+    );
+    for ((rim, p), kinds) in &counts {
+        let n = |k: &str| kinds.get(k).copied().unwrap_or(0);
+        let model = if plots::model_for(data, tire, *rim, *p).is_some() {
+            "yes"
+        } else {
+            "<span class=\"warn\">missing</span>"
+        };
+        let _ = writeln!(
+            out,
+            "<tr><td class=\"num\">{rim}</td><td class=\"num\">{p}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{model}</td></tr>",
+            n("cornering"),
+            n("drive_brake"),
+            n("combined")
+        );
+    }
+    out.push_str("</table>\n");
+    out
+}
+
+/// Coefficients that ended on a bound of their search interval.
+fn at_bound_section(data: &ReportData, tire: &str) -> String {
+    let mut out = String::from("<h2 id=\"at-bound\">Coefficients at a bound</h2>\n");
+    let Some(df) = data.tables.get("coefficients") else {
+        out.push_str("<p class=\"note\">no data: coefficients.parquet not present</p>\n");
+        return out;
+    };
+    let flags = super::data::bool_col(df, "at_bound");
+    let rows: Vec<usize> = plots::rows_of(df, tire)
+        .into_iter()
+        .filter(|&i| flags[i] == Some(true))
+        .collect();
+    if rows.is_empty() {
+        out.push_str("<p class=\"note\">none</p>\n");
+        return out;
+    }
+    out.push_str(&table_html(
+        df,
+        &rows,
+        &[
+            "rim_in",
+            "pressure_kpa",
+            "model",
+            "family",
+            "name",
+            "value",
+            "std_error",
+        ],
+        &BTreeSet::new(),
+    ));
+    out
+}
+
+fn index_page(
+    data: &ReportData,
+    names: &[String],
+    worst: &[usize],
+    drawn: usize,
+    missing: usize,
+) -> String {
+    let mut out = head("tirebase report");
+    let _ = writeln!(
+        out,
+        "<h1>tirebase round report</h1>\n<p class=\"note\">{} tires · {} models · \
+         {} slip-test segments · {drawn} charts drawn, {missing} without data</p>",
+        data.tires.len(),
+        data.models.len(),
+        data.segments.len()
+    );
+    out.push_str("<h2 id=\"tires\">Tires</h2>\n");
+    if data.tires.is_empty() {
+        out.push_str("<p class=\"note\">no tires in the store or the results</p>\n");
+    } else {
+        out.push_str("<table>\n<tr><th>tire</th><th>rims (in)</th><th>pressures (kPa)</th><th>segments</th><th>models</th></tr>\n");
+        for (tire, file) in data.tires.iter().zip(names) {
+            let (rims, pressures) = tire_levels(data, tire);
+            let segs = data.segments.iter().filter(|s| &s.tire == tire).count();
+            let models = data
+                .models
+                .keys()
+                .filter(|m| m.starts_with(&format!("{}__", sanitize_tire(tire))))
+                .count();
+            let _ = writeln!(
+                out,
+                "<tr><td><a href=\"{}\">{}</a></td><td>{}</td><td>{}</td><td class=\"num\">{segs}</td><td class=\"num\">{models}</td></tr>",
+                escape(file),
+                escape(tire),
+                join(&rims),
+                join(&pressures)
+            );
+        }
+        out.push_str("</table>\n");
+    }
+    let worst_set: BTreeSet<usize> = worst.iter().copied().collect();
+    if let Some(df) = data.tables.get("fit_quality")
+        && !worst.is_empty()
+    {
+        out.push_str("<h2 id=\"worst-fits\">Worst fits</h2>\n");
+        out.push_str(&table_html(df, worst, &FIT_QUALITY_COLUMNS, &worst_set));
+    }
+    out.push_str(&table_section(
+        data,
+        "fit_quality",
+        "Fit quality (worst highlighted)",
+        None,
+        &FIT_QUALITY_COLUMNS,
+        &worst_set,
+    ));
+    out.push_str(&table_section(
+        data,
+        "lint",
+        "Lint warnings",
+        None,
+        &[],
+        &BTreeSet::new(),
+    ));
+    out.push_str(&table_section(
+        data,
+        "fit_failures",
+        "Failures",
+        None,
+        &[],
+        &BTreeSet::new(),
+    ));
+    out.push_str("<h2 id=\"inputs\">Inputs not available</h2>\n");
+    if data.notes.is_empty() {
+        out.push_str("<p class=\"note\">none</p>\n");
+    } else {
+        out.push_str("<ul>\n");
+        for n in &data.notes {
+            let _ = writeln!(out, "<li>{}</li>", escape(n));
+        }
+        out.push_str("</ul>\n");
+    }
+    out.push_str("</body>\n</html>\n");
+    out
+}
+
+/// Rims and nominal pressures a tire appears with (segments and result tables).
+fn tire_levels(data: &ReportData, tire: &str) -> (BTreeSet<i64>, BTreeSet<i64>) {
+    let mut rims = BTreeSet::new();
+    let mut pressures = BTreeSet::new();
+    for s in data.segments.iter().filter(|s| s.tire == tire) {
+        rims.insert(s.rim_in);
+        pressures.insert(s.pressure_kpa_nom);
+    }
+    for &(r, p) in data.result_groups.get(tire).into_iter().flatten() {
+        rims.insert(r);
+        pressures.insert(p);
+    }
+    (rims, pressures)
+}
+
+fn join(set: &BTreeSet<i64>) -> String {
+    set.iter()
+        .map(|v| v.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn significant_digit_formatting() {
+        assert_eq!(format_sig(1234.5678), "1234.6");
+        assert_eq!(format_sig(0.012345), "0.012345");
+        assert_eq!(format_sig(0.0), "0");
+        assert_eq!(format_sig(2.5e7), "2.5000e7");
+    }
+
+    #[test]
+    fn page_names_are_unique() {
+        let names = page_names(&["A b".to_string(), "a_b".to_string()]);
+        assert_eq!(names, vec!["tire-a_b.html", "tire-a_b-2.html"]);
+    }
+
+    #[test]
+    fn an_empty_round_still_gives_an_index() {
+        let data = ReportData::default();
+        let built = build(&data);
+        assert_eq!(built.pages.len(), 1);
+        assert!(built.pages[0].1.contains("no tires"));
+    }
+}
