@@ -32,13 +32,13 @@ use tirebase_core::naming::tir_file_name;
 use crate::catalog::{Catalog, CatalogError};
 use crate::config::Config;
 use crate::fit::{self, FitError, FitOptions, FitOutcome, GroupPlan};
-use crate::inertia::{find_sessions, process_sessions};
+use crate::inertia::{InertiaRun, find_sessions, process_sessions};
 use crate::ingest::{self, IngestError, IngestOptions, IngestReport, source_file_name};
 use crate::manifest::{
     Counts, GroupRecord, HashedFile, InputFile, InputInfo, Manifest, ManifestError, now_utc,
 };
 use crate::progress::Progress;
-use crate::report::{self, ReportError};
+use crate::report;
 use crate::store::StoreError;
 use crate::store::files::{read_parquet, sha256_bytes, sha256_file, write_parquet_atomic};
 use crate::store::layout::runs_file;
@@ -222,27 +222,15 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
             seconds: started.elapsed().as_secs_f64(),
         });
     }
-    let prev_groups: BTreeMap<(String, i64, i64), &GroupRecord> = previous
-        .as_ref()
-        .map(|(_, _, m)| {
-            m.groups
-                .iter()
-                .map(|g| ((g.tire.clone(), g.rim_in, g.pressure_kpa), g))
-                .collect()
-        })
-        .unwrap_or_default();
-    let mut to_fit: Vec<GroupPlan> = Vec::new();
-    let mut reused: BTreeMap<(String, i64, i64), u32> = BTreeMap::new();
-    for g in &plan {
-        let key = plan_key(g);
-        match prev_groups.get(&key) {
-            Some(p) if p.input_sha256 == g.input_sha256 => {
-                reused.insert(key, p.from_version);
-            }
-            _ => to_fit.push(g.clone()),
-        }
-    }
+    let (to_fit, reused) = split_reuse(&plan, previous.as_ref().map(|(_, _, m)| m));
     timings.insert("plan".to_string(), t.elapsed().as_secs_f64());
+    if plan.is_empty() && fingerprint.inertia_sessions.is_empty() {
+        let mut report = RunReport::default();
+        report.failed_files = failed_files(&files, ingest_report.as_ref());
+        report.manifest.counts.files = files.len() as u64;
+        report.manifest.counts.files_failed = report.failed_files.len() as u64;
+        return Ok(RunOutcome::Nothing(Box::new(report)));
+    }
 
     // Fit what changed.
     let t = Instant::now();
@@ -253,7 +241,7 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     };
     timings.insert("fit".to_string(), t.elapsed().as_secs_f64());
 
-    // Build the version.
+    // Build the version in its staging directory.
     let builder = VersionBuilder::begin(opts.store)?;
     let number = builder.number();
     let staging = builder.dir().to_path_buf();
@@ -266,54 +254,18 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
 
     let t = Instant::now();
     let mut report = RunReport::default();
-    let inertia = if fingerprint.inertia_sessions.is_empty() {
-        None
-    } else {
-        let stage = progress.stage(
-            "inertia",
-            "sessions",
-            fingerprint.inertia_sessions.len() as u64,
-        );
-        let done = with_pool(opts.jobs, || {
-            process_sessions(&fingerprint.inertia_sessions)
-        });
-        let mut df = done.table()?;
-        write_parquet_atomic(&staging.join(format!("{INERTIA_TABLE}.parquet")), &mut df)?;
-        tables.insert(INERTIA_TABLE.to_string(), df.height() as u64);
-        stage.inc(fingerprint.inertia_sessions.len() as u64);
-        stage.finish(&format!(
-            "{} results, {} failed runs",
-            done.results.len(),
-            done.errors().count()
-        ));
+    let inertia = inertia_stage(&fingerprint.inertia_sessions, opts.jobs, &staging, progress)?;
+    if let Some((done, rows)) = &inertia {
+        tables.insert(INERTIA_TABLE.to_string(), *rows);
         report.inertia_errors = done.errors().map(|e| e.to_string()).collect();
-        Some(done)
-    };
+    }
     timings.insert("inertia".to_string(), t.elapsed().as_secs_f64());
 
     let t = Instant::now();
-    let stage = progress.stage("report", "reports", 1);
-    match report::write_report(opts.store, &staging, &staging.join("report")) {
-        Ok(_) => stage.finish("written"),
-        Err(e) => {
-            stage.finish("failed");
-            report.report_error = Some(report_error_line(&e));
-        }
-    }
+    report.report_error = report_stage(opts.store, &staging, progress);
     timings.insert("report".to_string(), t.elapsed().as_secs_f64());
 
-    // Manifest and counts.
-    let ingest_failed: Vec<(String, String)> = files
-        .iter()
-        .filter(|f| f.status == "failed")
-        .map(|f| {
-            (
-                f.name.clone(),
-                failure_reason(ingest_report.as_ref(), &f.name),
-            )
-        })
-        .collect();
-    report.failed_files = ingest_failed;
+    report.failed_files = failed_files(&files, ingest_report.as_ref());
     (report.fit_failures, report.fit_skipped) = failure_lines(&staging)?;
     report.worst_fit = worst_fit(&staging);
     let groups: Vec<GroupRecord> = plan
@@ -342,7 +294,7 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
         fit_skipped: report.fit_skipped.len() as u64,
         tir_files: tir_files as u64,
         inertia_sessions: fingerprint.inertia_sessions.len() as u64,
-        inertia_results: inertia.as_ref().map_or(0, |d| d.results.len() as u64),
+        inertia_results: inertia.as_ref().map_or(0, |(d, _)| d.results.len() as u64),
         inertia_failed_runs: report.inertia_errors.len() as u64,
     };
     let mut manifest = Manifest {
@@ -371,11 +323,7 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     };
     manifest.summary = describe_changes(previous.as_ref().map(|(_, _, m)| m), &manifest);
 
-    if plan.is_empty() && inertia.is_none() {
-        report.manifest = manifest;
-        return Ok(RunOutcome::Nothing(Box::new(report)));
-    }
-    // The manifest records the time up to its own writing; the rename after it is instant.
+    // Publish: the manifest records the time up to its own writing; the rename is instant.
     manifest
         .timings_s
         .insert("total".to_string(), started.elapsed().as_secs_f64());
@@ -384,6 +332,84 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     report.manifest = manifest;
     report.version_dir = Some(dir);
     Ok(RunOutcome::Published(Box::new(report)))
+}
+
+/// Split the plan into groups to fit and groups whose results the previous version holds for
+/// the same input hash (with the version that computed them).
+fn split_reuse(
+    plan: &[GroupPlan],
+    previous: Option<&Manifest>,
+) -> (Vec<GroupPlan>, BTreeMap<(String, i64, i64), u32>) {
+    let prev: BTreeMap<(String, i64, i64), &GroupRecord> = previous
+        .map(|m| {
+            m.groups
+                .iter()
+                .map(|g| ((g.tire.clone(), g.rim_in, g.pressure_kpa), g))
+                .collect()
+        })
+        .unwrap_or_default();
+    let mut to_fit = Vec::new();
+    let mut reused = BTreeMap::new();
+    for g in plan {
+        let key = plan_key(g);
+        match prev.get(&key) {
+            Some(p) if p.input_sha256 == g.input_sha256 => {
+                reused.insert(key, p.from_version);
+            }
+            _ => to_fit.push(g.clone()),
+        }
+    }
+    (to_fit, reused)
+}
+
+/// Process the rig sessions (if any) into `staging/inertia.parquet`; the outcome and its rows.
+fn inertia_stage(
+    sessions: &[PathBuf],
+    jobs: usize,
+    staging: &Path,
+    progress: &dyn Progress,
+) -> Result<Option<(InertiaRun, u64)>, RunError> {
+    if sessions.is_empty() {
+        return Ok(None);
+    }
+    let stage = progress.stage("inertia", "sessions", sessions.len() as u64);
+    let done = with_pool(jobs, || process_sessions(sessions));
+    let mut df = done.table()?;
+    write_parquet_atomic(&staging.join(format!("{INERTIA_TABLE}.parquet")), &mut df)?;
+    stage.inc(sessions.len() as u64);
+    stage.finish(&format!(
+        "{} results, {} failed runs",
+        done.results.len(),
+        done.errors().count()
+    ));
+    let rows = df.height() as u64;
+    Ok(Some((done, rows)))
+}
+
+/// Write the HTML report into `staging/report/`; the one-line error if it failed (a failed
+/// report does not stop the publish).
+fn report_stage(store: &Path, staging: &Path, progress: &dyn Progress) -> Option<String> {
+    let stage = progress.stage("report", "reports", 1);
+    match report::write_report(store, staging, &staging.join("report")) {
+        Ok(_) => {
+            stage.inc(1);
+            stage.finish("written");
+            None
+        }
+        Err(e) => {
+            stage.finish("failed");
+            Some(e.to_string().replace('\n', " "))
+        }
+    }
+}
+
+/// Input files that failed to ingest, with the reason.
+fn failed_files(files: &[InputFile], ingest: Option<&IngestReport>) -> Vec<(String, String)> {
+    files
+        .iter()
+        .filter(|f| f.status == "failed")
+        .map(|f| (f.name.clone(), failure_reason(ingest, &f.name)))
+        .collect()
 }
 
 fn plan_key(g: &GroupPlan) -> (String, i64, i64) {
@@ -796,9 +822,6 @@ fn segments_by_kind(store: &Path) -> BTreeMap<String, u64> {
         .collect()
 }
 
-fn report_error_line(e: &ReportError) -> String {
-    e.to_string().replace('\n', " ")
-}
 
 /// One line: what `now` changed against `prev`.
 pub fn describe_changes(prev: Option<&Manifest>, now: &Manifest) -> String {
