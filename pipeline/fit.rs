@@ -5,8 +5,8 @@
 //! plan_groups:  segments table (live rows) ─▶ one GroupPlan per (tire, rim, pressure) with the
 //!               hash of everything its fit depends on
 //! fit_groups:   rayon pool of `jobs` threads, one group per task:
-//!               load samples ─▶ spring rate ─▶ PAC2002 ─▶ relaxation (─▶ de-lagged PAC2002
-//!               ─▶ relaxation) ; thermal          (fit::group)
+//!               load samples ─▶ spring rate ─▶ PAC2002 (forces) ─▶ relaxation ─▶ PAC2002
+//!               on de-lagged sweeps ─▶ relaxation ; thermal          (fit::group)
 //!               ─▶ .tir text + lint               (fit::tir)
 //!               ─▶ tables in group order          (fit::tables)
 //! write_outcome: OUT/<table>.parquet, OUT/tir/*.tir (atomic writes)
@@ -441,29 +441,53 @@ fn fit_one(
     })?;
     let load_seconds = started.elapsed().as_secs_f64();
     let cpu0 = thread_cpu_seconds();
-    let mut result = group::run(&plan.key, &segments, &opts.stages, cfg);
+    let (mut result, model) = guarded(&plan.key, || {
+        let mut result = group::run(&plan.key, &segments, &opts.stages, cfg);
+        let mut model = None;
+        if opts.stages.pac2002
+            && let Some(fit) = &result.pac2002
+        {
+            match tir::build(&result, &fit.notes) {
+                Ok(m) => model = Some(m),
+                Err(reason) => result.failures.push(FitFailure::new(
+                    &plan.key, "pac2002", "pac2002", true, reason,
+                )),
+            }
+        }
+        (result, model)
+    });
     let cpu_seconds = cpu0.zip(thread_cpu_seconds()).map(|(a, b)| b - a);
     result
         .stage_seconds
         .insert("load".to_string(), load_seconds);
-    let mut model = None;
-    if opts.stages.pac2002 && result.pac2002.is_some() {
-        let notes = result
-            .pac2002
-            .as_ref()
-            .map(|f| f.notes.clone())
-            .unwrap_or_default();
-        match tir::build(&result, &notes) {
-            Ok(m) => model = Some(m),
-            Err(reason) => result.failures.push(FitFailure::new(
-                &plan.key, "pac2002", "pac2002", true, reason,
-            )),
-        }
-    }
     Ok(GroupOutput {
         result,
         model,
         cpu_seconds,
+    })
+}
+
+/// Run one group's stages; a bug in a stage must not take the other groups down, so a panic
+/// becomes a fatal failure of this group (the default hook also prints the panic message).
+fn guarded(
+    key: &TireKey,
+    stages: impl FnOnce() -> (group::GroupResult, Option<tir::WrittenModel>),
+) -> (group::GroupResult, Option<tir::WrittenModel>) {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(stages)).unwrap_or_else(|panic| {
+        let message = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".to_string());
+        let mut result = group::GroupResult::new(key);
+        result.failures.push(FitFailure::new(
+            key,
+            "fit",
+            "panic",
+            true,
+            format!("internal error (a bug; please report): {message}"),
+        ));
+        (result, None)
     })
 }
 
@@ -586,4 +610,38 @@ pub fn write_outcome(outcome: &FitOutcome, out: &Path) -> Result<(), FitError> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panicking_group_becomes_a_fatal_failure() {
+        let key = TireKey {
+            tire: "T".into(),
+            rim_in: 7,
+            pressure_kpa_nom: 83,
+        };
+        let (result, model) = guarded(&key, || panic!("index out of bounds"));
+        assert!(model.is_none());
+        assert_eq!(result.failures.len(), 1);
+        let f = &result.failures[0];
+        assert!(f.fatal && f.stage == "fit", "{f:?}");
+        assert!(f.reason.contains("index out of bounds"), "{f:?}");
+    }
+
+    #[test]
+    fn stage_sets_print_and_parse_back() {
+        for list in [
+            "pac2002",
+            "spring_rate,thermal",
+            "all",
+            "relaxation, pac2002",
+        ] {
+            let s = StageSet::parse(list).unwrap();
+            assert_eq!(StageSet::parse(&s.to_string()).unwrap(), s);
+        }
+        assert!(StageSet::parse("").is_err());
+    }
 }

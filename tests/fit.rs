@@ -266,6 +266,17 @@ fn realistic_round_within_2_percent_forces_5_percent_mz_issue_5() {
         .map(|(_, m)| m)
         .collect();
     assert!(errors.is_empty(), "{errors:#?}");
+    // ... and so does `tirebase tir lint` on the files as written (exit 0: no errors).
+    for entry in std::fs::read_dir(f.out.join("tir")).unwrap() {
+        let path = entry.unwrap().path();
+        let o = tirebase(&["tir", "lint", p(&path)]);
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stdout)
+        );
+    }
     let q = read_table(&f.out, "fit_quality");
     assert_eq!(q.height(), 4 * 7, "7 fitted channels per model: {q}");
 }

@@ -9,8 +9,10 @@
 //! stage (else the fit takes them from `RL` at low slip) -> relaxation with that model (sweeps,
 //! cold-to-warm sweeps, speed sweeps, step steers) -> when `[fit] delag` is on and relaxation
 //! gave lengths, PAC2002 again on de-lagged sweeps and relaxation again with the final model (so
-//! the written `PTY*`/`PTX*` belong to the written steady state). Thermal (cold-to-warm) is
-//! independent. Every stage's failure is recorded and the others still run.
+//! the written `PTY*`/`PTX*` belong to the written steady state). With de-lagging the first
+//! PAC2002 pass fits the force families only (relaxation reads `Fy`, `Fx`; `Mz`, `Mx` cost the
+//! most and do not change the forces). Thermal (cold-to-warm) is independent. Every stage's
+//! failure is recorded and the others still run.
 //!
 //! Deliberately not here: reading the store (`load`), tables and file text (`tables`, `tir`).
 
@@ -73,7 +75,8 @@ pub struct GroupResult {
 }
 
 impl GroupResult {
-    fn new(key: &TireKey) -> GroupResult {
+    /// An empty result of `key` (nothing run yet).
+    pub fn new(key: &TireKey) -> GroupResult {
         GroupResult {
             key: key.clone(),
             spring_rate: None,
@@ -428,16 +431,26 @@ fn run_pac2002_and_relaxation(
             .collect(),
     )
     .unwrap_or(f64::NAN);
-    let first = pac2002::fit(&input, &cfg.pac2002);
-    out.time("pac2002", started);
-    out.pac2002_fits += 1;
-    if let Ok(f) = &first {
-        out.pac2002_evaluations += f.evaluations;
-    }
-    let first = match first {
-        Ok(f) => f,
-        Err(e) => {
-            out.fail("pac2002", "pac2002", true, e.to_string());
+    let relax_segments: Vec<MeasuredSegment> = all
+        .iter()
+        .filter(|s| relaxation_segment(s))
+        .map(|s| s.segment.clone())
+        .collect();
+    // Relaxation lengths: always when de-lagging, else only when asked for.
+    let wants_relaxation = (stages.relaxation || cfg.pac2002.delag) && !relax_segments.is_empty();
+    // The relaxation stage reads only Fy and Fx of the model. When a second PAC2002 fit follows
+    // anyway (de-lagging) or the model is not written (relaxation alone), the first fit leaves
+    // the moments out: the force families do not depend on them, so the relaxation lengths are
+    // the same and the first pass costs a fraction (Mz and Mx are the expensive families).
+    let forces_first = wants_relaxation && (cfg.pac2002.delag || !stages.pac2002);
+    let first_input = if forces_first {
+        forces_only(&input)
+    } else {
+        input.clone()
+    };
+    let first = match run_fit(out, &first_input, cfg) {
+        Some(f) => f,
+        None => {
             if stages.relaxation {
                 out.fail("relaxation", "relaxation", true, "needs the PAC2002 model");
             }
@@ -451,11 +464,6 @@ fn run_pac2002_and_relaxation(
             first.model.coefs[tirebase_core::tire_model::Coef::VERTICAL_STIFFNESS],
         ),
     };
-    let relax_segments: Vec<MeasuredSegment> = all
-        .iter()
-        .filter(|s| relaxation_segment(s))
-        .map(|s| s.segment.clone())
-        .collect();
     let relax = |model: &Pac2002Fit| {
         let input = RelaxationInput {
             key: key.clone(),
@@ -466,9 +474,7 @@ fn run_pac2002_and_relaxation(
         };
         relaxation::run(std::slice::from_ref(&input), &cfg.relaxation)
     };
-    // Relaxation lengths: always when de-lagging, else only when asked for.
-    let wants_relaxation = stages.relaxation || cfg.pac2002.delag;
-    let can_relax = cz > 0.0 && r0 > 0.0 && !relax_segments.is_empty();
+    let can_relax = cz > 0.0 && r0 > 0.0;
     if !wants_relaxation || !can_relax {
         if stages.relaxation {
             out.fail(
@@ -482,35 +488,53 @@ fn run_pac2002_and_relaxation(
                 },
             );
         }
-        record_fit_notes(out, &first);
-        out.pac2002 = Some(first);
+        if !stages.pac2002 {
+            return;
+        }
+        let fit = if forces_first {
+            match run_fit(out, &input, cfg) {
+                Some(f) => f,
+                None => return,
+            }
+        } else {
+            first
+        };
+        record_fit_notes(out, &fit);
+        out.pac2002 = Some(fit);
         return;
     }
     let started = Instant::now();
     let mut rx = relax(&first);
     out.time("relaxation", started);
-    let mut fit = first;
-    if cfg.pac2002.delag
-        && let Some(lengths) = delag_lengths(&rx)
-    {
-        let started = Instant::now();
-        input.context.relaxation = Some(lengths);
-        out.pac2002_fits += 1;
-        match pac2002::fit(&input, &cfg.pac2002) {
-            Ok(second) => {
-                out.pac2002_evaluations += second.evaluations;
-                fit = second;
-                out.time("pac2002", started);
-                let started = Instant::now();
-                rx = relax(&fit);
-                out.time("relaxation", started);
+    let lengths = if cfg.pac2002.delag {
+        delag_lengths(&rx)
+    } else {
+        None
+    };
+    let refit = lengths.is_some();
+    let fit = if forces_first || refit {
+        input.context.relaxation = lengths;
+        let second_input = if stages.pac2002 {
+            input
+        } else {
+            forces_only(&input)
+        };
+        match run_fit(out, &second_input, cfg) {
+            Some(second) => {
+                if refit {
+                    let started = Instant::now();
+                    rx = relax(&second);
+                    out.time("relaxation", started);
+                }
+                Some(second)
             }
-            Err(e) => {
-                out.time("pac2002", started);
-                out.fail("pac2002", "de-lagged refit", false, e.to_string());
-            }
+            // the forces-only first pass is not a model to write
+            None if forces_first => None,
+            None => Some(first),
         }
-    }
+    } else {
+        Some(first)
+    };
     if stages.relaxation {
         out.partial("relaxation", &rx.failures);
         if rx.laws.is_empty() {
@@ -543,8 +567,10 @@ fn run_pac2002_and_relaxation(
         // relaxation alone still needed the steady-state model; it is not written.
         return;
     }
-    record_fit_notes(out, &fit);
-    out.pac2002 = Some(fit);
+    if let Some(fit) = fit {
+        record_fit_notes(out, &fit);
+        out.pac2002 = Some(fit);
+    }
 }
 
 /// Force-clean matrix segments the PAC2002 stage could not be given, as partial failures (one
@@ -592,6 +618,37 @@ fn record_fit_notes(out: &mut GroupResult, fit: &Pac2002Fit) {
                 false,
                 reason.clone(),
             );
+        }
+    }
+}
+
+/// The input without the moment channels: the moment families then have no data and are
+/// skipped (a fit of the force families only).
+fn forces_only(input: &FitInput) -> FitInput {
+    let mut input = input.clone();
+    for sweep in &mut input.sweeps {
+        for sample in &mut sweep.samples {
+            sample.mz_nm = f64::NAN;
+            sample.mx_nm = f64::NAN;
+        }
+    }
+    input
+}
+
+/// One PAC2002 fit, timed and counted; an error is a fatal failure of the stage.
+fn run_fit(out: &mut GroupResult, input: &FitInput, cfg: &StageConfigs) -> Option<Pac2002Fit> {
+    let started = Instant::now();
+    let fit = pac2002::fit(input, &cfg.pac2002);
+    out.time("pac2002", started);
+    out.pac2002_fits += 1;
+    match fit {
+        Ok(f) => {
+            out.pac2002_evaluations += f.evaluations;
+            Some(f)
+        }
+        Err(e) => {
+            out.fail("pac2002", "pac2002", true, e.to_string());
+            None
         }
     }
 }
