@@ -49,6 +49,9 @@ use crate::store::versions::{self, VersionBuilder};
 pub const INERTIA_DIR: &str = "inertia";
 /// Tables published from the inertia stage (never merged per tire group).
 const INERTIA_TABLE: &str = "inertia";
+/// A fit group: (tire, rim_in, pressure_kpa).
+type GroupKey = (String, i64, i64);
+
 /// The columns every fit result table has, identifying its group.
 const GROUP_COLUMNS: [&str; 3] = ["tire", "rim_in", "pressure_kpa"];
 
@@ -225,8 +228,10 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     let (to_fit, reused) = split_reuse(&plan, previous.as_ref().map(|(_, _, m)| m));
     timings.insert("plan".to_string(), t.elapsed().as_secs_f64());
     if plan.is_empty() && fingerprint.inertia_sessions.is_empty() {
-        let mut report = RunReport::default();
-        report.failed_files = failed_files(&files, ingest_report.as_ref());
+        let mut report = RunReport {
+            failed_files: failed_files(&files, ingest_report.as_ref()),
+            ..Default::default()
+        };
         report.manifest.counts.files = files.len() as u64;
         report.manifest.counts.files_failed = report.failed_files.len() as u64;
         return Ok(RunOutcome::Nothing(Box::new(report)));
@@ -245,7 +250,7 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     let builder = VersionBuilder::begin(opts.store)?;
     let number = builder.number();
     let staging = builder.dir().to_path_buf();
-    let reused_keys: BTreeSet<(String, i64, i64)> = reused.keys().cloned().collect();
+    let reused_keys: BTreeSet<GroupKey> = reused.keys().cloned().collect();
     let prev_dir = previous.as_ref().map(|(_, d, _)| d.as_path());
     let t = Instant::now();
     let mut tables = merge_tables(&outcome, prev_dir, &reused_keys, &staging, progress)?;
@@ -339,8 +344,8 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
 fn split_reuse(
     plan: &[GroupPlan],
     previous: Option<&Manifest>,
-) -> (Vec<GroupPlan>, BTreeMap<(String, i64, i64), u32>) {
-    let prev: BTreeMap<(String, i64, i64), &GroupRecord> = previous
+) -> (Vec<GroupPlan>, BTreeMap<GroupKey, u32>) {
+    let prev: BTreeMap<GroupKey, &GroupRecord> = previous
         .map(|m| {
             m.groups
                 .iter()
@@ -412,7 +417,7 @@ fn failed_files(files: &[InputFile], ingest: Option<&IngestReport>) -> Vec<(Stri
         .collect()
 }
 
-fn plan_key(g: &GroupPlan) -> (String, i64, i64) {
+fn plan_key(g: &GroupPlan) -> GroupKey {
     (g.key.tire.clone(), g.key.rim_in, g.key.pressure_kpa_nom)
 }
 
@@ -612,7 +617,7 @@ fn failure_reason(report: Option<&IngestReport>, name: &str) -> String {
 fn merge_tables(
     outcome: &FitOutcome,
     prev_dir: Option<&Path>,
-    reused: &BTreeSet<(String, i64, i64)>,
+    reused: &BTreeSet<GroupKey>,
     staging: &Path,
     progress: &dyn Progress,
 ) -> Result<BTreeMap<String, u64>, RunError> {
@@ -674,7 +679,7 @@ fn has_group_columns(df: &DataFrame) -> bool {
 }
 
 /// The rows of `df` whose (tire, rim_in, pressure_kpa) is in `keys`.
-fn rows_of_groups(df: &DataFrame, keys: &BTreeSet<(String, i64, i64)>) -> PolarsResult<DataFrame> {
+fn rows_of_groups(df: &DataFrame, keys: &BTreeSet<GroupKey>) -> PolarsResult<DataFrame> {
     let tire = df.column("tire")?.str()?;
     let rim = df.column("rim_in")?.i64()?;
     let p = df.column("pressure_kpa")?.i64()?;
@@ -691,7 +696,7 @@ fn rows_of_groups(df: &DataFrame, keys: &BTreeSet<(String, i64, i64)>) -> Polars
 fn publish_tir(
     outcome: &FitOutcome,
     prev_dir: Option<&Path>,
-    reused: &BTreeSet<(String, i64, i64)>,
+    reused: &BTreeSet<GroupKey>,
     staging: &Path,
 ) -> Result<usize, StoreError> {
     let dir = staging.join("tir");
@@ -821,7 +826,6 @@ fn segments_by_kind(store: &Path) -> BTreeMap<String, u64> {
         .filter_map(|(k, n)| Some((k?.to_string(), n?)))
         .collect()
 }
-
 
 /// One line: what `now` changed against `prev`.
 pub fn describe_changes(prev: Option<&Manifest>, now: &Manifest) -> String {
