@@ -20,6 +20,12 @@ pub struct Cli {
 /// Every subcommand. Each variant is added by the issue that implements it.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// The nightly run: ingest, segment, fit, inertia, report, publish a version (incremental).
+    Run(RunArgs),
+    /// List the published versions of a store.
+    Versions(VersionsArgs),
+    /// Compare two published versions: models, coefficients, forces, fit quality, stage results.
+    Diff(DiffArgs),
     /// PAC2002 / MF 5.2 `.tir` property files: evaluate, lint, convert.
     #[command(subcommand)]
     Tir(TirCommand),
@@ -414,4 +420,91 @@ pub struct TirConvertArgs {
     /// Where to write the normalised PAC2002 file.
     #[arg(long, value_name = "G")]
     pub output: PathBuf,
+}
+
+/// `tirebase run`.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+The nightly run: ingest the raw files under INPUT (.dat/.mat anywhere below it; rig-inertia
+sessions under INPUT/inertia/), segment them, fit every changed tire/rim/pressure group (PAC2002,
+spring rate, thermal, relaxation), process the inertia sessions, write the HTML report and publish
+everything as the next immutable version STORE/versions/vNNNNNN/ (tables as <table>.parquet,
+tir/*.tir, report/index.html, manifest.toml).
+
+Incremental: a group whose segments, configuration and tool version are unchanged takes its rows
+and .tir file from the previous version. With nothing changed it publishes nothing and prints
+\"up to date\" (on stderr; logs go to stderr, stdout stays empty).
+
+Without --input it runs on the embedded virtual round, generated with the fixed default seed into
+outputs/round/ on first use, into outputs/store (paths relative to the working directory).
+
+Exit codes: 0 published (or up to date) with no failure, 1 published but some files, fits,
+inertia runs or the report failed, 2 nothing could be done (no input, store locked with
+--no-wait, nothing to fit).")]
+pub struct RunArgs {
+    /// Input directory (raw files below it, rig sessions under inertia/). Default: the embedded
+    /// virtual round in outputs/round/ (generated on first use).
+    #[arg(long, value_name = "DIR")]
+    pub input: Option<PathBuf>,
+    /// Store root directory (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "outputs/store")]
+    pub store: PathBuf,
+    /// Run catalog TOML ([[run]] project, run, tire, rim_in, kind). Default: INPUT/catalog.toml
+    /// when it exists.
+    #[arg(long, value_name = "FILE")]
+    pub catalog: Option<PathBuf>,
+    /// Configuration file (TOML, see config/default.toml); overrides the defaults.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Worker threads for ingest, fits and inertia (0 = one per core). Results do not depend on
+    /// it.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub jobs: usize,
+    /// Fail at once (exit 2) if another tirebase process holds the store, instead of waiting.
+    #[arg(long)]
+    pub no_wait: bool,
+}
+
+/// `tirebase versions`.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+List the published versions of a store, oldest first: number, publication date (UTC), input
+files (ok/failed), fit groups (fitted by that run / reused), rows of the main tables, .tir files,
+and a one-line summary of what changed against the previous version.")]
+pub struct VersionsArgs {
+    /// Store root directory.
+    #[arg(long, value_name = "DIR", default_value = "outputs/store")]
+    pub store: PathBuf,
+}
+
+/// `tirebase diff`.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+Compare two published versions A and B (numbers, v000003, or latest), per tire, rim and nominal
+pressure. One row per difference with the columns tire, rim_in, pressure_kpa, kind, item, old,
+new, rel_change, max_abs, rms:
+  model         a .tir added or removed
+  coefficient   a PAC2002 coefficient changed (old, new, rel_change = (new-old)/|old|)
+  force         max and RMS of |delta Fx| (N), |delta Fy| (N), |delta Mz| (N m) between the two
+                models over the tested envelope: a grid spanning both files' common ranges
+                FZMIN..FZMAX, ALPMIN..ALPMAX, KPUMIN..KPUMAX, CAMMIN..CAMMAX (ISO-W, SI)
+  quality       a fit_quality value changed (wall time excluded)
+  stage         a spring_rate, thermal_fit or relaxation value changed (stiffness, sigma, mu(T))
+Versions that are the same print no rows. Table on stdout, or CSV with --format csv.")]
+pub struct DiffArgs {
+    /// Store root directory.
+    #[arg(long, value_name = "DIR", default_value = "outputs/store")]
+    pub store: PathBuf,
+    /// The old version (number, vNNNNNN or latest).
+    #[arg(value_name = "A")]
+    pub a: String,
+    /// The new version (number, vNNNNNN or latest).
+    #[arg(value_name = "B")]
+    pub b: String,
+    /// Only this tire (exact name as in the store).
+    #[arg(long, value_name = "T")]
+    pub tire: Option<String>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
+    pub format: OutputFormat,
 }

@@ -224,17 +224,28 @@ pub fn source_file_name(path: &Path) -> String {
         .unwrap_or_else(|| path.display().to_string())
 }
 
-/// Ingest `paths` into the store.
+/// Ingest `paths` into the store (takes the store lock for the duration).
 pub fn run(
+    paths: &[PathBuf],
+    opts: &IngestOptions,
+    progress: &dyn Progress,
+) -> Result<IngestReport, IngestError> {
+    discover(paths)?;
+    let _lock = StoreLock::acquire(opts.store, "ingest", opts.lock_wait, |holder| {
+        progress.note(&format!("waiting for the store lock held by {holder}"));
+    })?;
+    run_locked(paths, opts, progress)
+}
+
+/// [`run`] for a caller that already holds the store lock (`tirebase run` holds it from ingest
+/// to publish); `opts.lock_wait` is not used.
+pub fn run_locked(
     paths: &[PathBuf],
     opts: &IngestOptions,
     progress: &dyn Progress,
 ) -> Result<IngestReport, IngestError> {
     let start = Instant::now();
     let files = discover(paths)?;
-    let _lock = StoreLock::acquire(opts.store, "ingest", opts.lock_wait, |holder| {
-        progress.note(&format!("waiting for the store lock held by {holder}"));
-    })?;
     let previous = read_runs(opts.store)?;
     collect_garbage(opts.store, &previous)?;
 

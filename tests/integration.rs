@@ -5,5 +5,6 @@ mod fit;
 mod inertia;
 mod ingest;
 mod report;
+mod run;
 mod synth;
 mod tir;
