@@ -562,6 +562,7 @@ fn ingest_inputs(opts: &RunOptions, progress: &dyn Progress) -> Result<IngestRep
         segment: &opts.config.segment,
         jobs: opts.jobs,
         lock_wait: opts.lock_wait,
+        rehash: false,
     };
     Ok(ingest::run_locked(
         &[opts.input.to_path_buf()],
