@@ -2,12 +2,13 @@
 
 Usage (from the repository root):
     cargo test --lib print_default_config -- --ignored --nocapture 2>/dev/null \
-        | sed -n '/^\[synth\]/,$p' | sed '/^test /,$d' > /tmp/defaults.toml
+        | sed -n '/^\[synth\]/,$p' | sed '/^test /,$d' | grep -v '^\.*$' > /tmp/defaults.toml
     python3 config/gen_default_toml.py /tmp/defaults.toml > config/default.toml
 """
 import re, sys, tomllib
 files = ['pipeline/config.rs', 'pipeline/core/segment/config.rs', 'pipeline/core/synth/round.rs',
-         'pipeline/core/synth/schedule.rs']
+         'pipeline/core/synth/schedule.rs', 'pipeline/core/fit/spring_rate.rs',
+         'pipeline/core/fit/thermal.rs', 'pipeline/core/fit/relaxation.rs']
 structs = {}
 for f in files:
     src = open(f).read()
@@ -17,7 +18,11 @@ for f in files:
         for fm in re.finditer(r'((?:\s*///[^\n]*\n)+)(?:\s*#\[[^\n]*\]\n)*\s*pub (\w+): ([^,\n]+),', body):
             d = ' '.join(l.strip()[3:].strip() for l in fm.group(1).strip().split('\n'))
             fields[fm.group(2)] = (d, fm.group(3).strip())
-        structs[name] = (' '.join(l.strip()[3:].strip() for l in doc.strip().split('\n') if l.strip()), fields)
+        entry = (' '.join(l.strip()[3:].strip() for l in doc.strip().split('\n') if l.strip()), fields)
+        # Two stages name their knobs alike (segment::SpringRateConfig, fit::SpringRateConfig):
+        # tables under [fit] take the fitting stages' definitions.
+        key = ('fit:' if '/core/fit/' in f else '') + name
+        structs.setdefault(key, entry)
 vals = tomllib.loads(open(sys.argv[1]).read())
 root = {'synth': 'SynthConfig', 'segment': 'SegmentConfig', 'fit': 'FitSettings'}
 out = []
@@ -27,8 +32,11 @@ def fmt(v):
     if isinstance(v, float): return repr(v)
     if isinstance(v, list): return '[' + ', '.join(fmt(x) for x in v) + ']'
     return str(v)
-def emit(path, table, sname):
-    doc, fields = structs.get(sname, ('', {}))
+def emit(path, table, sname, field_doc=''):
+    key = 'fit:' + sname if path.startswith('fit.') and 'fit:' + sname in structs else sname
+    doc, fields = structs.get(key, ('', {}))
+    if field_doc.startswith('`['):
+        doc = field_doc
     scalars = {k: v for k, v in table.items() if not isinstance(v, dict)}
     out.append('')
     if doc: out.append('# ' + doc)
@@ -40,8 +48,8 @@ def emit(path, table, sname):
         out.append(line.ljust(width) + ('  # ' + d if d else ''))
     for k, v in table.items():
         if isinstance(v, dict):
-            typ = fields.get(k, ('', 'X'))[1]
-            emit(path + '.' + k, v, typ)
+            fdoc, typ = fields.get(k, ('', 'X'))
+            emit(path + '.' + k, v, typ, fdoc)
 header = '''# tirebase configuration reference: every key with its default value and unit.
 #
 # These ARE the built-in defaults (a test keeps this file equal to them). To change something,

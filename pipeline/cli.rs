@@ -20,11 +20,20 @@ pub struct Cli {
 /// Every subcommand. Each variant is added by the issue that implements it.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// The nightly run: ingest, segment, fit, inertia, report, publish a version (incremental).
+    Run(RunArgs),
+    /// List the published versions of a store.
+    Versions(VersionsArgs),
+    /// Compare two published versions: models, coefficients, forces, fit quality, stage results.
+    Diff(DiffArgs),
     /// PAC2002 / MF 5.2 `.tir` property files: evaluate, lint, convert.
     #[command(subcommand)]
     Tir(TirCommand),
     /// Read raw TTC run files into the store (SI units, ISO-W axes, segmented, hive Parquet).
     Ingest(IngestArgs),
+    /// Fit every tire, rim and pressure of a store: PAC2002 .tir files, spring rate, thermal,
+    /// relaxation tables.
+    Fit(FitArgs),
     /// Run SQL over a store's tables and print the result.
     Query(QueryArgs),
     /// Write the HTML report (data vs model charts, fit quality, lint) of a result directory.
@@ -153,9 +162,11 @@ frame (Fz > 0 in compression, alpha = -SA, Fy and Mz negated); each run is split
 segments (spring-rate holds, cold-to-warm, conditioning, cornering, drive/brake, combined, step
 steers, IA and speed sweeps) binned to nominal pressure, inclination, load, slip angle and speed.
 
-Incremental: a file whose content hash is already stored is skipped; a changed file replaces its
-rows atomically; a file that cannot be read is listed in the runs table with its error and the
-rest of the batch is stored.
+Incremental: a file whose path, size and modification time are unchanged since its last
+successful ingest is skipped without reading it (--rehash hashes it anyway); a file whose content
+hash is already stored is skipped; a changed file replaces its rows atomically (its old rows are
+removed); a file that cannot be read is listed in the runs table with status failed and its
+error, the rest of the batch is stored, and the rows of its last good version (if any) stay.
 
 Exit codes: 0 every file ingested (or unchanged), 1 some files failed (the others are stored),
 2 usage error.")]
@@ -177,6 +188,73 @@ pub struct IngestArgs {
     /// Worker threads (0 = one per core). Results do not depend on it.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub jobs: usize,
+    /// Fail at once if another tirebase process holds the store, instead of waiting.
+    #[arg(long)]
+    pub no_wait: bool,
+    /// Hash every file. By default a file whose path, size (bytes) and modification time (ns)
+    /// equal the ones recorded at its last successful ingest is taken as unchanged without being
+    /// read, which makes a no-change re-ingest of a multi-gigabyte round take well under a
+    /// second; use this after restoring files with preserved timestamps or on file systems with
+    /// coarse mtimes.
+    #[arg(long)]
+    pub rehash: bool,
+}
+
+/// `tirebase fit`.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+Fit every (tire, rim, nominal pressure) of a store and write the results to OUT. Stages, in
+dependency order, per group (groups run in parallel; the output does not depend on --jobs):
+
+  spring_rate  spring-rate holds and free-rolling sweep crossings: RL = R0 - Fz/Cz per
+               IA and condition (static/dynamic/sweep); effective rolling radius law.
+               -> OUT/spring_rate.parquet (stiffness_n_per_m N/m, unloaded_radius_m m, ...)
+  pac2002      PAC2002 (MF 5.2) on the cornering, drive/brake and combined sweeps (QC-flagged
+               segments whose flags spoil forces are left out): Fy0 -> Mz0 -> Fx0 -> Fx, Fy
+               -> Mz -> Mx (My a placeholder), Cz and R0 from spring_rate.
+               -> OUT/tir/<tire>__<rim>in__<P>kPa.tir (SI units, ISO-W axes; tire, rim and
+               pressure in [MDI_HEADER], IP/IP_NOM in Pa, USE_MODE = families fitted, +10
+               with PTY*/PTX*), OUT/coefficients.parquet (long form: name, value SI,
+               std_error, at_bound, origin), OUT/fit_quality.parquet (per channel Fy0 Mz0 Fx0
+               Fx Fy Mz Mx: n, rmse N or N m, rmse_pct_of_peak %, r2, iterations, seconds),
+               OUT/lint.parquet (findings of tirebase tir lint on every written file).
+  relaxation   relaxation length sigma (m) per load, slip rate and direction with the fitted
+               model through a first-order lag; contact half length (m), carcass stiffness
+               (N/m); PTY1/PTY2, PTX1..3 into the .tir. With [fit] delag (default) PAC2002 is
+               refitted on de-lagged sweeps first. -> OUT/relaxation.parquet
+  thermal      cold-to-warm tests: peak |Fy/Fz| per sweep quadrant against the IR-lag-corrected
+               centre tread temperature (degC); mu(T) curve per group.
+               -> OUT/thermal.parquet, OUT/thermal_fit.parquet (t_peak_c degC,
+               gain_peak_over_cold)
+
+Every table starts with tire, rim_in (in), pressure_kpa (nominal, kPa). A stage that fails for
+a group is a row of OUT/fit_failures.parquet (stage, scope, fatal, reason) and a line on stderr;
+the other groups and stages are still written.
+
+Exit codes: 0 every stage of every group produced its result; 1 some failed (fatal rows in
+fit_failures; everything else was written); 2 nothing could be fitted (no group, or no group
+produced anything) or a usage/store error.")]
+pub struct FitArgs {
+    /// Store root directory (written by `tirebase ingest`).
+    #[arg(long, value_name = "DIR")]
+    pub store: PathBuf,
+    /// Output directory (created); tables and tir/ are replaced file by file.
+    #[arg(long, value_name = "OUT")]
+    pub out: PathBuf,
+    /// Fit only this tire (its name as stored, e.g. "Hoosier 20.5x7.0-13 R25B", or its file-name
+    /// form hoosier_20.5x7.0-13_r25b).
+    #[arg(long, value_name = "NAME")]
+    pub tire: Option<String>,
+    /// Comma-separated stages to run: spring_rate, pac2002, relaxation, thermal, or all.
+    #[arg(long, value_name = "LIST", default_value = "all")]
+    pub stages: String,
+    /// Worker threads (0 = one per core). Results do not depend on it.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub jobs: usize,
+    /// Configuration file (TOML, see config/default.toml: the [fit] table); overrides the
+    /// defaults.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
     /// Fail at once if another tirebase process holds the store, instead of waiting.
     #[arg(long)]
     pub no_wait: bool,
@@ -342,4 +420,91 @@ pub struct TirConvertArgs {
     /// Where to write the normalised PAC2002 file.
     #[arg(long, value_name = "G")]
     pub output: PathBuf,
+}
+
+/// `tirebase run`.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+The nightly run: ingest the raw files under INPUT (.dat/.mat anywhere below it; rig-inertia
+sessions under INPUT/inertia/), segment them, fit every changed tire/rim/pressure group (PAC2002,
+spring rate, thermal, relaxation), process the inertia sessions, write the HTML report and publish
+everything as the next immutable version STORE/versions/vNNNNNN/ (tables as <table>.parquet,
+tir/*.tir, report/index.html, manifest.toml).
+
+Incremental: a group whose segments, configuration and tool version are unchanged takes its rows
+and .tir file from the previous version. With nothing changed it publishes nothing and prints
+\"up to date\" (on stderr; logs go to stderr, stdout stays empty).
+
+Without --input it runs on the embedded virtual round, generated with the fixed default seed into
+outputs/round/ on first use, into outputs/store (paths relative to the working directory).
+
+Exit codes: 0 published (or up to date) with no failure, 1 published but some files, fits,
+inertia runs or the report failed, 2 nothing could be done (no input, store locked with
+--no-wait, nothing to fit).")]
+pub struct RunArgs {
+    /// Input directory (raw files below it, rig sessions under inertia/). Default: the embedded
+    /// virtual round in outputs/round/ (generated on first use).
+    #[arg(long, value_name = "DIR")]
+    pub input: Option<PathBuf>,
+    /// Store root directory (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "outputs/store")]
+    pub store: PathBuf,
+    /// Run catalog TOML ([[run]] project, run, tire, rim_in, kind). Default: INPUT/catalog.toml
+    /// when it exists.
+    #[arg(long, value_name = "FILE")]
+    pub catalog: Option<PathBuf>,
+    /// Configuration file (TOML, see config/default.toml); overrides the defaults.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Worker threads for ingest, fits and inertia (0 = one per core). Results do not depend on
+    /// it.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub jobs: usize,
+    /// Fail at once (exit 2) if another tirebase process holds the store, instead of waiting.
+    #[arg(long)]
+    pub no_wait: bool,
+}
+
+/// `tirebase versions`.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+List the published versions of a store, oldest first: number, publication date (UTC), input
+files (ok/failed), fit groups (fitted by that run / reused), rows of the main tables, .tir files,
+and a one-line summary of what changed against the previous version.")]
+pub struct VersionsArgs {
+    /// Store root directory.
+    #[arg(long, value_name = "DIR", default_value = "outputs/store")]
+    pub store: PathBuf,
+}
+
+/// `tirebase diff`.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+Compare two published versions A and B (numbers, v000003, or latest), per tire, rim and nominal
+pressure. One row per difference with the columns tire, rim_in, pressure_kpa, kind, item, old,
+new, rel_change, max_abs, rms:
+  model         a .tir added or removed
+  coefficient   a PAC2002 coefficient changed (old, new, rel_change = (new-old)/|old|)
+  force         max and RMS of |delta Fx| (N), |delta Fy| (N), |delta Mz| (N m) between the two
+                models over the tested envelope: a grid spanning both files' common ranges
+                FZMIN..FZMAX, ALPMIN..ALPMAX, KPUMIN..KPUMAX, CAMMIN..CAMMAX (ISO-W, SI)
+  quality       a fit_quality value changed (wall time excluded)
+  stage         a spring_rate, thermal_fit or relaxation value changed (stiffness, sigma, mu(T))
+Versions that are the same print no rows. Table on stdout, or CSV with --format csv.")]
+pub struct DiffArgs {
+    /// Store root directory.
+    #[arg(long, value_name = "DIR", default_value = "outputs/store")]
+    pub store: PathBuf,
+    /// The old version (number, vNNNNNN or latest).
+    #[arg(value_name = "A")]
+    pub a: String,
+    /// The new version (number, vNNNNNN or latest).
+    #[arg(value_name = "B")]
+    pub b: String,
+    /// Only this tire (exact name as in the store).
+    #[arg(long, value_name = "T")]
+    pub tire: Option<String>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
+    pub format: OutputFormat,
 }

@@ -10,6 +10,9 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 use tirebase_core::fit::pac2002::{FitConfig, MxForm};
+use tirebase_core::fit::relaxation::RelaxationConfig;
+use tirebase_core::fit::spring_rate::SpringRateConfig;
+use tirebase_core::fit::thermal::ThermalConfig;
 use tirebase_core::numerics::bounded_least_squares::RobustLoss;
 use tirebase_core::segment::SegmentConfig;
 use tirebase_core::synth::round::SynthConfig;
@@ -77,7 +80,7 @@ pub enum MxFormSetting {
     Auto,
 }
 
-/// `[fit]`: the PAC2002 fitting stage's knobs.
+/// `[fit]`: the PAC2002 fitting stage's knobs; the other stages' knobs in its sub-tables.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FitSettings {
@@ -105,6 +108,12 @@ pub struct FitSettings {
     pub mx_form: MxFormSetting,
     /// QSY1 written as the rolling-resistance placeholder (TTC records no My), -.
     pub rolling_resistance_placeholder: f64,
+    /// `[fit.spring_rate]`: vertical stiffness, unloaded radius, effective rolling radius.
+    pub spring_rate: SpringRateConfig,
+    /// `[fit.thermal]`: cold-to-warm peaks and the mu(T) curve.
+    pub thermal: ThermalConfig,
+    /// `[fit.relaxation]`: relaxation lengths, contact length, PTY/PTX laws.
+    pub relaxation: RelaxationConfig,
 }
 
 impl Default for FitSettings {
@@ -131,6 +140,9 @@ impl Default for FitSettings {
                 MxForm::Auto => MxFormSetting::Auto,
             },
             rolling_resistance_placeholder: core.rolling_resistance_placeholder,
+            spring_rate: SpringRateConfig::default(),
+            thermal: ThermalConfig::default(),
+            relaxation: RelaxationConfig::default(),
         }
     }
 }
@@ -181,6 +193,37 @@ impl FitSettings {
         }
         if self.max_iterations == 0 {
             return bad("max_iterations", "must be positive");
+        }
+        let ordered = |r: (f64, f64)| r.0.is_finite() && r.1.is_finite() && r.0 < r.1;
+        if !ordered(self.spring_rate.breff_range) || self.spring_rate.breff_range.0 <= 0.0 {
+            return bad(
+                "spring_rate.breff_range",
+                "must be [low, high] with 0 < low < high",
+            );
+        }
+        if !ordered(self.relaxation.sigma_range_m) || self.relaxation.sigma_range_m.0 <= 0.0 {
+            return bad(
+                "relaxation.sigma_range_m",
+                "must be [low, high] with 0 < low < high, m",
+            );
+        }
+        if !ordered(self.relaxation.pty2_range) || self.relaxation.pty2_range.0 <= 0.0 {
+            return bad(
+                "relaxation.pty2_range",
+                "must be [low, high] with 0 < low < high",
+            );
+        }
+        if !ordered(self.relaxation.ptx3_range) {
+            return bad(
+                "relaxation.ptx3_range",
+                "must be [low, high] with low < high",
+            );
+        }
+        if !(self.relaxation.linear_fraction > 0.0 && self.relaxation.linear_fraction <= 1.0) {
+            return bad("relaxation.linear_fraction", "must be in (0, 1]");
+        }
+        if self.thermal.min_peaks < 3 {
+            return bad("thermal.min_peaks", "must be at least 3");
         }
         Ok(())
     }
@@ -259,6 +302,24 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("fit.kappa_bin"), "{err}");
+    }
+
+    #[test]
+    fn stage_tables_are_nested_under_fit() {
+        let cfg = Config::parse(
+            "[fit.relaxation]\nnuisance = \"offset\"\n[fit.thermal]\nmin_peaks = 5\n",
+            "x.toml",
+        )
+        .unwrap();
+        assert_eq!(
+            cfg.fit.relaxation.nuisance,
+            tirebase_core::fit::relaxation::Nuisance::Offset
+        );
+        assert_eq!(cfg.fit.thermal.min_peaks, 5);
+        let err = Config::parse("[fit.relaxation]\nsigma_range_m = [1.0, 0.5]\n", "x.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("fit.relaxation.sigma_range_m"), "{err}");
     }
 
     #[test]

@@ -7,7 +7,8 @@
 //!   visible here, even before their files are garbage-collected).
 //! - every published result table (`coefficients`, `fit_quality`, `spring_rate`, `thermal`,
 //!   `thermal_fit`, `relaxation`, `inertia`, ...) across all versions with a `version` column,
-//!   plus `<table>_latest`, the newest version only; and `versions` (one row per version).
+//!   plus `<table>_latest`, the newest version only; and `versions` (one row per version with
+//!   its date, counts and change summary from the manifest).
 //!
 //! Deliberately not here: writing anything.
 
@@ -17,6 +18,7 @@ use std::path::Path;
 use polars::prelude::*;
 use polars::sql::SQLContext;
 
+use crate::manifest::Manifest;
 use crate::schema::{self, TableSchema};
 use crate::store::files::{parquet_files_below, parquet_files_in, read_parquet};
 use crate::store::layout::{SAMPLES_DIR, SEGMENTS_DIR, runs_file};
@@ -105,40 +107,90 @@ pub fn context(root: &Path) -> Result<SQLContext, QueryError> {
 }
 
 /// Register every result table of every version (`<table>` with a `version` column and
-/// `<table>_latest`) and the `versions` listing.
+/// `<table>_latest`, the rows of the newest version only: empty when the newest version has no
+/// such table) and the `versions` listing (one row per version, from the manifests).
 fn register_versions(ctx: &mut SQLContext, root: &Path) -> Result<(), QueryError> {
     let all = versions::list(root)?;
-    let mut numbers = Vec::new();
-    let mut tables: std::collections::BTreeMap<String, Vec<LazyFrame>> = Default::default();
-    let mut latest: std::collections::BTreeMap<String, LazyFrame> = Default::default();
+    let newest = all.last().map_or(0, |(n, _)| *n as i64);
+    let mut tables: std::collections::BTreeMap<String, Vec<DataFrame>> = Default::default();
     for (n, dir) in &all {
-        numbers.push(*n as i64);
         for file in parquet_files_in(dir)? {
             let Some(name) = file.file_stem().and_then(|s| s.to_str()) else {
                 continue;
             };
-            let lf = scan_files(std::slice::from_ref(&file), false)?
-                .with_column(lit(*n as i64).alias("version"));
-            latest.insert(name.to_string(), lf.clone());
-            tables.entry(name.to_string()).or_default().push(lf);
+            // Read eagerly: result tables are small, and polars 0.55 fails `count(*)` over a
+            // union of lazy Parquet scans ("casting from UInt32 to UInt128").
+            let mut df = read_parquet(&file)?;
+            df.with_column(Column::new("version".into(), vec![*n as i64; df.height()]))?;
+            tables.entry(name.to_string()).or_default().push(df);
         }
     }
     for (name, frames) in tables {
-        let union = concat(
-            frames,
-            UnionArgs {
-                to_supertypes: true,
-                ..Default::default()
-            },
-        )?;
+        let union = union_frames(frames)?.lazy();
+        ctx.register(
+            &format!("{name}_latest"),
+            union.clone().filter(col("version").eq(lit(newest))),
+        );
         ctx.register(&name, union);
     }
-    for (name, lf) in latest {
-        ctx.register(&format!("{name}_latest"), lf);
-    }
-    let listing = df!("version" => numbers)?;
-    ctx.register("versions", listing.lazy());
+    ctx.register("versions", versions_frame(&all)?.lazy());
     Ok(())
+}
+
+/// Stack the versions' frames: one in-memory frame (polars 0.55 miscounts over a lazy union),
+/// columns that changed type between versions cast to a common supertype.
+fn union_frames(frames: Vec<DataFrame>) -> PolarsResult<DataFrame> {
+    let mut it = frames.into_iter();
+    let Some(mut acc) = it.next() else {
+        return Ok(DataFrame::empty());
+    };
+    for df in it {
+        match acc.vstack(&df) {
+            Ok(stacked) => acc = stacked,
+            Err(_) => {
+                acc = concat(
+                    [acc.lazy(), df.lazy()],
+                    UnionArgs {
+                        to_supertypes: true,
+                        diagonal: true,
+                        ..Default::default()
+                    },
+                )?
+                .collect()?;
+            }
+        }
+    }
+    acc.rechunk_mut();
+    Ok(acc)
+}
+
+/// One row per version: number, date, tool, counts and the change summary of its manifest
+/// (nulls when a manifest cannot be read).
+fn versions_frame(all: &[(u32, std::path::PathBuf)]) -> PolarsResult<DataFrame> {
+    let manifests: Vec<Option<Manifest>> =
+        all.iter().map(|(_, d)| Manifest::read(d).ok()).collect();
+    let text = |f: fn(&Manifest) -> String| -> Vec<Option<String>> {
+        manifests.iter().map(|m| m.as_ref().map(f)).collect()
+    };
+    let count = |f: fn(&Manifest) -> u64| -> Vec<Option<i64>> {
+        manifests
+            .iter()
+            .map(|m| m.as_ref().map(|m| f(m) as i64))
+            .collect()
+    };
+    df!(
+        "version" => all.iter().map(|(n, _)| *n as i64).collect::<Vec<_>>(),
+        "created_utc" => text(|m| m.created_utc.clone()),
+        "tool_version" => text(|m| m.tool_version.clone()),
+        "files" => count(|m| m.counts.files),
+        "files_failed" => count(|m| m.counts.files_failed),
+        "groups" => count(|m| m.counts.groups),
+        "groups_fitted" => count(|m| m.counts.groups_fitted),
+        "groups_reused" => count(|m| m.counts.groups_reused),
+        "fit_failures" => count(|m| m.counts.fit_failures),
+        "tir_files" => count(|m| m.counts.tir_files),
+        "summary" => text(|m| m.summary.clone()),
+    )
 }
 
 /// Run one SQL statement against the store.

@@ -32,6 +32,19 @@ const SOURCES: &[(&str, &str)] = &[
         "relaxation.toml",
         include_str!("../schemas/relaxation.toml"),
     ),
+    (
+        "coefficients.toml",
+        include_str!("../schemas/coefficients.toml"),
+    ),
+    (
+        "fit_quality.toml",
+        include_str!("../schemas/fit_quality.toml"),
+    ),
+    ("lint.toml", include_str!("../schemas/lint.toml")),
+    (
+        "fit_failures.toml",
+        include_str!("../schemas/fit_failures.toml"),
+    ),
 ];
 
 /// Column data types used by tirebase tables.

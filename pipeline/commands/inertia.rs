@@ -7,64 +7,33 @@
 //! written). Deliberately no analysis here: that is `tirebase_core::inertia`.
 
 use std::fs;
-use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use polars::prelude::*;
-use rayon::prelude::*;
-use tirebase_core::inertia::analysis::{SessionOutcome, analyze_session};
-use tirebase_core::inertia::session::{load_dir_reader, load_session};
-use tirebase_core::inertia::{InertiaResult, RunError};
+use tirebase_core::inertia::InertiaResult;
+use tirebase_core::inertia::analysis::SessionOutcome;
 
 use crate::cli::InertiaArgs;
-use crate::schema;
+use crate::inertia::process_sessions;
 use crate::store::files::write_parquet_atomic;
 
 /// Runs every session, writes the table, prints the summary.
 pub fn run(args: &InertiaArgs) -> anyhow::Result<ExitCode> {
-    let mut outcomes: Vec<SessionOutcome> = args
-        .sessions
-        .par_iter()
-        .map(|dir| process_dir(dir))
-        .collect();
-    reject_duplicate_ids(&mut outcomes, &args.sessions);
-    let mut results: Vec<InertiaResult> = outcomes
-        .iter()
-        .flat_map(|o| o.results.iter().cloned())
-        .collect();
-    results.sort_by(|a, b| {
-        (
-            &a.session,
-            &a.run,
-            &a.object,
-            &a.axis,
-            &a.quantity,
-            &a.method,
-        )
-            .cmp(&(
-                &b.session,
-                &b.run,
-                &b.object,
-                &b.axis,
-                &b.quantity,
-                &b.method,
-            ))
-    });
-    let errors: Vec<&RunError> = outcomes.iter().flat_map(|o| o.errors.iter()).collect();
+    let processed = process_sessions(&args.sessions);
     fs::create_dir_all(&args.out)
         .with_context(|| format!("{}: cannot create output directory", args.out.display()))?;
     let path = args.out.join("inertia.parquet");
-    write_table(&results, &path)?;
-    print_summary(&outcomes, &results);
+    write_parquet_atomic(&path, &mut processed.table()?)?;
+    print_summary(&processed.outcomes, &processed.results);
+    let errors: Vec<_> = processed.errors().collect();
     for e in &errors {
         eprintln!("error: {e}");
     }
     eprintln!(
         "inertia: {} session(s), {} run(s), {} result row(s), {} failed run(s) -> {}",
-        outcomes.len(),
-        outcomes.iter().map(|o| o.runs).sum::<usize>(),
-        results.len(),
+        processed.outcomes.len(),
+        processed.runs(),
+        processed.results.len(),
         errors.len(),
         path.display()
     );
@@ -73,72 +42,6 @@ pub fn run(args: &InertiaArgs) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::from(1)
     })
-}
-
-/// A session id given by two directories would mix their rows: keep the first, fail the others.
-fn reject_duplicate_ids(outcomes: &mut [SessionOutcome], dirs: &[std::path::PathBuf]) {
-    for k in 1..outcomes.len() {
-        if let Some(first) = (0..k).find(|&j| {
-            outcomes[j].session == outcomes[k].session && !outcomes[j].results.is_empty()
-        }) {
-            let o = &mut outcomes[k];
-            o.results.clear();
-            o.errors = vec![RunError {
-                session: o.session.clone(),
-                run: "session.toml".into(),
-                message: format!(
-                    "{}: session id already used by {}",
-                    dirs[k].display(),
-                    dirs[first].display()
-                ),
-            }];
-        }
-    }
-}
-
-fn process_dir(dir: &Path) -> SessionOutcome {
-    let label = dir
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| dir.display().to_string());
-    match load_session(dir) {
-        Ok(session) => analyze_session(&session, &load_dir_reader(dir)),
-        Err(e) => SessionOutcome {
-            session: label.clone(),
-            results: Vec::new(),
-            errors: vec![RunError {
-                session: label,
-                run: "session.toml".into(),
-                message: e.to_string(),
-            }],
-            runs: 0,
-        },
-    }
-}
-
-/// Builds the frame in schema order and writes it atomically (temp file, then rename).
-fn write_table(rows: &[InertiaResult], path: &Path) -> anyhow::Result<()> {
-    let text = |f: fn(&InertiaResult) -> &str| {
-        rows.iter()
-            .map(|r| f(r).to_owned())
-            .collect::<Vec<String>>()
-    };
-    let df = df!(
-        "session" => text(|r| &r.session),
-        "run" => text(|r| &r.run),
-        "object" => text(|r| &r.object),
-        "axis" => text(|r| &r.axis),
-        "quantity" => text(|r| &r.quantity),
-        "method" => text(|r| &r.method),
-        "value" => rows.iter().map(|r| r.value).collect::<Vec<f64>>(),
-        "uncertainty" => rows.iter().map(|r| r.uncertainty).collect::<Vec<f64>>(),
-        "units" => text(|r| &r.units),
-        "diagnostics" => text(|r| &r.diagnostics),
-    )
-    .map_err(|e| anyhow::anyhow!("building the inertia table: {e}"))?;
-    let mut df = schema::table("inertia").conform(df)?;
-    write_parquet_atomic(path, &mut df)?;
-    Ok(())
 }
 
 /// Headline rows (vehicle inertia and CG) per session on stdout.

@@ -60,10 +60,17 @@ pub fn resolve_config(args: &SynthRoundArgs) -> anyhow::Result<SynthConfig> {
 }
 
 fn round(args: &SynthRoundArgs) -> anyhow::Result<ExitCode> {
-    let started = Instant::now();
     let cfg = resolve_config(args)?;
-    let plan = plan_round(&cfg)?;
-    let out = &args.out;
+    let summary = write_round(&cfg, &args.out, args.jobs)?;
+    eprintln!("{summary}");
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Generate a whole virtual round into `out` (raw/, truth/ and catalog.toml are replaced) with
+/// `jobs` worker threads (None = one per core); returns the one-line summary.
+pub fn write_round(cfg: &SynthConfig, out: &Path, jobs: Option<usize>) -> anyhow::Result<String> {
+    let started = Instant::now();
+    let plan = plan_round(cfg)?;
     for owned in ["raw", "truth"] {
         let dir = out.join(owned);
         if dir.exists() {
@@ -77,7 +84,7 @@ fn round(args: &SynthRoundArgs) -> anyhow::Result<ExitCode> {
         .with_context(|| format!("{}: cannot create", out.join("truth/tir").display()))?;
 
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.jobs.unwrap_or(0))
+        .num_threads(jobs.unwrap_or(0))
         .build()
         .context("cannot start worker threads")?;
     let results: Vec<anyhow::Result<(RunSummary, usize)>> = pool.install(|| {
@@ -105,7 +112,7 @@ fn round(args: &SynthRoundArgs) -> anyhow::Result<ExitCode> {
     let rows: usize = summaries.iter().map(|s| s.rows).sum();
     let segments: usize = summaries.iter().map(|s| s.segments.len()).sum();
     let defects: usize = summaries.iter().map(|s| s.defects.len()).sum();
-    eprintln!(
+    Ok(format!(
         "synth round: {} run files ({} rows, {:.1} MB), {} tire/rim combinations, {} truth models, {} segments, {} defects -> {} in {:.1} s",
         summaries.len(),
         rows,
@@ -116,8 +123,7 @@ fn round(args: &SynthRoundArgs) -> anyhow::Result<ExitCode> {
         defects,
         out.display(),
         started.elapsed().as_secs_f64()
-    );
-    Ok(ExitCode::SUCCESS)
+    ))
 }
 
 /// Write `file` under `root` via a temporary name and a rename.

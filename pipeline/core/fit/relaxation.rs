@@ -90,7 +90,8 @@ impl Method {
 }
 
 /// Which nuisance parameters are solved beside `sigma`.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[derive(Copy, Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Nuisance {
     /// None: the model is taken as exact.
     None,
@@ -101,7 +102,8 @@ pub enum Nuisance {
 }
 
 /// Equation 14's contact half length `a = R0 (q_a1 sqrt(z/R0) + q_a2 z/R0)`.
-#[derive(Copy, Clone, Debug, PartialEq)]
+#[derive(Copy, Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ContactLength {
     /// Square-root term.
     pub q_a1: f64,
@@ -134,7 +136,8 @@ pub fn carcass_stiffness(slip_stiffness: f64, sigma_m: f64, a_m: f64) -> Option<
 }
 
 /// Stage knobs.
-#[derive(Copy, Clone, Debug, PartialEq)]
+#[derive(Copy, Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct RelaxationConfig {
     /// Sweeps: samples count when `|F_ss|` is at most this fraction of the segment's peak.
     pub linear_fraction: f64,
@@ -142,7 +145,7 @@ pub struct RelaxationConfig {
     pub settle_s: f64,
     /// Search interval of `sigma`, m.
     pub sigma_range_m: (f64, f64),
-    /// Nuisance parameters.
+    /// Nuisance parameters: `none`, `offset` or `scale_offset`.
     pub nuisance: Nuisance,
     /// Half width of the moving average applied to the measured load before the model, s (noise
     /// on the model's input would favour a longer, smoothing lag).

@@ -50,7 +50,8 @@ impl Condition {
 }
 
 /// Stage knobs.
-#[derive(Copy, Clone, Debug, PartialEq)]
+#[derive(Copy, Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SpringRateConfig {
     /// A sweep sample is free rolling when `|alpha|` is below this, rad.
     pub free_rolling_alpha_rad: f64,

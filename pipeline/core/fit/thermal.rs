@@ -51,7 +51,8 @@ use crate::numerics::least_squares::{polyfit_centered, solve};
 use crate::numerics::levmar::{LeastSquaresModel, LmOptions, minimize};
 
 /// Stage knobs.
-#[derive(Copy, Clone, Debug, PartialEq)]
+#[derive(Copy, Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ThermalConfig {
     /// Fraction of a revolution between the road and the IR spot (D.7: 3/4).
     pub ir_phase_revolutions: f64,

@@ -1,0 +1,647 @@
+//! The fitting orchestration behind `tirebase fit` (and the nightly `run`): the store's live
+//! segments in, per (tire, rim, nominal pressure) fitted models and stage tables out.
+//!
+//! ```text
+//! plan_groups:  segments table (live rows) ─▶ one GroupPlan per (tire, rim, pressure) with the
+//!               hash of everything its fit depends on
+//! fit_groups:   rayon pool of `jobs` threads, one group per task:
+//!               load samples ─▶ spring rate ─▶ PAC2002 (forces) ─▶ relaxation ─▶ PAC2002
+//!               on de-lagged sweeps ─▶ relaxation ; thermal          (fit::group)
+//!               ─▶ .tir text + lint               (fit::tir)
+//!               ─▶ tables in group order          (fit::tables)
+//! write_outcome: OUT/<table>.parquet, OUT/tir/*.tir (atomic writes)
+//! ```
+//!
+//! A failed group or stage is a row of `fit_failures` (and of [`FitOutcome::failures`]), never an
+//! `Err`: `Err` is reserved for a store that cannot be read or an output that cannot be written.
+//! Output is deterministic: groups are sorted by key, every stage is single-threaded and
+//! deterministic within its group, so any `jobs` gives the same tables (the `seconds` column of
+//! `fit_quality` and [`FitOutcome::stage_seconds`] are wall time and excepted).
+//!
+//! Deliberately not here: the fitting math (`tirebase_core::fit`), the command line and exit
+//! codes (`commands::fit`), the store lock (the caller holds it), versioning (`run`).
+
+mod group;
+mod load;
+mod tables;
+mod tir;
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use polars::prelude::*;
+use rayon::prelude::*;
+use tirebase_core::fit::segment_data::TireKey;
+use tirebase_core::naming::sanitize_tire;
+
+pub use group::StageConfigs;
+pub use load::{LoadedSegment, SegmentRow, judge_qc, live_segments, parse_qc_flag};
+
+use crate::config::Config;
+use crate::progress::Progress;
+use crate::store::StoreError;
+use crate::store::files::{ensure_dir, sha256_bytes, write_bytes_atomic, write_parquet_atomic};
+use crate::store::layout::SWEPT;
+
+/// Store-level errors of the fitting orchestration (per-group problems are data).
+#[derive(Debug, thiserror::Error)]
+pub enum FitError {
+    /// The store could not be read or an output could not be written.
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// A table could not be built.
+    #[error("fit: {0}")]
+    Polars(#[from] PolarsError),
+    /// The path is not a store.
+    #[error("{0} is not a tirebase store (no runs/runs.parquet: ingest first)")]
+    NotAStore(String),
+    /// The segments table names a segment whose samples are missing.
+    #[error("{path}: no samples of segment {segment} (store damaged? re-ingest the file)")]
+    MissingSamples {
+        /// The samples file.
+        path: PathBuf,
+        /// The segment.
+        segment: String,
+    },
+    /// A result table could not be assembled.
+    #[error("table {table}: {message}")]
+    Table {
+        /// Table name.
+        table: String,
+        /// What went wrong.
+        message: String,
+    },
+    /// The worker pool could not start.
+    #[error("cannot start {jobs} worker threads: {message}")]
+    Pool {
+        /// Threads asked for.
+        jobs: usize,
+        /// Why.
+        message: String,
+    },
+}
+
+/// Which stages to run.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct StageSet {
+    /// PAC2002 steady-state fit and the `.tir` (coefficients, fit_quality, lint).
+    pub pac2002: bool,
+    /// Vertical stiffness, unloaded radius, effective rolling radius (spring_rate).
+    pub spring_rate: bool,
+    /// mu(T) from cold-to-warm tests (thermal, thermal_fit).
+    pub thermal: bool,
+    /// Relaxation lengths, contact length, carcass stiffness, PTY*/PTX* (relaxation).
+    pub relaxation: bool,
+}
+
+impl Default for StageSet {
+    fn default() -> Self {
+        StageSet {
+            pac2002: true,
+            spring_rate: true,
+            thermal: true,
+            relaxation: true,
+        }
+    }
+}
+
+impl StageSet {
+    /// Stage names, in run order.
+    pub const NAMES: [&'static str; 4] = ["spring_rate", "pac2002", "relaxation", "thermal"];
+
+    /// Parse a comma-separated list of stage names (`all` = every stage).
+    ///
+    /// ```
+    /// use tirebase::fit::StageSet;
+    /// let s = StageSet::parse("pac2002, thermal").unwrap();
+    /// assert!(s.pac2002 && s.thermal && !s.spring_rate && !s.relaxation);
+    /// assert_eq!(StageSet::parse("all").unwrap(), StageSet::default());
+    /// assert!(StageSet::parse("pac").is_err());
+    /// ```
+    pub fn parse(list: &str) -> Result<StageSet, String> {
+        let mut s = StageSet {
+            pac2002: false,
+            spring_rate: false,
+            thermal: false,
+            relaxation: false,
+        };
+        for name in list.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+            match name {
+                "all" => s = StageSet::default(),
+                "pac2002" => s.pac2002 = true,
+                "spring_rate" => s.spring_rate = true,
+                "thermal" => s.thermal = true,
+                "relaxation" => s.relaxation = true,
+                other => {
+                    return Err(format!(
+                        "unknown stage '{other}' (stages: {}, all)",
+                        StageSet::NAMES.join(", ")
+                    ));
+                }
+            }
+        }
+        if s.names().is_empty() {
+            return Err("no stage given".to_string());
+        }
+        Ok(s)
+    }
+
+    /// The enabled stages, in run order.
+    pub fn names(&self) -> Vec<&'static str> {
+        StageSet::NAMES
+            .into_iter()
+            .filter(|n| match *n {
+                "pac2002" => self.pac2002,
+                "spring_rate" => self.spring_rate,
+                "thermal" => self.thermal,
+                _ => self.relaxation,
+            })
+            .collect()
+    }
+}
+
+impl fmt::Display for StageSet {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.names().join(","))
+    }
+}
+
+/// What to fit (default: every tire, every stage, one thread per core).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FitOptions {
+    /// Only this tire (its name as stored, or its sanitised file-name form).
+    pub tire: Option<String>,
+    /// Stages to run.
+    pub stages: StageSet,
+    /// Worker threads (0 = one per core). Results do not depend on it.
+    pub jobs: usize,
+}
+
+/// One (tire, rim, nominal pressure) group and the hash of everything its fit depends on: the
+/// sorted (segment_id, source_sha256, qc_flags) of its usable segments, the resolved stage
+/// configurations, the stage set and the tool version.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GroupPlan {
+    /// The group.
+    pub key: TireKey,
+    /// SHA-256 (hex) of the inputs.
+    pub input_sha256: String,
+    /// Live segments of kinds the enabled stages read (QC-flagged ones included: the stages
+    /// decide what a flag excludes).
+    pub n_segments: usize,
+}
+
+/// A stage that failed for a group, or a part of it.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct FitFailure {
+    /// Tire name.
+    pub tire: String,
+    /// Rim width, in.
+    pub rim_in: i64,
+    /// Nominal pressure, kPa.
+    pub pressure_kpa: i64,
+    /// `load`, `spring_rate`, `pac2002`, `relaxation`, `thermal`.
+    pub stage: String,
+    /// The stage name for the whole stage, else the part (a family, a load, a segment).
+    pub scope: String,
+    /// The stage produced nothing for the group.
+    pub fatal: bool,
+    /// One-line reason.
+    pub reason: String,
+}
+
+impl FitFailure {
+    fn new(key: &TireKey, stage: &str, scope: &str, fatal: bool, reason: String) -> FitFailure {
+        FitFailure {
+            tire: key.tire.clone(),
+            rim_in: key.rim_in,
+            pressure_kpa: key.pressure_kpa_nom,
+            stage: stage.to_string(),
+            scope: scope.to_string(),
+            fatal,
+            reason: reason.replace('\n', " "),
+        }
+    }
+}
+
+impl fmt::Display for FitFailure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} on {} in rim at {} kPa: {}{}: {}",
+            self.tire,
+            self.rim_in,
+            self.pressure_kpa,
+            self.stage,
+            if self.scope == self.stage {
+                String::new()
+            } else {
+                format!(" ({})", self.scope)
+            },
+            self.reason
+        )
+    }
+}
+
+/// Effort of one group (wall time is not deterministic; for reports and benchmarks).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GroupStats {
+    /// The group.
+    pub key: Option<TireKey>,
+    /// Wall time per stage (`load`, `spring_rate`, `pac2002`, `relaxation`, `thermal`), s.
+    pub stage_seconds: BTreeMap<String, f64>,
+    /// PAC2002 fits run (2 when refitted on de-lagged sweeps).
+    pub pac2002_fits: usize,
+    /// Model evaluations (residual vectors plus Jacobians) of those fits.
+    pub pac2002_evaluations: usize,
+    /// CPU time of the thread that ran the stages (load excluded), s; `None` where the OS
+    /// does not tell (non-Linux). Unlike wall time it does not grow on a loaded machine.
+    pub cpu_seconds: Option<f64>,
+}
+
+impl fmt::Display for GroupStats {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let Some(k) = &self.key {
+            write!(f, "{k}:")?;
+        }
+        for (stage, s) in &self.stage_seconds {
+            write!(f, " {stage} {s:.3} s")?;
+            if stage == "pac2002" {
+                write!(
+                    f,
+                    " ({} fits, {} evaluations)",
+                    self.pac2002_fits, self.pac2002_evaluations
+                )?;
+            }
+            write!(f, ",")?;
+        }
+        let fitting: f64 = self
+            .stage_seconds
+            .iter()
+            .filter(|(s, _)| s.as_str() != "load")
+            .map(|(_, t)| t)
+            .sum();
+        write!(f, " all stages {fitting:.3} s wall")?;
+        if let Some(cpu) = self.cpu_seconds {
+            write!(f, ", {cpu:.2} s CPU")?;
+        }
+        Ok(())
+    }
+}
+
+/// CPU time of the calling thread, s, from `/proc/thread-self/stat` (Linux, 100 ticks/s);
+/// `None` elsewhere.
+fn thread_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/thread-self/stat").ok()?;
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let utime: f64 = fields.get(11)?.parse().ok()?;
+    let stime: f64 = fields.get(12)?.parse().ok()?;
+    Some((utime + stime) / 100.0)
+}
+
+/// Everything a fit produced.
+#[derive(Clone, Debug, Default)]
+pub struct FitOutcome {
+    /// Result tables by name: `coefficients`, `fit_quality`, `spring_rate`, `thermal`,
+    /// `thermal_fit`, `relaxation`, `lint`, `fit_failures`. Every table has the columns `tire`
+    /// (str), `rim_in` (i64), `pressure_kpa` (i64, nominal). Sorted deterministically;
+    /// conformed to `schemas/<name>.toml`.
+    pub tables: BTreeMap<String, DataFrame>,
+    /// `.tir` files: (file name from `tirebase_core::naming::tir_file_name`, text).
+    pub tir_files: Vec<(String, String)>,
+    /// Failures, fatal and partial, in group order.
+    pub failures: Vec<FitFailure>,
+    /// Wall time per stage summed over groups (plus `load`), s.
+    pub stage_seconds: BTreeMap<String, f64>,
+    /// Per group (in group order): wall time per stage and PAC2002 effort.
+    pub group_stats: Vec<GroupStats>,
+    /// Groups fitted (planned).
+    pub groups: usize,
+    /// Groups with at least one fatal failure.
+    pub groups_failed: usize,
+    /// Groups for which no stage produced anything.
+    pub groups_empty: usize,
+}
+
+impl FitOutcome {
+    /// The fatal failures.
+    pub fn fatal(&self) -> impl Iterator<Item = &FitFailure> {
+        self.failures.iter().filter(|f| f.fatal)
+    }
+
+    /// A one-line summary.
+    pub fn summary(&self) -> String {
+        let rows = |t: &str| self.tables.get(t).map_or(0, DataFrame::height);
+        format!(
+            "{} groups: {} .tir files, {} spring-rate rows, {} relaxation rows, {} thermal fits; \
+             {} groups with failed stages ({} fatal failures, {} partial)",
+            self.groups,
+            self.tir_files.len(),
+            rows("spring_rate"),
+            rows("relaxation"),
+            rows("thermal_fit"),
+            self.groups_failed,
+            self.fatal().count(),
+            self.failures.len() - self.fatal().count()
+        )
+    }
+}
+
+/// The resolved configuration of every stage: `[fit]` for PAC2002, `[fit.spring_rate]`,
+/// `[fit.thermal]`, `[fit.relaxation]` for the others.
+pub fn stage_configs(config: &Config) -> StageConfigs {
+    StageConfigs {
+        pac2002: config.fit.pac2002(),
+        spring_rate: config.fit.spring_rate,
+        thermal: config.fit.thermal,
+        relaxation: config.fit.relaxation,
+    }
+}
+
+fn tire_matches(wanted: &str, tire: &str) -> bool {
+    wanted == tire || sanitize_tire(wanted) == sanitize_tire(tire)
+}
+
+/// Group the store's live segments by (tire, rim, nominal pressure); only groups with a segment
+/// some enabled stage reads, sorted by key. Segments without a held pressure are not fitted.
+pub fn plan_groups(
+    store: &Path,
+    config: &Config,
+    opts: &FitOptions,
+) -> Result<Vec<GroupPlan>, FitError> {
+    let rows = live_segments(store)?;
+    let cfg = stage_configs(config);
+    let mut groups: BTreeMap<TireKey, Vec<&SegmentRow>> = BTreeMap::new();
+    for row in &rows {
+        if row.key.pressure_kpa_nom == SWEPT
+            || !group::used_by(&opts.stages, row.kind)
+            || opts
+                .tire
+                .as_deref()
+                .is_some_and(|t| !tire_matches(t, &row.key.tire))
+        {
+            continue;
+        }
+        groups.entry(row.key.clone()).or_default().push(row);
+    }
+    let config_text = format!(
+        "{}\n{:?}\nstages {}\ntirebase {}\n",
+        toml::to_string(&config.fit).unwrap_or_default(),
+        cfg.pac2002,
+        opts.stages,
+        env!("CARGO_PKG_VERSION")
+    );
+    Ok(groups
+        .into_iter()
+        .map(|(key, segs)| {
+            let mut lines: Vec<String> = segs
+                .iter()
+                .map(|s| format!("{}\t{}\t{}\n", s.segment_id, s.source_sha256, s.qc_flags))
+                .collect();
+            lines.sort();
+            let text = format!("{key}\n{}{config_text}", lines.concat());
+            GroupPlan {
+                key,
+                input_sha256: sha256_bytes(text.as_bytes()),
+                n_segments: segs.len(),
+            }
+        })
+        .collect())
+}
+
+/// What one group produced, before the tables are assembled.
+struct GroupOutput {
+    result: group::GroupResult,
+    model: Option<tir::WrittenModel>,
+    cpu_seconds: Option<f64>,
+}
+
+fn fit_one(
+    store: &Path,
+    rows: &[SegmentRow],
+    plan: &GroupPlan,
+    opts: &FitOptions,
+    cfg: &StageConfigs,
+) -> Result<GroupOutput, FitError> {
+    let started = std::time::Instant::now();
+    let mine: Vec<&SegmentRow> = rows
+        .iter()
+        .filter(|r| r.key == plan.key && group::used_by(&opts.stages, r.kind))
+        .collect();
+    // polars parallelises reads on its own rayon pool. Called from a worker of our pool, that
+    // `install` would let the waiting worker steal and run *another group* meanwhile (nested
+    // groups, their memory held at once, time charged to the wrong group). A plain scoped thread
+    // makes the wait a real block.
+    let segments = std::thread::scope(|s| {
+        s.spawn(|| load::load_segments(store, &mine))
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+    })?;
+    let load_seconds = started.elapsed().as_secs_f64();
+    let cpu0 = thread_cpu_seconds();
+    let (mut result, model) = guarded(&plan.key, || {
+        let mut result = group::run(&plan.key, &segments, &opts.stages, cfg);
+        let mut model = None;
+        if opts.stages.pac2002
+            && let Some(fit) = &result.pac2002
+        {
+            match tir::build(&result, &fit.notes) {
+                Ok(m) => model = Some(m),
+                Err(reason) => result.failures.push(FitFailure::new(
+                    &plan.key, "pac2002", "pac2002", true, reason,
+                )),
+            }
+        }
+        (result, model)
+    });
+    let cpu_seconds = cpu0.zip(thread_cpu_seconds()).map(|(a, b)| b - a);
+    result
+        .stage_seconds
+        .insert("load".to_string(), load_seconds);
+    Ok(GroupOutput {
+        result,
+        model,
+        cpu_seconds,
+    })
+}
+
+/// Run one group's stages; a bug in a stage must not take the other groups down, so a panic
+/// becomes a fatal failure of this group (the default hook also prints the panic message).
+fn guarded(
+    key: &TireKey,
+    stages: impl FnOnce() -> (group::GroupResult, Option<tir::WrittenModel>),
+) -> (group::GroupResult, Option<tir::WrittenModel>) {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(stages)).unwrap_or_else(|panic| {
+        let message = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".to_string());
+        let mut result = group::GroupResult::new(key);
+        result.failures.push(FitFailure::new(
+            key,
+            "fit",
+            "panic",
+            true,
+            format!("internal error (a bug; please report): {message}"),
+        ));
+        (result, None)
+    })
+}
+
+/// Fit the given groups in parallel (a rayon pool of `opts.jobs` threads, 0 = one per core); a
+/// failed group or stage is a row in `failures`, never an `Err` (`Err` only for store-level
+/// problems).
+pub fn fit_groups(
+    store: &Path,
+    config: &Config,
+    groups: &[GroupPlan],
+    opts: &FitOptions,
+    progress: &dyn Progress,
+) -> Result<FitOutcome, FitError> {
+    let rows = live_segments(store)?;
+    let cfg = stage_configs(config);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.jobs)
+        .build()
+        .map_err(|e| FitError::Pool {
+            jobs: opts.jobs,
+            message: e.to_string(),
+        })?;
+    let bar = progress.stage("fit", "groups", groups.len() as u64);
+    let outputs: Vec<Result<GroupOutput, FitError>> = pool.install(|| {
+        groups
+            .par_iter()
+            .map(|plan| {
+                let out = fit_one(store, &rows, plan, opts, &cfg);
+                bar.inc(1);
+                out
+            })
+            .collect()
+    });
+    let mut results = Vec::with_capacity(outputs.len());
+    let mut models = Vec::new();
+    let mut outcome = FitOutcome {
+        groups: groups.len(),
+        ..FitOutcome::default()
+    };
+    for out in outputs {
+        let GroupOutput {
+            result,
+            model,
+            cpu_seconds,
+        } = out?;
+        for (stage, s) in &result.stage_seconds {
+            *outcome.stage_seconds.entry(stage.clone()).or_default() += s;
+        }
+        outcome.group_stats.push(GroupStats {
+            key: Some(result.key.clone()),
+            stage_seconds: result.stage_seconds.clone(),
+            pac2002_fits: result.pac2002_fits,
+            pac2002_evaluations: result.pac2002_evaluations,
+            cpu_seconds,
+        });
+        let produced = model.is_some()
+            || (opts.stages.spring_rate
+                && result
+                    .spring_rate
+                    .as_ref()
+                    .is_some_and(|s| !s.rows.is_empty()))
+            || result.thermal.as_ref().is_some_and(|t| !t.rows.is_empty())
+            || result
+                .relaxation
+                .as_ref()
+                .is_some_and(|r| !r.rows.is_empty());
+        if result.failures.iter().any(|f| f.fatal) {
+            outcome.groups_failed += 1;
+        }
+        if !produced {
+            outcome.groups_empty += 1;
+        }
+        outcome.failures.extend(result.failures.iter().cloned());
+        if let Some(m) = model {
+            outcome
+                .tir_files
+                .push((m.file_name.clone(), m.text.clone()));
+            models.push((result.key.clone(), m));
+        }
+        results.push(result);
+    }
+    let mut tables = BTreeMap::new();
+    if opts.stages.pac2002 {
+        tables.insert("coefficients".to_string(), tables::coefficients(&models)?);
+        tables.insert("fit_quality".to_string(), tables::fit_quality(&results)?);
+        tables.insert("lint".to_string(), tables::lint(&models)?);
+    }
+    if opts.stages.spring_rate {
+        tables.insert("spring_rate".to_string(), tables::spring_rate(&results)?);
+    }
+    if opts.stages.thermal {
+        tables.insert("thermal".to_string(), tables::thermal(&results)?);
+        tables.insert("thermal_fit".to_string(), tables::thermal_fit(&results)?);
+    }
+    if opts.stages.relaxation {
+        tables.insert("relaxation".to_string(), tables::relaxation(&results)?);
+    }
+    tables.insert(
+        "fit_failures".to_string(),
+        tables::fit_failures(&outcome.failures)?,
+    );
+    outcome.tables = tables;
+    bar.finish(&outcome.summary());
+    Ok(outcome)
+}
+
+/// Writes OUT/<table>.parquet for every table and OUT/tir/*.tir (atomic writes). Files of
+/// tables or models this outcome does not hold are left alone.
+pub fn write_outcome(outcome: &FitOutcome, out: &Path) -> Result<(), FitError> {
+    ensure_dir(out)?;
+    for (name, df) in &outcome.tables {
+        let mut df = df.clone();
+        write_parquet_atomic(&out.join(format!("{name}.parquet")), &mut df)?;
+    }
+    if !outcome.tir_files.is_empty() {
+        let dir = out.join("tir");
+        ensure_dir(&dir)?;
+        for (name, text) in &outcome.tir_files {
+            write_bytes_atomic(&dir.join(name), text.as_bytes())?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panicking_group_becomes_a_fatal_failure() {
+        let key = TireKey {
+            tire: "T".into(),
+            rim_in: 7,
+            pressure_kpa_nom: 83,
+        };
+        let (result, model) = guarded(&key, || panic!("index out of bounds"));
+        assert!(model.is_none());
+        assert_eq!(result.failures.len(), 1);
+        let f = &result.failures[0];
+        assert!(f.fatal && f.stage == "fit", "{f:?}");
+        assert!(f.reason.contains("index out of bounds"), "{f:?}");
+    }
+
+    #[test]
+    fn stage_sets_print_and_parse_back() {
+        for list in [
+            "pac2002",
+            "spring_rate,thermal",
+            "all",
+            "relaxation, pac2002",
+        ] {
+            let s = StageSet::parse(list).unwrap();
+            assert_eq!(StageSet::parse(&s.to_string()).unwrap(), s);
+        }
+        assert!(StageSet::parse("").is_err());
+    }
+}

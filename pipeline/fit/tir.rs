@@ -1,0 +1,239 @@
+//! The `.tir` file of one group: the fitted PAC2002 model with the spring-rate and relaxation
+//! results written in, its identity in the header, and its lint findings.
+//!
+//! In: a [`GroupResult`] with a PAC2002 fit. Out: a [`WrittenModel`]: file name
+//! (`tirebase_core::naming::tir_file_name`), text (Adams PAC2002 layout, SI, ISO-W), the
+//! coefficient rows of the `coefficients` table (every value as written, with its origin) and
+//! the lint report of the rendered text read back.
+//!
+//! What goes where: `[DIMENSION] UNLOADED_RADIUS` and `[VERTICAL] VERTICAL_STIFFNESS` from the
+//! spring-rate stage (dynamic, at test speed; the PAC2002 stage already used them),
+//! `BREFF/DREFF/FREFF` from its effective-radius law, `RIM_WIDTH` from the rim, `PTY1/PTY2` and
+//! `PTX1..3` from the relaxation stage; `USE_MODE` = the families fitted (1 Fx, 2 Fy+Mz, 3 both
+//! pure, 4 combined) + 10 when both relaxation laws were fitted; `[TYRE_CONDITIONS] IP` = median
+//! measured pressure of the fitted sweeps, `IP_NOM` = the nominal pressure; `[MDI_HEADER]`
+//! comment lines name tire, rim and pressure.
+//!
+//! Deliberately not here: any fitting, writing files.
+
+use tirebase_core::fit::pac2002::{CoefficientOrigin, Pac2002Fit};
+use tirebase_core::naming::tir_file_name;
+use tirebase_core::tire_model::Coef;
+use tirebase_core::tire_model::tir::lint::{self, LintReport};
+use tirebase_core::tire_model::tir::{TirFile, TyrePressure};
+
+use super::group::GroupResult;
+
+/// One row of the `coefficients` table (without the group columns).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CoefficientRow {
+    /// The coefficient.
+    pub coef: Coef,
+    /// Family name (`Fy0` .. `My`, `relaxation`, `vertical`, `scalar`).
+    pub family: String,
+    /// Value as written, SI.
+    pub value: f64,
+    /// Standard error (fitted, off bounds).
+    pub std_error: Option<f64>,
+    /// On a bound.
+    pub at_bound: bool,
+    /// Where it comes from.
+    pub origin: String,
+}
+
+/// A model ready to write.
+#[derive(Clone, Debug)]
+pub struct WrittenModel {
+    /// File name under `OUT/tir/`.
+    pub file_name: String,
+    /// File text.
+    pub text: String,
+    /// Coefficient rows in canonical file order.
+    pub coefficients: Vec<CoefficientRow>,
+    /// Lint of the written text.
+    pub lint: LintReport,
+}
+
+fn rows_of(fit: &Pac2002Fit) -> Vec<CoefficientRow> {
+    fit.coefficients
+        .iter()
+        .map(|c| CoefficientRow {
+            coef: c.coef,
+            family: c
+                .family
+                .map_or_else(|| "scalar".to_string(), |f| f.as_str().to_string()),
+            value: c.value,
+            std_error: c.std_error,
+            at_bound: c.at_bound,
+            origin: c.origin.as_str().to_string(),
+        })
+        .collect()
+}
+
+/// Put `value` into both the coefficients and the rows.
+fn set(
+    file: &mut TirFile,
+    rows: &mut Vec<CoefficientRow>,
+    coef: Coef,
+    value: f64,
+    family: &str,
+    origin: &str,
+) {
+    file.coefs[coef] = value;
+    let row = CoefficientRow {
+        coef,
+        family: family.to_string(),
+        value,
+        std_error: None,
+        at_bound: false,
+        origin: origin.to_string(),
+    };
+    match rows.iter_mut().find(|r| r.coef == coef) {
+        Some(r) => *r = row,
+        None => rows.push(row),
+    }
+}
+
+/// Build the file of a group; `Err` (a one-line reason) when there is no model to write.
+pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, String> {
+    let fit = result
+        .pac2002
+        .as_ref()
+        .ok_or_else(|| "no PAC2002 model".to_string())?;
+    if fit.use_mode == 0 {
+        return Err("neither pure Fy nor pure Fx could be fitted (USE_MODE 0)".to_string());
+    }
+    let key = &result.key;
+    let mut file = TirFile::from_coefs(fit.model.coefs.clone());
+    let mut rows = rows_of(fit);
+    // Cz and R0 entered the fit through its context; record their origin as the stage.
+    for r in rows.iter_mut() {
+        if matches!(r.coef, Coef::VERTICAL_STIFFNESS | Coef::UNLOADED_RADIUS)
+            && r.origin == CoefficientOrigin::Context.as_str()
+        {
+            r.family = "vertical".to_string();
+            r.origin = "spring_rate".to_string();
+        }
+    }
+    if key.rim_in > 0 {
+        set(
+            &mut file,
+            &mut rows,
+            Coef::RIM_WIDTH,
+            key.rim_in as f64 * 0.0254,
+            "scalar",
+            "data",
+        );
+    }
+    let fnomin = file.coefs[Coef::FNOMIN];
+    if let Some(v) = result.spring_rate.as_ref().and_then(|s| s.vertical.first())
+        && let Some(law) = &v.effective_radius
+        && (law.fnomin_n - fnomin).abs() <= 1e-6 * fnomin.abs().max(1.0)
+    {
+        for (coef, value) in [
+            (Coef::BREFF, law.breff),
+            (Coef::DREFF, law.dreff),
+            (Coef::FREFF, law.freff),
+        ] {
+            set(&mut file, &mut rows, coef, value, "vertical", "spring_rate");
+        }
+    }
+    let mut relaxation_laws = 0;
+    if let Some(law) = result.relaxation.as_ref().and_then(|r| r.laws.first()) {
+        if let Some((pty1, pty2, ..)) = law.lateral {
+            set(
+                &mut file,
+                &mut rows,
+                Coef::PTY1,
+                pty1,
+                "relaxation",
+                "relaxation",
+            );
+            set(
+                &mut file,
+                &mut rows,
+                Coef::PTY2,
+                pty2,
+                "relaxation",
+                "relaxation",
+            );
+            relaxation_laws += 1;
+        }
+        if let Some((ptx1, ptx2, ptx3, ..)) = law.longitudinal {
+            set(
+                &mut file,
+                &mut rows,
+                Coef::PTX1,
+                ptx1,
+                "relaxation",
+                "relaxation",
+            );
+            set(
+                &mut file,
+                &mut rows,
+                Coef::PTX2,
+                ptx2,
+                "relaxation",
+                "relaxation",
+            );
+            set(
+                &mut file,
+                &mut rows,
+                Coef::PTX3,
+                ptx3,
+                "relaxation",
+                "relaxation",
+            );
+            relaxation_laws += 1;
+        }
+    }
+    rows.sort_by_key(|r| r.coef);
+    file.use_mode = Some(i64::from(fit.use_mode) + if relaxation_laws == 2 { 10 } else { 0 });
+    let nominal_pa = key.pressure_kpa_nom as f64 * 1e3;
+    file.pressure = TyrePressure {
+        inflation_pa: Some(if result.pressure_kpa_mean.is_finite() {
+            result.pressure_kpa_mean * 1e3
+        } else {
+            nominal_pa
+        }),
+        nominal_pa: Some(nominal_pa),
+    };
+    file.header_comments = header_comments(result, fit, notes);
+    let text = file
+        .render()
+        .map_err(|e| format!("cannot render the .tir: {e}"))?;
+    let (read_back, _) =
+        TirFile::parse(&text).map_err(|e| format!("the rendered .tir does not read back: {e}"))?;
+    Ok(WrittenModel {
+        file_name: tir_file_name(&key.tire, key.rim_in as f64, key.pressure_kpa_nom as f64),
+        lint: lint::lint(&read_back),
+        text,
+        coefficients: rows,
+    })
+}
+
+fn header_comments(result: &GroupResult, fit: &Pac2002Fit, notes: &[String]) -> Vec<String> {
+    let key = &result.key;
+    let comment = |text: &str| format!("! : COMMENT :       {text}");
+    let families: Vec<String> = fit
+        .families
+        .iter()
+        .map(|f| format!("{} {}", f.family.as_str(), f.status.as_str()))
+        .collect();
+    let mut out = vec![
+        format!("! : TIRE :          {}", key.tire),
+        format!("! : RIM_WIDTH_IN :  {}", key.rim_in),
+        format!("! : PRESSURE_KPA :  {}", key.pressure_kpa_nom),
+        comment(&format!(
+            "{} on a {} in rim at {} kPa nominal, fitted by tirebase fit {} from {} sweeps",
+            key.tire,
+            key.rim_in,
+            key.pressure_kpa_nom,
+            env!("CARGO_PKG_VERSION"),
+            result.n_pac2002_segments
+        )),
+        comment(&format!("families: {}", families.join(", "))),
+    ];
+    out.extend(notes.iter().map(|n| comment(&n.replace('\n', " "))));
+    out
+}

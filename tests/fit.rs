@@ -1,0 +1,693 @@
+//! `tirebase fit` end to end: `synth round` (demo) -> `ingest` -> `fit`, through the real binary.
+//!
+//! Checks, against the virtual machine's truth (`truth/tir/*.tir`, `truth/<tire>__<rim>in.toml`):
+//! - issue 5: every written `.tir` reproduces its truth over the tested envelope (the nominal
+//!   load, inclination and slip ranges of the store's force-clean cornering, drive/brake and
+//!   combined segments): RMS error <= 0.1 % of peak (Fx, Fy, Mz) on an ideal round (no noise,
+//!   lag or heat), <= 2 % (Fx, Fy) and <= 5 % (Mz) with the default realism;
+//! - issue 6 through the command: vertical stiffness within 1 %, unloaded radius within 0.5 mm
+//!   (table rows and the `.tir`), relaxation length within 5 % of the truth law at every tested
+//!   load (rows, law and the `.tir`'s PTY/PTX), mu(T) peak temperature within 3 degC and gain
+//!   within 3 %;
+//! - `--jobs 1` and `--jobs 2` give identical tables (except wall time) and `.tir` bytes;
+//! - a group whose force data are all QC-flagged fails (reported, exit code 1) while the other
+//!   groups and that group's other stages are written.
+//!
+//! The rounds are built once per test binary (shared fixtures) to keep the runtime modest.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+use polars::prelude::*;
+use tirebase::core::naming::tir_file_name;
+use tirebase::core::tire_model::tir::TirFile;
+use tirebase::core::tire_model::{Coef, Mode, Pac2002, SlipInput};
+
+fn tirebase(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tirebase"))
+        .args(args)
+        .output()
+        .expect("run tirebase")
+}
+
+fn ok(o: &Output, what: &str) {
+    assert!(
+        o.status.success(),
+        "{what} failed ({:?}): {}",
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// A demo round, its store and one fit of it.
+struct Fitted {
+    _dir: tempfile::TempDir,
+    round: PathBuf,
+    store: PathBuf,
+    out: PathBuf,
+    fit: Output,
+}
+
+fn prepare(synth_flags: &[&str]) -> Fitted {
+    let dir = tempfile::tempdir().unwrap();
+    let (round, store, out) = (
+        dir.path().join("round"),
+        dir.path().join("store"),
+        dir.path().join("out"),
+    );
+    let mut args = vec!["synth", "round", "--out", p(&round)];
+    args.extend_from_slice(synth_flags);
+    ok(&tirebase(&args), "synth round");
+    let catalog = round.join("catalog.toml");
+    ok(
+        &tirebase(&[
+            "ingest",
+            p(&round.join("raw")),
+            "--store",
+            p(&store),
+            "--catalog",
+            p(&catalog),
+        ]),
+        "ingest",
+    );
+    let fit = tirebase(&["fit", "--store", p(&store), "--out", p(&out), "--jobs", "2"]);
+    eprintln!("{}", String::from_utf8_lossy(&fit.stderr));
+    Fitted {
+        _dir: dir,
+        round,
+        store,
+        out,
+        fit,
+    }
+}
+
+fn ideal() -> &'static Fitted {
+    static F: OnceLock<Fitted> = OnceLock::new();
+    F.get_or_init(|| prepare(&["--ideal"]))
+}
+
+fn realistic() -> &'static Fitted {
+    static F: OnceLock<Fitted> = OnceLock::new();
+    F.get_or_init(|| prepare(&[]))
+}
+
+fn read_table(out: &Path, name: &str) -> DataFrame {
+    let path = out.join(format!("{name}.parquet"));
+    let file = std::fs::File::open(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    ParquetReader::new(file).finish().unwrap()
+}
+
+fn strs(df: &DataFrame, col: &str) -> Vec<String> {
+    let c = df.column(col).unwrap().cast(&DataType::String).unwrap();
+    c.str()
+        .unwrap()
+        .iter()
+        .map(|v| v.unwrap_or_default().to_string())
+        .collect()
+}
+
+fn f64s(df: &DataFrame, col: &str) -> Vec<f64> {
+    let c = df.column(col).unwrap().cast(&DataType::Float64).unwrap();
+    c.f64()
+        .unwrap()
+        .iter()
+        .map(|v| v.unwrap_or(f64::NAN))
+        .collect()
+}
+
+fn model(path: &Path) -> TirFile {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    TirFile::parse(&text).unwrap().0
+}
+
+/// Group file name -> operating points of the tested envelope: every force-clean cornering,
+/// drive/brake and combined segment at its nominal load, inclination (and held slip angle),
+/// over the slip range it covered.
+fn tested_envelope(store: &Path) -> BTreeMap<String, Vec<SlipInput>> {
+    let sql = "SELECT tire, rim_in, pressure_kpa_nom, kind, fz_n_nom, ia_deg_nom, alpha_deg_nom, \
+               alpha_deg_min, alpha_deg_max, kappa_min, kappa_max FROM segments \
+               WHERE qc_ok AND kind IN ('cornering', 'drive_brake', 'combined') \
+               AND pressure_kpa_nom IS NOT NULL AND fz_n_nom IS NOT NULL AND ia_deg_nom IS NOT NULL";
+    let o = tirebase(&["query", "--store", p(store), "--format", "csv", sql]);
+    ok(&o, "query");
+    let mut reader = csv::Reader::from_reader(o.stdout.as_slice());
+    let mut out: BTreeMap<String, Vec<SlipInput>> = BTreeMap::new();
+    for rec in reader.records() {
+        let r = rec.unwrap();
+        let num = |i: usize| r[i].parse::<f64>().unwrap_or(f64::NAN);
+        let name = tir_file_name(&r[0], num(1), num(2));
+        let (fz, gamma) = (num(4), num(5).to_radians());
+        let points = out.entry(name).or_default();
+        if &r[3] == "cornering" {
+            let (lo, hi) = (num(7), num(8));
+            let n = ((hi - lo) / 0.25).ceil().max(1.0) as usize;
+            for k in 0..=n {
+                points.push(SlipInput {
+                    fz_n: fz,
+                    kappa: 0.0,
+                    alpha_rad: (lo + (hi - lo) * k as f64 / n as f64).to_radians(),
+                    gamma_rad: gamma,
+                    vx_mps: 0.0,
+                });
+            }
+        } else {
+            let alpha = num(6);
+            let alpha = if alpha.is_finite() { alpha } else { 0.0 };
+            let (lo, hi) = (num(9), num(10));
+            for k in 0..=40 {
+                points.push(SlipInput {
+                    fz_n: fz,
+                    kappa: lo + (hi - lo) * k as f64 / 40.0,
+                    alpha_rad: alpha.to_radians(),
+                    gamma_rad: gamma,
+                    vx_mps: 0.0,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// RMS error of `fitted` against `truth` over `points`, % of the truth's peak: (Fx, Fy, Mz).
+fn envelope_error(truth: &Pac2002, fitted: &Pac2002, points: &[SlipInput]) -> [f64; 3] {
+    let vx = truth.coefs[Coef::LONGVL];
+    let mut ss = [0.0; 3];
+    let mut peak = [0.0_f64; 3];
+    for pt in points {
+        let pt = SlipInput { vx_mps: vx, ..*pt };
+        let (t, f) = (
+            truth.eval(&pt, Mode::Limits),
+            fitted.eval(&pt, Mode::Limits),
+        );
+        for (k, (a, b)) in [(t.fx_n, f.fx_n), (t.fy_n, f.fy_n), (t.mz_nm, f.mz_nm)]
+            .into_iter()
+            .enumerate()
+        {
+            ss[k] += (b - a).powi(2);
+            peak[k] = peak[k].max(a.abs());
+        }
+    }
+    let n = points.len() as f64;
+    std::array::from_fn(|k| 100.0 * (ss[k] / n).sqrt() / peak[k])
+}
+
+/// Check every written model against its truth; returns the worst (Fx, Fy, Mz) errors.
+fn check_models(f: &Fitted, limits: [f64; 3]) -> [f64; 3] {
+    let envelope = tested_envelope(&f.store);
+    let truth_dir = f.round.join("truth/tir");
+    let mut truths: Vec<String> = std::fs::read_dir(&truth_dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    truths.sort();
+    assert_eq!(truths.len(), 4, "{truths:?}");
+    let mut worst = [0.0_f64; 3];
+    let mut failures = Vec::new();
+    for name in &truths {
+        let fitted = f.out.join("tir").join(name);
+        assert!(fitted.exists(), "no fitted {name}");
+        let (t, m) = (model(&truth_dir.join(name)), model(&fitted));
+        let points = &envelope[name];
+        let e = envelope_error(&t.model(), &m.model(), points);
+        eprintln!(
+            "{name}: USE_MODE {:?}, {} envelope points: Fx {:.4} %, Fy {:.4} %, Mz {:.4} % of peak",
+            m.use_mode,
+            points.len(),
+            e[0],
+            e[1],
+            e[2]
+        );
+        for k in 0..3 {
+            worst[k] = worst[k].max(e[k]);
+            if e[k] > limits[k] {
+                failures.push(format!(
+                    "{name}: {} {:.4} % > {} %",
+                    ["Fx", "Fy", "Mz"][k],
+                    e[k],
+                    limits[k]
+                ));
+            }
+        }
+    }
+    eprintln!(
+        "worst: Fx {:.4} %, Fy {:.4} %, Mz {:.4} %",
+        worst[0], worst[1], worst[2]
+    );
+    assert!(failures.is_empty(), "{failures:#?}");
+    worst
+}
+
+/// Issue 5, Done when 1: ideal round, 0.1 % of peak.
+#[test]
+fn ideal_round_reproduces_the_truth_models_issue_5() {
+    let f = ideal();
+    assert_eq!(f.fit.status.code(), Some(0), "fit exit code");
+    check_models(f, [0.1, 0.1, 0.1]);
+}
+
+/// Issue 5, Done when 2: default realism (noise, lag, heat): 2 % Fx/Fy, 5 % Mz.
+#[test]
+fn realistic_round_within_2_percent_forces_5_percent_mz_issue_5() {
+    let f = realistic();
+    assert_eq!(f.fit.status.code(), Some(0), "fit exit code");
+    check_models(f, [2.0, 2.0, 5.0]);
+    // Every written file lints without errors.
+    let lint = read_table(&f.out, "lint");
+    let errors: Vec<String> = strs(&lint, "severity")
+        .into_iter()
+        .zip(strs(&lint, "message"))
+        .filter(|(s, _)| s == "error")
+        .map(|(_, m)| m)
+        .collect();
+    assert!(errors.is_empty(), "{errors:#?}");
+    // ... and so does `tirebase tir lint` on the files as written (exit 0: no errors).
+    for entry in std::fs::read_dir(f.out.join("tir")).unwrap() {
+        let path = entry.unwrap().path();
+        let o = tirebase(&["tir", "lint", p(&path)]);
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stdout)
+        );
+    }
+    let q = read_table(&f.out, "fit_quality");
+    assert_eq!(q.height(), 4 * 7, "7 fitted channels per model: {q}");
+}
+
+/// The truth TOML of a tire/rim: (pressure_kpa_nom -> table) and the thermal table.
+fn truth_toml(round: &Path, tire: &str, rim_in: i64) -> toml::Table {
+    let stem = tirebase::core::naming::tire_rim_stem(tire, rim_in as f64);
+    let text = std::fs::read_to_string(round.join(format!("truth/{stem}.toml"))).unwrap();
+    toml::from_str(&text).unwrap()
+}
+
+fn pressure_table(t: &toml::Table, pressure_kpa: i64) -> toml::Table {
+    t["pressure"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_table().unwrap().clone())
+        .find(|p| (p["pressure_kpa_nom"].as_float().unwrap() - pressure_kpa as f64).abs() < 0.5)
+        .unwrap()
+}
+
+fn num(t: &toml::Table, key: &str) -> f64 {
+    t[key]
+        .as_float()
+        .or_else(|| t[key].as_integer().map(|i| i as f64))
+        .unwrap()
+}
+
+/// Issue 6 tolerances through the command (the stage math is checked in tirebase-core).
+#[test]
+fn realistic_round_meets_the_issue_6_tolerances() {
+    let f = realistic();
+    let round = &f.round;
+    let reference_mps = 11.176;
+
+    // Spring rate: every row within 1 % / 0.5 mm of the truth at its speed.
+    let sr = read_table(&f.out, "spring_rate");
+    assert!(sr.height() >= 4 * 3, "{sr}");
+    let (tires, rims, ps) = (
+        strs(&sr, "tire"),
+        f64s(&sr, "rim_in"),
+        f64s(&sr, "pressure_kpa"),
+    );
+    let (cond, cz, r0, v) = (
+        strs(&sr, "condition"),
+        f64s(&sr, "stiffness_n_per_m"),
+        f64s(&sr, "unloaded_radius_m"),
+        f64s(&sr, "speed_kph"),
+    );
+    let mut worst = (0.0_f64, 0.0_f64);
+    for k in 0..sr.height() {
+        let t = pressure_table(&truth_toml(round, &tires[k], rims[k] as i64), ps[k] as i64);
+        let u = if cond[k] == "static" {
+            0.0
+        } else {
+            v[k] / 3.6 / reference_mps
+        };
+        let cz_s = num(&t, "vertical_stiffness_static_n_per_m");
+        let cz_t = cz_s + (num(&t, "vertical_stiffness_dynamic_n_per_m") - cz_s) * u;
+        let r0_s = num(&t, "unloaded_radius_static_m");
+        let r0_t = r0_s + (num(&t, "unloaded_radius_dynamic_m") - r0_s) * u * u;
+        let (e_cz, e_r0) = (cz[k] / cz_t - 1.0, r0[k] - r0_t);
+        worst = (worst.0.max(e_cz.abs()), worst.1.max(e_r0.abs()));
+        assert!(
+            e_cz.abs() < 0.01 && e_r0.abs() < 0.5e-3,
+            "{} {} kPa {}: Cz {:+.3} %, R0 {:+.3} mm",
+            tires[k],
+            ps[k],
+            cond[k],
+            100.0 * e_cz,
+            1e3 * e_r0
+        );
+    }
+    eprintln!(
+        "spring rate worst: Cz {:.3} %, R0 {:.3} mm over {} rows",
+        100.0 * worst.0,
+        1e3 * worst.1,
+        sr.height()
+    );
+
+    // The .tir carries the dynamic Cz and R0 and relaxation laws within 5 % at tested loads.
+    let rx = read_table(&f.out, "relaxation");
+    assert!(rx.height() > 0);
+    let (rt, rr, rp, dir) = (
+        strs(&rx, "tire"),
+        f64s(&rx, "rim_in"),
+        f64s(&rx, "pressure_kpa"),
+        strs(&rx, "direction"),
+    );
+    let (fz, sigma, sigma_law) = (
+        f64s(&rx, "fz_n_mean"),
+        f64s(&rx, "sigma_m"),
+        f64s(&rx, "sigma_law_m"),
+    );
+    let mut worst_sigma = 0.0_f64;
+    for k in 0..rx.height() {
+        let name = tir_file_name(&rt[k], rr[k], rp[k]);
+        let truth = model(&round.join("truth/tir").join(&name)).model();
+        let fitted = model(&f.out.join("tir").join(&name)).model();
+        let pick = |(sk, sa): (f64, f64)| if dir[k] == "lateral" { sa } else { sk };
+        let t = pick(truth.relaxation_lengths(fz[k], 0.0));
+        let in_tir = pick(fitted.relaxation_lengths(fz[k], 0.0));
+        let errs = [sigma[k] / t - 1.0, sigma_law[k] / t - 1.0, in_tir / t - 1.0];
+        for e in errs {
+            worst_sigma = worst_sigma.max(e.abs());
+        }
+        assert!(
+            errs.iter().all(|e| e.abs() < 0.05),
+            "{name} {} at {:.0} N: sigma {:+.2} %, law {:+.2} %, .tir {:+.2} %",
+            dir[k],
+            fz[k],
+            100.0 * errs[0],
+            100.0 * errs[1],
+            100.0 * errs[2]
+        );
+    }
+    eprintln!(
+        "relaxation worst |error| (rows, law, .tir): {:.2} % over {} rows",
+        100.0 * worst_sigma,
+        rx.height()
+    );
+    for entry in std::fs::read_dir(f.out.join("tir")).unwrap() {
+        let path = entry.unwrap().path();
+        let m = model(&path);
+        let truth = model(&round.join("truth/tir").join(path.file_name().unwrap()));
+        let (cz, r0) = (
+            m.coefs[Coef::VERTICAL_STIFFNESS],
+            m.coefs[Coef::UNLOADED_RADIUS],
+        );
+        let (cz_t, r0_t) = (
+            truth.coefs[Coef::VERTICAL_STIFFNESS],
+            truth.coefs[Coef::UNLOADED_RADIUS],
+        );
+        assert!(
+            (cz / cz_t - 1.0).abs() < 0.01 && (r0 - r0_t).abs() < 0.5e-3,
+            "{}: Cz {cz} vs {cz_t}, R0 {r0} vs {r0_t}",
+            path.display()
+        );
+        assert_eq!(m.use_mode, Some(14), "{}", path.display());
+        let ip_nom = m.pressure.nominal_pa.unwrap();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        assert!(
+            name.contains(&format!("__{:.0}kPa", ip_nom / 1e3)),
+            "{name}"
+        );
+    }
+
+    // Thermal: mu(T) peak temperature within 3 degC and gain within 3 %.
+    let th = read_table(&f.out, "thermal_fit");
+    assert_eq!(th.height(), 4, "{th}");
+    let (tt, tr) = (strs(&th, "tire"), f64s(&th, "rim_in"));
+    let (t_peak, gain) = (f64s(&th, "t_peak_c"), f64s(&th, "gain_peak_over_cold"));
+    for k in 0..th.height() {
+        let truth = truth_toml(round, &tt[k], tr[k] as i64);
+        let thermal = truth["thermal"].as_table().unwrap();
+        let (tp, g) = (
+            num(thermal, "t_peak_c"),
+            num(thermal, "gain_peak_over_cold"),
+        );
+        eprintln!(
+            "thermal {}: T_peak {:.2} vs {tp} degC, gain {:.4} vs {g} ({:+.2} %)",
+            tt[k],
+            t_peak[k],
+            gain[k],
+            100.0 * (gain[k] / g - 1.0)
+        );
+        assert!(
+            (t_peak[k] - tp).abs() < 3.0,
+            "{}: T_peak {}",
+            tt[k],
+            t_peak[k]
+        );
+        assert!(
+            (gain[k] / g - 1.0).abs() < 0.03,
+            "{}: gain {}",
+            tt[k],
+            gain[k]
+        );
+    }
+}
+
+/// Every table except the wall-time column, and the `.tir` bytes.
+fn outputs(out: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut files = BTreeMap::new();
+    for entry in std::fs::read_dir(out).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if let Some(table) = name.strip_suffix(".parquet") {
+            let mut df = read_table(out, table);
+            if table == "fit_quality" {
+                df = df.drop("seconds").unwrap();
+            }
+            let mut bytes = Vec::new();
+            CsvWriter::new(&mut bytes).finish(&mut df).unwrap();
+            files.insert(name, bytes);
+        }
+    }
+    for entry in std::fs::read_dir(out.join("tir")).unwrap() {
+        let path = entry.unwrap().path();
+        files.insert(
+            format!("tir/{}", path.file_name().unwrap().to_string_lossy()),
+            std::fs::read(&path).unwrap(),
+        );
+    }
+    files
+}
+
+#[test]
+fn jobs_1_and_jobs_2_give_identical_outputs() {
+    let f = ideal();
+    let dir = tempfile::tempdir().unwrap();
+    let out1 = dir.path().join("out1");
+    let o = tirebase(&[
+        "fit",
+        "--store",
+        p(&f.store),
+        "--out",
+        p(&out1),
+        "--jobs",
+        "1",
+    ]);
+    ok(&o, "fit --jobs 1");
+    let (a, b) = (outputs(&out1), outputs(&f.out));
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    assert_eq!(a.len(), 8 + 4, "{:?}", a.keys());
+    for (name, bytes) in &a {
+        assert!(bytes == &b[name], "{name} differs between --jobs 1 and 2");
+    }
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let path = entry.unwrap().path();
+        let target = to.join(path.file_name().unwrap());
+        if path.is_dir() {
+            copy_dir(&path, &target);
+        } else {
+            std::fs::copy(&path, &target).unwrap();
+        }
+    }
+}
+
+/// Mark every force segment of one tire at one pressure as load-drifting (a QC flag that spoils
+/// forces), as a segmenter would for a bad test.
+fn flag_force_segments(store: &Path, tire: &str, pressure_kpa: i64) -> usize {
+    let mut flagged = 0;
+    for entry in std::fs::read_dir(store.join("segments")).unwrap() {
+        let path = entry.unwrap().path();
+        let df = ParquetReader::new(std::fs::File::open(&path).unwrap())
+            .finish()
+            .unwrap();
+        let hit: Vec<bool> = (0..df.height())
+            .map(|i| {
+                let s = |c: &str| df.column(c).unwrap().get(i).unwrap().to_string();
+                s("tire").trim_matches('"') == tire
+                    && s("pressure_kpa_nom") == pressure_kpa.to_string()
+                    && ["cornering", "drive_brake", "combined"]
+                        .contains(&s("kind").trim_matches('"'))
+            })
+            .collect();
+        let n = hit.iter().filter(|h| **h).count();
+        if n == 0 {
+            continue;
+        }
+        flagged += n;
+        let flags: Vec<String> = strs(&df, "qc_flags")
+            .into_iter()
+            .zip(&hit)
+            .map(|(f, h)| if *h { "load_drift".to_string() } else { f })
+            .collect();
+        let qc_ok: Vec<bool> = df
+            .column("qc_ok")
+            .unwrap()
+            .bool()
+            .unwrap()
+            .iter()
+            .zip(&hit)
+            .map(|(q, h)| q.unwrap_or(false) && !*h)
+            .collect();
+        let mut df = df
+            .lazy()
+            .with_columns([
+                lit(Series::new("qc_flags".into(), flags)).alias("qc_flags"),
+                lit(Series::new("qc_ok".into(), qc_ok)).alias("qc_ok"),
+            ])
+            .collect()
+            .unwrap();
+        tirebase::store::files::write_parquet_atomic(&path, &mut df).unwrap();
+    }
+    flagged
+}
+
+#[test]
+fn a_failed_group_is_reported_and_the_others_are_written() {
+    let f = ideal();
+    let dir = tempfile::tempdir().unwrap();
+    let (store, out) = (dir.path().join("store"), dir.path().join("out"));
+    copy_dir(&f.store, &store);
+    let tire = "Hoosier 16.0x7.5-10 R25B";
+    let n = flag_force_segments(&store, tire, 69);
+    assert!(n > 20, "flagged {n}");
+    let o = tirebase(&["fit", "--store", p(&store), "--out", p(&out), "--jobs", "2"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains(&format!("failed: {tire} on 7 in rim at 69 kPa: pac2002")),
+        "{stderr}"
+    );
+    let failures = read_table(&out, "fit_failures");
+    let fatal: Vec<(String, String)> = strs(&failures, "tire")
+        .into_iter()
+        .zip(strs(&failures, "pressure_kpa"))
+        .zip(strs(&failures, "stage"))
+        .zip(strs(&failures, "fatal"))
+        .filter(|(_, fatal)| fatal == "true")
+        .map(|(((t, p), s), _)| (format!("{t} {p}"), s))
+        .collect();
+    assert!(
+        fatal.contains(&(format!("{tire} 69"), "pac2002".to_string())),
+        "{fatal:?}"
+    );
+    assert!(
+        fatal.iter().all(|(g, _)| g == &format!("{tire} 69")),
+        "{fatal:?}"
+    );
+    let mut tirs: Vec<String> = std::fs::read_dir(out.join("tir"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    tirs.sort();
+    assert_eq!(tirs.len(), 3, "{tirs:?}");
+    assert!(!tirs.contains(&tir_file_name(tire, 7.0, 69.0)));
+    // The failed group's other stages still ran: its spring-rate holds and thermal test.
+    for table in ["spring_rate", "thermal_fit"] {
+        let df = read_table(&out, table);
+        let groups: Vec<String> = strs(&df, "tire")
+            .into_iter()
+            .zip(strs(&df, "pressure_kpa"))
+            .map(|(t, p)| format!("{t} {p}"))
+            .collect();
+        assert!(
+            groups.contains(&format!("{tire} 69")),
+            "{table}: {groups:?}"
+        );
+    }
+    let coefs = read_table(&out, "coefficients");
+    let groups: std::collections::BTreeSet<String> = strs(&coefs, "tire")
+        .into_iter()
+        .zip(strs(&coefs, "pressure_kpa"))
+        .map(|(t, p)| format!("{t} {p}"))
+        .collect();
+    assert_eq!(groups.len(), 3, "{groups:?}");
+}
+
+#[test]
+fn bad_stage_names_and_empty_stores_are_usage_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = dir.path().join("store");
+    let out = dir.path().join("out");
+    let o = tirebase(&[
+        "fit",
+        "--store",
+        p(&store),
+        "--out",
+        p(&out),
+        "--stages",
+        "pac",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("unknown stage 'pac'"));
+    let o = tirebase(&["fit", "--store", p(&store), "--out", p(&out)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("not a tirebase store"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// Issue 5: families without data are left out and USE_MODE says so (a tire tested on
+/// drive/brake only: pure and combined Fx, USE_MODE 1), and that is not a failure.
+#[test]
+fn drive_brake_only_group_is_written_with_use_mode_1() {
+    let f = ideal();
+    let dir = tempfile::tempdir().unwrap();
+    let (raw, store, out) = (
+        dir.path().join("raw"),
+        dir.path().join("store"),
+        dir.path().join("out"),
+    );
+    std::fs::create_dir_all(&raw).unwrap();
+    // B2410run2.dat: the 20.5 in tire at 83 kPa, drive/brake and combined sweeps.
+    std::fs::copy(f.round.join("raw/B2410run2.dat"), raw.join("B2410run2.dat")).unwrap();
+    let catalog = f.round.join("catalog.toml");
+    ok(
+        &tirebase(&[
+            "ingest",
+            p(&raw),
+            "--store",
+            p(&store),
+            "--catalog",
+            p(&catalog),
+        ]),
+        "ingest",
+    );
+    let o = tirebase(&["fit", "--store", p(&store), "--out", p(&out), "--jobs", "1"]);
+    ok(&o, "fit");
+    let name = tir_file_name("Hoosier 20.5x7.0-13 R25B", 7.0, 83.0);
+    let m = model(&out.join("tir").join(&name));
+    assert_eq!(m.use_mode, Some(1), "{name}");
+    let q = read_table(&out, "fit_quality");
+    assert_eq!(strs(&q, "channel"), ["Fx0", "Fx"], "{q}");
+}
