@@ -562,6 +562,7 @@ fn ingest_inputs(opts: &RunOptions, progress: &dyn Progress) -> Result<IngestRep
         segment: &opts.config.segment,
         jobs: opts.jobs,
         lock_wait: opts.lock_wait,
+        // The nightly run trusts the ingest fast path (unchanged size, mtime and path).
         rehash: false,
     };
     Ok(ingest::run_locked(

@@ -16,8 +16,6 @@ use polars::prelude::*;
 use tirebase_core::tire_model::Pac2002;
 use tirebase_core::tire_model::tir::TirFile;
 
-use rayon::prelude::*;
-
 use crate::query;
 use crate::store::layout::{PartitionKey, SWEPT, partition_dir, source_part_name};
 
@@ -213,31 +211,47 @@ fn load_segments(store: &Path, data: &mut ReportData) -> Result<(), super::Repor
         }
     };
     let mut segments = build_segments(&segs);
+
     let mut by_file: BTreeMap<PathBuf, Vec<usize>> = BTreeMap::new();
     for (i, (_, src)) in segments.iter().enumerate() {
         by_file.entry(store.join(&src.file)).or_default().push(i);
     }
-    let read: Vec<(PathBuf, Result<FileSamples, String>)> = by_file
-        .keys()
-        .cloned()
-        .collect::<Vec<_>>()
-        .into_par_iter()
-        .map(|path| {
-            let r = read_samples(&path);
-            (path, r)
-        })
-        .collect();
-    for (path, result) in read {
+    // Plain scoped threads, not rayon: polars runs its own pool, and a rayon worker waiting on
+    // it can steal further reads onto its stack (a stack overflow on a full round).
+    let files: Vec<(&PathBuf, &Vec<usize>)> = by_file.iter().collect();
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .clamp(1, 4);
+    let chunk = files.len().div_ceil(threads).max(1);
+    let segments_ref = &segments;
+    let results: Vec<Vec<FileResult>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = files
+            .chunks(chunk)
+            .map(|part| {
+                std::thread::Builder::new()
+                    .stack_size(16 << 20)
+                    .spawn_scoped(scope, move || {
+                        part.iter()
+                            .map(|(path, members)| read_members(path, members, segments_ref))
+                            .collect()
+                    })
+                    .expect("spawn a report reader thread")
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("report reader thread"))
+            .collect()
+    });
+    for result in results.into_iter().flatten() {
         match result {
-            Ok(file) => {
-                for &i in &by_file[&path] {
-                    let (seg, src) = &mut segments[i];
-                    let full = file.rows(src.sample_range);
-                    seg.stats = segment_stats(&full);
-                    seg.samples = decimate(&full, MAX_POINTS_PER_SEGMENT);
+            Ok(members) => {
+                for (i, stats, samples) in members {
+                    segments[i].0.stats = stats;
+                    segments[i].0.samples = samples;
                 }
             }
-            Err(e) => data.notes.push(format!(
+            Err((path, e)) => data.notes.push(format!(
                 "store {}: unreadable: {e}",
                 path.strip_prefix(store).unwrap_or(&path).display()
             )),
@@ -245,6 +259,30 @@ fn load_segments(store: &Path, data: &mut ReportData) -> Result<(), super::Repor
     }
     data.segments = segments.into_iter().map(|(s, _)| s).collect();
     Ok(())
+}
+
+/// Per member segment of one file: (index, statistics, decimated samples); or the file and why
+/// it could not be read.
+type FileResult = Result<Vec<(usize, SegmentStats, Vec<Sample>)>, (PathBuf, String)>;
+
+/// Read one partition file and cut out its member segments.
+fn read_members(
+    path: &Path,
+    members: &[usize],
+    segments: &[(Segment, SampleSource)],
+) -> FileResult {
+    let file = read_samples(path).map_err(|e| (path.to_path_buf(), e))?;
+    Ok(members
+        .iter()
+        .map(|&i| {
+            let full = file.rows(segments[i].1.sample_range);
+            (
+                i,
+                segment_stats(&full),
+                decimate(&full, MAX_POINTS_PER_SEGMENT),
+            )
+        })
+        .collect())
 }
 
 /// Where a segment's samples are.
@@ -264,6 +302,11 @@ struct FileSamples {
 impl FileSamples {
     /// Samples whose index lies in `[start, end)`, ordered by index.
     fn rows(&self, (start, end): (i64, i64)) -> Vec<Sample> {
+        if self.sample_index.is_sorted() {
+            let lo = self.sample_index.partition_point(|&k| k < start);
+            let hi = self.sample_index.partition_point(|&k| k < end);
+            return self.samples[lo..hi.max(lo)].to_vec();
+        }
         let mut rows: Vec<(i64, Sample)> = self
             .sample_index
             .iter()
@@ -289,6 +332,7 @@ fn read_samples(path: &Path) -> Result<FileSamples, String> {
     ];
     let df = ParquetReader::new(file)
         .with_columns(Some(columns.iter().map(|c| c.to_string()).collect()))
+        .read_parallel(ParallelStrategy::None)
         .finish()
         .map_err(|e| e.to_string())?;
     let sample_index: Vec<i64> = i64_col(&df, "sample_index")

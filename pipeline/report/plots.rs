@@ -19,7 +19,7 @@ use super::svg::{Axis, Plot, Series, Style};
 /// Points along a model curve.
 const CURVE_POINTS: usize = 81;
 /// Measured points per (plot, load) series after pooling segments.
-const MAX_POINTS_PER_SERIES: usize = 100;
+const MAX_POINTS_PER_SERIES: usize = 60;
 
 /// Points by (rim, pressure) and then by a series label.
 type PointsByGroup = BTreeMap<(i64, i64), BTreeMap<String, Vec<(f64, f64)>>>;
