@@ -162,9 +162,11 @@ frame (Fz > 0 in compression, alpha = -SA, Fy and Mz negated); each run is split
 segments (spring-rate holds, cold-to-warm, conditioning, cornering, drive/brake, combined, step
 steers, IA and speed sweeps) binned to nominal pressure, inclination, load, slip angle and speed.
 
-Incremental: a file whose content hash is already stored is skipped; a changed file replaces its
-rows atomically; a file that cannot be read is listed in the runs table with its error and the
-rest of the batch is stored.
+Incremental: a file whose path, size and modification time are unchanged since its last
+successful ingest is skipped without reading it (--rehash hashes it anyway); a file whose content
+hash is already stored is skipped; a changed file replaces its rows atomically (its old rows are
+removed); a file that cannot be read is listed in the runs table with status failed and its
+error, the rest of the batch is stored, and the rows of its last good version (if any) stay.
 
 Exit codes: 0 every file ingested (or unchanged), 1 some files failed (the others are stored),
 2 usage error.")]
@@ -189,6 +191,13 @@ pub struct IngestArgs {
     /// Fail at once if another tirebase process holds the store, instead of waiting.
     #[arg(long)]
     pub no_wait: bool,
+    /// Hash every file. By default a file whose path, size (bytes) and modification time (ns)
+    /// equal the ones recorded at its last successful ingest is taken as unchanged without being
+    /// read, which makes a no-change re-ingest of a multi-gigabyte round take well under a
+    /// second; use this after restoring files with preserved timestamps or on file systems with
+    /// coarse mtimes.
+    #[arg(long)]
+    pub rehash: bool,
 }
 
 /// `tirebase fit`.

@@ -2,15 +2,19 @@
 //!
 //! In: `.dat`/`.mat` paths (files or directories), an optional run catalog, the segmentation
 //! config. Out: for every file, its samples in hive partitions, its segments, and one row of the
-//! runs table; an [`IngestReport`]. Per file, in parallel: hash -> (unchanged? skip) -> read
-//! (`tirebase_core::ttc`, SI and ISO-W) -> identify the tire -> segment
-//! (`tirebase_core::segment`) -> write that file's Parquet parts under content-addressed names.
-//! Then, once, the runs table is rewritten atomically: that rename is the commit. Files of a
+//! runs table; an [`IngestReport`]. Per file, in parallel: stat (same path, size and mtime as the
+//! runs table recorded after a successful ingest? unchanged, not even read; `rehash` turns this
+//! off) -> hash (same content as stored? unchanged) -> read (`tirebase_core::ttc`, SI and ISO-W)
+//! -> identify the tire -> segment (`tirebase_core::segment`) -> write that file's Parquet parts
+//! under content-addressed names. Then, once, the runs table is rewritten atomically: that rename
+//! is the commit (skipped when no row changed, so a no-change ingest writes nothing). Files of a
 //! crashed or superseded ingest are invisible to queries (they are filtered by the runs table) and
 //! are garbage-collected at the next ingest.
 //!
 //! A file that fails to read or segment is recorded as failed with a one-line reason; whatever the
-//! store held for it before stays. One bad file never stops the others.
+//! store held for it before stays (its row keeps `data_sha256`, `rows` and the tire of the stored
+//! version, with `status = failed`, the error and the failed content's `sha256`). One bad file
+//! never stops the others.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
@@ -63,6 +67,9 @@ pub struct IngestOptions<'a> {
     pub jobs: usize,
     /// Wait for (or refuse) a store locked by another process.
     pub lock_wait: LockWait,
+    /// Hash every file, even one whose size, modification time and path equal the ones the runs
+    /// table recorded for it (by default such a file is taken as unchanged without reading it).
+    pub rehash: bool,
 }
 
 /// What happened to one file.
@@ -140,6 +147,8 @@ pub struct RunRow {
     pub tire_source: Option<String>,
     pub kind_hint: Option<String>,
     pub warnings: Option<String>,
+    pub size_bytes: Option<i64>,
+    pub mtime_ns: Option<i64>,
 }
 
 /// Every `.dat`/`.mat` file under the given paths (files are taken as given), sorted.
@@ -173,6 +182,39 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
         }
     }
     Ok(())
+}
+
+/// Size and modification time of a file, as the runs table records them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FileStamp {
+    /// Size, bytes.
+    pub size_bytes: i64,
+    /// Modification time, ns since the Unix epoch (0 if the platform gives none).
+    pub mtime_ns: i64,
+}
+
+impl FileStamp {
+    /// Stamp of `path` (one `stat`, no read).
+    pub fn of(path: &Path) -> std::io::Result<Self> {
+        let meta = fs::metadata(path)?;
+        let mtime_ns = meta
+            .modified()
+            .ok()
+            .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+            .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
+        Ok(FileStamp {
+            size_bytes: i64::try_from(meta.len()).unwrap_or(i64::MAX),
+            mtime_ns,
+        })
+    }
+
+    /// True when `row` is a successful ingest of this very file: same path, size and mtime.
+    fn matches(&self, path: &Path, row: &RunRow) -> bool {
+        row.status == "ok"
+            && row.source_path == path.display().to_string()
+            && row.size_bytes == Some(self.size_bytes)
+            && row.mtime_ns == Some(self.mtime_ns)
+    }
 }
 
 /// The identity key of a raw file in the store: its file name.
@@ -237,7 +279,7 @@ pub fn run_locked(
     });
 
     let mut report = IngestReport::default();
-    let mut rows: BTreeMap<String, RunRow> = previous;
+    let mut rows: BTreeMap<String, RunRow> = previous.clone();
     for ((_, name, duplicate), (row, status, segments, n)) in jobs.iter().zip(results) {
         for s in &segments {
             *report
@@ -252,8 +294,10 @@ pub fn run_locked(
         report.files.push((name.clone(), status));
     }
     report.files.sort();
-    write_runs(opts.store, &rows)?;
-    collect_garbage(opts.store, &rows)?;
+    if rows != previous {
+        write_runs(opts.store, &rows)?;
+        collect_garbage(opts.store, &rows)?;
+    }
     report.seconds = start.elapsed().as_secs_f64();
     bar.finish(&report.summary());
     Ok(report)
@@ -273,6 +317,9 @@ fn failed_row(
     row.sha256 = sha.to_string();
     row.status = "failed".into();
     row.error = Some(error.clone());
+    let stamp = FileStamp::of(path).ok();
+    row.size_bytes = stamp.map(|s| s.size_bytes);
+    row.mtime_ns = stamp.map(|s| s.mtime_ns);
     if row.data_sha256.is_none() {
         row.rows = 0;
         row.n_segments = 0;
@@ -287,9 +334,20 @@ fn ingest_file(
     prev: Option<&RunRow>,
     opts: &IngestOptions,
 ) -> (RunRow, FileStatus, Vec<Segment>, usize) {
+    let io_failure = |e: std::io::Error| format!("{}: {e}", path.display());
+    let stamp = match FileStamp::of(path) {
+        Ok(s) => s,
+        Err(e) => return failed_row(path, name, "", prev, io_failure(e)),
+    };
+    if let Some(p) = prev
+        && !opts.rehash
+        && stamp.matches(path, p)
+    {
+        return (p.clone(), FileStatus::Unchanged, Vec::new(), 0);
+    }
     let bytes = match fs::read(path) {
         Ok(b) => b,
-        Err(e) => return failed_row(path, name, "", prev, format!("{}: {e}", path.display())),
+        Err(e) => return failed_row(path, name, "", prev, io_failure(e)),
     };
     let sha = sha256_bytes(&bytes);
     if let Some(p) = prev
@@ -298,6 +356,8 @@ fn ingest_file(
     {
         let mut row = p.clone();
         row.source_path = path.display().to_string();
+        row.size_bytes = Some(stamp.size_bytes);
+        row.mtime_ns = Some(stamp.mtime_ns);
         return (row, FileStatus::Unchanged, Vec::new(), 0);
     }
     let source_name = path.display().to_string();
@@ -360,6 +420,8 @@ fn ingest_file(
                 .unwrap_or_else(|| seg_report.run_class.as_str().to_string()),
         ),
         warnings: (!warnings.is_empty()).then(|| warnings.join("; ")),
+        size_bytes: Some(stamp.size_bytes),
+        mtime_ns: Some(stamp.mtime_ns),
     };
     let n = run.len();
     (row, FileStatus::Ingested, segments, n)
@@ -681,6 +743,14 @@ pub fn read_runs(store: &Path) -> Result<BTreeMap<String, RunRow>, IngestError> 
         s("warnings")?,
     );
     let rate: Vec<Option<f64>> = df.column("sample_rate_hz")?.f64()?.iter().collect();
+    // Stores written before these columns existed have none: every file is then hashed once.
+    let optional_i = |name: &str| -> PolarsResult<Vec<Option<i64>>> {
+        match df.column(name) {
+            Ok(c) => Ok(c.i64()?.iter().collect()),
+            Err(_) => Ok(vec![None; df.height()]),
+        }
+    };
+    let (size_bytes, mtime_ns) = (optional_i("size_bytes")?, optional_i("mtime_ns")?);
     let mut out = BTreeMap::new();
     for k in 0..df.height() {
         let row = RunRow {
@@ -703,6 +773,8 @@ pub fn read_runs(store: &Path) -> Result<BTreeMap<String, RunRow>, IngestError> 
             tire_source: tire_source[k].clone(),
             kind_hint: kind_hint[k].clone(),
             warnings: warnings[k].clone(),
+            size_bytes: size_bytes[k],
+            mtime_ns: mtime_ns[k],
         };
         out.insert(row.source_file.clone(), row);
     }
@@ -732,6 +804,8 @@ fn write_runs(store: &Path, rows: &BTreeMap<String, RunRow>) -> Result<(), Inges
         "tire_source" => r.iter().map(|x| x.tire_source.clone()).collect::<Vec<_>>(),
         "kind_hint" => r.iter().map(|x| x.kind_hint.clone()).collect::<Vec<_>>(),
         "warnings" => r.iter().map(|x| x.warnings.clone()).collect::<Vec<_>>(),
+        "size_bytes" => r.iter().map(|x| x.size_bytes).collect::<Vec<_>>(),
+        "mtime_ns" => r.iter().map(|x| x.mtime_ns).collect::<Vec<_>>(),
     )?;
     let mut df = schema::table("runs").conform(df)?;
     write_parquet_atomic(&store.join(runs_file()), &mut df)?;

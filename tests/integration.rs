@@ -3,6 +3,7 @@
 
 mod fit;
 mod inertia;
+mod ingest;
 mod report;
 mod run;
 mod synth;

@@ -24,6 +24,7 @@ pub fn run(args: &IngestArgs) -> anyhow::Result<ExitCode> {
         } else {
             LockWait::Wait
         },
+        rehash: args.rehash,
     };
     let progress = progress::for_stderr();
     let report = match ingest::run(&args.paths, &opts, progress.as_ref()) {
