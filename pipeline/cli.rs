@@ -489,7 +489,9 @@ new, rel_change, max_abs, rms:
                 models over the tested envelope: a grid spanning both files' common ranges
                 FZMIN..FZMAX, ALPMIN..ALPMAX, KPUMIN..KPUMAX, CAMMIN..CAMMAX (ISO-W, SI)
   quality       a fit_quality value changed (wall time excluded)
-  stage         a spring_rate, thermal_fit or relaxation value changed (stiffness, sigma, mu(T))
+  stage         a spring_rate, thermal_fit or relaxation value changed (stiffness, sigma, mu(T)),
+                or such a row added/removed
+  inertia       an inertia result changed, added or removed (tire columns empty)
 Versions that are the same print no rows. Table on stdout, or CSV with --format csv.")]
 pub struct DiffArgs {
     /// Store root directory.

@@ -267,7 +267,7 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     timings.insert("inertia".to_string(), t.elapsed().as_secs_f64());
 
     let t = Instant::now();
-    report.report_error = report_stage(opts.store, &staging, progress);
+    report.report_error = report_stage(opts.store, &staging, opts.jobs, progress);
     timings.insert("report".to_string(), t.elapsed().as_secs_f64());
 
     report.failed_files = failed_files(&files, ingest_report.as_ref());
@@ -391,11 +391,31 @@ fn inertia_stage(
     Ok(Some((done, rows)))
 }
 
+/// Stack of the report's worker threads. The report reads Parquet files inside rayon tasks; a
+/// worker that waits for polars' own pool may steal and nest further tasks, and on a full round
+/// in a debug build that nesting overflowed the default 2 MiB stack (observed: abort in
+/// `report::data::load_segments`). Virtual memory only; the root fix belongs in the report.
+const REPORT_STACK_BYTES: usize = 64 << 20;
+
 /// Write the HTML report into `staging/report/`; the one-line error if it failed (a failed
 /// report does not stop the publish).
-fn report_stage(store: &Path, staging: &Path, progress: &dyn Progress) -> Option<String> {
+fn report_stage(
+    store: &Path,
+    staging: &Path,
+    jobs: usize,
+    progress: &dyn Progress,
+) -> Option<String> {
     let stage = progress.stage("report", "reports", 1);
-    match report::write_report(store, staging, &staging.join("report")) {
+    let write = || report::write_report(store, staging, &staging.join("report"));
+    let written = match rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .stack_size(REPORT_STACK_BYTES)
+        .build()
+    {
+        Ok(pool) => pool.install(write),
+        Err(_) => write(),
+    };
+    match written {
         Ok(_) => {
             stage.inc(1);
             stage.finish("written");
