@@ -12,7 +12,7 @@ use super::thermal::{self, ThermalConfig};
 use crate::synth::round::{RoundPlan, SynthConfig, plan_round, render_run};
 use crate::synth::tires::TruthModel;
 use crate::tire_model::{Coef, Pac2002};
-use crate::ttc::read_run;
+use crate::ttc::{RunTable, read_run};
 
 /// The round's segments and what the truth says per tire/rim/pressure.
 struct Round {
@@ -32,6 +32,31 @@ fn slice(v: &[f64], r: std::ops::Range<usize>) -> Vec<f64> {
     v[r].to_vec()
 }
 
+/// The channels of `table` in sample range `r` (both builders cut segments the same way).
+fn channels(table: &RunTable, r: std::ops::Range<usize>) -> Channels {
+    let opt = |v: &Option<Vec<f64>>| v.as_ref().map(|v| slice(v, r.clone()));
+    let t = &table.tire;
+    Channels {
+        et_s: slice(&table.et_s, r.clone()),
+        speed_kph: slice(&table.speed_kph, r.clone()),
+        fz_n: slice(&t.fz_n, r.clone()),
+        fx_n: slice(&t.fx_n, r.clone()),
+        fy_n: slice(&t.fy_n, r.clone()),
+        mz_nm: slice(&t.mz_nm, r.clone()),
+        alpha_rad: slice(&t.alpha_rad, r.clone()),
+        gamma_rad: slice(&t.gamma_rad, r.clone()),
+        kappa: slice(&t.kappa, r.clone()),
+        pressure_kpa: slice(&table.pressure_kpa, r.clone()),
+        loaded_radius_m: opt(&table.loaded_radius_m),
+        effective_radius_m: opt(&table.effective_radius_m),
+        wheel_speed_rpm: opt(&table.wheel_speed_rpm),
+        tread_inner_c: opt(&table.tread_inner_temp_c),
+        tread_centre_c: opt(&table.tread_centre_temp_c),
+        tread_outer_c: opt(&table.tread_outer_temp_c),
+        ambient_c: opt(&table.ambient_temp_c),
+    }
+}
+
 fn build(config: SynthConfig) -> Round {
     let plan = plan_round(&config).expect("plan");
     let mut segments = Vec::new();
@@ -44,8 +69,6 @@ fn build(config: SynthConfig) -> Round {
             };
             let a = row.row_first - 1;
             let r = a..a + row.n_samples;
-            let opt = |v: &Option<Vec<f64>>| v.as_ref().map(|v| slice(v, r.clone()));
-            let t = &table.tire;
             segments.push(MeasuredSegment {
                 segment_id: format!("{}-{k}", out.file.path),
                 kind,
@@ -58,25 +81,7 @@ fn build(config: SynthConfig) -> Round {
                     alpha_deg: row.alpha_deg_nom.map(|v| v.round() as i64),
                     speed_kph: row.speed_kph_nom.map(|v| v.round() as i64),
                 },
-                channels: Channels {
-                    et_s: slice(&table.et_s, r.clone()),
-                    speed_kph: slice(&table.speed_kph, r.clone()),
-                    fz_n: slice(&t.fz_n, r.clone()),
-                    fx_n: slice(&t.fx_n, r.clone()),
-                    fy_n: slice(&t.fy_n, r.clone()),
-                    mz_nm: slice(&t.mz_nm, r.clone()),
-                    alpha_rad: slice(&t.alpha_rad, r.clone()),
-                    gamma_rad: slice(&t.gamma_rad, r.clone()),
-                    kappa: slice(&t.kappa, r.clone()),
-                    pressure_kpa: slice(&table.pressure_kpa, r.clone()),
-                    loaded_radius_m: opt(&table.loaded_radius_m),
-                    effective_radius_m: opt(&table.effective_radius_m),
-                    wheel_speed_rpm: opt(&table.wheel_speed_rpm),
-                    tread_inner_c: opt(&table.tread_inner_temp_c),
-                    tread_centre_c: opt(&table.tread_centre_temp_c),
-                    tread_outer_c: opt(&table.tread_outer_temp_c),
-                    ambient_c: opt(&table.ambient_temp_c),
-                },
+                channels: channels(&table, r.clone()),
             });
         }
     }
@@ -145,8 +150,6 @@ fn build_segmented(config: SynthConfig) -> Round {
         );
         for seg in segs {
             let r = seg.samples.clone();
-            let opt = |v: &Option<Vec<f64>>| v.as_ref().map(|v| slice(v, r.clone()));
-            let t = &table.tire;
             segments.push(MeasuredSegment {
                 segment_id: format!("{}-{}", out.file.path, seg.index),
                 kind: seg.kind,
@@ -159,25 +162,7 @@ fn build_segmented(config: SynthConfig) -> Round {
                     alpha_deg: seg.nominal.alpha_deg.map(i64::from),
                     speed_kph: seg.nominal.speed_kph.map(i64::from),
                 },
-                channels: Channels {
-                    et_s: slice(&table.et_s, r.clone()),
-                    speed_kph: slice(&table.speed_kph, r.clone()),
-                    fz_n: slice(&t.fz_n, r.clone()),
-                    fx_n: slice(&t.fx_n, r.clone()),
-                    fy_n: slice(&t.fy_n, r.clone()),
-                    mz_nm: slice(&t.mz_nm, r.clone()),
-                    alpha_rad: slice(&t.alpha_rad, r.clone()),
-                    gamma_rad: slice(&t.gamma_rad, r.clone()),
-                    kappa: slice(&t.kappa, r.clone()),
-                    pressure_kpa: slice(&table.pressure_kpa, r.clone()),
-                    loaded_radius_m: opt(&table.loaded_radius_m),
-                    effective_radius_m: opt(&table.effective_radius_m),
-                    wheel_speed_rpm: opt(&table.wheel_speed_rpm),
-                    tread_inner_c: opt(&table.tread_inner_temp_c),
-                    tread_centre_c: opt(&table.tread_centre_temp_c),
-                    tread_outer_c: opt(&table.tread_outer_temp_c),
-                    ambient_c: opt(&table.ambient_temp_c),
-                },
+                channels: channels(&table, r.clone()),
             });
         }
     }
