@@ -120,10 +120,19 @@ fn full_round_meets_the_issue_6_tolerances() {
 
 /// Like [`build`], but the segments come from the segmenter, not from the truth table.
 fn build_segmented(config: SynthConfig) -> Round {
+    build_segmented_runs(config, |_, _, _| true)
+}
+
+/// [`build_segmented`] over the runs `keep` accepts (its tire name, rim and pressure, psi).
+fn build_segmented_runs(config: SynthConfig, keep: impl Fn(&str, f64, f64) -> bool) -> Round {
     use crate::segment::{self, RunSignals, SegmentConfig, TreadTemps};
     let plan = plan_round(&config).expect("plan");
     let mut segments = Vec::new();
     for index in 0..plan.runs.len() {
+        let c = plan.combos[plan.runs[index].combo];
+        if !keep(c.tire(), c.rim_in, plan.runs[index].pressure_psi) {
+            continue;
+        }
         let out = render_run(&plan, index).expect("render");
         let table = read_run(&out.file.bytes, &out.file.path).expect("read");
         let spec = &plan.runs[index];
