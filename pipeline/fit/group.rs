@@ -132,8 +132,10 @@ fn spring_rate_segment(s: &LoadedSegment) -> bool {
         )
 }
 
+/// Cold-to-warm segments are analysed; every other temperature-clean segment only gives the
+/// thermal stage the air temperature (its cold reference).
 fn thermal_segment(s: &LoadedSegment) -> bool {
-    s.row.temperatures_ok && s.segment.kind == SegmentKind::ColdToWarm
+    s.row.temperatures_ok
 }
 
 fn relaxation_segment(s: &LoadedSegment) -> bool {
@@ -347,7 +349,7 @@ pub fn run(
             .filter(|s| thermal_segment(s))
             .map(|s| s.segment.clone())
             .collect();
-        if segs.is_empty() {
+        if !segs.iter().any(|s| s.kind == SegmentKind::ColdToWarm) {
             out.fail(
                 "thermal",
                 "thermal",

@@ -1,7 +1,8 @@
 //! Thermal stage (seed 8.5, D.7): what the cold-to-warm sweeps say about grip and tread
 //! temperature, and a fitted `mu(T)` curve per tire and pressure.
 //!
-//! In: [`MeasuredSegment`]s of kind `cold_to_warm` (other kinds are ignored) with the centre
+//! In: [`MeasuredSegment`]s of kind `cold_to_warm` (other kinds only give the air temperature)
+//! with the centre
 //! tread temperature and the wheel speed or a radius (for the IR phase lag). Out:
 //! [`ThermalOutput`]: one [`ThermalSweepRow`] per sweep half-cycle quadrant (increasing or
 //! decreasing `|SA|`, sign of SA), one [`ThermalFitRow`] per tire/rim/pressure, failures as data.
@@ -32,9 +33,14 @@
 //!    Grip changing during a sweep moves the maximum of `|FY/FZ|(t)` off the force curve's own
 //!    peak (lower); each peak is corrected from its time curvature, its `dT/dt` and the fitted
 //!    slope of `mu(T)`, and the curve refitted (`peak_shift_factor`).
-//!    `gain_peak_over_cold = 1/(1 - k_c (T_cold - T_peak)^2) - 1` with `T_cold` the ambient
-//!    temperature of the test (the cold tire's temperature), else the tread temperature at its
-//!    start: the same meaning as the virtual machine's truth.
+//!    `gain_peak_over_cold = 1/(1 - k_c (T_cold - T_peak)^2) - 1` with `T_cold` the air
+//!    temperature (the cold tire's temperature), else the tread temperature at the start of the
+//!    tests: the same meaning as the virtual machine's truth. The air temperature is the mean
+//!    of the ambient channel over *every* segment passed for the tire (all kinds, all runs), not
+//!    only over its cold-to-warm tests: the gain moves ~9 % per degC of `T_cold` (at 35 % gain
+//!    and `T_peak - T_cold` ~ 30 degC), and the air wanders by a few tenths of a degree over
+//!    the two minutes of a test (on the full virtual round the test-only mean put the gain up
+//!    to 5 % off; averaged over the runs the reference is within ~0.1 degC).
 //!
 //! Deliberately not here: reading the store, writing tables, any use of `mu(T)` in the PAC2002
 //! fit.
@@ -248,7 +254,24 @@ pub fn run(segments: &[MeasuredSegment], cfg: &ThermalConfig) -> ThermalOutput {
             }),
         }
     }
+    // The cold reference: the air temperature over every segment of the tire (any kind, all its
+    // runs), not only over its cold-to-warm tests (see the module docs).
+    let mut air: BTreeMap<TireKey, (f64, usize)> = BTreeMap::new();
+    for seg in segments {
+        if let Some(a) = &seg.channels.ambient_c {
+            let e = air.entry(seg.key.clone()).or_default();
+            for v in a.iter().filter(|v| v.is_finite()) {
+                e.0 += v;
+                e.1 += 1;
+            }
+        }
+    }
     for (key, cold) in &colds {
+        let cold = match air.get(key) {
+            Some(&(sum, n)) if n > 0 => vec![(sum / n as f64, "ambient")],
+            _ => cold.clone(),
+        };
+        let cold = &cold;
         let rows: Vec<&ThermalSweepRow> = out.rows.iter().filter(|r| &r.key == key).collect();
         match fit_mu_of_t(key, &rows, cold, cfg) {
             Ok(fit) => out.fits.push(fit),

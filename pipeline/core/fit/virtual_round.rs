@@ -112,12 +112,32 @@ fn demo_round_through_the_segmenter_meets_the_issue_6_tolerances() {
     check_round(&build_segmented(SynthConfig::default()));
 }
 
+/// The full round (12 tire/rim combinations, 48 tire x pressure groups) through the segmenter,
+/// as the pipeline sees it. Ignored by default: rendering the round takes about a minute.
+#[test]
+#[ignore = "renders the full round (~1 min at opt-level 3); run with --ignored"]
+fn full_round_meets_the_issue_6_tolerances() {
+    check_round(&build_segmented(SynthConfig {
+        size: crate::synth::round::Size::Full,
+        ..SynthConfig::default()
+    }));
+}
+
 /// Like [`build`], but the segments come from the segmenter, not from the truth table.
 fn build_segmented(config: SynthConfig) -> Round {
+    build_segmented_runs(config, |_, _, _| true)
+}
+
+/// [`build_segmented`] over the runs `keep` accepts (its tire name, rim and pressure, psi).
+fn build_segmented_runs(config: SynthConfig, keep: impl Fn(&str, f64, f64) -> bool) -> Round {
     use crate::segment::{self, RunSignals, SegmentConfig, TreadTemps};
     let plan = plan_round(&config).expect("plan");
     let mut segments = Vec::new();
     for index in 0..plan.runs.len() {
+        let c = plan.combos[plan.runs[index].combo];
+        if !keep(c.tire(), c.rim_in, plan.runs[index].pressure_psi) {
+            continue;
+        }
         let out = render_run(&plan, index).expect("render");
         let table = read_run(&out.file.bytes, &out.file.path).expect("read");
         let spec = &plan.runs[index];
@@ -169,7 +189,10 @@ fn build_segmented(config: SynthConfig) -> Round {
     Round { plan, segments }
 }
 
+/// Compare every stage with the truth; every violation is collected and printed before the one
+/// assertion, so a run shows the whole picture.
 fn check_round(round: &Round) {
+    let mut violations: Vec<String> = Vec::new();
     let truth = truths(&round.plan);
     let fnomin: BTreeMap<TireKey, f64> = truth
         .iter()
@@ -184,7 +207,9 @@ fn check_round(round: &Round) {
         .iter()
         .filter(|f| !(f.scope.starts_with("sweep") && f.reason.contains("load span")))
         .collect();
-    assert!(unexpected.is_empty(), "{unexpected:?}");
+    if !unexpected.is_empty() {
+        violations.push(format!("spring-rate failures: {unexpected:?}"));
+    }
     let mut worst = (0.0_f64, 0.0_f64);
     for r in &sr.rows {
         let t = truth[&r.key];
@@ -206,7 +231,16 @@ fn check_round(round: &Round) {
             r.n
         );
         worst = (worst.0.max(e_cz.abs()), worst.1.max(e_r0.abs()));
-        assert!(e_cz.abs() < 0.01 && e_r0.abs() < 0.5e-3, "{r:?}");
+        if !(e_cz.abs() < 0.01 && e_r0.abs() < 0.5e-3) {
+            violations.push(format!(
+                "spring {} {} ia {}: Cz {:+.3} %, R0 {:+.3} mm",
+                r.key,
+                r.condition.as_str(),
+                r.ia_deg_nom,
+                100.0 * e_cz,
+                1e3 * e_r0
+            ));
+        }
     }
     println!(
         "spring worst: Cz {:.3} %, R0 {:.3} mm",
@@ -234,7 +268,9 @@ fn check_round(round: &Round) {
             law.freff,
             1e3 * worst_re
         );
-        assert!(worst_re < 0.1e-3, "{v:?}");
+        if worst_re >= 0.1e-3 {
+            violations.push(format!("RE law {}: worst {:.4} mm", v.key, 1e3 * worst_re));
+        }
     }
 
     // Relaxation with the truth model as the "fitted" steady state.
@@ -292,16 +328,44 @@ fn check_round(round: &Round) {
         // Issue 6: within 5 % of the truth law at every tested load. The lowest load (222 N)
         // carries ~2-3 % statistical scatter from the force noise (see relaxation's docs), so
         // this margin is real but not wide.
-        assert!(e.abs() < 0.05 && el.abs() < 0.05, "{r:?}: truth {t}");
+        if !(e.abs() < 0.05 && el.abs() < 0.05) {
+            violations.push(format!(
+                "relax {} {} {} Fz {} rate {:.3}: row {:+.2} %, law {:+.2} %",
+                r.key,
+                r.direction.as_str(),
+                r.method.as_str(),
+                r.fz_n_nom,
+                r.slip_rate,
+                100.0 * e,
+                100.0 * el
+            ));
+        }
     }
     println!("relaxation worst |error| (row, law): {worst:?}");
-    assert!(rx.failures.is_empty(), "{:?}", rx.failures);
-    assert_eq!(rx.laws.len(), truth.len());
+    if !rx.failures.is_empty() {
+        violations.push(format!("relaxation failures: {:?}", rx.failures));
+    }
+    if rx.laws.len() != truth.len() {
+        violations.push(format!(
+            "{} relaxation laws for {} tires",
+            rx.laws.len(),
+            truth.len()
+        ));
+    }
 
     // Thermal.
     let th = thermal::run(&round.segments, &ThermalConfig::default());
-    assert!(th.failures.is_empty(), "{:?}", th.failures);
-    assert_eq!(th.fits.len(), truth.len());
+    if !th.failures.is_empty() {
+        violations.push(format!("thermal failures: {:?}", th.failures));
+    }
+    if th.fits.len() != truth.len() {
+        violations.push(format!(
+            "{} thermal fits for {} tires",
+            th.fits.len(),
+            truth.len()
+        ));
+    }
+    let mut worst_th = (0.0_f64, 0.0_f64);
     for f in &th.fits {
         let ci = round
             .plan
@@ -327,12 +391,33 @@ fn check_round(round: &Round) {
             f.rmse
         );
         // Issue 6: peak temperature within 3 degC, peak gain within 3 % (relative).
-        assert!((f.t_peak_c - tt.t_peak_c).abs() < 3.0, "{f:?}");
-        assert!(
-            (f.gain_peak_over_cold / tt.gain_peak_over_cold - 1.0).abs() < 0.03,
-            "{f:?}"
+        let (e_t, e_g) = (
+            f.t_peak_c - tt.t_peak_c,
+            f.gain_peak_over_cold / tt.gain_peak_over_cold - 1.0,
         );
+        worst_th = (worst_th.0.max(e_t.abs()), worst_th.1.max(e_g.abs()));
+        if !(e_t.abs() < 3.0 && e_g.abs() < 0.03) {
+            violations.push(format!(
+                "thermal {}: T_peak {:+.2} degC, gain {:+.2} %",
+                f.key,
+                e_t,
+                100.0 * e_g
+            ));
+        }
     }
+    println!(
+        "thermal worst |error|: T_peak {:.2} degC, gain {:.2} %",
+        worst_th.0,
+        100.0 * worst_th.1
+    );
+    for v in &violations {
+        println!("VIOLATION {v}");
+    }
+    assert!(
+        violations.is_empty(),
+        "{} violations of issue 6's tolerances (listed above)",
+        violations.len()
+    );
 }
 
 /// The sweeps of one tire as the PAC2002 stage wants them.
