@@ -435,7 +435,13 @@ fn fit_one(
     // groups, their memory held at once, time charged to the wrong group). A plain scoped thread
     // makes the wait a real block.
     let segments = std::thread::scope(|s| {
-        s.spawn(|| load::load_segments(store, &mine))
+        std::thread::Builder::new()
+            .stack_size(crate::WORKER_STACK_BYTES)
+            .spawn_scoped(s, || load::load_segments(store, &mine))
+            .map_err(|e| FitError::Pool {
+                jobs: opts.jobs,
+                message: format!("spawning a reader thread: {e}"),
+            })?
             .join()
             .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
     })?;
@@ -505,6 +511,7 @@ pub fn fit_groups(
     let cfg = stage_configs(config);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs)
+        .stack_size(crate::WORKER_STACK_BYTES)
         .build()
         .map_err(|e| FitError::Pool {
             jobs: opts.jobs,

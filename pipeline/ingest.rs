@@ -32,8 +32,8 @@ use crate::progress::Progress;
 use crate::schema;
 use crate::store::StoreError;
 use crate::store::files::{
-    ensure_dir, parquet_files_below, parquet_files_in, read_parquet, sha256_bytes,
-    write_parquet_atomic,
+    Durability, ensure_dir, parquet_files_below, parquet_files_in, read_parquet, sha256_bytes,
+    sync_filesystem, write_parquet_atomic, write_parquet_atomic_with,
 };
 use crate::store::layout::{
     PartitionKey, SAMPLES_DIR, SEGMENTS_DIR, SWEPT, TEMP_SUFFIX, partition_dir, runs_file,
@@ -262,15 +262,19 @@ pub fn run_locked(
 
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs)
+        .stack_size(crate::WORKER_STACK_BYTES)
         .build()
         .map_err(|e| StoreError::io(opts.store, std::io::Error::other(e)))?;
+    // Threads left over when there are fewer files than workers write a file's partitions.
+    let threads = pool.current_num_threads();
+    let writers = (threads / jobs.len().clamp(1, threads)).max(1);
     let results: Vec<(RunRow, FileStatus, Vec<Segment>, usize)> = pool.install(|| {
         jobs.par_iter()
             .map(|(path, name, duplicate)| {
                 let prev = previous.get(name);
                 let out = match duplicate {
                     Some(msg) => failed_row(path, name, "", prev, msg.clone()),
-                    None => ingest_file(path, name, prev, opts),
+                    None => ingest_file(path, name, prev, opts, writers),
                 };
                 bar.inc(1);
                 out
@@ -295,6 +299,9 @@ pub fn run_locked(
     }
     report.files.sort();
     if rows != previous {
+        // The runs table is the commit point: every sample and segment file it names is made
+        // durable first (written with `Durability::Deferred`).
+        sync_filesystem(opts.store)?;
         write_runs(opts.store, &rows)?;
         collect_garbage(opts.store, &rows)?;
     }
@@ -333,6 +340,7 @@ fn ingest_file(
     name: &str,
     prev: Option<&RunRow>,
     opts: &IngestOptions,
+    writers: usize,
 ) -> (RunRow, FileStatus, Vec<Segment>, usize) {
     let io_failure = |e: std::io::Error| format!("{}: {e}", path.display());
     let stamp = match FileStamp::of(path) {
@@ -349,19 +357,33 @@ fn ingest_file(
         Ok(b) => b,
         Err(e) => return failed_row(path, name, "", prev, io_failure(e)),
     };
-    let sha = sha256_bytes(&bytes);
-    if let Some(p) = prev
-        && p.status == "ok"
-        && p.data_sha256.as_deref() == Some(sha.as_str())
-    {
-        let mut row = p.clone();
-        row.source_path = path.display().to_string();
-        row.size_bytes = Some(stamp.size_bytes);
-        row.mtime_ns = Some(stamp.mtime_ns);
-        return (row, FileStatus::Unchanged, Vec::new(), 0);
-    }
     let source_name = path.display().to_string();
-    let run = match ttc::read_run(&bytes, &source_name) {
+    let stored = prev.filter(|p| p.status == "ok" && p.data_sha256.is_some());
+    // A file the store holds is hashed first: unchanged content needs no parse. A new file is
+    // hashed and parsed at the same time (a round is gigabytes; each takes about as long).
+    let (sha, parsed) = if let Some(p) = stored {
+        let sha = sha256_bytes(&bytes);
+        if p.data_sha256.as_deref() == Some(sha.as_str()) {
+            let mut row = p.clone();
+            row.source_path = path.display().to_string();
+            row.size_bytes = Some(stamp.size_bytes);
+            row.mtime_ns = Some(stamp.mtime_ns);
+            return (row, FileStatus::Unchanged, Vec::new(), 0);
+        }
+        (sha, ttc::read_run(&bytes, &source_name))
+    } else {
+        // A scoped thread, not `rayon::join`: a rayon worker waiting in `join` steals other
+        // files' jobs and nests them on its stack (observed: 1.9 GB and a stack overflow).
+        std::thread::scope(|s| {
+            let hash = s.spawn(|| sha256_bytes(&bytes));
+            let parsed = ttc::read_run(&bytes, &source_name);
+            let sha = hash
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+            (sha, parsed)
+        })
+    };
+    let run = match parsed {
         Ok(r) => r,
         Err(e) => return failed_row(path, name, &sha, prev, e.to_string()),
     };
@@ -377,7 +399,7 @@ fn ingest_file(
         identity: &identity,
         run: &run,
     };
-    if let Err(e) = write_file_parts(opts.store, &ctx, &segments) {
+    if let Err(e) = write_file_parts(opts.store, &ctx, &segments, writers) {
         return failed_row(path, name, &sha, prev, e.to_string());
     }
     let mut warnings = run.meta.warnings.clone();
@@ -545,6 +567,7 @@ fn write_file_parts(
     store: &Path,
     ctx: &FileContext,
     segments: &[Segment],
+    writers: usize,
 ) -> Result<(), StoreError> {
     let mut by_partition: BTreeMap<PartitionKey, Vec<&Segment>> = BTreeMap::new();
     for s in segments {
@@ -554,16 +577,34 @@ fn write_file_parts(
             .push(s);
     }
     let part_name = source_part_name(ctx.name, ctx.sha);
-    for (key, segs) in &by_partition {
+    let write = |(key, segs): (&PartitionKey, &Vec<&Segment>)| -> Result<(), StoreError> {
         let df = samples_frame(ctx, segs).map_err(|e| StoreError::polars(store, e))?;
         let mut df = schema::table("samples").conform(df)?;
         let dir = store.join(partition_dir(key));
         ensure_dir(&dir)?;
-        write_parquet_atomic(&dir.join(&part_name), &mut df)?;
-    }
+        write_parquet_atomic_with(&dir.join(&part_name), Durability::Deferred, &mut df)
+    };
+    // Partitions are independent files (a run has ~35): written by `writers` scoped threads,
+    // which block while they work (rayon workers would steal and nest other files' jobs).
+    let parts: Vec<_> = by_partition.iter().collect();
+    let chunk = parts.len().div_ceil(writers.max(1)).max(1);
+    std::thread::scope(|s| {
+        let handles: Vec<_> = parts
+            .chunks(chunk)
+            .map(|mine| s.spawn(move || mine.iter().try_for_each(|&p| write(p))))
+            .collect();
+        handles.into_iter().try_for_each(|h| {
+            h.join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+        })
+    })?;
     let df = segments_frame(ctx, segments).map_err(|e| StoreError::polars(store, e))?;
     let mut df = schema::table("segments").conform(df)?;
-    write_parquet_atomic(&store.join(segments_file(ctx.name, ctx.sha)), &mut df)
+    write_parquet_atomic_with(
+        &store.join(segments_file(ctx.name, ctx.sha)),
+        Durability::Deferred,
+        &mut df,
+    )
 }
 
 /// Gather `column[i]` for every sample index of the segments.

@@ -32,3 +32,10 @@ pub mod report;
 pub mod run;
 pub mod schema;
 pub mod store;
+
+/// Stack of every worker thread that may run polars (ingest, fit, report pools). A rayon worker
+/// that waits (in `join`, or for polars' own pool) steals and nests further tasks, and polars'
+/// unoptimised frames (debug builds, and its planner/engine crates in release) are large: the
+/// default 2 MiB overflowed in ingest (release, full round) and in the report (debug). Virtual
+/// memory only: pages are touched as the stack grows.
+pub const WORKER_STACK_BYTES: usize = 64 << 20;

@@ -391,12 +391,6 @@ fn inertia_stage(
     Ok(Some((done, rows)))
 }
 
-/// Stack of the report's worker threads. The report reads Parquet files inside rayon tasks; a
-/// worker that waits for polars' own pool may steal and nest further tasks, and on a full round
-/// in a debug build that nesting overflowed the default 2 MiB stack (observed: abort in
-/// `report::data::load_segments`). Virtual memory only; the root fix belongs in the report.
-const REPORT_STACK_BYTES: usize = 64 << 20;
-
 /// Write the HTML report into `staging/report/`; the one-line error if it failed (a failed
 /// report does not stop the publish).
 fn report_stage(
@@ -409,7 +403,7 @@ fn report_stage(
     let write = || report::write_report(store, staging, &staging.join("report"));
     let written = match rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
-        .stack_size(REPORT_STACK_BYTES)
+        .stack_size(crate::WORKER_STACK_BYTES)
         .build()
     {
         Ok(pool) => pool.install(write),
@@ -443,7 +437,11 @@ fn plan_key(g: &GroupPlan) -> GroupKey {
 
 /// Run `f` on a rayon pool of `jobs` threads (0 = one per core).
 fn with_pool<T: Send>(jobs: usize, f: impl FnOnce() -> T + Send) -> T {
-    match rayon::ThreadPoolBuilder::new().num_threads(jobs).build() {
+    match rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .stack_size(crate::WORKER_STACK_BYTES)
+        .build()
+    {
         Ok(pool) => pool.install(f),
         Err(_) => f(),
     }

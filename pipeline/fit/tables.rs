@@ -285,6 +285,7 @@ pub fn relaxation(results: &[GroupResult]) -> Result<DataFrame, FitError> {
                 .f("speed_kph", row.speed_kph)
                 .f("sigma_m", row.sigma_m)
                 .f("sigma_spread_m", row.sigma_spread_m)
+                .f("sigma_se_m", row.sigma_se_m)
                 .f("sigma_law_m", row.sigma_law_m)
                 .f("deflection_m", row.deflection_m)
                 .f("contact_half_length_m", row.contact_half_length_m)

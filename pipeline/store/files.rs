@@ -69,6 +69,45 @@ pub fn write_atomic<F>(path: &Path, fill: F) -> Result<(), StoreError>
 where
     F: FnOnce(&mut BufWriter<File>) -> Result<(), StoreError>,
 {
+    write_atomic_with(path, Durability::Now, fill)
+}
+
+/// When a written file reaches the disk.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Durability {
+    /// fsync the file and its directory before returning.
+    Now,
+    /// Rename without fsync; the caller makes it durable with [`sync_filesystem`] before it
+    /// commits anything that refers to the file. A crash before that commit leaves a file
+    /// nothing refers to (garbage). Ingest writes ~35 partition files per run: one fsync pair
+    /// each cost more wall time than parsing and encoding together.
+    Deferred,
+}
+
+/// Flush every pending write of the filesystem holding `path` (Linux `syncfs`): the one
+/// durability point for [`Durability::Deferred`] writes.
+pub fn sync_filesystem(path: &Path) -> Result<(), StoreError> {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::fd::AsRawFd;
+        let dir = File::open(path).map_err(|e| StoreError::io(path, e))?;
+        // SAFETY: `dir` is an open file descriptor for the duration of the call.
+        if unsafe { libc::syncfs(dir.as_raw_fd()) } != 0 {
+            return Err(StoreError::io(path, io::Error::last_os_error()));
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = path;
+    Ok(())
+}
+
+/// [`write_atomic`] with a choice of [`Durability`] (`Deferred` is `Now` where
+/// [`sync_filesystem`] is not available).
+pub fn write_atomic_with<F>(path: &Path, durability: Durability, fill: F) -> Result<(), StoreError>
+where
+    F: FnOnce(&mut BufWriter<File>) -> Result<(), StoreError>,
+{
+    let sync_now = durability == Durability::Now || !cfg!(target_os = "linux");
     let parent = path.parent().unwrap_or(Path::new("."));
     ensure_dir(parent)?;
     let tmp = temp_path(path, &unique_suffix());
@@ -80,12 +119,14 @@ where
         let file = writer
             .into_inner()
             .map_err(|e| StoreError::io(&tmp, e.into_error()))?;
-        file.sync_all().map_err(|e| StoreError::io(&tmp, e))?;
+        if sync_now {
+            file.sync_all().map_err(|e| StoreError::io(&tmp, e))?;
+        }
         fs::rename(&tmp, path).map_err(|e| StoreError::io(path, e))
     })();
     if result.is_err() {
         let _ = fs::remove_file(&tmp);
-    } else {
+    } else if sync_now {
         sync_dir(parent);
     }
     result
@@ -98,12 +139,24 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<(), StoreError> {
     })
 }
 
-/// Write a DataFrame as one Parquet file (zstd), atomically.
+/// Write a DataFrame as one Parquet file (zstd level 1: twice as fast as the default 3 on sample
+/// data, a few per cent larger), atomically.
 pub fn write_parquet_atomic(path: &Path, df: &mut DataFrame) -> Result<(), StoreError> {
-    write_atomic(path, |w| {
+    write_parquet_atomic_with(path, Durability::Now, df)
+}
+
+/// [`write_parquet_atomic`] with a choice of [`Durability`].
+pub fn write_parquet_atomic_with(
+    path: &Path,
+    durability: Durability,
+    df: &mut DataFrame,
+) -> Result<(), StoreError> {
+    write_atomic_with(path, durability, |w| {
         ParquetWriter::new(w)
-            .with_compression(ParquetCompression::Zstd(None))
-            .with_statistics(StatisticsOptions::full())
+            .with_compression(ParquetCompression::Zstd(
+                polars_parquet::write::ZstdLevel::try_new(1).ok(),
+            ))
+            .with_statistics(StatisticsOptions::default())
             .finish(df)
             .map(|_| ())
             .map_err(|e| StoreError::polars(path, e))

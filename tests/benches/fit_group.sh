@@ -7,6 +7,7 @@
 # evaluations). "all stages" excludes `load` (reading Parquet; slow in debug builds, where
 # polars is not optimised); the fitting code (tirebase-core) is built at opt-level 3 even in
 # debug. Usage: tests/benches/fit_group.sh [path/to/tirebase] (default: cargo run).
+# Env: SIZE=demo|full (default demo; full = the 12 tire/rim round, 48 groups).
 set -euo pipefail
 BIN=${1:-}
 if [[ -z "$BIN" ]]; then
@@ -15,6 +16,6 @@ if [[ -z "$BIN" ]]; then
 fi
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
-"$BIN" synth round --out "$WORK/round" 2>/dev/null
+"$BIN" synth round --size "${SIZE:-demo}" --out "$WORK/round" 2>/dev/null
 "$BIN" ingest "$WORK/round/raw" --store "$WORK/store" --catalog "$WORK/round/catalog.toml" 2>/dev/null
 "$BIN" fit --store "$WORK/store" --out "$WORK/out" --jobs 1 2>&1 | grep '^timing:'

@@ -12,7 +12,9 @@
 //!   skipped, names from line 2, the units line skipped, every column parsed as f64 by a given
 //!   schema, so no type inference);
 //!
-//! and the ratio ingest / polars_csv (target >= 1.0). Each figure is the median of `REPS`
+//! and the ratio ingest / polars_csv (target >= 1.0); then all files as one ingest call (files
+//! in parallel, as a round is ingested) against polars reading them in turn. Each figure is the
+//! median of `REPS`
 //! (env `TIREBASE_BENCH_REPS`, default 5) timed runs after one warm-up, interleaved.
 //!
 //! Run: `cargo bench --profile dev --bench ingest` (the numeric core is optimised even in dev;
@@ -44,6 +46,11 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// Full ingest of one file into a fresh store below `scratch`.
 fn ingest_once(file: &Path, scratch: &Path, segment: &SegmentConfig) {
+    ingest_batch(std::slice::from_ref(&file.to_path_buf()), scratch, segment);
+}
+
+/// One ingest call over `files` (in parallel, as a round is ingested) into a fresh store.
+fn ingest_batch(files: &[PathBuf], scratch: &Path, segment: &SegmentConfig) {
     let store = tempfile::tempdir_in(scratch).expect("temp store");
     let opts = IngestOptions {
         store: store.path(),
@@ -53,8 +60,11 @@ fn ingest_once(file: &Path, scratch: &Path, segment: &SegmentConfig) {
         lock_wait: LockWait::Refuse,
         rehash: false,
     };
-    let report = ingest::run(&[file.to_path_buf()], &opts, &Silent).expect("ingest");
-    assert_eq!(report.count(|s| *s == ingest::FileStatus::Ingested), 1);
+    let report = ingest::run(files, &opts, &Silent).expect("ingest");
+    assert_eq!(
+        report.count(|s| *s == ingest::FileStatus::Ingested),
+        files.len()
+    );
 }
 
 fn parse_once(file: &Path) {
@@ -162,11 +172,33 @@ fn main() {
     }
     println!(
         "{:<24} {:>8.2} {:>10.1} {:>10.1} {:>11.1} {:>6.2}x",
-        "all",
+        "all (file by file)",
         total_mb,
         total_mb / total[0],
         total_mb / total[1],
         total_mb / total[2],
         total[2] / total[0]
+    );
+    // The same files as one ingest call (files in parallel, fixed per-call costs once), against
+    // polars reading them one after the other (each read already uses every core).
+    let schemas: Vec<SchemaRef> = files.iter().map(|f| dat_schema(f)).collect();
+    let mut t = [Vec::new(), Vec::new()];
+    for _ in 0..reps {
+        t[0].push(time(|| ingest_batch(&files, scratch.path(), &segment)));
+        t[1].push(time(|| {
+            for (f, schema) in files.iter().zip(&schemas) {
+                polars_once(f, schema);
+            }
+        }));
+    }
+    let s = t.map(median);
+    println!(
+        "{:<24} {:>8.2} {:>10.1} {:>10} {:>11.1} {:>6.2}x",
+        "all (one ingest call)",
+        total_mb,
+        total_mb / s[0],
+        "",
+        total_mb / s[1],
+        s[1] / s[0]
     );
 }

@@ -224,6 +224,9 @@ pub struct RelaxationRow {
     pub sigma_m: f64,
     /// Standard deviation of the members' own (normalised) estimates, m; NaN for one member.
     pub sigma_spread_m: f64,
+    /// Standard error of `sigma_m` from the pooled cost's curvature at the optimum
+    /// (`sqrt(2 s^2 / cost'')`, `s^2` the residual variance): what weights the law fit.
+    pub sigma_se_m: f64,
     /// The tire's fitted PAC2002 law (`PTY1/PTY2` or `PTX1..3`) at this row's mean load, m
     /// (NaN when the law could not be fitted): the smoothed estimate over every load.
     pub sigma_law_m: f64,
@@ -622,6 +625,16 @@ fn group_row(
         n += m.problem.counted.iter().filter(|c| **c).count();
     }
     let k = members.len() as f64;
+    let se = {
+        let h = 0.02 * best.x;
+        let curvature = (pooled(best.x + h) - 2.0 * pooled(best.x) + pooled(best.x - h)) / (h * h);
+        let dof = n as f64 - 1.0 - 2.0 * k;
+        if curvature > 0.0 && dof > 0.0 {
+            (2.0 * rss / dof / curvature).sqrt()
+        } else {
+            f64::NAN
+        }
+    };
     // Scatter of the members' own estimates (normalised to IA 0): the row's honest uncertainty.
     let spread = if members.len() >= 2 {
         let own: Vec<f64> = members
@@ -657,6 +670,7 @@ fn group_row(
         speed_kph,
         sigma_m: best.x,
         sigma_spread_m: spread,
+        sigma_se_m: se,
         sigma_law_m: f64::NAN,
         deflection_m: z,
         contact_half_length_m: a,
@@ -841,11 +855,11 @@ fn fit_law(
     };
     // Lateral: sigma = PTY1 sin(2 atan(Fz/(PTY2 Fz0'))) (1 - PKY3 |gamma|) R0 LFZO LSGAL.
     let lat = usable(Direction::Lateral);
-    let lat_pts: Vec<(f64, f64, f64)> = lat
+    let lat_pts: Vec<(f64, f64, f64, f64)> = lat
         .iter()
         .map(|r| {
             let g = r0 * coefs[Coef::LFZO] * coefs[Coef::LSGAL];
-            (r.fz_n_mean, g, r.sigma_m)
+            (r.fz_n_mean, g, r.sigma_m, law_weight(r))
         })
         .collect();
     match fit_pty(&lat_pts, fz0s, cfg.pty2_range) {
@@ -859,7 +873,10 @@ fn fit_law(
     }
     // Longitudinal: sigma = Fz (PTX1 + PTX2 dfz) exp(-PTX3 dfz) R0/Fz0 LSGKP.
     let lon = usable(Direction::Longitudinal);
-    let lon_pts: Vec<(f64, f64)> = lon.iter().map(|r| (r.fz_n_mean, r.sigma_m)).collect();
+    let lon_pts: Vec<(f64, f64, f64)> = lon
+        .iter()
+        .map(|r| (r.fz_n_mean, r.sigma_m, law_weight(r)))
+        .collect();
     match fit_ptx(&lon_pts, fz0, fz0s, r0 * coefs[Coef::LSGKP], cfg.ptx3_range) {
         Ok(v) => law.longitudinal = Some(v),
         Err(reason) if !lon.is_empty() => failures.push(StageFailure {
@@ -872,10 +889,25 @@ fn fit_law(
     law
 }
 
-/// `PTY1, PTY2, rms, n` from `(Fz, factor, sigma)` points: `sigma = PTY1 sin(2 atan(Fz/(PTY2
-/// Fz0'))) factor`; `PTY1` is linear given `PTY2`.
+/// Weight of a row in the law fit: `1/SE^2`, the standard error floored at 1 % of `sigma` (model
+/// error, not noise, limits the well-measured rows) and taken as 5 % when it is unknown. At the
+/// lowest load one sweep's lag is half a sample and its rows are several times less certain
+/// than the rest: unweighted, they pulled the law up to 9 % off the truth there.
+fn law_weight(r: &RelaxationRow) -> f64 {
+    let floor = 0.01 * r.sigma_m.abs();
+    let se = if r.sigma_se_m.is_finite() && r.sigma_se_m > 0.0 {
+        r.sigma_se_m.max(floor)
+    } else {
+        5.0 * floor
+    };
+    1.0 / (se * se)
+}
+
+/// `PTY1, PTY2, rms, n` from `(Fz, factor, sigma, weight)` points: `sigma = PTY1 sin(2 atan(Fz/
+/// (PTY2 Fz0'))) factor`, weighted least squares; `PTY1` is linear given `PTY2`. `rms` is the
+/// unweighted root mean square residual.
 pub fn fit_pty(
-    pts: &[(f64, f64, f64)],
+    pts: &[(f64, f64, f64, f64)],
     fz0_scaled: f64,
     range: (f64, f64),
 ) -> Result<(f64, f64, f64, usize), String> {
@@ -885,30 +917,30 @@ pub fn fit_pty(
     }
     let basis = |pty2: f64, fz: f64, g: f64| (2.0 * (fz / (pty2 * fz0_scaled)).atan()).sin() * g;
     let solve = |pty2: f64| {
-        let (sxx, sxy) = pts.iter().fold((0.0, 0.0), |(a, b), &(fz, g, s)| {
+        let (sxx, sxy) = pts.iter().fold((0.0, 0.0), |(a, b), &(fz, g, s, w)| {
             let x = basis(pty2, fz, g);
-            (a + x * x, b + x * s)
+            (a + w * x * x, b + w * x * s)
         });
         let pty1 = if sxx > 0.0 { sxy / sxx } else { f64::NAN };
-        let rss: f64 = pts
-            .iter()
-            .map(|&(fz, g, s)| (s - pty1 * basis(pty2, fz, g)).powi(2))
-            .sum();
-        (pty1, rss)
+        let residual = |&(fz, g, s, _): &(f64, f64, f64, f64)| s - pty1 * basis(pty2, fz, g);
+        let wrss: f64 = pts.iter().map(|p| p.3 * residual(p).powi(2)).sum();
+        let rss: f64 = pts.iter().map(|p| residual(p).powi(2)).sum();
+        (pty1, wrss, rss)
     };
     let m = scalar::minimize(&|p| solve(p).1, range.0, range.1, &ScalarOptions::default())
         .map_err(|e| e.to_string())?;
-    let (pty1, rss) = solve(m.x);
+    let (pty1, _, rss) = solve(m.x);
     if m.at_bound {
         return Err(format!("PTY2 at its search bound ({:.3})", m.x));
     }
     Ok((pty1, m.x, (rss / pts.len() as f64).sqrt(), pts.len()))
 }
 
-/// `PTX1, PTX2, PTX3, rms, n` from `(Fz, sigma)` points: `sigma = Fz (PTX1 + PTX2 dfz)
-/// exp(-PTX3 dfz) R0/Fz0`; linear in `PTX1, PTX2` given `PTX3` (fixed at 0 with two loads).
+/// `PTX1, PTX2, PTX3, rms, n` from `(Fz, sigma, weight)` points: `sigma = Fz (PTX1 + PTX2 dfz)
+/// exp(-PTX3 dfz) R0/Fz0`, weighted least squares; linear in `PTX1, PTX2` given `PTX3` (fixed
+/// at 0 with two loads). `rms` is the unweighted root mean square residual.
 pub fn fit_ptx(
-    pts: &[(f64, f64)],
+    pts: &[(f64, f64, f64)],
     fz0: f64,
     fz0_scaled: f64,
     r0: f64,
@@ -920,30 +952,29 @@ pub fn fit_ptx(
     }
     let solve = |ptx3: f64| {
         let (mut saa, mut sab, mut sbb, mut say, mut sby) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for &(fz, s) in pts {
+        for &(fz, s, wt) in pts {
             let dfz = (fz - fz0_scaled) / fz0_scaled;
             let w = fz * (-ptx3 * dfz).exp() * r0 / fz0;
             let (a, b) = (w, w * dfz);
-            saa += a * a;
-            sab += a * b;
-            sbb += b * b;
-            say += a * s;
-            sby += b * s;
+            saa += wt * a * a;
+            sab += wt * a * b;
+            sbb += wt * b * b;
+            say += wt * a * s;
+            sby += wt * b * s;
         }
         let det = saa * sbb - sab * sab;
         if det.abs() <= 1e-14 * saa * sbb {
-            return (f64::NAN, f64::NAN, f64::INFINITY);
+            return (f64::NAN, f64::NAN, f64::INFINITY, f64::INFINITY);
         }
         let p1 = (say * sbb - sby * sab) / det;
         let p2 = (saa * sby - sab * say) / det;
-        let rss = pts
-            .iter()
-            .map(|&(fz, s)| {
-                let dfz = (fz - fz0_scaled) / fz0_scaled;
-                (s - fz * (p1 + p2 * dfz) * (-ptx3 * dfz).exp() * r0 / fz0).powi(2)
-            })
-            .sum();
-        (p1, p2, rss)
+        let residual = |&(fz, s, _): &(f64, f64, f64)| {
+            let dfz = (fz - fz0_scaled) / fz0_scaled;
+            s - fz * (p1 + p2 * dfz) * (-ptx3 * dfz).exp() * r0 / fz0
+        };
+        let wrss = pts.iter().map(|p| p.2 * residual(p).powi(2)).sum();
+        let rss = pts.iter().map(|p| residual(p).powi(2)).sum();
+        (p1, p2, wrss, rss)
     };
     let ptx3 = if loads >= 3 {
         let opts = ScalarOptions {
@@ -959,7 +990,7 @@ pub fn fit_ptx(
     } else {
         0.0
     };
-    let (p1, p2, rss) = solve(ptx3);
+    let (p1, p2, _, rss) = solve(ptx3);
     if !rss.is_finite() {
         return Err("PTX1/PTX2: degenerate loads".to_string());
     }

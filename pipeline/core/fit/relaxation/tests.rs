@@ -505,9 +505,9 @@ fn pac2002_sigma_law_cannot_follow_table_15_at_the_lowest_load() {
     // (Fz0 = 1112 N) stay within 8 % from 445 N up but miss 222 N by 20-30 %: a .tir written from
     // such data under-predicts the low-load relaxation length. This test pins that finding.
     let r0 = 20.5 * 0.0254 / 2.0;
-    let pts: Vec<(f64, f64, f64)> = TABLE_15.iter().map(|r| (r.0, r0, r.4)).collect();
+    let pts: Vec<(f64, f64, f64, f64)> = TABLE_15.iter().map(|r| (r.0, r0, r.4, 1.0)).collect();
     let (pty1, pty2, _, _) = fit_pty(&pts, 1112.0, (0.05, 20.0)).unwrap();
-    for &(fz, _, s) in &pts {
+    for &(fz, _, s, _) in &pts {
         let m = pty1 * (2.0 * (fz / (pty2 * 1112.0)).atan()).sin() * r0;
         let err = m / s - 1.0;
         if fz < 300.0 {
