@@ -705,6 +705,9 @@ fn envelope_grid(env: &Envelope) -> Vec<SlipInput> {
     out
 }
 
+/// Relative cost change that ends an `Mx` refinement.
+const MX_FTOL: f64 = 1e-8;
+
 /// Joint refinement of `free` from the current values in `c` (updated in place).
 fn refine(
     family: Family,
@@ -725,7 +728,10 @@ fn refine(
     let options = Options {
         max_iterations: cfg.max_iterations,
         xtol: 1e-10,
-        ftol: 1e-12,
+        // Mx's extended form (QSX4..QSX11, atan/cos terms) creeps: at 1e-12 it ran out of
+        // iterations (4 x 300) on a quarter of the full round's groups, 2.8 s of a 4.9 s group,
+        // for RMSE changes far below the sensor noise.
+        ftol: if family == Family::Mx { MX_FTOL } else { 1e-12 },
         gtol: 1e-9,
         loss: cfg.loss,
         irls_rounds: 3,
