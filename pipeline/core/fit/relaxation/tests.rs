@@ -255,6 +255,65 @@ fn noisy_round_4_matrix_pools_inclinations_and_stays_within_five_percent() {
         );
         // The members' scatter is of the size single-sweep noise predicts (< 10 % at 222 N).
         assert!(r.sigma_spread_m < 0.1 * truth, "{r:?}");
+        // The curvature standard error agrees with that scatter (pooled: spread / sqrt(n)).
+        let from_spread = r.sigma_spread_m / (r.n_segments as f64).sqrt();
+        assert!(
+            r.sigma_se_m > from_spread / 3.0 && r.sigma_se_m < 3.0 * from_spread,
+            "Fz {}: se {:.5} vs spread/sqrt(n) {from_spread:.5}",
+            r.fz_n_nom,
+            r.sigma_se_m
+        );
+    }
+}
+
+#[test]
+fn law_fits_weight_rows_by_their_standard_error() {
+    // Exact PTY/PTX laws at five loads, the lowest row 20 % off: with weights 1/SE^2 (SE 1 % of
+    // sigma, 20 % at the bad row) it barely moves the law; with equal weights it drags it. The
+    // PTX law drops its small curvature term (PTX3 = 0.1: 1.5 % at 222 N, within the rows'
+    // standard errors) and stays within 3 %.
+    let (fz0, r0) = (1112.0, 0.26);
+    let (pty1, pty2) = (1.75, 1.5);
+    let lat = |fz: f64| pty1 * (2.0 * (fz / (pty2 * fz0)).atan()).sin() * r0;
+    let (ptx1, ptx2, ptx3) = (2.05, -0.6, 0.1);
+    let lon = |fz: f64| {
+        let dfz = (fz - fz0) / fz0;
+        fz * (ptx1 + ptx2 * dfz) * (-ptx3 * dfz).exp() * r0 / fz0
+    };
+    let off = |fz: f64| if fz < 300.0 { 1.2 } else { 1.0 };
+    for weighted in [true, false] {
+        let w = |sigma: f64, fz: f64| match (weighted, fz < 300.0) {
+            (true, true) => (0.2 * sigma).powi(-2),
+            (true, false) => (0.01 * sigma).powi(-2),
+            (false, _) => 1.0,
+        };
+        let pts: Vec<(f64, f64, f64, f64)> = LOADS
+            .iter()
+            .map(|&fz| (fz, r0, lat(fz) * off(fz), w(lat(fz), fz)))
+            .collect();
+        let (p1, p2, _, _) = fit_pty(&pts, fz0, (0.05, 20.0)).unwrap();
+        let law = p1 * (2.0 * (222.0 / (p2 * fz0)).atan()).sin() * r0;
+        let err = (law / lat(222.0) - 1.0).abs();
+        if weighted {
+            assert!(err < 0.01, "weighted PTY law at 222 N off by {err:.4}");
+        } else {
+            assert!(
+                err > 0.02,
+                "equal weights should follow the bad row ({err:.4})"
+            );
+        }
+        let pts: Vec<(f64, f64, f64)> = LOADS
+            .iter()
+            .map(|&fz| (fz, lon(fz) * off(fz), w(lon(fz), fz)))
+            .collect();
+        let (q1, q2, q3, _, _) = fit_ptx(&pts, fz0, fz0, r0, (-5.0, 5.0)).unwrap();
+        let dfz = (222.0 - fz0) / fz0;
+        let law = 222.0 * (q1 + q2 * dfz) * (-q3 * dfz).exp() * r0 / fz0;
+        let err = (law / lon(222.0) - 1.0).abs();
+        if weighted {
+            assert_eq!(q3, 0.0, "PTX3 kept without evidence");
+            assert!(err < 0.03, "weighted PTX law at 222 N off by {err:.4}");
+        }
     }
 }
 
@@ -382,7 +441,10 @@ fn run_fits_pty_and_ptx_laws_and_eq_14_15_columns() {
     assert!(rms < 1e-3, "{rms}");
     let (ptx1, ptx2, ptx3, _, n) = law.longitudinal.unwrap();
     assert_eq!(n, 4);
-    // PTX1..3 trade off; the law they give must reproduce sigma_kappa over the tested loads.
+    // The truth's PTX3 = 0.1 bends the law by 1.5 % at 222 N, within the rows' 1 % standard
+    // error floor: the fit leaves PTX3 at 0 (`PTX3_MIN_CHI2_GAIN`) and pays that 1.5 % there.
+    assert_eq!(ptx3, 0.0);
+    // PTX1, PTX2 trade off; the law they give must reproduce sigma_kappa over the tested loads.
     let mut m2 = model.clone();
     m2.coefs[Coef::PTX1] = ptx1;
     m2.coefs[Coef::PTX2] = ptx2;
@@ -392,8 +454,9 @@ fn run_fits_pty_and_ptx_laws_and_eq_14_15_columns() {
             m2.relaxation_lengths(fz, 0.0).0,
             model.relaxation_lengths(fz, 0.0).0,
         );
-        // The rows carry the smoothing bias (up to 0.7 % low at 222 N).
-        assert!((a / b - 1.0).abs() < 1e-2, "Fz {fz}: {a} vs {b}");
+        // The rows carry the smoothing bias (up to 0.7 % low at 222 N), the law PTX3's.
+        let tol = if fz < 300.0 { 2e-2 } else { 1e-2 };
+        assert!((a / b - 1.0).abs() < tol, "Fz {fz}: {a} vs {b}");
     }
 }
 
