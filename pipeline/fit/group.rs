@@ -21,7 +21,7 @@ use std::time::Instant;
 
 use tirebase_core::fit::pac2002::{
     self, FitConfig, FitContext, FitInput, Pac2002Fit, RelaxationLaw as DelagLaw,
-    RelaxationLengths, Sample, Sweep, SweepKind, SweepNominal,
+    RelaxationLengths, Sweep,
 };
 use tirebase_core::fit::relaxation::{
     self, Direction, RelaxationConfig, RelaxationInput, RelaxationOutput,
@@ -119,17 +119,33 @@ fn pac2002_segment(s: &LoadedSegment) -> bool {
     s.row.forces_ok && s.segment.kind.is_matrix()
 }
 
+/// Kinds the spring-rate stage reads (holds, and the zero crossings of free-rolling sweeps).
+fn spring_rate_kind(kind: SegmentKind) -> bool {
+    matches!(
+        kind,
+        SegmentKind::SpringRateStatic
+            | SegmentKind::SpringRateDynamic
+            | SegmentKind::Cornering
+            | SegmentKind::DriveBrake
+            | SegmentKind::Conditioning
+            | SegmentKind::SpeedSweep
+    )
+}
+
+/// Kinds the relaxation stage reads.
+fn relaxation_kind(kind: SegmentKind) -> bool {
+    matches!(
+        kind,
+        SegmentKind::Cornering
+            | SegmentKind::ColdToWarm
+            | SegmentKind::SpeedSweep
+            | SegmentKind::StepSteer
+            | SegmentKind::DriveBrake
+    )
+}
+
 fn spring_rate_segment(s: &LoadedSegment) -> bool {
-    s.row.forces_ok
-        && matches!(
-            s.segment.kind,
-            SegmentKind::SpringRateStatic
-                | SegmentKind::SpringRateDynamic
-                | SegmentKind::Cornering
-                | SegmentKind::DriveBrake
-                | SegmentKind::Conditioning
-                | SegmentKind::SpeedSweep
-        )
+    s.row.forces_ok && spring_rate_kind(s.segment.kind)
 }
 
 /// Cold-to-warm segments are analysed; every other temperature-clean segment only gives the
@@ -139,38 +155,15 @@ fn thermal_segment(s: &LoadedSegment) -> bool {
 }
 
 fn relaxation_segment(s: &LoadedSegment) -> bool {
-    s.row.forces_ok
-        && matches!(
-            s.segment.kind,
-            SegmentKind::Cornering
-                | SegmentKind::ColdToWarm
-                | SegmentKind::SpeedSweep
-                | SegmentKind::StepSteer
-                | SegmentKind::DriveBrake
-        )
+    s.row.forces_ok && relaxation_kind(s.segment.kind)
 }
 
 /// The segment kinds any enabled stage reads (what a group's plan and hash cover).
 pub fn used_by(stages: &StageSet, kind: SegmentKind) -> bool {
     let pac = kind.is_matrix();
-    let spring = matches!(
-        kind,
-        SegmentKind::SpringRateStatic
-            | SegmentKind::SpringRateDynamic
-            | SegmentKind::Cornering
-            | SegmentKind::DriveBrake
-            | SegmentKind::Conditioning
-            | SegmentKind::SpeedSweep
-    );
+    let spring = spring_rate_kind(kind);
     let thermal = kind == SegmentKind::ColdToWarm;
-    let relax = matches!(
-        kind,
-        SegmentKind::Cornering
-            | SegmentKind::ColdToWarm
-            | SegmentKind::SpeedSweep
-            | SegmentKind::StepSteer
-            | SegmentKind::DriveBrake
-    );
+    let relax = relaxation_kind(kind);
     // PAC2002 needs the spring-rate segments for Cz/R0 and relaxation needs the PAC2002 model.
     (stages.pac2002 && (pac || spring))
         || (stages.spring_rate && spring)
@@ -253,39 +246,7 @@ fn pac2002_input(
 }
 
 fn sweep_of(s: &LoadedSegment) -> Option<Sweep> {
-    let seg: &MeasuredSegment = &s.segment;
-    let kind = match seg.kind {
-        SegmentKind::Cornering => SweepKind::Cornering,
-        SegmentKind::DriveBrake => SweepKind::DriveBrake,
-        SegmentKind::Combined => SweepKind::Combined,
-        _ => return None,
-    };
-    let c = &seg.channels;
-    Some(Sweep {
-        id: seg.segment_id.clone(),
-        kind,
-        nominal: SweepNominal {
-            fz_n: seg.nominal.fz_n? as f64,
-            gamma_rad: (seg.nominal.ia_deg? as f64).to_radians(),
-            alpha_rad: (seg.nominal.alpha_deg.unwrap_or(0) as f64).to_radians(),
-        },
-        qc_ok: s.row.forces_ok,
-        samples: (0..c.len())
-            .map(|i| Sample {
-                et_s: c.et_s[i],
-                fz_n: c.fz_n[i],
-                kappa: c.kappa[i],
-                alpha_rad: c.alpha_rad[i],
-                gamma_rad: c.gamma_rad[i],
-                vx_mps: c.speed_mps(i),
-                fx_n: c.fx_n[i],
-                fy_n: c.fy_n[i],
-                mz_nm: c.mz_nm[i],
-                mx_nm: s.mx_nm[i],
-                loaded_radius_m: c.loaded_radius_m.as_ref().map(|v| v[i]),
-            })
-            .collect(),
-    })
+    Sweep::from_segment(&s.segment, Some(&s.mx_nm), s.row.forces_ok)
 }
 
 /// Relaxation lengths by nominal load from the relaxation rows, for de-lagging.

@@ -429,43 +429,10 @@ fn pac2002_input(
     cz: f64,
     r0: f64,
 ) -> super::pac2002::FitInput {
-    use super::pac2002::{FitContext, FitInput, Sample, Sweep, SweepKind, SweepNominal};
+    use super::pac2002::{FitContext, FitInput, Sweep};
     let sweeps = segs
         .iter()
-        .filter_map(|s| {
-            let kind = match s.kind {
-                SegmentKind::Cornering => SweepKind::Cornering,
-                SegmentKind::DriveBrake => SweepKind::DriveBrake,
-                SegmentKind::Combined => SweepKind::Combined,
-                _ => return None,
-            };
-            let c = &s.channels;
-            Some(Sweep {
-                id: s.segment_id.clone(),
-                kind,
-                nominal: SweepNominal {
-                    fz_n: s.nominal.fz_n? as f64,
-                    gamma_rad: (s.nominal.ia_deg? as f64).to_radians(),
-                    alpha_rad: (s.nominal.alpha_deg.unwrap_or(0) as f64).to_radians(),
-                },
-                qc_ok: true,
-                samples: (0..c.len())
-                    .map(|i| Sample {
-                        et_s: c.et_s[i],
-                        fz_n: c.fz_n[i],
-                        kappa: c.kappa[i],
-                        alpha_rad: c.alpha_rad[i],
-                        gamma_rad: c.gamma_rad[i],
-                        vx_mps: c.speed_mps(i),
-                        fx_n: c.fx_n[i],
-                        fy_n: c.fy_n[i],
-                        mz_nm: c.mz_nm[i],
-                        mx_nm: f64::NAN,
-                        loaded_radius_m: c.loaded_radius_m.as_ref().map(|v| v[i]),
-                    })
-                    .collect(),
-            })
-        })
+        .filter_map(|s| Sweep::from_segment(s, None, true))
         .collect();
     FitInput {
         context: FitContext {

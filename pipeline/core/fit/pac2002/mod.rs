@@ -51,6 +51,7 @@ mod synthetic;
 #[cfg(test)]
 mod tests;
 
+use super::segment_data::{MeasuredSegment, SegmentKind};
 use crate::numerics::bounded_least_squares::{RobustLoss, Termination};
 use crate::tire_model::{Coef, Pac2002};
 
@@ -134,6 +135,50 @@ pub struct Sweep {
     pub qc_ok: bool,
     /// Samples in time order.
     pub samples: Vec<Sample>,
+}
+
+impl Sweep {
+    /// The sweep of a cornering, drive/brake or combined segment (`None` for other kinds or
+    /// without nominal load and inclination). `mx_nm`: the overturning moment per sample, which
+    /// [`MeasuredSegment`] does not carry (NaN when absent).
+    pub fn from_segment(
+        seg: &MeasuredSegment,
+        mx_nm: Option<&[f64]>,
+        qc_ok: bool,
+    ) -> Option<Sweep> {
+        let kind = match seg.kind {
+            SegmentKind::Cornering => SweepKind::Cornering,
+            SegmentKind::DriveBrake => SweepKind::DriveBrake,
+            SegmentKind::Combined => SweepKind::Combined,
+            _ => return None,
+        };
+        let c = &seg.channels;
+        Some(Sweep {
+            id: seg.segment_id.clone(),
+            kind,
+            nominal: SweepNominal {
+                fz_n: seg.nominal.fz_n? as f64,
+                gamma_rad: (seg.nominal.ia_deg? as f64).to_radians(),
+                alpha_rad: (seg.nominal.alpha_deg.unwrap_or(0) as f64).to_radians(),
+            },
+            qc_ok,
+            samples: (0..c.len())
+                .map(|i| Sample {
+                    et_s: c.et_s[i],
+                    fz_n: c.fz_n[i],
+                    kappa: c.kappa[i],
+                    alpha_rad: c.alpha_rad[i],
+                    gamma_rad: c.gamma_rad[i],
+                    vx_mps: c.speed_mps(i),
+                    fx_n: c.fx_n[i],
+                    fy_n: c.fy_n[i],
+                    mz_nm: c.mz_nm[i],
+                    mx_nm: mx_nm.map_or(f64::NAN, |m| m[i]),
+                    loaded_radius_m: c.loaded_radius_m.as_ref().map(|v| v[i]),
+                })
+                .collect(),
+        })
+    }
 }
 
 /// A relaxation length as a function of load: `(fz_n, sigma_m)` pairs, linearly interpolated,
