@@ -613,63 +613,94 @@ fn gather(column: &[f64], idx: &[usize]) -> Vec<f64> {
     idx.iter().map(|&i| column[i]).collect()
 }
 
-fn gather_opt(column: Option<&Vec<f64>>, idx: &[usize]) -> Vec<Option<f64>> {
+/// A float column of the samples: the gathered channel, or all null when the run lacks it.
+fn float_column(name: &str, column: Option<&Vec<f64>>, idx: &[usize]) -> Column {
     match column {
-        Some(c) => idx.iter().map(|&i| Some(c[i])).collect(),
-        None => vec![None; idx.len()],
+        Some(c) => Float64Chunked::from_vec(name.into(), gather(c, idx)).into_column(),
+        None => Column::full_null(name.into(), idx.len(), &DataType::Float64),
     }
 }
 
+/// A column holding one value on every row (polars keeps it as a scalar until written).
+fn constant(name: &str, value: AnyValue<'static>, dtype: DataType, n: usize) -> Column {
+    Column::new_scalar(name.into(), Scalar::new(dtype, value), n)
+}
+
+/// The samples of one partition. Columns are built whole (gathered vectors, constants as
+/// scalars, the segment id one run of equal values per segment), never row by row: polars'
+/// row builders are the unoptimised part of a release build and were a fifth of the writing.
 fn samples_frame(ctx: &FileContext, segs: &[&Segment]) -> PolarsResult<DataFrame> {
     let run = ctx.run;
-    let mut idx = Vec::new();
-    let mut seg_ids = Vec::new();
+    let idx: Vec<usize> = segs.iter().flat_map(|s| s.samples.clone()).collect();
+    let n = idx.len();
+    let mut seg_ids = StringChunked::full_null("segment_id".into(), 0);
     for s in segs {
         let id = ctx.segment_id(s.index);
-        for i in s.samples.clone() {
-            idx.push(i);
-            seg_ids.push(id.clone());
-        }
+        seg_ids.append(&StringChunked::full(
+            "segment_id".into(),
+            &id,
+            s.samples.len(),
+        ))?;
     }
-    let n = idx.len();
     let t = &run.tire;
-    let kappa_measured = run.meta.kappa_source.is_measured();
     let kappa = if t.kappa.is_empty() {
         vec![0.0; n]
     } else {
         gather(&t.kappa, &idx)
     };
-    df!(
-        "segment_id" => seg_ids,
-        "source_file" => vec![ctx.name; n],
-        "source_sha256" => vec![ctx.sha; n],
-        "project" => vec![run.meta.project.map(i64::from); n],
-        "run" => vec![run.meta.run.map(i64::from); n],
-        "sample_index" => idx.iter().map(|&i| i as i64).collect::<Vec<_>>(),
-        "et_s" => gather(&run.et_s, &idx),
-        "speed_kph" => gather(&run.speed_kph, &idx),
-        "wheel_speed_rpm" => gather_opt(run.wheel_speed_rpm.as_ref(), &idx),
-        "fx_n" => gather(&t.fx_n, &idx),
-        "fy_n" => gather(&t.fy_n, &idx),
-        "fz_n" => gather(&t.fz_n, &idx),
-        "mx_nm" => gather(&t.mx_nm, &idx),
-        "mz_nm" => gather(&t.mz_nm, &idx),
-        "alpha_rad" => gather(&t.alpha_rad, &idx),
-        "gamma_rad" => gather(&t.gamma_rad, &idx),
-        "kappa" => kappa,
-        "kappa_measured" => vec![kappa_measured; n],
-        "sr" => gather_opt(run.sr.as_ref(), &idx),
-        "pressure_kpa" => gather(&run.pressure_kpa, &idx),
-        "loaded_radius_m" => gather_opt(run.loaded_radius_m.as_ref(), &idx),
-        "effective_radius_m" => gather_opt(run.effective_radius_m.as_ref(), &idx),
-        "nfx" => gather_opt(run.nfx.as_ref(), &idx),
-        "nfy" => gather_opt(run.nfy.as_ref(), &idx),
-        "road_temp_c" => gather_opt(run.road_temp_c.as_ref(), &idx),
-        "tread_inner_c" => gather_opt(run.tread_inner_temp_c.as_ref(), &idx),
-        "tread_centre_c" => gather_opt(run.tread_centre_temp_c.as_ref(), &idx),
-        "tread_outer_c" => gather_opt(run.tread_outer_temp_c.as_ref(), &idx),
-        "ambient_c" => gather_opt(run.ambient_temp_c.as_ref(), &idx),
-    )
+    let int_or_null = |v: Option<u32>| v.map_or(AnyValue::Null, |v| AnyValue::Int64(v.into()));
+    let f = |name: &str, c: &Vec<f64>| float_column(name, Some(c), &idx);
+    let columns = vec![
+        seg_ids.rechunk().into_owned().into_column(),
+        constant(
+            "source_file",
+            AnyValue::StringOwned(ctx.name.into()),
+            DataType::String,
+            n,
+        ),
+        constant(
+            "source_sha256",
+            AnyValue::StringOwned(ctx.sha.into()),
+            DataType::String,
+            n,
+        ),
+        constant("project", int_or_null(run.meta.project), DataType::Int64, n),
+        constant("run", int_or_null(run.meta.run), DataType::Int64, n),
+        Int64Chunked::from_vec(
+            "sample_index".into(),
+            idx.iter().map(|&i| i as i64).collect(),
+        )
+        .into_column(),
+        f("et_s", &run.et_s),
+        f("speed_kph", &run.speed_kph),
+        float_column("wheel_speed_rpm", run.wheel_speed_rpm.as_ref(), &idx),
+        f("fx_n", &t.fx_n),
+        f("fy_n", &t.fy_n),
+        f("fz_n", &t.fz_n),
+        f("mx_nm", &t.mx_nm),
+        f("mz_nm", &t.mz_nm),
+        f("alpha_rad", &t.alpha_rad),
+        f("gamma_rad", &t.gamma_rad),
+        Float64Chunked::from_vec("kappa".into(), kappa).into_column(),
+        constant(
+            "kappa_measured",
+            AnyValue::Boolean(run.meta.kappa_source.is_measured()),
+            DataType::Boolean,
+            n,
+        ),
+        float_column("sr", run.sr.as_ref(), &idx),
+        f("pressure_kpa", &run.pressure_kpa),
+        float_column("loaded_radius_m", run.loaded_radius_m.as_ref(), &idx),
+        float_column("effective_radius_m", run.effective_radius_m.as_ref(), &idx),
+        float_column("nfx", run.nfx.as_ref(), &idx),
+        float_column("nfy", run.nfy.as_ref(), &idx),
+        float_column("road_temp_c", run.road_temp_c.as_ref(), &idx),
+        float_column("tread_inner_c", run.tread_inner_temp_c.as_ref(), &idx),
+        float_column("tread_centre_c", run.tread_centre_temp_c.as_ref(), &idx),
+        float_column("tread_outer_c", run.tread_outer_temp_c.as_ref(), &idx),
+        float_column("ambient_c", run.ambient_temp_c.as_ref(), &idx),
+    ];
+    DataFrame::new(n, columns)
 }
 
 fn min_max(values: impl Iterator<Item = f64>) -> (Option<f64>, Option<f64>) {
