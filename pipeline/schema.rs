@@ -163,9 +163,14 @@ impl TableSchema {
             let series = df
                 .column(&c.name)
                 .map_err(|_| err(format!("missing column {}", c.name)))?;
-            let cast = series
-                .cast(&c.dtype.polars())
-                .map_err(|e| err(format!("column {}: {e}", c.name)))?;
+            let dtype = c.dtype.polars();
+            let cast = if series.dtype() == &dtype {
+                series.clone()
+            } else {
+                series
+                    .cast(&dtype)
+                    .map_err(|e| err(format!("column {}: {e}", c.name)))?
+            };
             if !c.nullable && cast.null_count() > 0 {
                 return Err(err(format!(
                     "column {} has {} nulls but is not nullable",

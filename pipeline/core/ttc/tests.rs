@@ -316,6 +316,40 @@ fn truncated_last_line_is_dropped_with_a_warning_and_elsewhere_is_an_error() {
 }
 
 #[test]
+fn a_large_file_parsed_in_two_halves_equals_and_errs_like_one_pass() {
+    // Over 1 MiB of rows: parsed in two halves on two threads.
+    let text = String::from_utf8(example_dat(RoundStyle::R8Uscs, 12_000, false)).unwrap();
+    assert!(text.len() > 1 << 20, "{} bytes", text.len());
+    let run = read_dat(text.as_bytes(), "big.dat").unwrap();
+    assert_eq!(run.len(), 12_000);
+    assert!(
+        run.et_s.windows(2).all(|w| w[1] > w[0]),
+        "rows out of order"
+    );
+    let small = read_dat(
+        example_dat(RoundStyle::R8Uscs, 10, false).as_slice(),
+        "small.dat",
+    )
+    .unwrap();
+    assert_eq!(run.tire.fy_n[..10], small.tire.fy_n[..]);
+    // A bad cell in either half names its own line of the whole file (line 4 is row 1).
+    let lines: Vec<&str> = text.lines().collect();
+    for row in [100, 9_000] {
+        let mut bad = lines.clone();
+        let broken = bad[3 + row].replacen('\t', "\tx", 1);
+        bad[3 + row] = &broken;
+        let err = read_dat(bad.join("\n").as_bytes(), "big.dat").unwrap_err();
+        let want = format!("big.dat: line {}, column 2 ", 4 + row);
+        assert!(err.to_string().starts_with(&want), "{err} (want {want})");
+    }
+    // A truncated last line still warns with its line number.
+    let cut = &text.trim_end()[..text.trim_end().len() - 30];
+    let run = read_dat(cut.as_bytes(), "big.dat").unwrap();
+    assert_eq!(run.len(), 11_999);
+    assert!(run.meta.warnings[0].starts_with("line 12003: truncated last line"));
+}
+
+#[test]
 fn blank_trailing_lines_are_ignored() {
     let mut bytes = example_dat(RoundStyle::R4Uscs, 10, false);
     bytes.extend_from_slice(b"\n\r\n  \n");

@@ -7,7 +7,10 @@
 //! any case and order (21, 22 or more columns; unknown ones kept as extras), every unit spelling
 //! per column, CRLF or LF, a missing final newline, spreadsheet damage (tab-padded header lines,
 //! `0` for `0.000`). Rows are parsed in one pass straight into the column vectors: no allocation
-//! per row or cell ([`super::float`] parses cells exactly like `str::parse::<f64>`).
+//! per row or cell ([`super::float`] parses cells exactly like `str::parse::<f64>`). A body of
+//! 1 MiB or more is parsed in two halves on two threads (split at a line end); if either half
+//! finds a problem or warns, the whole body is parsed again on one thread, so every message
+//! names the line it would name without the split.
 //! Deliberately not here: reading files (see [`super::read_path`]) and unit conversion (shared
 //! with the `.mat` reader in `build.rs`).
 
@@ -44,7 +47,7 @@ pub fn read_dat(bytes: &[u8], source_name: &str) -> Result<RunTable, TtcError> {
     check_required(&names, source_name)?;
     let infos = parse_units(lines.line3, &names, source_name)?;
     let body = &bytes[lines.data_start..];
-    let columns = parse_rows(body, &names, source_name, &mut meta.warnings)?;
+    let columns = parse_rows_split(body, &names, source_name, &mut meta.warnings)?;
     if columns.first().is_none_or(Vec::is_empty) {
         return Err(TtcError::NoRows {
             source_name: source_name.to_string(),
@@ -299,11 +302,64 @@ fn cells_without_padding(line: &[u8]) -> Vec<String> {
     cells
 }
 
-/// The data rows: one column vector per channel on line 2. `body` starts at line 4.
+/// Bodies at least this long are parsed in two halves on two threads.
+const SPLIT_MIN_BYTES: usize = 1 << 20;
+
+/// [`parse_rows`] over the whole body, in two halves on two threads when it is large. Any
+/// problem or warning in a half means the body is parsed again on one thread, for the exact
+/// line numbers (problems are rare; a good file pays nothing).
+fn parse_rows_split(
+    body: &[u8],
+    names: &[String],
+    source_name: &str,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Vec<f64>>, TtcError> {
+    let split = match find_byte(body, body.len() / 2, b'\n') {
+        Some(nl) if body.len() >= SPLIT_MIN_BYTES && nl + 1 < body.len() => nl + 1,
+        _ => return parse_rows(body, names, source_name, true, warnings),
+    };
+    let (mut first_warnings, mut second_warnings) = (Vec::new(), Vec::new());
+    let (first, second) = std::thread::scope(|s| {
+        let first = s.spawn(|| {
+            parse_rows(
+                &body[..split],
+                names,
+                source_name,
+                false,
+                &mut first_warnings,
+            )
+        });
+        let second = parse_rows(
+            &body[split..],
+            names,
+            source_name,
+            true,
+            &mut second_warnings,
+        );
+        let first = first
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        (first, second)
+    });
+    match (first, second) {
+        (Ok(mut columns), Ok(rest)) if first_warnings.is_empty() && second_warnings.is_empty() => {
+            for (column, tail) in columns.iter_mut().zip(rest) {
+                column.extend_from_slice(&tail);
+            }
+            Ok(columns)
+        }
+        _ => parse_rows(body, names, source_name, true, warnings),
+    }
+}
+
+/// The data rows: one column vector per channel on line 2. `body` starts at line 4 (the line
+/// numbers of errors count from there). `ends_file`: the body's last line is the file's, where
+/// a blank or cut-off line is dropped with a warning rather than refused.
 fn parse_rows(
     body: &[u8],
     names: &[String],
     source_name: &str,
+    ends_file: bool,
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Vec<f64>>, TtcError> {
     let width = names.len();
@@ -323,7 +379,7 @@ fn parse_rows(
                 let end = find_byte(body, pos, b'\n').unwrap_or(body.len());
                 let line = strip_cr(&body[pos..end]);
                 let rest = body.get(end + 1..).unwrap_or_default();
-                let is_last = rest.iter().all(u8::is_ascii_whitespace);
+                let is_last = ends_file && rest.iter().all(u8::is_ascii_whitespace);
                 match problem {
                     RowProblem::Blank if is_last => break,
                     problem if is_last && problem.looks_truncated(line, width) => {
