@@ -812,8 +812,8 @@ fn fit_mu_of_t(
     // deviations (1.4826 x the median absolute residual) from the curve is a disturbed sweep
     // (a load or speed excursion, a bad IR reading), not grip; it is dropped and the curve
     // refitted. Measured on the full virtual round: the three tires with a fit RMSE of 0.008 to
-    // 0.014 (the others 0.003 to 0.005) had gains off by -4.4, +3.0 and +2.9 %; with their 4 to
-    // 9 worst peaks dropped, -0.4, +0.3 and -0.2 %.
+    // 0.014 (the others 0.003 to 0.005) had gains off by -4.4, +3.0 and +2.9 %; with their 1 to
+    // 4 worst peaks dropped (of 51 to 62), -0.4, +0.3 and -0.2 %.
     let scale = 1.4826 * finite_median(fit.residuals.iter().map(|r| r.abs())).unwrap_or(0.0);
     if scale > 0.0 {
         let kept: Vec<&&ThermalSweepRow> = pts
