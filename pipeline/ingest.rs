@@ -303,7 +303,18 @@ pub fn run_locked(
         // durable first (written with `Durability::Deferred`).
         sync_filesystem(opts.store)?;
         write_runs(opts.store, &rows)?;
-        collect_garbage(opts.store, &rows)?;
+        // Garbage exists only if a stored version was replaced or dropped, or a file failed
+        // (possibly after writing some partitions); otherwise the walk of the store is skipped.
+        let replaced = previous
+            .iter()
+            .any(|(name, p)| rows.get(name).map(|r| &r.data_sha256) != Some(&p.data_sha256));
+        let failed = report
+            .files
+            .iter()
+            .any(|(_, s)| matches!(s, FileStatus::Failed(_)));
+        if replaced || failed {
+            collect_garbage(opts.store, &rows)?;
+        }
     }
     report.seconds = start.elapsed().as_secs_f64();
     // The caller reports the summary; the bar only closes its line.

@@ -163,12 +163,13 @@ pub fn write_parquet_atomic_with(
 /// whether a dictionary would pay, by a HyperLogLog count of its distinct values whose cost
 /// does not shrink with the column; measured, that was the largest single cost of ingest, for
 /// an answer that is always no for a measured channel and never needed for a constant string
-/// (LZ4 shrinks a repeated file name to almost nothing). So floats and strings are written
-/// `PLAIN`; integers keep polars' choice (a dictionary when their range is small, decided from
-/// min and max, no counting). Compression is LZ4 (`LZ4_RAW`): on the store's sample files it
-/// wrote twice as fast as zstd level 1, for files about a third larger; every Parquet reader
-/// of the last years (polars, pyarrow, DuckDB, Spark) reads it. Readers see the schema of the
-/// DataFrame (the Arrow schema travels in the file's metadata).
+/// (the compressor shrinks a repeated file name to almost nothing). So floats and strings are
+/// written `PLAIN`; integers keep polars' choice (a dictionary when their range is small,
+/// decided from min and max, no counting). Compression is Snappy, the Parquet default every
+/// reader has: on a 470-row, 27-column partition (release build) writing took 0.66 ms with
+/// Snappy, 0.86 ms with LZ4 (whose C encoder clears a 16 KiB table for every page) and 1.6 ms
+/// with zstd level 1, for files about a third larger than zstd's. Readers see the schema of
+/// the DataFrame (the Arrow schema travels in the file's metadata).
 pub fn write_parquet<W: Write>(w: W, df: &mut DataFrame) -> PolarsResult<()> {
     use polars_parquet::write::{
         CompressionOptions, Encoding, FileWriter, RowGroupIterator, Version, WriteOptions,
@@ -195,7 +196,7 @@ pub fn write_parquet<W: Write>(w: W, df: &mut DataFrame) -> PolarsResult<()> {
         .collect();
     let options = WriteOptions {
         statistics: StatisticsOptions::default(),
-        compression: CompressionOptions::Lz4Raw,
+        compression: CompressionOptions::Snappy,
         version: Version::V1,
         data_page_size: None,
     };
