@@ -22,6 +22,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use polars::prelude::*;
+use polars_arrow::array::{BooleanArray, MutableBinaryViewArray, PrimitiveArray, Utf8ViewArray};
+use polars_arrow::record_batch::RecordBatchT;
 use rayon::prelude::*;
 
 use tirebase_core::segment::{self, RunSignals, Segment, SegmentConfig, TreadTemps};
@@ -33,7 +35,8 @@ use crate::schema;
 use crate::store::StoreError;
 use crate::store::files::{
     Durability, ensure_dir, parquet_files_below, parquet_files_in, read_parquet, sha256_bytes,
-    sync_filesystem, write_parquet_atomic, write_parquet_atomic_with,
+    sync_filesystem, write_arrow_parquet_atomic_with, write_parquet_atomic,
+    write_parquet_atomic_with,
 };
 use crate::store::layout::{
     PartitionKey, SAMPLES_DIR, SEGMENTS_DIR, SWEPT, TEMP_SUFFIX, partition_dir, runs_file,
@@ -590,11 +593,14 @@ fn write_file_parts(
     }
     let part_name = source_part_name(ctx.name, ctx.sha);
     let write = |(key, segs): (&PartitionKey, &Vec<&Segment>)| -> Result<(), StoreError> {
-        let df = samples_frame(ctx, segs).map_err(|e| StoreError::polars(store, e))?;
-        let mut df = schema::table("samples").conform(df)?;
+        let arrays = samples_arrays(ctx, segs);
+        let rows = arrays.first().map_or(0, |(_, a)| a.len());
+        let (schema, arrays) = schema::table("samples").conform_arrays(arrays)?;
+        let batch = RecordBatchT::try_new(rows, Arc::new(schema.clone()), arrays)
+            .map_err(|e| StoreError::polars(store, e))?;
         let dir = store.join(partition_dir(key));
         ensure_dir(&dir)?;
-        write_parquet_atomic_with(&dir.join(&part_name), Durability::Deferred, &mut df)
+        write_arrow_parquet_atomic_with(&dir.join(&part_name), Durability::Deferred, schema, batch)
     };
     // Partitions are independent files (a run has ~35): written by `writers` scoped threads,
     // which block while they work (rayon workers would steal and nest other files' jobs).
@@ -625,93 +631,110 @@ fn gather(column: &[f64], idx: &[usize]) -> Vec<f64> {
 }
 
 /// A float column of the samples: the gathered channel, or all null when the run lacks it.
-fn float_column(name: &str, column: Option<&Vec<f64>>, idx: &[usize]) -> Column {
+fn float_array(column: Option<&Vec<f64>>, idx: &[usize]) -> ArrayRef {
     match column {
-        Some(c) => Float64Chunked::from_vec(name.into(), gather(c, idx)).into_column(),
-        None => Column::full_null(name.into(), idx.len(), &DataType::Float64),
+        Some(c) => PrimitiveArray::from_vec(gather(c, idx)).boxed(),
+        None => PrimitiveArray::<f64>::new_null(ArrowDataType::Float64, idx.len()).boxed(),
     }
 }
 
-/// A column holding one value on every row (polars keeps it as a scalar until written).
-fn constant(name: &str, value: AnyValue<'static>, dtype: DataType, n: usize) -> Column {
-    Column::new_scalar(name.into(), Scalar::new(dtype, value), n)
+/// A string column holding `runs[k].0` on `runs[k].1` rows in turn (one buffer, one view per
+/// row).
+fn string_runs<S: AsRef<str>>(runs: &[(S, usize)]) -> ArrayRef {
+    let n = runs.iter().map(|r| r.1).sum();
+    let mut out = MutableBinaryViewArray::<str>::with_capacity(n);
+    for (value, count) in runs {
+        for _ in 0..*count {
+            out.push_value(value.as_ref());
+        }
+    }
+    let array: Utf8ViewArray = out.into();
+    array.boxed()
 }
 
-/// The samples of one partition. Columns are built whole (gathered vectors, constants as
-/// scalars, the segment id one run of equal values per segment), never row by row: polars'
-/// row builders are the unoptimised part of a release build and were a fifth of the writing.
-fn samples_frame(ctx: &FileContext, segs: &[&Segment]) -> PolarsResult<DataFrame> {
+/// An Int64 column of one value (null when unknown).
+fn int64_constant(value: Option<u32>, n: usize) -> ArrayRef {
+    match value {
+        Some(v) => PrimitiveArray::from_vec(vec![i64::from(v); n]).boxed(),
+        None => PrimitiveArray::<i64>::new_null(ArrowDataType::Int64, n).boxed(),
+    }
+}
+
+/// The samples of one partition as Arrow arrays, by column name. Built directly, not through
+/// a polars DataFrame: polars' DataFrame crates are unoptimised in release builds (see README
+/// "Build profiles"), and with a run split into ~30 small partitions their per-column overhead
+/// was a third of ingest time.
+fn samples_arrays(ctx: &FileContext, segs: &[&Segment]) -> Vec<(&'static str, ArrayRef)> {
     let run = ctx.run;
     let idx: Vec<usize> = segs.iter().flat_map(|s| s.samples.clone()).collect();
     let n = idx.len();
-    let mut seg_ids = StringChunked::full_null("segment_id".into(), 0);
-    for s in segs {
-        let id = ctx.segment_id(s.index);
-        seg_ids.append(&StringChunked::full(
-            "segment_id".into(),
-            &id,
-            s.samples.len(),
-        ))?;
-    }
+    let seg_ids: Vec<(String, usize)> = segs
+        .iter()
+        .map(|s| (ctx.segment_id(s.index), s.samples.len()))
+        .collect();
     let t = &run.tire;
     let kappa = if t.kappa.is_empty() {
         vec![0.0; n]
     } else {
         gather(&t.kappa, &idx)
     };
-    let int_or_null = |v: Option<u32>| v.map_or(AnyValue::Null, |v| AnyValue::Int64(v.into()));
-    let f = |name: &str, c: &Vec<f64>| float_column(name, Some(c), &idx);
-    let columns = vec![
-        seg_ids.rechunk().into_owned().into_column(),
-        constant(
-            "source_file",
-            AnyValue::StringOwned(ctx.name.into()),
-            DataType::String,
-            n,
+    let f = |c: &Vec<f64>| float_array(Some(c), &idx);
+    let kappa_measured = run.meta.kappa_source.is_measured();
+    vec![
+        ("segment_id", string_runs(&seg_ids)),
+        ("source_file", string_runs(&[(ctx.name, n)])),
+        ("source_sha256", string_runs(&[(ctx.sha, n)])),
+        ("project", int64_constant(run.meta.project, n)),
+        ("run", int64_constant(run.meta.run, n)),
+        (
+            "sample_index",
+            PrimitiveArray::from_vec(idx.iter().map(|&i| i as i64).collect::<Vec<i64>>()).boxed(),
         ),
-        constant(
-            "source_sha256",
-            AnyValue::StringOwned(ctx.sha.into()),
-            DataType::String,
-            n,
+        ("et_s", f(&run.et_s)),
+        ("speed_kph", f(&run.speed_kph)),
+        (
+            "wheel_speed_rpm",
+            float_array(run.wheel_speed_rpm.as_ref(), &idx),
         ),
-        constant("project", int_or_null(run.meta.project), DataType::Int64, n),
-        constant("run", int_or_null(run.meta.run), DataType::Int64, n),
-        Int64Chunked::from_vec(
-            "sample_index".into(),
-            idx.iter().map(|&i| i as i64).collect(),
-        )
-        .into_column(),
-        f("et_s", &run.et_s),
-        f("speed_kph", &run.speed_kph),
-        float_column("wheel_speed_rpm", run.wheel_speed_rpm.as_ref(), &idx),
-        f("fx_n", &t.fx_n),
-        f("fy_n", &t.fy_n),
-        f("fz_n", &t.fz_n),
-        f("mx_nm", &t.mx_nm),
-        f("mz_nm", &t.mz_nm),
-        f("alpha_rad", &t.alpha_rad),
-        f("gamma_rad", &t.gamma_rad),
-        Float64Chunked::from_vec("kappa".into(), kappa).into_column(),
-        constant(
+        ("fx_n", f(&t.fx_n)),
+        ("fy_n", f(&t.fy_n)),
+        ("fz_n", f(&t.fz_n)),
+        ("mx_nm", f(&t.mx_nm)),
+        ("mz_nm", f(&t.mz_nm)),
+        ("alpha_rad", f(&t.alpha_rad)),
+        ("gamma_rad", f(&t.gamma_rad)),
+        ("kappa", PrimitiveArray::from_vec(kappa).boxed()),
+        (
             "kappa_measured",
-            AnyValue::Boolean(run.meta.kappa_source.is_measured()),
-            DataType::Boolean,
-            n,
+            BooleanArray::from_slice(vec![kappa_measured; n]).boxed(),
         ),
-        float_column("sr", run.sr.as_ref(), &idx),
-        f("pressure_kpa", &run.pressure_kpa),
-        float_column("loaded_radius_m", run.loaded_radius_m.as_ref(), &idx),
-        float_column("effective_radius_m", run.effective_radius_m.as_ref(), &idx),
-        float_column("nfx", run.nfx.as_ref(), &idx),
-        float_column("nfy", run.nfy.as_ref(), &idx),
-        float_column("road_temp_c", run.road_temp_c.as_ref(), &idx),
-        float_column("tread_inner_c", run.tread_inner_temp_c.as_ref(), &idx),
-        float_column("tread_centre_c", run.tread_centre_temp_c.as_ref(), &idx),
-        float_column("tread_outer_c", run.tread_outer_temp_c.as_ref(), &idx),
-        float_column("ambient_c", run.ambient_temp_c.as_ref(), &idx),
-    ];
-    DataFrame::new(n, columns)
+        ("sr", float_array(run.sr.as_ref(), &idx)),
+        ("pressure_kpa", f(&run.pressure_kpa)),
+        (
+            "loaded_radius_m",
+            float_array(run.loaded_radius_m.as_ref(), &idx),
+        ),
+        (
+            "effective_radius_m",
+            float_array(run.effective_radius_m.as_ref(), &idx),
+        ),
+        ("nfx", float_array(run.nfx.as_ref(), &idx)),
+        ("nfy", float_array(run.nfy.as_ref(), &idx)),
+        ("road_temp_c", float_array(run.road_temp_c.as_ref(), &idx)),
+        (
+            "tread_inner_c",
+            float_array(run.tread_inner_temp_c.as_ref(), &idx),
+        ),
+        (
+            "tread_centre_c",
+            float_array(run.tread_centre_temp_c.as_ref(), &idx),
+        ),
+        (
+            "tread_outer_c",
+            float_array(run.tread_outer_temp_c.as_ref(), &idx),
+        ),
+        ("ambient_c", float_array(run.ambient_temp_c.as_ref(), &idx)),
+    ]
 }
 
 fn min_max(values: impl Iterator<Item = f64>) -> (Option<f64>, Option<f64>) {

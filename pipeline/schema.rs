@@ -135,6 +135,61 @@ impl TableSchema {
         self.columns.iter().filter(|c| !c.partition)
     }
 
+    /// The Arrow schema of the columns stored inside the files (what polars writes for
+    /// [`TableSchema::file_schema`]; every field nullable, as polars marks them).
+    pub fn arrow_file_schema(&self) -> ArrowSchema {
+        self.file_columns()
+            .map(|c| {
+                let dtype = c.dtype.polars().to_arrow(CompatLevel::newest());
+                let name: PlSmallStr = c.name.as_str().into();
+                (name.clone(), ArrowField::new(name, dtype, true))
+            })
+            .collect()
+    }
+
+    /// Order `arrays` (by name) as the file columns, checking names and types: the
+    /// [`TableSchema::conform`] of a writer that builds Arrow arrays itself.
+    pub fn conform_arrays(
+        &self,
+        mut arrays: Vec<(&str, ArrayRef)>,
+    ) -> Result<(ArrowSchema, Vec<ArrayRef>), StoreError> {
+        let err = |message: String| StoreError::Schema {
+            table: self.name.clone(),
+            message,
+        };
+        let schema = self.arrow_file_schema();
+        if let Some((name, _)) = arrays.iter().find(|(n, _)| schema.get(*n).is_none()) {
+            return Err(err(format!(
+                "column {name} is not in schemas/{}.toml",
+                self.name
+            )));
+        }
+        let mut ordered = Vec::with_capacity(schema.len());
+        for (name, field) in schema.iter() {
+            let i = arrays
+                .iter()
+                .position(|(n, _)| *n == name.as_str())
+                .ok_or_else(|| err(format!("missing column {name}")))?;
+            let (_, array) = arrays.swap_remove(i);
+            if array.dtype() != &field.dtype {
+                return Err(err(format!(
+                    "column {name}: {:?}, schema says {:?}",
+                    array.dtype(),
+                    field.dtype
+                )));
+            }
+            let column = self.columns.iter().find(|c| c.name == name.as_str());
+            if column.is_some_and(|c| !c.nullable) && array.null_count() > 0 {
+                return Err(err(format!(
+                    "column {name} has {} nulls but is not nullable",
+                    array.null_count()
+                )));
+            }
+            ordered.push(array);
+        }
+        Ok((schema, ordered))
+    }
+
     /// The polars schema of the columns stored inside the files.
     pub fn file_schema(&self) -> Schema {
         self.file_columns()

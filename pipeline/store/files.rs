@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use polars::prelude::*;
+use polars_arrow::record_batch::RecordBatchT;
 use sha2::{Digest, Sha256};
 
 use super::StoreError;
@@ -171,12 +172,24 @@ pub fn write_parquet_atomic_with(
 /// with zstd level 1, for files about a third larger than zstd's. Readers see the schema of
 /// the DataFrame (the Arrow schema travels in the file's metadata).
 pub fn write_parquet<W: Write>(w: W, df: &mut DataFrame) -> PolarsResult<()> {
+    df.rechunk_mut();
+    let schema = df.schema().to_arrow(CompatLevel::newest());
+    let batches: Vec<_> = df.iter_chunks(CompatLevel::newest(), false).collect();
+    write_arrow_parquet(w, schema, batches)
+}
+
+/// [`write_parquet`] for Arrow arrays built by the caller (one row group per batch): the
+/// ingest path, which skips polars' DataFrame (its crates are unoptimised in release builds;
+/// see README "Build profiles").
+pub fn write_arrow_parquet<W: Write>(
+    w: W,
+    schema: ArrowSchema,
+    batches: Vec<RecordBatchT<ArrayRef>>,
+) -> PolarsResult<()> {
     use polars_parquet::write::{
         CompressionOptions, Encoding, FileWriter, RowGroupIterator, Version, WriteOptions,
         get_dtype_encoding,
     };
-    df.rechunk_mut();
-    let schema = df.schema().to_arrow(CompatLevel::newest());
     let integer = |dtype: &ArrowDataType| {
         use ArrowDataType as A;
         matches!(
@@ -200,18 +213,27 @@ pub fn write_parquet<W: Write>(w: W, df: &mut DataFrame) -> PolarsResult<()> {
         version: Version::V1,
         data_page_size: None,
     };
-    let lengths: Vec<u64> = df
-        .iter_chunks(CompatLevel::newest(), false)
-        .map(|b| b.len() as u64)
-        .collect();
-    let batches = df.iter_chunks(CompatLevel::newest(), false).map(Ok);
-    let row_groups = RowGroupIterator::try_new(batches, &schema, options, encodings)?;
+    let lengths: Vec<u64> = batches.iter().map(|b| b.len() as u64).collect();
+    let row_groups =
+        RowGroupIterator::try_new(batches.into_iter().map(Ok), &schema, options, encodings)?;
     let mut writer = FileWriter::try_new(w, schema, options)?;
     for (group, rows) in row_groups.zip(lengths) {
         writer.write(rows, group?)?;
     }
     writer.end(None)?;
     Ok(())
+}
+
+/// [`write_arrow_parquet`] of one batch, atomically, with a choice of [`Durability`].
+pub fn write_arrow_parquet_atomic_with(
+    path: &Path,
+    durability: Durability,
+    schema: ArrowSchema,
+    batch: RecordBatchT<ArrayRef>,
+) -> Result<(), StoreError> {
+    write_atomic_with(path, durability, |w| {
+        write_arrow_parquet(w, schema, vec![batch]).map_err(|e| StoreError::polars(path, e))
+    })
 }
 
 /// Read one Parquet file into memory.
