@@ -158,7 +158,7 @@ impl TableSchema {
             message,
         };
         let schema = self.arrow_file_schema();
-        if let Some((name, _)) = arrays.iter().find(|(n, _)| schema.get(*n).is_none()) {
+        if let Some((name, _)) = arrays.iter().find(|(n, _)| schema.get(n).is_none()) {
             return Err(err(format!(
                 "column {name} is not in schemas/{}.toml",
                 self.name
