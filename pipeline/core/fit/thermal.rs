@@ -937,19 +937,17 @@ fn fit_peaks(pts: &[&&ThermalSweepRow], cfg: &ThermalConfig) -> Result<PeakFit, 
             p0.push(k0);
         }
         p0.extend(gmax.iter().copied());
-        let fit = minimize(&model, DVector::from_vec(p0), LmOptions::default());
-        let residuals = model.residuals(&fit.params);
-        (fit, residuals)
+        minimize(&model, DVector::from_vec(p0), LmOptions::default())
     };
     let mut corrected = mu.clone();
-    let (mut fit, mut residuals) = solve(&corrected, false);
+    let mut fit = solve(&corrected, false);
     let above = t
         .iter()
         .filter(|&&x| x > fit.params[0] + cfg.hot_side_margin_c)
         .count();
     let hot = above >= cfg.hot_side_min_peaks;
     if hot {
-        (fit, residuals) = solve(&corrected, true);
+        fit = solve(&corrected, true);
     }
     for _ in 0..cfg.peak_shift_iterations {
         let (tp, kc) = (fit.params[0], fit.params[1]);
@@ -957,9 +955,17 @@ fn fit_peaks(pts: &[&&ThermalSweepRow], cfg: &ThermalConfig) -> Result<PeakFit, 
         for (i, r) in pts.iter().enumerate() {
             corrected[i] = mu[i] * peak_shift_factor(r, tp, kc, kh);
         }
-        (fit, residuals) = solve(&corrected, hot);
+        fit = solve(&corrected, hot);
     }
     let p = &fit.params;
+    let residuals = MuOfT {
+        t: &t,
+        mu: &corrected,
+        group: &group,
+        groups,
+        hot,
+    }
+    .residuals(p);
     let off = if hot { 3 } else { 2 };
     Ok(PeakFit {
         t_peak: p[0],
