@@ -231,6 +231,7 @@ pub fn thermal(results: &[GroupResult]) -> Result<DataFrame, FitError> {
                 .f("t_inner_peak_c", row.t_inner_peak_c)
                 .f("t_outer_peak_c", row.t_outer_peak_c)
                 .f("ir_delay_s", row.ir_delay_s)
+                .f("force_lag_s", row.force_lag_s)
                 .f("dtdt_peak_c_per_s", row.dtdt_peak_c_per_s)
                 .f("mu_time_curvature_per_s2", row.mu_time_curvature_per_s2)
                 .f("alpha_rate_rad_per_s", row.alpha_rate_rad_per_s)

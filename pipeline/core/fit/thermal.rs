@@ -16,9 +16,12 @@
 //! 3. Each half-cycle of one slip-angle sign is split at its largest `|SA|` into the increasing
 //!    and decreasing quadrant. The peak of `|FY/FZ|` in a quadrant is the vertex of a parabola
 //!    fitted to `|FY/FZ|(t)` around the smoothed maximum (unbiased by smoothing, averages noise);
-//!    the lag-corrected temperatures are read at the vertex time. A maximum at the quadrant's
-//!    largest `|SA|` (force still rising, cut off by the sweep) is flagged not interior and
-//!    left out of `mu(T)` when there are enough interior peaks.
+//!    the lag-corrected temperatures are read at the vertex time less the force lag: the force
+//!    follows slip angle and grip a relaxation length late, so the peak shows the tire as it was
+//!    `tau = sigma/V` earlier (~40 ms at 1112 N). `tau` is measured per test from the hysteresis
+//!    of the stiffness lines of step 4 between the two sweep directions (`Test::force_lag`).
+//!    A maximum at the quadrant's largest `|SA|` (force still rising, cut off by the sweep) is
+//!    flagged not interior and left out of `mu(T)` when there are enough interior peaks.
 //! 4. At the `FY` zero crossing next to each quadrant, a line `FY = b + C SA` over
 //!    `stiffness_half_window_rad` gives the cornering stiffness `C`; walking from the crossing
 //!    towards the peak, the first sample more than `delineation_n` (100 N, the thesis's rule)
@@ -157,6 +160,10 @@ pub struct ThermalSweepRow {
     pub t_outer_peak_c: f64,
     /// IR lag removed at the peak, s.
     pub ir_delay_s: f64,
+    /// Lag of the lateral force behind slip angle and grip (relaxation length over speed),
+    /// estimated over the whole test; the temperatures are read this long before the peak.
+    /// NaN when the test has too few zero crossings in both sweep directions (no shift).
+    pub force_lag_s: f64,
     /// `dT/dt` of the centre temperature at the peak, degC/s.
     pub dtdt_peak_c_per_s: f64,
     /// Curvature `c2` of `|FY/FZ|(t) ~ c0 + c1 u + c2 u^2` at the peak, 1/s^2 (NaN if unfitted).
@@ -415,64 +422,78 @@ impl Test {
             })
             .collect();
 
-        let mut rows = Vec::new();
+        // Every quadrant with the zero crossing next to it (before it when loading, after it
+        // when unloading) and that crossing's stiffness line.
+        let mut quadrants = Vec::new();
         for (lo, turn, hi) in half_cycles(&self.alpha, cfg.min_abs_alpha_rad) {
             let sa_positive = self.alpha[turn] > 0.0;
             for (abs_sa_increasing, a, b) in [(true, lo, turn + 1), (false, turn, hi)] {
-                let Some(peak) = self.peak(&mu, &mu_s, a, b, hz, cfg) else {
-                    continue;
-                };
-                let at = |v: &[f64]| interpolate(&self.t, v, peak.t).unwrap_or(f64::NAN);
-                // Temperatures at the peak: a local parabola over the peak window (the IR noise
-                // would otherwise dominate the mu(T) scatter on the steep cold side).
-                let local = |v: &[f64]| local_fit(&self.t, v, peak.window, peak.t);
-                // The zero crossing next to this quadrant: before it when loading, after it
-                // when unloading.
                 let crossing = if abs_sa_increasing {
                     zero_crossing(&fy_s, lo.saturating_sub(half(0.5)), turn, true)
                 } else {
                     zero_crossing(&fy_s, turn, (hi + half(0.5)).min(n), false)
                 };
                 let line = crossing.and_then(|k| self.stiffness_line(k, cfg));
-                let (alpha_del, fy_del) = match (crossing, line) {
-                    (Some(k), Some((b0, c))) => {
-                        self.delineation(&fy_s, k, peak.index, b0, c, cfg.delineation_n)
-                    }
-                    _ => (f64::NAN, f64::NAN),
-                };
-                let (mean, slope, break_even) = heating(&dtdt[a..b], &mu_s[a..b]);
-                let seg_index = self.seg[peak.index.min(n - 1)];
-                let alpha_peak = at(&self.alpha);
-                let peak_interior =
-                    alpha_peak.abs() < self.alpha[turn].abs() - cfg.turnaround_margin_rad;
-                rows.push(ThermalSweepRow {
-                    key: key.clone(),
-                    segment_id: self.ids[seg_index].clone(),
-                    source_file: source.to_string(),
-                    quadrant: Quadrant {
-                        abs_sa_increasing,
-                        sa_positive,
-                    },
-                    et_peak_s: peak.t,
-                    alpha_peak_rad: alpha_peak,
-                    fz_n: at(&self.fz),
-                    mu_peak: peak.mu,
-                    peak_interior,
-                    t_centre_peak_c: local(&centre).0,
-                    t_inner_peak_c: inner.as_deref().map_or(f64::NAN, |v| local(v).0),
-                    t_outer_peak_c: outer.as_deref().map_or(f64::NAN, |v| local(v).0),
-                    dtdt_peak_c_per_s: local(&centre).1,
-                    mu_time_curvature_per_s2: peak.c2,
-                    alpha_rate_rad_per_s: local(&self.alpha).1,
-                    ir_delay_s: at(&delay),
-                    cornering_stiffness_n_per_rad: line.map_or(f64::NAN, |l| l.1),
-                    alpha_delineation_rad: alpha_del,
-                    fy_delineation_n: fy_del,
-                    dtdt_mean_c_per_s: mean,
-                    dtdt_slope_c_per_s: slope,
-                    mu_break_even: break_even,
-                });
+                quadrants.push((sa_positive, turn, abs_sa_increasing, a, b, crossing, line));
             }
+        }
+        let crossings: Vec<(usize, (f64, f64))> = quadrants
+            .iter()
+            .filter_map(|q| Some((q.5?, q.6?)))
+            .collect();
+        let force_lag = self.force_lag(&crossings, half(0.1));
+
+        let mut rows = Vec::new();
+        for (sa_positive, turn, abs_sa_increasing, a, b, crossing, line) in quadrants {
+            let Some(peak) = self.peak(&mu, &mu_s, a, b, hz, cfg) else {
+                continue;
+            };
+            let at = |v: &[f64]| interpolate(&self.t, v, peak.t).unwrap_or(f64::NAN);
+            // Temperatures when the tread had the grip the peak shows: the force lags the
+            // slip angle and the grip by `force_lag`. A local parabola over the peak window
+            // (the IR noise would otherwise dominate the mu(T) scatter on the steep cold
+            // side).
+            let t_grip = peak.t - force_lag.unwrap_or(0.0);
+            let local = |v: &[f64]| local_fit(&self.t, v, peak.window, t_grip);
+            let (alpha_del, fy_del) = match (crossing, line) {
+                (Some(k), Some((b0, c))) => {
+                    self.delineation(&fy_s, k, peak.index, b0, c, cfg.delineation_n)
+                }
+                _ => (f64::NAN, f64::NAN),
+            };
+            let (mean, slope, break_even) = heating(&dtdt[a..b], &mu_s[a..b]);
+            let seg_index = self.seg[peak.index.min(n - 1)];
+            let alpha_peak = at(&self.alpha);
+            let peak_interior =
+                alpha_peak.abs() < self.alpha[turn].abs() - cfg.turnaround_margin_rad;
+            rows.push(ThermalSweepRow {
+                key: key.clone(),
+                segment_id: self.ids[seg_index].clone(),
+                source_file: source.to_string(),
+                quadrant: Quadrant {
+                    abs_sa_increasing,
+                    sa_positive,
+                },
+                et_peak_s: peak.t,
+                alpha_peak_rad: alpha_peak,
+                fz_n: at(&self.fz),
+                mu_peak: peak.mu,
+                peak_interior,
+                t_centre_peak_c: local(&centre).0,
+                t_inner_peak_c: inner.as_deref().map_or(f64::NAN, |v| local(v).0),
+                t_outer_peak_c: outer.as_deref().map_or(f64::NAN, |v| local(v).0),
+                dtdt_peak_c_per_s: local(&centre).1,
+                mu_time_curvature_per_s2: peak.c2,
+                alpha_rate_rad_per_s: local(&self.alpha).1,
+                ir_delay_s: at(&delay),
+                force_lag_s: force_lag.unwrap_or(f64::NAN),
+                cornering_stiffness_n_per_rad: line.map_or(f64::NAN, |l| l.1),
+                alpha_delineation_rad: alpha_del,
+                fy_delineation_n: fy_del,
+                dtdt_mean_c_per_s: mean,
+                dtdt_slope_c_per_s: slope,
+                mu_break_even: break_even,
+            });
         }
         if rows.is_empty() {
             return Err(format!(
@@ -542,6 +563,45 @@ impl Test {
             c2,
             window: (lo, hi),
         })
+    }
+
+    /// Lag of `FY` behind the slip angle over the whole test, s, from the hysteresis of the
+    /// stiffness lines at the zero crossings: with `FY(t) = F_ss(SA(t - tau))` the line through
+    /// a crossing is `FY = b_ss - C SA' tau + C SA`, so its offset `b` moves by `C SA' tau`
+    /// between sweep directions. `b_k = b_0 + b_1 (t_k - t_mean) - tau C_k SA'_k` by least
+    /// squares over the crossings (`b_1`: an offset drifting as the tread warms; SVy scales
+    /// with grip). `None` without at least four crossings in both sweep directions, or a lag
+    /// outside `[0, MAX_FORCE_LAG_S]`.
+    ///
+    /// The same lag holds for the grip: the force at the peak is the tire as it was `tau`
+    /// earlier. Reading the temperatures at the peak itself put them `tau dT/dt` too hot, most on
+    /// the steep cold side; on the noise-free full virtual round (tau ~ 40 ms) that biased the
+    /// peak gain by +0.6 % on average (+0.04 % with the machine's relaxation switched off).
+    fn force_lag(&self, crossings: &[(usize, (f64, f64))], h: usize) -> Option<f64> {
+        let mut seen = std::collections::BTreeSet::new();
+        let pts: Vec<(f64, f64, f64)> = crossings
+            .iter()
+            .filter(|(k, _)| seen.insert(*k))
+            .filter_map(|&(k, (b, c))| {
+                let (lo, hi) = (k.saturating_sub(h), (k + h).min(self.t.len() - 1));
+                let rate = (self.alpha[hi] - self.alpha[lo]) / (self.t[hi] - self.t[lo]);
+                let x = c * rate;
+                (x.is_finite() && b.is_finite() && x != 0.0).then_some((self.t[k], x, b))
+            })
+            .collect();
+        let both = pts.iter().any(|p| p.1 > 0.0) && pts.iter().any(|p| p.1 < 0.0);
+        if pts.len() < 4 || !both {
+            return None;
+        }
+        let t_mean = pts.iter().map(|p| p.0).sum::<f64>() / pts.len() as f64;
+        let design = DMatrix::from_fn(pts.len(), 3, |r, c| match c {
+            0 => 1.0,
+            1 => pts[r].0 - t_mean,
+            _ => -pts[r].1,
+        });
+        let y = DVector::from_iterator(pts.len(), pts.iter().map(|p| p.2));
+        let tau = solve(&design, &y).ok()?.params[2];
+        (0.0..=MAX_FORCE_LAG_S).contains(&tau).then_some(tau)
     }
 
     /// Line `FY = b + C alpha` over the samples within the stiffness window of crossing `k`.
@@ -871,6 +931,9 @@ fn fit_mu_of_t(
         converged,
     })
 }
+
+/// Longest plausible lag of the lateral force, s (a relaxation length of 1 m at 7 km/h).
+const MAX_FORCE_LAG_S: f64 = 0.5;
 
 /// A peak further than this many robust standard deviations from the `mu(T)` curve is left out.
 const OUTLIER_MADS: f64 = 4.0;

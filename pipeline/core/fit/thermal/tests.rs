@@ -190,6 +190,49 @@ fn noisy_lagged_round_4_and_round_9_tests_meet_the_issue_tolerances() {
 }
 
 #[test]
+fn the_force_lag_is_measured_from_the_hysteresis_at_the_zero_crossings() {
+    let sigma = fsae_model([1.75, 1.5, 2.05, -0.6, 0.1])
+        .relaxation_lengths(FZ_N, 0.0)
+        .1;
+    let tau = sigma / V_MPS;
+    for (hz, noise, lag, seed) in [
+        (100.0, 0.0, true, 2),
+        (50.0, 1.0, true, 3),
+        (100.0, 0.0, false, 4),
+    ] {
+        let o = Options {
+            hz,
+            cycles: 8,
+            noise,
+            lag,
+            law: LAW,
+            seed,
+        };
+        let out = run(&cold_to_warm(&o, "A"), &ThermalConfig::default());
+        assert!(out.failures.is_empty(), "{:?}", out.failures);
+        let got = out.rows[0].force_lag_s;
+        assert!(
+            out.rows
+                .iter()
+                .all(|r| r.force_lag_s.to_bits() == got.to_bits())
+        );
+        if lag {
+            let tol = if noise > 0.0 { 0.10 } else { 0.03 };
+            assert!(
+                (got / tau - 1.0).abs() < tol,
+                "{hz} Hz: lag {got} s, truth {tau} s"
+            );
+        } else {
+            // A lag-free tire: none, or a few milliseconds at most.
+            assert!(
+                got.is_nan() || got < 0.003,
+                "lag {got} s without relaxation"
+            );
+        }
+    }
+}
+
+#[test]
 fn a_hotter_falloff_is_measured_when_the_tire_gets_past_its_peak() {
     let law = Law {
         hot_falloff: 2.0,
