@@ -5,7 +5,7 @@
 //! `tirebase synth round` into a temp dir (never real TTC data). Out, per file and in total on
 //! stdout: MB/s (1 MB = 10^6 bytes of raw file) of
 //! - `ingest`: `tirebase::ingest::run` on that one file into a fresh store: stat, SHA-256, parse,
-//!   unit conversion and ISO-W frame, segmentation, Parquet write of samples and segments (zstd),
+//!   unit conversion and ISO-W frame, segmentation, Parquet write of samples and segments (Snappy),
 //!   runs table commit;
 //! - `parse`: `tirebase_core::ttc::read_run` alone (parse + convert);
 //! - `polars_csv`: polars' CSV reader reading the file into a DataFrame (tab separator, line 1
