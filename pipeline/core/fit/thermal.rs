@@ -152,7 +152,8 @@ pub struct ThermalSweepRow {
     /// The peak lies inside the quadrant, not at its largest `|SA|` (where a force still rising
     /// with slip angle is cut off by the sweep: not a peak of the force curve).
     pub peak_interior: bool,
-    /// Centre tread temperature at the peak, IR lag removed, degC.
+    /// Centre tread temperature at the peak (IR lag removed, read `force_lag_s` before it),
+    /// degC.
     pub t_centre_peak_c: f64,
     /// Inner tread temperature at the peak, IR lag removed, degC (NaN without the channel).
     pub t_inner_peak_c: f64,
@@ -434,17 +435,34 @@ impl Test {
                     zero_crossing(&fy_s, turn, (hi + half(0.5)).min(n), false)
                 };
                 let line = crossing.and_then(|k| self.stiffness_line(k, cfg));
-                quadrants.push((sa_positive, turn, abs_sa_increasing, a, b, crossing, line));
+                quadrants.push(QuadrantSpan {
+                    sa_positive,
+                    turn,
+                    abs_sa_increasing,
+                    a,
+                    b,
+                    crossing,
+                    line,
+                });
             }
         }
         let crossings: Vec<(usize, (f64, f64))> = quadrants
             .iter()
-            .filter_map(|q| Some((q.5?, q.6?)))
+            .filter_map(|q| Some((q.crossing?, q.line?)))
             .collect();
         let force_lag = self.force_lag(&crossings, half(0.1));
 
         let mut rows = Vec::new();
-        for (sa_positive, turn, abs_sa_increasing, a, b, crossing, line) in quadrants {
+        for QuadrantSpan {
+            sa_positive,
+            turn,
+            abs_sa_increasing,
+            a,
+            b,
+            crossing,
+            line,
+        } in quadrants
+        {
             let Some(peak) = self.peak(&mu, &mu_s, a, b, hz, cfg) else {
                 continue;
             };
@@ -484,7 +502,7 @@ impl Test {
                 t_outer_peak_c: outer.as_deref().map_or(f64::NAN, |v| local(v).0),
                 dtdt_peak_c_per_s: local(&centre).1,
                 mu_time_curvature_per_s2: peak.c2,
-                alpha_rate_rad_per_s: local(&self.alpha).1,
+                alpha_rate_rad_per_s: local_fit(&self.t, &self.alpha, peak.window, peak.t).1,
                 ir_delay_s: at(&delay),
                 force_lag_s: force_lag.unwrap_or(f64::NAN),
                 cornering_stiffness_n_per_rad: line.map_or(f64::NAN, |l| l.1),
@@ -652,6 +670,18 @@ impl Test {
         }
         (f64::NAN, f64::NAN)
     }
+}
+
+/// One quadrant of a half-cycle: samples `[a, b)`, the half-cycle's largest `|SA|` at `turn`,
+/// and the `FY` zero crossing next to it with that crossing's stiffness line `(b, C)`.
+struct QuadrantSpan {
+    sa_positive: bool,
+    turn: usize,
+    abs_sa_increasing: bool,
+    a: usize,
+    b: usize,
+    crossing: Option<usize>,
+    line: Option<(f64, f64)>,
 }
 
 /// `(value, slope)` at `t0` of a parabola fitted to `y(t)` over the samples `window`.
@@ -932,8 +962,10 @@ fn fit_mu_of_t(
     })
 }
 
-/// Longest plausible lag of the lateral force, s (a relaxation length of 1 m at 7 km/h).
-const MAX_FORCE_LAG_S: f64 = 0.5;
+/// Longest plausible lag of the lateral force, s: a relaxation length of 1 m (twice Table 15's
+/// at 1557 N) at 15 mph, the slowest TTC cornering speed. A longer estimate is a disturbed
+/// test, not relaxation, and the temperatures are then read at the peak itself.
+const MAX_FORCE_LAG_S: f64 = 0.15;
 
 /// A peak further than this many robust standard deviations from the `mu(T)` curve is left out.
 const OUTLIER_MADS: f64 = 4.0;
