@@ -155,9 +155,9 @@ pub struct ThermalSweepRow {
     /// Centre tread temperature at the peak (IR lag removed, read `force_lag_s` before it),
     /// degC.
     pub t_centre_peak_c: f64,
-    /// Inner tread temperature at the peak, IR lag removed, degC (NaN without the channel).
+    /// Inner tread temperature, read like the centre one, degC (NaN without the channel).
     pub t_inner_peak_c: f64,
-    /// Outer tread temperature at the peak, IR lag removed, degC (NaN without the channel).
+    /// Outer tread temperature, read like the centre one, degC (NaN without the channel).
     pub t_outer_peak_c: f64,
     /// IR lag removed at the peak, s.
     pub ir_delay_s: f64,
