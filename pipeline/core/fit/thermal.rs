@@ -163,7 +163,7 @@ pub struct ThermalSweepRow {
     pub ir_delay_s: f64,
     /// Lag of the lateral force behind slip angle and grip (relaxation length over speed),
     /// estimated over the whole test; the temperatures are read this long before the peak.
-    /// NaN when the test has too few zero crossings in both sweep directions (no shift).
+    /// NaN with fewer than four zero crossings, or none in one sweep direction (no shift).
     pub force_lag_s: f64,
     /// `dT/dt` of the centre temperature at the peak, degC/s.
     pub dtdt_peak_c_per_s: f64,
@@ -588,7 +588,7 @@ impl Test {
     /// a crossing is `FY = b_ss - C SA' tau + C SA`, so its offset `b` moves by `C SA' tau`
     /// between sweep directions. `b_k = b_0 + b_1 (t_k - t_mean) - tau C_k SA'_k` by least
     /// squares over the crossings (`b_1`: an offset drifting as the tread warms; SVy scales
-    /// with grip). `None` without at least four crossings in both sweep directions, or a lag
+    /// with grip). `None` with fewer than four crossings, none in one sweep direction, or a lag
     /// outside `[0, MAX_FORCE_LAG_S]`.
     ///
     /// The same lag holds for the grip: the force at the peak is the tire as it was `tau`
