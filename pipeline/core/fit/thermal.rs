@@ -480,6 +480,7 @@ impl Test {
                 _ => (f64::NAN, f64::NAN),
             };
             let (mean, slope, break_even) = heating(&dtdt[a..b], &mu_s[a..b]);
+            let (t_centre, dtdt_centre) = local(&centre);
             let seg_index = self.seg[peak.index.min(n - 1)];
             let alpha_peak = at(&self.alpha);
             let peak_interior =
@@ -497,10 +498,10 @@ impl Test {
                 fz_n: at(&self.fz),
                 mu_peak: peak.mu,
                 peak_interior,
-                t_centre_peak_c: local(&centre).0,
+                t_centre_peak_c: t_centre,
                 t_inner_peak_c: inner.as_deref().map_or(f64::NAN, |v| local(v).0),
                 t_outer_peak_c: outer.as_deref().map_or(f64::NAN, |v| local(v).0),
-                dtdt_peak_c_per_s: local(&centre).1,
+                dtdt_peak_c_per_s: dtdt_centre,
                 mu_time_curvature_per_s2: peak.c2,
                 alpha_rate_rad_per_s: local_fit(&self.t, &self.alpha, peak.window, peak.t).1,
                 ir_delay_s: at(&delay),
