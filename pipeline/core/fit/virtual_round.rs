@@ -306,7 +306,7 @@ fn check_round(round: &Round) {
         let e = r.sigma_m / t - 1.0;
         let el = r.sigma_law_m / t - 1.0;
         println!(
-            "relax {} {} {} Fz {:>5} rate {:.3}: sigma {:.4} truth {:.4} ({:+.2} %), law {:+.2} %, spread {:.4}, se {:.4} ({:+.1} se), a {:.4}, c {:.0}, n_seg {}",
+            "relax {} {} {} Fz {:>5} rate {:.3}: sigma {:.4} truth {:.4} ({:+.2} %), own {:+.2} %, prior {:+.2} %, weight {:.2}, law {:+.2} %, spread {:.4}, se {:.4} ({:+.1} se), a {:.4}, c {:.0}, n_seg {}",
             r.key,
             r.direction.as_str(),
             r.method.as_str(),
@@ -315,10 +315,13 @@ fn check_round(round: &Round) {
             r.sigma_m,
             t,
             100.0 * e,
+            100.0 * (r.sigma_row_m / t - 1.0),
+            100.0 * (r.sigma_prior_m / t - 1.0),
+            r.pool_weight,
             100.0 * el,
             r.sigma_spread_m,
             r.sigma_se_m,
-            (r.sigma_m - t) / r.sigma_se_m,
+            (r.sigma_row_m - t) / r.sigma_se_m,
             r.contact_half_length_m,
             r.carcass_stiffness_n_per_m,
             r.n_segments
