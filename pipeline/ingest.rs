@@ -19,6 +19,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
 use polars::prelude::*;
@@ -602,27 +603,44 @@ fn write_file_parts(
         ensure_dir(&dir)?;
         write_arrow_parquet_atomic_with(&dir.join(&part_name), Durability::Deferred, schema, batch)
     };
-    // Partitions are independent files (a run has ~35): written by `writers` scoped threads,
-    // which block while they work (rayon workers would steal and nest other files' jobs).
+    let segments_table = || -> Result<(), StoreError> {
+        let df = segments_frame(ctx, segments).map_err(|e| StoreError::polars(store, e))?;
+        let mut df = schema::table("segments").conform(df)?;
+        write_parquet_atomic_with(
+            &store.join(segments_file(ctx.name, ctx.sha)),
+            Durability::Deferred,
+            &mut df,
+        )
+    };
+    // Partitions are independent files (a run has ~30): the calling thread and `writers - 1`
+    // scoped threads (which block while they work; rayon workers would steal and nest other
+    // files' jobs) take them from one queue, the calling thread after the segments table. The
+    // first failure stops every taker.
     let parts: Vec<_> = by_partition.iter().collect();
-    let chunk = parts.len().div_ceil(writers.max(1)).max(1);
+    let next = AtomicUsize::new(0);
+    let failed = AtomicBool::new(false);
+    let take = || -> Result<(), StoreError> {
+        while !failed.load(Ordering::Relaxed) {
+            let Some(&part) = parts.get(next.fetch_add(1, Ordering::Relaxed)) else {
+                break;
+            };
+            write(part).inspect_err(|_| failed.store(true, Ordering::Relaxed))?;
+        }
+        Ok(())
+    };
     std::thread::scope(|s| {
-        let handles: Vec<_> = parts
-            .chunks(chunk)
-            .map(|mine| s.spawn(move || mine.iter().try_for_each(|&p| write(p))))
+        let helpers: Vec<_> = (1..writers.clamp(1, parts.len().max(1)))
+            .map(|_| s.spawn(take))
             .collect();
-        handles.into_iter().try_for_each(|h| {
+        let mine = segments_table()
+            .inspect_err(|_| failed.store(true, Ordering::Relaxed))
+            .and_then(|()| take());
+        let theirs = helpers.into_iter().try_for_each(|h| {
             h.join()
                 .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
-        })
-    })?;
-    let df = segments_frame(ctx, segments).map_err(|e| StoreError::polars(store, e))?;
-    let mut df = schema::table("segments").conform(df)?;
-    write_parquet_atomic_with(
-        &store.join(segments_file(ctx.name, ctx.sha)),
-        Durability::Deferred,
-        &mut df,
-    )
+        });
+        mine.and(theirs)
+    })
 }
 
 /// Gather `column[i]` for every sample index of the segments.

@@ -4,9 +4,10 @@
 //! In: `.dat` files given as arguments, else the `.dat` files of a demo virtual round written by
 //! `tirebase synth round` into a temp dir (never real TTC data). Out, per file and in total on
 //! stdout: MB/s (1 MB = 10^6 bytes of raw file) of
-//! - `ingest`: `tirebase::ingest::run` on that one file into a fresh store: stat, SHA-256, parse,
-//!   unit conversion and ISO-W frame, segmentation, Parquet write of samples and segments (Snappy),
-//!   runs table commit;
+//! - `ingest`: `tirebase::ingest::run` on that one file into a fresh (empty) store: lock, stat,
+//!   SHA-256, parse, unit conversion and ISO-W frame, segmentation, Parquet write of samples and
+//!   segments (Snappy), `syncfs`, runs table commit (the store's removal afterwards is not
+//!   timed);
 //! - `parse`: `tirebase_core::ttc::read_run` alone (parse + convert);
 //! - `polars_csv`: polars' CSV reader reading the file into a DataFrame (tab separator, line 1
 //!   skipped, names from line 2, the units line skipped, every column parsed as f64 by a given
@@ -44,13 +45,16 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// Full ingest of one file into a fresh store below `scratch`.
-fn ingest_once(file: &Path, scratch: &Path, segment: &SegmentConfig) {
-    ingest_batch(std::slice::from_ref(&file.to_path_buf()), scratch, segment);
+/// Seconds of a full ingest of one file into a fresh store below `scratch`.
+fn ingest_once(file: &Path, scratch: &Path, segment: &SegmentConfig) -> f64 {
+    ingest_batch(std::slice::from_ref(&file.to_path_buf()), scratch, segment)
 }
 
-/// One ingest call over `files` (in parallel, as a round is ingested) into a fresh store.
-fn ingest_batch(files: &[PathBuf], scratch: &Path, segment: &SegmentConfig) {
+/// Seconds of one ingest call over `files` (in parallel, as a round is ingested) into a fresh
+/// store. Timed: the call alone. Not timed: creating the empty store directory, and removing
+/// the store afterwards plus a `sync`, so the next run's `syncfs` does not flush this run's
+/// deletions (neither is part of an ingest).
+fn ingest_batch(files: &[PathBuf], scratch: &Path, segment: &SegmentConfig) -> f64 {
     let store = tempfile::tempdir_in(scratch).expect("temp store");
     let opts = IngestOptions {
         store: store.path(),
@@ -60,11 +64,17 @@ fn ingest_batch(files: &[PathBuf], scratch: &Path, segment: &SegmentConfig) {
         lock_wait: LockWait::Refuse,
         rehash: false,
     };
+    let start = Instant::now();
     let report = ingest::run(files, &opts, &Silent).expect("ingest");
+    let seconds = start.elapsed().as_secs_f64();
     assert_eq!(
         report.count(|s| *s == ingest::FileStatus::Ingested),
         files.len()
     );
+    drop(store);
+    // SAFETY: `sync` takes no arguments and cannot fail.
+    unsafe { libc::sync() };
+    seconds
 }
 
 fn parse_once(file: &Path) {
@@ -151,7 +161,7 @@ fn main() {
         polars_once(file, &schema);
         let mut t = [Vec::new(), Vec::new(), Vec::new()];
         for _ in 0..reps {
-            t[0].push(time(|| ingest_once(file, scratch.path(), &segment)));
+            t[0].push(ingest_once(file, scratch.path(), &segment));
             t[1].push(time(|| parse_once(file)));
             t[2].push(time(|| polars_once(file, &schema)));
         }
@@ -184,7 +194,7 @@ fn main() {
     let schemas: Vec<SchemaRef> = files.iter().map(|f| dat_schema(f)).collect();
     let mut t = [Vec::new(), Vec::new()];
     for _ in 0..reps {
-        t[0].push(time(|| ingest_batch(&files, scratch.path(), &segment)));
+        t[0].push(ingest_batch(&files, scratch.path(), &segment));
         t[1].push(time(|| {
             for (f, schema) in files.iter().zip(&schemas) {
                 polars_once(f, schema);

@@ -755,3 +755,34 @@ fn a_noisy_row_leans_on_the_law_of_its_neighbours() {
         assert!((r.sigma_m / r.sigma_row_m - 1.0).abs() < 0.01, "{r:?}");
     }
 }
+
+#[test]
+fn pooling_keeps_table_15_rows_the_law_cannot_follow() {
+    // The real round-4 tire of Table 15: sigma grows like sqrt(Fz), which PAC2002's law misses
+    // by 20-30 % at 222 N (see the test above). Pooled with the law of the other rows, each row
+    // must keep its own value: the held-out rows stray far from the law, so the prior's
+    // variance is large and no row leans on it.
+    let mut model = fsae_model(PT);
+    model.coefs[Coef::FNOMIN] = 1112.0;
+    model.coefs[Coef::UNLOADED_RADIUS] = 20.5 * 0.0254 / 2.0;
+    let input = RelaxationInput {
+        key: key("T", 83),
+        model: &model,
+        unloaded_radius_m: model.coefs[Coef::UNLOADED_RADIUS],
+        vertical_stiffness_n_per_m: 136_200.0,
+        segments: &[],
+    };
+    let mut rows: Vec<RelaxationRow> = TABLE_15
+        .iter()
+        .map(|&(fz, _, _, _, sigma, _)| {
+            let se = if fz < 300.0 { 0.03 } else { 0.01 };
+            row_at(Direction::Lateral, fz, sigma, se)
+        })
+        .collect();
+    pool_with_law(&input, &mut rows, &RelaxationConfig::default());
+    for r in &rows {
+        assert!(r.sigma_prior_m.is_finite(), "{r:?}");
+        assert!(r.pool_weight < 0.1, "{r:?}");
+        assert!((r.sigma_m / r.sigma_row_m - 1.0).abs() < 0.02, "{r:?}");
+    }
+}
