@@ -190,7 +190,7 @@ pub fn write_arrow_parquet<W: Write>(
 ) -> PolarsResult<()> {
     use polars_parquet::write::{
         CompressionOptions, Encoding, FileWriter, RowGroupIterator, Version, WriteOptions,
-        get_dtype_encoding, schema_to_metadata_key,
+        get_dtype_encoding,
     };
     let integer = |dtype: &ArrowDataType| {
         use ArrowDataType as A;
@@ -201,7 +201,7 @@ pub fn write_arrow_parquet<W: Write>(
     };
     // The readers' schema (in the file's metadata) stays the caller's; only the pages of
     // run-constant string columns are dictionary-encoded.
-    let metadata = schema_to_metadata_key(&schema);
+    let metadata = arrow_schema_metadata(&schema);
     let (schema, batches) = dictionary_encode_string_runs(schema, batches)?;
     let encodings = schema
         .iter_values()
@@ -230,6 +230,25 @@ pub fn write_arrow_parquet<W: Write>(
     }
     writer.end(Some(vec![metadata]))?;
     Ok(())
+}
+
+/// The file metadata entry holding the Arrow schema (an IPC message, base64): serialised once
+/// per thread and schema, not once per file (a run's ~30 partitions share one schema; it was
+/// ~3 % of ingest).
+fn arrow_schema_metadata(schema: &ArrowSchema) -> polars_parquet::write::KeyValue {
+    use std::cell::RefCell;
+    thread_local! {
+        static LAST: RefCell<Option<(ArrowSchema, polars_parquet::write::KeyValue)>> =
+            const { RefCell::new(None) };
+    }
+    LAST.with_borrow_mut(|last| match last {
+        Some((cached, key)) if cached == schema => key.clone(),
+        _ => {
+            let key = polars_parquet::write::schema_to_metadata_key(schema);
+            *last = Some((schema.clone(), key.clone()));
+            key
+        }
+    })
 }
 
 /// A string column of one batch made of at most one run per this many rows is written as a
