@@ -163,16 +163,15 @@ pub fn write_parquet_atomic_with(
 /// column decides ingest speed. polars' own `ParquetWriter` asks every float and string column
 /// whether a dictionary would pay, by a HyperLogLog count of its distinct values whose cost
 /// does not shrink with the column; measured, that was the largest single cost of ingest, for
-/// an answer that is always no for a measured channel and never needed for a constant string
-/// (the compressor shrinks a repeated file name to almost nothing). So floats and strings are
-/// written `PLAIN`, except a string column made of a few long runs (a partition's file name,
-/// hash and segment ids), found by comparing neighbours and written as a dictionary
+/// an answer that is always no for a measured channel. So floats are written `PLAIN`; so are
+/// strings, except a column made of a few long runs (a partition's file name, hash and segment
+/// ids), found by comparing neighbours and written as a dictionary
 /// ([`dictionary_encode_string_runs`]); integers keep polars' choice (a dictionary when their
-/// range is small, decided from min and max, no counting). Compression is Snappy, the Parquet default every
-/// reader has: on a 470-row, 27-column partition (release build) writing took 0.66 ms with
-/// Snappy, 0.86 ms with LZ4 (whose C encoder clears a 16 KiB table for every page) and 1.6 ms
-/// with zstd level 1, for files about a third larger than zstd's. Readers see the schema of
-/// the DataFrame (the Arrow schema travels in the file's metadata).
+/// range is small, decided from min and max, no counting). Compression is Snappy, the Parquet
+/// default every reader has: on a 470-row, 27-column partition (release build) writing took
+/// 0.66 ms with Snappy, 0.86 ms with LZ4 (whose C encoder clears a 16 KiB table for every page)
+/// and 1.6 ms with zstd level 1, for files about a third larger than zstd's. Readers see the
+/// schema of the DataFrame (the Arrow schema travels in the file's metadata).
 pub fn write_parquet<W: Write>(w: W, df: &mut DataFrame) -> PolarsResult<()> {
     df.rechunk_mut();
     let schema = df.schema().to_arrow(CompatLevel::newest());
