@@ -962,11 +962,11 @@ fn usable(r: &RelaxationRow) -> bool {
 /// and the `.tir`'s `PTY`/`PTX` are fitted to the own estimates, not to the pooled ones.
 ///
 /// Full virtual round (48 tires x pressures, truth model), error of `sigma_m` at 222 N, mean /
-/// sd / worst: lateral -0.5 / 1.1 / 2.6 %, longitudinal -1.7 / 0.8 / 3.4 % (own estimates:
-/// -1.1 / 3.8 / 11.5 % and -1.9 / 2.3 / 9.1 %); worst over all 504 rows 3.4 % (own: 11.5 %).
-/// The well-measured rows at the highest load get a little worse (longitudinal 1557 N: mean
-/// +0.1 -> -0.4 %, sd 0.2 -> 0.6 %), since the law's prediction there is an extrapolation and
-/// one `q` serves every row.
+/// sd / worst: lateral -0.5 / 0.9 / 2.2 %, longitudinal -1.6 / 0.7 / 3.4 % (own estimates:
+/// -1.1 / 3.8 / 11.5 % and -1.9 / 2.3 / 9.1 %); worst over all 504 rows 3.4 % (own: 11.5 %),
+/// and 3.4 % again on another seed (own: 14.5 %). The well-measured rows at the highest load get
+/// a little worse (longitudinal 1557 N: mean +0.1 -> -0.4 %, sd 0.2 -> 0.7 %), since the law's
+/// prediction there is an extrapolation and `q` is shared by rows of every load.
 fn pool_with_law(input: &RelaxationInput<'_>, rows: &mut [RelaxationRow], cfg: &RelaxationConfig) {
     let mut priors = Vec::new();
     for (i, row) in rows.iter().enumerate() {
