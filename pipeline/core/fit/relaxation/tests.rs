@@ -654,6 +654,18 @@ fn row_at(direction: Direction, fz: f64, sigma: f64, se_rel: f64) -> RelaxationR
     }
 }
 
+/// An input with the model, its `R0` and the vertical stiffness `cz_n_per_m` but no segments:
+/// all that pooling rows needs.
+fn without_segments(model: &Pac2002, cz_n_per_m: f64) -> RelaxationInput<'_> {
+    RelaxationInput {
+        key: key("T", 83),
+        model,
+        unloaded_radius_m: model.coefs[Coef::UNLOADED_RADIUS],
+        vertical_stiffness_n_per_m: cz_n_per_m,
+        segments: &[],
+    }
+}
+
 /// Rows at the round's loads following the model's own laws, each scaled by `factor(direction,
 /// load index)`, with relative standard error `se_rel(direction, load index)`.
 fn law_rows(
@@ -687,13 +699,7 @@ fn law_rows(
 #[test]
 fn a_noisy_row_leans_on_the_law_of_its_neighbours() {
     let model = fsae_model(PT);
-    let input = RelaxationInput {
-        key: key("T", 83),
-        model: &model,
-        unloaded_radius_m: model.coefs[Coef::UNLOADED_RADIUS],
-        vertical_stiffness_n_per_m: 137_800.0,
-        segments: &[],
-    };
+    let input = without_segments(&model, 137_800.0);
     let cfg = RelaxationConfig::default();
     // The lowest lateral load is 6 % low with a 4 % standard error; the rest are exact (0.5 %).
     let mut rows = law_rows(
@@ -765,13 +771,7 @@ fn pooling_keeps_table_15_rows_the_law_cannot_follow() {
     let mut model = fsae_model(PT);
     model.coefs[Coef::FNOMIN] = 1112.0;
     model.coefs[Coef::UNLOADED_RADIUS] = 20.5 * 0.0254 / 2.0;
-    let input = RelaxationInput {
-        key: key("T", 83),
-        model: &model,
-        unloaded_radius_m: model.coefs[Coef::UNLOADED_RADIUS],
-        vertical_stiffness_n_per_m: 136_200.0,
-        segments: &[],
-    };
+    let input = without_segments(&model, 136_200.0);
     let mut rows: Vec<RelaxationRow> = TABLE_15
         .iter()
         .map(|&(fz, _, _, _, sigma, _)| {
