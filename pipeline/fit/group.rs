@@ -162,7 +162,9 @@ fn relaxation_segment(s: &LoadedSegment) -> bool {
 pub fn used_by(stages: &StageSet, kind: SegmentKind) -> bool {
     let pac = kind.is_matrix();
     let spring = spring_rate_kind(kind);
-    let thermal = kind == SegmentKind::ColdToWarm;
+    // The cold-to-warm tests, and the air temperature of every classified segment (the mu(T)
+    // gain's cold reference): `--stages thermal` reads what the full fit reads.
+    let thermal = kind != SegmentKind::Other;
     let relax = relaxation_kind(kind);
     // PAC2002 needs the spring-rate segments for Cz/R0 and relaxation needs the PAC2002 model.
     (stages.pac2002 && (pac || spring))

@@ -21,7 +21,13 @@
 //!    `tau = sigma/V` earlier (~40 ms at 1112 N). `tau` is measured per test from the hysteresis
 //!    of the stiffness lines of step 4 between the two sweep directions (`Test::force_lag`).
 //!    A maximum at the quadrant's largest `|SA|` (force still rising, cut off by the sweep) is
-//!    flagged not interior and left out of `mu(T)` when there are enough interior peaks.
+//!    flagged not interior, and a maximum whose time parabola has no vertex in its window keeps
+//!    the smoothed maximum (`mu_time_curvature_per_s2` NaN); both are left out of `mu(T)` when
+//!    there are enough other peaks. The unresolved ones are mostly the first increasing-`|SA|`
+//!    peaks of the cold tire, where grip rises fastest: kept in, their smoothed, uncorrected
+//!    values (~1 % low) bent the fitted curve and put single groups' gains 4-5 % off on the
+//!    full virtual round (seeds 1 and 20261122); left out, the worst of 48 fell to under 2 %
+//!    with the truth's cold temperature.
 //! 4. At the `FY` zero crossing next to each quadrant, a line `FY = b + C SA` over
 //!    `stiffness_half_window_rad` gives the cornering stiffness `C`; walking from the crossing
 //!    towards the peak, the first sample more than `delineation_n` (100 N, the thesis's rule)
@@ -39,11 +45,11 @@
 //!    `gain_peak_over_cold = 1/(1 - k_c (T_cold - T_peak)^2) - 1` with `T_cold` the air
 //!    temperature (the cold tire's temperature), else the tread temperature at the start of the
 //!    tests: the same meaning as the virtual machine's truth. The air temperature is the mean
-//!    of the ambient channel over *every* segment passed for the tire (all kinds, all runs), not
-//!    only over its cold-to-warm tests: the gain moves ~9 % per degC of `T_cold` (at 35 % gain
-//!    and `T_peak - T_cold` ~ 30 degC), and the air wanders by a few tenths of a degree over
-//!    the two minutes of a test (on the full virtual round the test-only mean put the gain up
-//!    to 5 % off; averaged over the runs the reference is within ~0.1 degC).
+//!    of the ambient channel over *every* classified segment passed for the tire (all kinds but
+//!    `other`, all runs), not only over its cold-to-warm tests: the gain moves ~9 % per degC of
+//!    `T_cold` (at 35 % gain and `T_peak - T_cold` ~ 30 degC), and the air wanders by a few
+//!    tenths of a degree over the two minutes of a test (on the full virtual round the
+//!    test-only mean scattered by 0.13 degC between groups, the all-runs mean by 0.045 degC).
 //!
 //! Deliberately not here: reading the store, writing tables, any use of `mu(T)` in the PAC2002
 //! fit.
@@ -263,10 +269,10 @@ pub fn run(segments: &[MeasuredSegment], cfg: &ThermalConfig) -> ThermalOutput {
             }),
         }
     }
-    // The cold reference: the air temperature over every segment of the tire (any kind, all its
-    // runs), not only over its cold-to-warm tests (see the module docs).
+    // The cold reference: the air temperature over every classified segment of the tire (any
+    // kind but `other`, all its runs), not only over its cold-to-warm tests (module docs).
     let mut air: BTreeMap<TireKey, (f64, usize)> = BTreeMap::new();
-    for seg in segments {
+    for seg in segments.iter().filter(|s| s.kind != SegmentKind::Other) {
         if let Some(a) = &seg.channels.ambient_c {
             let e = air.entry(seg.key.clone()).or_default();
             for v in a.iter().filter(|v| v.is_finite()) {
@@ -879,18 +885,24 @@ fn fit_mu_of_t(
     cold: &[(f64, &'static str)],
     cfg: &ThermalConfig,
 ) -> Result<ThermalFitRow, String> {
-    let usable = |r: &&&ThermalSweepRow| r.mu_peak.is_finite() && r.t_centre_peak_c.is_finite();
-    let interior: Vec<&&ThermalSweepRow> = rows
+    let usable: Vec<&&ThermalSweepRow> = rows
         .iter()
-        .filter(usable)
-        .filter(|r| r.peak_interior)
+        .filter(|r| r.mu_peak.is_finite() && r.t_centre_peak_c.is_finite())
         .collect();
-    // Cut-off maxima only when the force curve never peaks inside the sweeps.
-    let pts = if interior.len() >= cfg.min_peaks {
-        interior
-    } else {
-        rows.iter().filter(usable).collect()
-    };
+    // The best-resolved peaks that are enough for a fit: interior with a fitted vertex, else
+    // interior, else every maximum. Cut-off maxima are not peaks of the force curve. A maximum
+    // without a vertex (`mu_time_curvature_per_s2` NaN: the time parabola opens upwards or its
+    // vertex falls outside the window, typically the first increasing-|SA| peak of a cold tire
+    // whose grip rises faster than the sweep passes the peak) is a smoothed sample, biased low
+    // by the smoothing, and cannot be corrected for the grip change during the sweep.
+    let resolved = |r: &&&ThermalSweepRow| r.peak_interior && r.mu_time_curvature_per_s2 < 0.0;
+    let pts = [
+        usable.iter().copied().filter(resolved).collect::<Vec<_>>(),
+        usable.iter().copied().filter(|r| r.peak_interior).collect(),
+    ]
+    .into_iter()
+    .find(|pts| pts.len() >= cfg.min_peaks)
+    .unwrap_or(usable);
     if pts.len() < cfg.min_peaks {
         return Err(format!(
             "{} peaks with a temperature, need {}",

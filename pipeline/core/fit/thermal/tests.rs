@@ -355,3 +355,85 @@ fn a_test_without_temperatures_fails_alone() {
         out.failures
     );
 }
+
+/// A quadrant peak on `law` at `t_c` (level `level`), with time curvature `c2` (NaN: the
+/// smoothed maximum without a vertex) and no heating at the peak (no peak-shift correction).
+fn peak_row(file: &str, quadrant: Quadrant, t_c: f64, mu: f64, c2: f64) -> ThermalSweepRow {
+    ThermalSweepRow {
+        key: key("A", 83),
+        segment_id: format!("{file}-0"),
+        source_file: file.to_string(),
+        quadrant,
+        et_peak_s: t_c,
+        alpha_peak_rad: 0.15,
+        fz_n: FZ_N,
+        mu_peak: mu,
+        peak_interior: true,
+        t_centre_peak_c: t_c,
+        t_inner_peak_c: f64::NAN,
+        t_outer_peak_c: f64::NAN,
+        ir_delay_s: 0.1,
+        force_lag_s: f64::NAN,
+        dtdt_peak_c_per_s: 0.0,
+        mu_time_curvature_per_s2: c2,
+        alpha_rate_rad_per_s: 0.14,
+        cornering_stiffness_n_per_rad: f64::NAN,
+        alpha_delineation_rad: f64::NAN,
+        fy_delineation_n: f64::NAN,
+        dtdt_mean_c_per_s: f64::NAN,
+        dtdt_slope_c_per_s: f64::NAN,
+        mu_break_even: f64::NAN,
+    }
+}
+
+#[test]
+fn maxima_without_a_vertex_are_left_out_of_mu_of_t() {
+    // Two tests x four quadrants of peaks on the law from 30 to 62 degC; each quadrant's first
+    // (coldest) maximum has no vertex and reads 1.5 % low, like the smoothed maximum of a cold
+    // tire's first increasing-|SA| peak.
+    let mut rows = Vec::new();
+    for (f, file) in ["run1.dat", "run2.dat"].iter().enumerate() {
+        for (q, (abs_sa_increasing, sa_positive)) in
+            [(true, true), (false, true), (true, false), (false, false)]
+                .into_iter()
+                .enumerate()
+        {
+            let quadrant = Quadrant {
+                abs_sa_increasing,
+                sa_positive,
+            };
+            let level = 2.4 + 0.02 * q as f64 + 0.01 * f as f64;
+            for k in 0..9 {
+                let t = 30.0 + 4.0 * k as f64 + 0.5 * q as f64;
+                let mu = level * LAW.mu_rel(t);
+                rows.push(if k == 0 {
+                    peak_row(
+                        file,
+                        quadrant,
+                        t - 2.0,
+                        0.985 * level * LAW.mu_rel(t - 2.0),
+                        f64::NAN,
+                    )
+                } else {
+                    peak_row(file, quadrant, t, mu, -0.5)
+                });
+            }
+        }
+    }
+    let cold = [(LAW.t_cold, "ambient")];
+    let refs: Vec<&ThermalSweepRow> = rows.iter().collect();
+    let fit = fit_mu_of_t(&key("A", 83), &refs, &cold, &ThermalConfig::default()).unwrap();
+    assert_eq!(fit.n, 64, "{fit:?}");
+    check(&fit, &LAW, 0.05, 0.001);
+    // The same maxima taken as resolved peaks bend the curve (the test can fail).
+    for r in rows.iter_mut() {
+        r.mu_time_curvature_per_s2 = -0.5;
+    }
+    let refs: Vec<&ThermalSweepRow> = rows.iter().collect();
+    let bent = fit_mu_of_t(&key("A", 83), &refs, &cold, &ThermalConfig::default()).unwrap();
+    assert_eq!(bent.n, 72);
+    assert!(
+        (bent.gain_peak_over_cold / LAW.gain - 1.0).abs() > 0.01,
+        "{bent:?}"
+    );
+}
