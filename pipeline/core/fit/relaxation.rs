@@ -973,8 +973,9 @@ fn pool_with_law(input: &RelaxationInput<'_>, rows: &mut [RelaxationRow], cfg: &
         if !usable(row) {
             continue;
         }
+        // Only the held-out row's direction: the other direction's law is not used here.
         let others: Vec<&RelaxationRow> = (rows.iter().enumerate())
-            .filter(|(j, _)| *j != i)
+            .filter(|(j, r)| *j != i && r.direction == row.direction)
             .map(|(_, r)| r)
             .collect();
         let law = fit_law(input, &others, cfg, &mut Vec::new());

@@ -123,6 +123,21 @@ fn full_round_meets_the_issue_6_tolerances() {
     }));
 }
 
+/// The same on other noise realizations of the full round (seed 20261122 once put one thermal
+/// gain 5.8 % off, through the unresolved cold maxima now left out of `mu(T)`).
+#[test]
+#[ignore = "renders the full round twice (~2 min at opt-level 3); run with --ignored"]
+fn full_rounds_of_other_seeds_meet_the_issue_6_tolerances() {
+    for seed in [1, 20261122] {
+        println!("seed {seed}");
+        check_round(&build_segmented(SynthConfig {
+            size: crate::synth::round::Size::Full,
+            seed,
+            ..SynthConfig::default()
+        }));
+    }
+}
+
 /// Like [`build`], but the segments come from the segmenter, not from the truth table.
 fn build_segmented(config: SynthConfig) -> Round {
     build_segmented_runs(config, |_, _, _| true)
