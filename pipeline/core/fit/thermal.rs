@@ -173,7 +173,9 @@ pub struct ThermalSweepRow {
     pub force_lag_s: f64,
     /// `dT/dt` of the centre temperature at the peak, degC/s.
     pub dtdt_peak_c_per_s: f64,
-    /// Curvature `c2` of `|FY/FZ|(t) ~ c0 + c1 u + c2 u^2` at the peak, 1/s^2 (NaN if unfitted).
+    /// Curvature `c2` of `|FY/FZ|(t) ~ c0 + c1 u + c2 u^2` at the peak, 1/s^2. NaN when the
+    /// parabola has no vertex in its window: `mu_peak` is then the smoothed maximum (biased
+    /// low) and the peak stays out of `mu(T)` when there are enough others.
     pub mu_time_curvature_per_s2: f64,
     /// `d SA/dt` at the peak, rad/s.
     pub alpha_rate_rad_per_s: f64,
