@@ -221,12 +221,17 @@ pub fn run(
             pool.segments += 1;
         }
     }
-    for ((key, condition, ia, _), pool) in &groups {
+    for ((key, condition, ia, speed_bin), pool) in &groups {
         match fit_group(key, *condition, *ia, pool, cfg) {
             Ok(row) => out.rows.push(row),
             Err(reason) => out.failures.push(StageFailure {
                 key: key.clone(),
-                scope: format!("{} ia {}", condition.as_str(), ia),
+                // Sweeps are pooled per nominal speed: name it (a speed sweep at one load is
+                // the usual skip, not the main-speed sweeps).
+                scope: match condition {
+                    Condition::Sweep => format!("sweep ia {ia} at {speed_bin} km/h"),
+                    _ => format!("{} ia {}", condition.as_str(), ia),
+                },
                 reason,
             }),
         }

@@ -207,8 +207,22 @@ fn a_tire_without_usable_data_fails_alone_with_reasons() {
         }
         segs.push(s);
     }
+    // Tire A also has a speed sweep at one load: that pool is skipped, and says which it is.
+    let mut fast = segs
+        .iter()
+        .find(|s| s.kind == SegmentKind::Cornering)
+        .unwrap()
+        .clone();
+    fast.kind = SegmentKind::SpeedSweep;
+    fast.nominal.speed_kph = Some(72);
+    segs.push(fast);
     let out = run(&segs, &fnomin(&["A"]), &SpringRateConfig::default());
     assert_eq!(out.rows.iter().filter(|r| r.key.tire == "A").count(), 7);
+    let a: Vec<_> = out.failures.iter().filter(|f| f.key.tire == "A").collect();
+    assert!(
+        a.len() == 1 && a[0].scope == "sweep ia 0 at 72 km/h" && a[0].reason.contains("load span"),
+        "{a:?}"
+    );
     assert!(out.rows.iter().all(|r| r.key.tire == "A"));
     let b: Vec<_> = out.failures.iter().filter(|f| f.key.tire == "B").collect();
     assert!(b.iter().any(|f| f.reason.contains("load span")), "{b:?}");
