@@ -213,15 +213,20 @@ dependency order, per group (groups run in parallel; the output does not depend 
                std_error, at_bound, origin), OUT/fit_quality.parquet (per channel Fy0 Mz0 Fx0
                Fx Fy Mz Mx: n, rmse N or N m, rmse_pct_of_peak %, r2, iterations, seconds),
                OUT/lint.parquet (findings of tirebase tir lint on every written file).
-  relaxation   relaxation length sigma (m) and its standard error per load, slip rate and
-               direction with the fitted model through a first-order lag; contact half length
-               (m), carcass stiffness (N/m); PTY1/PTY2, PTX1..3 (weighted by 1/SE^2; PTX3 only
-               when the rows demand it) into the .tir. With [fit] delag (default) PAC2002 is
-               refitted on de-lagged sweeps first. -> OUT/relaxation.parquet
+  relaxation   relaxation length per load, slip rate and direction with the fitted model
+               through a first-order lag: each row's own estimate (sigma_row_m, m) and its
+               standard error, and sigma_m, partially pooled with the law fitted to the
+               tire's other rows ([fit.relaxation] pool_with_law); contact half length (m),
+               carcass stiffness (N/m); PTY1/PTY2, PTX1..3 (fitted to the own estimates,
+               weighted by 1/SE^2; PTX3 only when the rows demand it) into the .tir. With
+               [fit] delag (default) PAC2002 is refitted on de-lagged sweeps first.
+               -> OUT/relaxation.parquet
   thermal      cold-to-warm tests: peak |Fy/Fz| per sweep quadrant against the IR-lag-corrected
-               centre tread temperature (degC); mu(T) curve per group.
-               -> OUT/thermal.parquet, OUT/thermal_fit.parquet (t_peak_c degC,
-               gain_peak_over_cold)
+               centre tread temperature (degC); mu(T) curve per group from the resolved peaks
+               (a maximum cut off by the sweep or without a fitted vertex is left out when
+               there are enough others). -> OUT/thermal.parquet, OUT/thermal_fit.parquet
+               (t_peak_c degC, gain_peak_over_cold: peak mu / mu at t_cold_c - 1, t_cold_c the air
+               temperature over the group's runs, degC)
 
 Every table starts with tire, rim_in (in), pressure_kpa (nominal, kPa). A stage that fails for
 a group is a row of OUT/fit_failures.parquet (stage, scope, fatal, reason) and a line on stderr;
