@@ -162,6 +162,12 @@ hash is already stored is skipped; a changed file replaces its rows atomically (
 removed); a file that cannot be read is listed in the runs table with status failed and its
 error, the rest of the batch is stored, and the rows of its last good version (if any) stay.
 
+One run is stored once: the consortium ships every run as .dat and .mat, US customary (A...)
+and SI (B...), and from Round 6 as run and raw files, so a whole round download holds each test
+up to eight times. Of the files with the same project and run number the most complete and
+precise is stored (SI, raw, .mat, then the name); the others are listed with status duplicate
+(not a failure) and keep no rows. --keep-duplicate-runs stores every file.
+
 Exit codes: 0 every file ingested (or unchanged), 1 some files failed (the others are stored),
 2 usage error.")]
 pub struct IngestArgs {
@@ -192,6 +198,10 @@ pub struct IngestArgs {
     /// coarse mtimes.
     #[arg(long)]
     pub rehash: bool,
+    /// Store every file, even when another file holds the same run (project and run number);
+    /// by default one copy of each run is stored.
+    #[arg(long)]
+    pub keep_duplicate_runs: bool,
 }
 
 /// Fit every tire, rim and pressure of a store: PAC2002 .tir files, spring rate, thermal,

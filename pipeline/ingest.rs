@@ -14,7 +14,9 @@
 //! A file that fails to read or segment is recorded as failed with a one-line reason; whatever the
 //! store held for it before stays (its row keeps `data_sha256`, `rows` and the tire of the stored
 //! version, with `status = failed`, the error and the failed content's `sha256`). One bad file
-//! never stops the others.
+//! never stops the others. Files holding the same run (project and run number: the `.dat`,
+//! `.mat`, US, SI, run and raw copies the consortium ships) are stored once
+//! (`mark_duplicate_runs`; the others get `status = duplicate`, no data).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
@@ -74,6 +76,9 @@ pub struct IngestOptions<'a> {
     /// Hash every file, even one whose size, modification time and path equal the ones the runs
     /// table recorded for it (by default such a file is taken as unchanged without reading it).
     pub rehash: bool,
+    /// Store every file even when another holds the same project and run (by default one copy
+    /// of a run is stored, see `mark_duplicate_runs`).
+    pub keep_duplicate_runs: bool,
 }
 
 /// What happened to one file.
@@ -85,6 +90,9 @@ pub enum FileStatus {
     Ingested,
     /// Could not be read or segmented; the one-line reason.
     Failed(String),
+    /// Another file holds the same run (project and run number) and is the one stored; the
+    /// one-line note naming it. Not a failure.
+    Duplicate(String),
 }
 
 /// The outcome of an ingest.
@@ -116,12 +124,18 @@ impl IngestReport {
 
     /// A one-line summary.
     pub fn summary(&self) -> String {
+        let duplicates = self.count(|s| matches!(s, FileStatus::Duplicate(_)));
         format!(
-            "{} files: {} ingested, {} unchanged, {} failed; {} segments, {} samples in {:.1} s",
+            "{} files: {} ingested, {} unchanged, {} failed{}; {} segments, {} samples in {:.1} s",
             self.files.len(),
             self.count(|s| *s == FileStatus::Ingested),
             self.count(|s| *s == FileStatus::Unchanged),
             self.count(|s| matches!(s, FileStatus::Failed(_))),
+            if duplicates > 0 {
+                format!(", {duplicates} duplicate runs (stored once)")
+            } else {
+                String::new()
+            },
             self.segments_by_kind.values().sum::<usize>(),
             self.rows,
             self.seconds
@@ -214,7 +228,7 @@ impl FileStamp {
 
     /// True when `row` is a successful ingest of this very file: same path, size and mtime.
     fn matches(&self, path: &Path, row: &RunRow) -> bool {
-        row.status == "ok"
+        (row.status == "ok" || row.status == DUPLICATE)
             && row.source_path == path.display().to_string()
             && row.size_bytes == Some(self.size_bytes)
             && row.mtime_ns == Some(self.mtime_ns)
@@ -288,18 +302,35 @@ pub fn run_locked(
 
     let mut report = IngestReport::default();
     let mut rows: BTreeMap<String, RunRow> = previous.clone();
+    let mut written: BTreeMap<String, (Vec<Segment>, usize)> = BTreeMap::new();
     for ((_, name, duplicate), (row, status, segments, n)) in jobs.iter().zip(results) {
-        for s in &segments {
+        written.insert(name.clone(), (segments, n));
+        if duplicate.is_none() {
+            rows.insert(name.clone(), row);
+        }
+        report.files.push((name.clone(), status));
+    }
+    let marked = if opts.keep_duplicate_runs {
+        BTreeMap::new()
+    } else {
+        mark_duplicate_runs(&mut rows)
+    };
+    for (name, status) in report.files.iter_mut() {
+        if let Some(row) = rows.get(name).filter(|r| r.status == DUPLICATE) {
+            *status = FileStatus::Duplicate(row.error.clone().unwrap_or_default());
+        }
+    }
+    for (name, (segments, n)) in &written {
+        if marked.contains_key(name) {
+            continue;
+        }
+        for s in segments {
             *report
                 .segments_by_kind
                 .entry(s.kind.as_str().to_string())
                 .or_default() += 1;
         }
         report.rows += n;
-        if duplicate.is_none() {
-            rows.insert(name.clone(), row);
-        }
-        report.files.push((name.clone(), status));
     }
     report.files.sort();
     if rows != previous {
@@ -316,7 +347,7 @@ pub fn run_locked(
             .files
             .iter()
             .any(|(_, s)| matches!(s, FileStatus::Failed(_)));
-        if replaced || failed {
+        if replaced || failed || !marked.is_empty() {
             collect_garbage(opts.store, &rows)?;
         }
     }
@@ -940,6 +971,64 @@ fn write_runs(store: &Path, rows: &BTreeMap<String, RunRow>) -> Result<(), Inges
 /// Delete parts that are not the committed data of some file (superseded versions, leftovers of
 /// a crashed ingest), stale temporary files, and empty partition directories. Call with the
 /// store lock held.
+/// `runs.status` of a file whose run another file holds (see [`mark_duplicate_runs`]).
+pub const DUPLICATE: &str = "duplicate";
+
+/// One run enters the store once. The consortium ships every run as `.dat` and `.mat`, in US
+/// customary (`A` prefix) and SI (`B`), and from Round 6 as "run" and "raw" files: a whole round
+/// download holds each test up to eight times, and every copy's segments would enter the fits.
+/// Among the stored files of one (project, run), the canonical one is the most complete and
+/// precise: SI before US customary or mixed, "raw" (dwells kept) before "run", `.mat` before
+/// `.dat`, then the file name. The others get status `duplicate`, the canonical name in `error`
+/// and no stored data (their partitions are collected). Returns the newly marked files with
+/// their canonical file. A file whose run number could not be read is never a duplicate.
+fn mark_duplicate_runs(rows: &mut BTreeMap<String, RunRow>) -> BTreeMap<String, String> {
+    let mut runs: BTreeMap<(i64, i64), Vec<&RunRow>> = BTreeMap::new();
+    for r in rows.values() {
+        if let (Some(project), Some(run), Some(_)) = (r.project, r.run, &r.data_sha256)
+            && r.status == "ok"
+        {
+            runs.entry((project, run)).or_default().push(r);
+        }
+    }
+    let preference = |r: &RunRow| {
+        let stem = r.source_file.to_ascii_lowercase();
+        (
+            r.units.as_deref() != Some("SI"),
+            !stem.contains("raw"),
+            r.format.as_deref() != Some("mat"),
+            r.source_file.clone(),
+        )
+    };
+    let mut marked = BTreeMap::new();
+    for ((project, run), mut copies) in runs {
+        if copies.len() < 2 {
+            continue;
+        }
+        copies.sort_by_key(|r| preference(r));
+        let canonical = copies[0].source_file.clone();
+        for r in &copies[1..] {
+            marked.insert(
+                r.source_file.clone(),
+                (canonical.clone(), format!("project {project}, run {run}")),
+            );
+        }
+    }
+    marked
+        .into_iter()
+        .map(|(name, (canonical, which))| {
+            let row = rows.get_mut(&name).expect("marked rows exist");
+            row.status = DUPLICATE.to_string();
+            row.error = Some(format!(
+                "same run as {canonical} ({which}): stored once, from {canonical}"
+            ));
+            row.data_sha256 = None;
+            row.n_segments = 0;
+            (name, canonical)
+        })
+        .collect()
+}
+
 fn collect_garbage(store: &Path, rows: &BTreeMap<String, RunRow>) -> Result<(), StoreError> {
     let live: BTreeSet<String> = rows
         .values()
@@ -983,4 +1072,68 @@ fn remove_temp_and_empty(dir: &Path) -> Result<bool, StoreError> {
         }
     }
     Ok(empty)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(name: &str, run: Option<i64>, units: &str, format: &str) -> RunRow {
+        RunRow {
+            source_file: name.to_string(),
+            status: "ok".to_string(),
+            data_sha256: Some(format!("sha-{name}")),
+            project: Some(1965),
+            run,
+            units: Some(units.to_string()),
+            format: Some(format.to_string()),
+            n_segments: 40,
+            ..RunRow::default()
+        }
+    }
+
+    #[test]
+    fn one_file_per_run_is_kept_si_raw_mat_first() {
+        let mut rows: BTreeMap<String, RunRow> = [
+            row("A1965run51.dat", Some(51), "USCS", "dat"),
+            row("B1965run51.dat", Some(51), "SI", "dat"),
+            row("B1965run51.mat", Some(51), "SI", "mat"),
+            row("B1965raw51.mat", Some(51), "SI", "mat"),
+            row("B1965run52.mat", Some(52), "SI", "mat"),
+            row("unknown.dat", None, "SI", "dat"),
+            row("unknown2.dat", None, "SI", "dat"),
+        ]
+        .into_iter()
+        .map(|r| (r.source_file.clone(), r))
+        .collect();
+        let marked = mark_duplicate_runs(&mut rows);
+        let expected: Vec<&str> = vec!["A1965run51.dat", "B1965run51.dat", "B1965run51.mat"];
+        assert_eq!(
+            marked.keys().map(String::as_str).collect::<Vec<_>>(),
+            expected
+        );
+        assert!(marked.values().all(|c| c == "B1965raw51.mat"), "{marked:?}");
+        for name in expected {
+            let r = &rows[name];
+            assert_eq!(r.status, DUPLICATE);
+            assert_eq!(r.data_sha256, None);
+            assert!(
+                r.error
+                    .as_deref()
+                    .unwrap()
+                    .contains("B1965raw51.mat (project 1965, run 51)"),
+                "{r:?}"
+            );
+        }
+        for name in [
+            "B1965raw51.mat",
+            "B1965run52.mat",
+            "unknown.dat",
+            "unknown2.dat",
+        ] {
+            assert_eq!(rows[name].status, "ok", "{name}");
+        }
+        // Already marked: nothing more to do.
+        assert!(mark_duplicate_runs(&mut rows).is_empty());
+    }
 }

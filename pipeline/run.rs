@@ -582,6 +582,7 @@ fn ingest_inputs(opts: &RunOptions, progress: &dyn Progress) -> Result<IngestRep
         lock_wait: opts.lock_wait,
         // The nightly run trusts the ingest fast path (unchanged size, mtime and path).
         rehash: false,
+        keep_duplicate_runs: false,
     };
     Ok(ingest::run_locked(
         &[opts.input.to_path_buf()],

@@ -130,7 +130,13 @@ fn bad_corpus_with_good_files_one_line_per_bad_file_exit_1_rest_stored() {
     let store = tmp.path().join("store");
     let bad = repo().join("tests/fixtures/bad");
     let (good_dat, good_mat) = (repo().join(GOOD_DAT), repo().join(GOOD_MAT));
-    let out = ingest(&store, &[&bad, &good_dat, &good_mat], &["--jobs", "2"]);
+    // The corpus files are variants of one run (project 1965, run 51): each is kept to be
+    // checked on its own.
+    let out = ingest(
+        &store,
+        &[&bad, &good_dat, &good_mat],
+        &["--jobs", "2", "--keep-duplicate-runs"],
+    );
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
 
@@ -339,7 +345,7 @@ fn store_bytes_do_not_depend_on_the_thread_count() {
         .iter()
         .map(|jobs| {
             let store = tmp.path().join(format!("store-{jobs}"));
-            let out = ingest(&store, &[&raw], &["--jobs", jobs]);
+            let out = ingest(&store, &[&raw], &["--jobs", jobs, "--keep-duplicate-runs"]);
             assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
             store
         })
@@ -355,6 +361,70 @@ fn store_bytes_do_not_depend_on_the_thread_count() {
             "{name} differs between --jobs 1 and --jobs 3"
         );
     }
+}
+
+/// The same run in several files (the consortium ships `.dat` and `.mat`, US and SI): stored
+/// once; the others are `duplicate` (not a failure), keep no rows, and stay so on a re-ingest.
+#[test]
+fn the_same_run_in_several_files_is_stored_once() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (raw, store) = (tmp.path().join("raw"), tmp.path().join("store"));
+    good_raw(&raw);
+    // A copy of the US-customary .dat under a later name.
+    fs::copy(
+        raw.join("example_A1965run51.dat"),
+        raw.join("example_A1965run51_copy.dat"),
+    )
+    .unwrap();
+    let first = ingest(&store, &[&raw], &[]);
+    assert_eq!(first.status.code(), Some(0), "{}", stderr(&first));
+    assert!(
+        summary_line(&first).contains("3 ingested, 0 unchanged, 0 failed, 1 duplicate runs"),
+        "{}",
+        summary_line(&first)
+    );
+    let status = |store: &Path| -> BTreeMap<String, (String, String)> {
+        query(store, "SELECT source_file, status, error FROM runs")
+            .into_iter()
+            .map(|r| {
+                (
+                    r["source_file"].clone(),
+                    (r["status"].clone(), r["error"].clone()),
+                )
+            })
+            .collect()
+    };
+    let samples = |store: &Path| -> BTreeMap<String, String> {
+        query(
+            store,
+            "SELECT source_file, COUNT(*) AS n FROM samples GROUP BY source_file",
+        )
+        .into_iter()
+        .map(|r| (r["source_file"].clone(), r["n"].clone()))
+        .collect()
+    };
+    let s = status(&store);
+    assert_eq!(s["example_A1965run51.dat"].0, "ok");
+    let (st, why) = &s["example_A1965run51_copy.dat"];
+    assert_eq!(st, "duplicate");
+    assert!(
+        why.contains("same run as example_A1965run51.dat (project 1965, run 51)"),
+        "{why}"
+    );
+    let n = samples(&store);
+    assert!(!n.contains_key("example_A1965run51_copy.dat"), "{n:?}");
+    assert!(n.contains_key("example_A1965run51.dat"), "{n:?}");
+
+    // Re-ingest: nothing changes, the copy stays a duplicate.
+    let before = tree(&store);
+    let again = ingest(&store, &[&raw], &[]);
+    assert_eq!(again.status.code(), Some(0), "{}", stderr(&again));
+    assert!(
+        summary_line(&again).contains("0 ingested, 3 unchanged, 0 failed, 1 duplicate runs"),
+        "{}",
+        summary_line(&again)
+    );
+    assert!(tree(&store) == before, "the store changed");
 }
 
 #[test]

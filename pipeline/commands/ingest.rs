@@ -25,6 +25,7 @@ pub fn run(args: &IngestArgs) -> anyhow::Result<ExitCode> {
             LockWait::Wait
         },
         rehash: args.rehash,
+        keep_duplicate_runs: args.keep_duplicate_runs,
     };
     let progress = progress::for_stderr();
     let report = match ingest::run(&args.paths, &opts, progress.as_ref()) {

@@ -169,9 +169,19 @@ fn print_summary(report: &RunReport) {
         .unwrap_or_default();
     eprintln!("published v{:06} -> {dir}", m.version);
     eprintln!("  changes   {}", m.summary);
+    // Neither ok nor failed: a duplicate copy of a run another file holds.
+    let duplicates = c.files.saturating_sub(c.files_ok + c.files_failed);
     eprintln!(
-        "  files     {}: {} ok ({} ingested now), {} failed",
-        c.files, c.files_ok, c.files_ingested, c.files_failed
+        "  files     {}: {} ok ({} ingested now), {} failed{}",
+        c.files,
+        c.files_ok,
+        c.files_ingested,
+        c.files_failed,
+        if duplicates > 0 {
+            format!(", {duplicates} duplicate runs (stored once)")
+        } else {
+            String::new()
+        }
     );
     let kinds: Vec<String> = c
         .segments_by_kind

@@ -63,6 +63,7 @@ fn ingest_batch(files: &[PathBuf], scratch: &Path, segment: &SegmentConfig) -> f
         jobs: 0,
         lock_wait: LockWait::Refuse,
         rehash: false,
+        keep_duplicate_runs: false,
     };
     let start = Instant::now();
     let report = ingest::run(files, &opts, &Silent).expect("ingest");
