@@ -30,7 +30,7 @@ use polars_arrow::record_batch::RecordBatchT;
 use rayon::prelude::*;
 
 use tirebase_core::segment::{self, RunSignals, Segment, SegmentConfig, TreadTemps};
-use tirebase_core::ttc::{self, RunTable, SourceFormat, UnitSystem};
+use tirebase_core::ttc::{self, RunTable, SourceFormat, TtcFileName, UnitSystem};
 
 use crate::catalog::Catalog;
 use crate::progress::Progress;
@@ -131,11 +131,7 @@ impl IngestReport {
             self.count(|s| *s == FileStatus::Ingested),
             self.count(|s| *s == FileStatus::Unchanged),
             self.count(|s| matches!(s, FileStatus::Failed(_))),
-            if duplicates > 0 {
-                format!(", {duplicates} duplicate runs (stored once)")
-            } else {
-                String::new()
-            },
+            duplicate_runs_note(duplicates),
             self.segments_by_kind.values().sum::<usize>(),
             self.rows,
             self.seconds
@@ -968,9 +964,15 @@ fn write_runs(store: &Path, rows: &BTreeMap<String, RunRow>) -> Result<(), Inges
     Ok(())
 }
 
-/// Delete parts that are not the committed data of some file (superseded versions, leftovers of
-/// a crashed ingest), stale temporary files, and empty partition directories. Call with the
-/// store lock held.
+/// `", N duplicate runs (stored once)"` for the summary lines, empty when there is none.
+pub fn duplicate_runs_note(duplicates: usize) -> String {
+    if duplicates > 0 {
+        format!(", {duplicates} duplicate runs (stored once)")
+    } else {
+        String::new()
+    }
+}
+
 /// `runs.status` of a file whose run another file holds (see [`mark_duplicate_runs`]).
 pub const DUPLICATE: &str = "duplicate";
 
@@ -992,10 +994,9 @@ fn mark_duplicate_runs(rows: &mut BTreeMap<String, RunRow>) -> BTreeMap<String, 
         }
     }
     let preference = |r: &RunRow| {
-        let stem = r.source_file.to_ascii_lowercase();
         (
             r.units.as_deref() != Some("SI"),
-            !stem.contains("raw"),
+            !TtcFileName::parse(&r.source_file).is_some_and(|n| n.raw),
             r.format.as_deref() != Some("mat"),
             r.source_file.clone(),
         )
@@ -1020,7 +1021,7 @@ fn mark_duplicate_runs(rows: &mut BTreeMap<String, RunRow>) -> BTreeMap<String, 
             let row = rows.get_mut(&name).expect("marked rows exist");
             row.status = DUPLICATE.to_string();
             row.error = Some(format!(
-                "same run as {canonical} ({which}): stored once, from {canonical}"
+                "same run as {canonical} ({which}), which is the copy stored"
             ));
             row.data_sha256 = None;
             row.n_segments = 0;
@@ -1029,6 +1030,9 @@ fn mark_duplicate_runs(rows: &mut BTreeMap<String, RunRow>) -> BTreeMap<String, 
         .collect()
 }
 
+/// Delete parts that are not the committed data of some file (superseded versions, leftovers of
+/// a crashed ingest), stale temporary files, and empty partition directories. Call with the
+/// store lock held.
 fn collect_garbage(store: &Path, rows: &BTreeMap<String, RunRow>) -> Result<(), StoreError> {
     let live: BTreeSet<String> = rows
         .values()

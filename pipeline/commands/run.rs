@@ -177,11 +177,7 @@ fn print_summary(report: &RunReport) {
         c.files_ok,
         c.files_ingested,
         c.files_failed,
-        if duplicates > 0 {
-            format!(", {duplicates} duplicate runs (stored once)")
-        } else {
-            String::new()
-        }
+        crate::ingest::duplicate_runs_note(duplicates as usize)
     );
     let kinds: Vec<String> = c
         .segments_by_kind
