@@ -282,7 +282,7 @@ fn lint_exit_codes() {
     for bad in [
         "unterminated_section",
         "non_numeric_value",
-        "fittyp62",
+        "fittyp7",
         "missing_fnomin",
         "missing_unloaded_radius",
         "unknown_unit",
