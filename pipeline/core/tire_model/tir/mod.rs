@@ -7,7 +7,7 @@
 //! table, and everything it did not understand kept in order), warnings about what was
 //! tolerated, and [`TirFile::model`]. The other way: [`TirFile::render`] writes a complete file
 //! of the same version (PAC2002 in the Adams layout, MF 6.x in the MF-Tyre 6.1 layout), so that
-//! `parse(render(x)) == x` exactly;
+//! `parse(render(x)) == x` exactly; [`convert`] moves a model between versions.
 //! [`lint`] reports physical problems over the file's envelope.
 //!
 //! Deliberately not here: reading from disk (callers pass text), turn-slip, inertia and
@@ -15,6 +15,7 @@
 //! [`units`] for which keys carry a dimension; Magic Formula coefficients are dimensionless and
 //! never converted).
 
+pub mod convert;
 mod lexer;
 pub mod lint;
 mod read;
