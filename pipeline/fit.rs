@@ -179,7 +179,8 @@ pub struct FitOptions {
 }
 
 /// One (tire, rim, nominal pressure) group and the hash of everything its fit depends on: the
-/// sorted (segment_id, source_sha256, qc_flags) of its usable segments, the resolved stage
+/// sorted (segment_id, source_sha256, store part, qc_flags) of its usable segments (the part
+/// names the segmentation settings and tool that computed them), the resolved stage
 /// configurations, the stage set and the tool version.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct GroupPlan {
@@ -398,7 +399,12 @@ pub fn plan_groups(
         .map(|(key, segs)| {
             let mut lines: Vec<String> = segs
                 .iter()
-                .map(|s| format!("{}\t{}\t{}\n", s.segment_id, s.source_sha256, s.qc_flags))
+                .map(|s| {
+                    format!(
+                        "{}\t{}\t{}\t{}\n",
+                        s.segment_id, s.source_sha256, s.part, s.qc_flags
+                    )
+                })
                 .collect();
             lines.sort();
             let text = format!("{key}\n{}{config_text}", lines.concat());

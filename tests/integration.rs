@@ -6,5 +6,6 @@ mod inertia;
 mod ingest;
 mod report;
 mod run;
+mod run_inputs;
 mod synth;
 mod tir;
