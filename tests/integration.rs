@@ -4,6 +4,7 @@
 mod fit;
 mod inertia;
 mod ingest;
+mod real;
 mod report;
 mod run;
 mod run_inputs;
