@@ -154,7 +154,8 @@ Read raw TTC run files (.dat ASCII and .mat MATLAB v5, any round, US customary o
 tire database. Every channel is converted to SI by its own unit string and to the ISO-W axis
 frame (Fz > 0 in compression, alpha = -SA, Fy and Mz negated); each run is split into classified
 segments (spring-rate holds, cold-to-warm, conditioning, cornering, drive/brake, combined, step
-steers, IA and speed sweeps) binned to nominal pressure, inclination, load, slip angle and speed.
+steers, IA and speed sweeps) with the nominal pressure, inclination, load, slip angle and speed
+levels each run holds, learned from its own data (no fixed list of levels).
 
 Incremental: a file whose path, size and modification time are unchanged since its last
 successful ingest is skipped without reading it (--rehash hashes it anyway); a file whose content
