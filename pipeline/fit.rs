@@ -7,7 +7,7 @@
 //! fit_groups:   rayon pool of `jobs` threads, one group per task:
 //!               load samples ─▶ spring rate ─▶ PAC2002 (forces) ─▶ relaxation ─▶ PAC2002
 //!               on de-lagged sweeps ─▶ relaxation ; thermal          (fit::group)
-//!               ─▶ .tir text + lint               (fit::tir)
+//!               ─▶ .tir text + lint (an error is a fit_failures row)   (fit::tir)
 //!               ─▶ tables in group order          (fit::tables)
 //! write_outcome: OUT/<table>.parquet, OUT/tir/*.tir (atomic writes)
 //! ```
@@ -34,6 +34,7 @@ use polars::prelude::*;
 use rayon::prelude::*;
 use tirebase_core::fit::segment_data::TireKey;
 use tirebase_core::naming::sanitize_tire;
+use tirebase_core::tire_model::tir::lint::Severity;
 
 pub use group::StageConfigs;
 pub use load::{LoadedSegment, SegmentRow, judge_qc, live_segments, parse_qc_flag};
@@ -460,7 +461,25 @@ fn fit_one(
             && let Some(fit) = &result.pac2002
         {
             match tir::build(&result, &fit.notes) {
-                Ok(m) => model = Some(m),
+                Ok(m) => {
+                    // A written model the lint calls physically wrong (a spike, a force against
+                    // its slip, friction above 4, ...) is never silent: one row per error.
+                    for f in m
+                        .lint
+                        .findings
+                        .iter()
+                        .filter(|f| f.severity == Severity::Error)
+                    {
+                        result.failures.push(FitFailure::new(
+                            &plan.key,
+                            "pac2002",
+                            &format!("lint {} {}", m.file_name, f.code),
+                            false,
+                            f.message.clone(),
+                        ));
+                    }
+                    model = Some(m);
+                }
                 Err(reason) => result.failures.push(FitFailure::new(
                     &plan.key, "pac2002", "pac2002", true, reason,
                 )),
