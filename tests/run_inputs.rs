@@ -657,3 +657,62 @@ fn issue20_tir_names_stay_unique_per_group() {
     }
     assert_equals_fresh(&input, &store, &[]);
 }
+
+/// Other changes of the same kind, at once: a run moved to the other tire in the catalog, a run
+/// dropped from the catalog (its file's own `Tire_Name=` applies again), a file renamed (same
+/// bytes, new identity). Two runs on one store end where a fresh store does, and a third run is
+/// up to date.
+#[test]
+fn issue20_mixed_input_changes_equal_a_fresh_run() {
+    let (_tmp, input, store) = fork();
+    let catalog = input.join("catalog.toml");
+    let text_before = fs::read_to_string(&catalog).unwrap();
+    let entry = |run: u32| {
+        let head = format!("[[run]]\nproject = 2410\nrun = {run}\n");
+        let start = text_before.find(&head).unwrap();
+        let end = text_before[start + head.len()..]
+            .find("[[run]]")
+            .map_or(text_before.len(), |e| start + head.len() + e);
+        text_before[start..end].to_string()
+    };
+    let (run3, run7) = (entry(3), entry(7));
+    let edited = text_before
+        .replace(
+            &run3,
+            &run3.replace("Hoosier 20.5x7.0-13 R25B", "Hoosier 16.0x7.5-10 R25B"),
+        )
+        .replace(&run7, "");
+    fs::write(&catalog, edited).unwrap();
+    fs::rename(
+        input.join("raw/A2410run6.dat"),
+        input.join("raw/A2410run6-resent.dat"),
+    )
+    .unwrap();
+
+    let second = run(&input, &store, &[]);
+    let log = text(&second.stderr);
+    check(&second, "run after the mixed changes");
+    assert!(
+        log.contains("relabelled") && log.contains("1 files removed"),
+        "{log}"
+    );
+    let runs = tables::read_runs(&store).unwrap();
+    assert_eq!(
+        runs["B2410run3.mat"].tire.as_deref(),
+        Some("Hoosier 16.0x7.5-10 R25B")
+    );
+    assert_eq!(
+        runs["B2410run7.dat"].tire_source.as_deref(),
+        Some("tire_name")
+    );
+    assert!(!runs.contains_key("A2410run6.dat"));
+    assert_eq!(runs["A2410run6-resent.dat"].status, "ok");
+    assert_equals_fresh(&input, &store, &[]);
+    let third = run(&input, &store, &[]);
+    check(&third, "third run");
+    assert!(
+        text(&third.stderr).contains("up to date"),
+        "{}",
+        text(&third.stderr)
+    );
+}
