@@ -34,6 +34,7 @@ pub enum Command {
     Fit(FitArgs),
     Query(QueryArgs),
     Report(ReportArgs),
+    Compare(CompareArgs),
     Inertia(InertiaArgs),
     /// Write synthetic data with known answers.
     Synth {
@@ -306,6 +307,75 @@ pub struct QueryArgs {
     /// The SQL statement.
     #[arg(value_name = "SQL")]
     pub sql: String,
+}
+
+/// The objective `compare` ranks by.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum RankBy {
+    /// Lateral capacity lateral_mu: sum of peak |Fy| over the car's corner loads / sum of loads.
+    Lateral,
+    /// Longitudinal capacity longitudinal_mu: the same for peak |Fx|.
+    Longitudinal,
+    /// Combined-slip capacity envelope_area_kn2 at the nominal load.
+    Envelope,
+}
+
+/// Compare every tire, rim and pressure of a round (or several) at the conditions of a car.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+Compare every fitted tire, rim and tested pressure of a round at the conditions of the team's
+car, one row per round, tire, rim and pressure, ranked by a stated objective. Every figure is
+evaluated from the fitted .tir model of the published version (and the thermal tables) at the
+car of --car (default: config/car.toml, a typical FSAE car): its corner loads, nominal load,
+speed, static camber range and allowed pressures.
+
+Axes and units: ISO-W tire axes (x forward, y left, z up), SI; forces are magnitudes in N,
+friction coefficients |F|/Fz, stiffnesses in N/rad and N, lengths in m, temperatures in degC,
+camber in deg as the inclination of the loaded tire leaning into the turn. Per corner load
+(column suffix _fz<N>, the load in whole newtons): peak |Fy| (fy_peak_n) and mu_y, peak |Fx|
+(fx_peak_n) and mu_x, cornering stiffness |dFy/dalpha| at zero slip. Per row: design camber
+(camber_deg, maximising the peak |Fy| at the nominal load) and the gain from it
+(camber_gain_pct), lateral_mu and longitudinal_mu (sum of peaks / sum of loads), load
+sensitivity d mu/d Fz (1/kN), cornering and longitudinal stiffness at the nominal load,
+friction-envelope area (envelope_area_kn2, kN^2, combined-slip models only), relaxation lengths
+(m), vertical stiffness (N/m), thermal window where measured (t_opt_c, thermal_gain_pct,
+warmup_rate_c_per_s, warmup_time_s). Lateral and longitudinal figures are at the design camber;
+slip searches stay within the model's tested ranges; loads above its tested range are
+extrapolated by the model and listed in extrapolated_loads_n. Columns: schemas/compare.toml.
+
+Ranking (--rank): rank = 1 + the rows better by more than the uncertainty of the difference,
+sqrt(e1^2 + e2^2) with e = objective_error, the fit's own error (error_source says which);
+rows within it are listed in tied_with, never hidden. best_pressure flags each tire and rim's
+best tested pressure and those tied with it.
+
+Across rounds: give --store once per round (each store's latest version, or --version with one
+store). The same tire name in several rounds is the same tire; rounds_tested and
+objective_spread (largest minus smallest objective over the rounds) show how far rounds
+disagree, and that spread is added to the uncertainty of every cross-round pair.
+
+--format csv writes the same bytes for the same store and car file. Exit codes: 0 rows
+printed, 2 no version, no row, or an unreadable car file.")]
+pub struct CompareArgs {
+    /// Store root directory; repeat for several rounds (one store per round).
+    #[arg(long, value_name = "DIR", required = true)]
+    pub store: Vec<PathBuf>,
+    /// Published version to read (number, vNNNNNN or latest; default latest). Only with one
+    /// --store.
+    #[arg(long, value_name = "N")]
+    pub version: Option<String>,
+    /// Keep only tires matching a pattern (case-insensitive; with * or ? a glob of the whole
+    /// name, else a substring). Repeatable.
+    #[arg(long, value_name = "PATTERN")]
+    pub tire: Vec<String>,
+    /// Car file (format and defaults: config/car.toml).
+    #[arg(long, value_name = "FILE")]
+    pub car: Option<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
+    pub format: OutputFormat,
+    /// The objective to rank by.
+    #[arg(long, value_enum, default_value_t = RankBy::Lateral)]
+    pub rank: RankBy,
 }
 
 /// Write the HTML report (data vs model charts, fit quality, lint) of a result directory.

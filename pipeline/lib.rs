@@ -8,7 +8,7 @@
 //!        │                 PAC2002 .tir   spring rate   thermal     relaxation
 //!        │                      └────────────┴──────┬─────┴─────────────┘
 //! inertia sessions ──inertia──────────────────────▶ publish ──▶ versions/vNNNNNN (immutable)
-//!                                                           └──▶ query (SQL) · diff · report
+//!                                                           └──▶ query (SQL) · diff · compare · report
 //! ```
 //!
 //! The pure numerics (model, formats, fitting math, inertia math, virtual test machine) live in
@@ -20,6 +20,7 @@ pub use tirebase_core as core;
 pub mod catalog;
 pub mod cli;
 pub mod commands;
+pub mod compare;
 pub mod config;
 pub mod diff;
 pub mod fit;

@@ -7,5 +7,6 @@ mod ingest;
 mod real;
 mod report;
 mod run;
+mod run_inputs;
 mod synth;
 mod tir;
