@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use polars::prelude::*;
-use tirebase_core::naming::tir_file_name;
+use tirebase_core::naming::unique_tir_names;
 
 use crate::fit::{FitFailure, FitOutcome, GroupPlan};
 use crate::inertia::{InertiaRun, process_sessions};
@@ -127,8 +127,16 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
     let prev_dir = previous.map(|(_, d, _)| d.as_path());
 
     let t = Instant::now();
-    let mut tables = merge_tables(&outcome, prev_dir, &reused_keys, &staging, progress)?;
-    let tir_files = publish_tir(&outcome, prev_dir, &reused_keys, &staging)?;
+    let (tir_names, tir_notes) = publish_tir(&outcome, prev_dir, &reused_keys, &staging)?;
+    let tir_files = crate::store::files::files_in(&staging.join("tir"))?.len();
+    let mut tables = merge_tables(
+        &outcome,
+        prev_dir,
+        &reused_keys,
+        &tir_names,
+        &staging,
+        progress,
+    )?;
     let reused_failures = match prev_dir {
         Some(dir) => read_fit_failures(&dir.join("fit_failures.parquet"), &reused_keys)?,
         None => Vec::new(),
@@ -147,6 +155,13 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
     timings.insert("report".to_string(), t.elapsed().as_secs_f64());
 
     let mut problems = file_problems;
+    problems.extend(tir_notes.into_iter().map(|((t, r, p), note)| {
+        Problem::new(
+            ProblemKind::TirName,
+            format!("{t} on {r} in rim at {p} kPa"),
+            note,
+        )
+    }));
     let mut failures: Vec<&FitFailure> = outcome.failures.iter().chain(&reused_failures).collect();
     failures.sort();
     problems.extend(failures.iter().map(|f| fit_problem(f)));
@@ -320,6 +335,7 @@ fn merge_tables(
     outcome: &FitOutcome,
     prev_dir: Option<&Path>,
     reused: &BTreeSet<GroupKey>,
+    tir_names: &BTreeMap<GroupKey, String>,
     staging: &Path,
     progress: &dyn Progress,
 ) -> Result<BTreeMap<String, u64>, RunError> {
@@ -370,6 +386,9 @@ fn merge_tables(
         } else {
             merged
         };
+        if name == "lint" {
+            merged = rename_lint_files(&merged, tir_names).map_err(table_err)?;
+        }
         rows.insert(name.clone(), merged.height() as u64);
         write_parquet_atomic(&staging.join(format!("{name}.parquet")), &mut merged)?;
     }
@@ -394,34 +413,122 @@ fn rows_of_groups(df: &DataFrame, keys: &BTreeSet<GroupKey>) -> PolarsResult<Dat
     df.filter(&mask)
 }
 
-/// Write this run's `.tir` files and link the reused groups' files from the previous version.
+/// The groups of a version or result directory that have a `.tir`: those of its
+/// `coefficients` table (empty when it has none).
+pub fn model_groups(dir: &Path) -> BTreeSet<GroupKey> {
+    let Ok(df) = read_parquet(&dir.join("coefficients.parquet")) else {
+        return BTreeSet::new();
+    };
+    let (Ok(t), Ok(r), Ok(p)) = (
+        df.column("tire"),
+        df.column("rim_in"),
+        df.column("pressure_kpa"),
+    ) else {
+        return BTreeSet::new();
+    };
+    let (Ok(t), Ok(r), Ok(p)) = (t.str(), r.i64(), p.i64()) else {
+        return BTreeSet::new();
+    };
+    t.iter()
+        .zip(r.iter())
+        .zip(p.iter())
+        .filter_map(|((t, r), p)| Some((t?.to_string(), r?, p?)))
+        .collect()
+}
+
+/// `.tir` file names by group, and the notes of the disambiguated ones.
+pub type TirNames = (BTreeMap<GroupKey, String>, Vec<(GroupKey, String)>);
+
+/// The `.tir` file name of every group of a set (`naming::unique_tir_names`), with the notes of
+/// the disambiguated ones.
+pub fn tir_names(groups: &BTreeSet<GroupKey>) -> TirNames {
+    let keys: Vec<&GroupKey> = groups.iter().collect();
+    let args: Vec<(&str, f64, f64)> = keys
+        .iter()
+        .map(|(t, r, p)| (t.as_str(), *r as f64, *p as f64))
+        .collect();
+    let mut names = BTreeMap::new();
+    let mut notes = Vec::new();
+    for (key, (name, note)) in keys.into_iter().zip(unique_tir_names(&args)) {
+        if let Some(n) = note {
+            notes.push((key.clone(), n));
+        }
+        names.insert(key.clone(), name);
+    }
+    (names, notes)
+}
+
+/// Write this run's `.tir` files and link the reused groups' files from the previous version,
+/// each under its name among all the version's models (a reused file is renamed when a new
+/// tire's name now collides with it). Returns the names by group and the disambiguation notes.
 fn publish_tir(
     outcome: &FitOutcome,
     prev_dir: Option<&Path>,
     reused: &BTreeSet<GroupKey>,
     staging: &Path,
-) -> Result<usize, StoreError> {
+) -> Result<TirNames, StoreError> {
     let dir = staging.join("tir");
     crate::store::files::ensure_dir(&dir)?;
-    let mut n = 0;
-    for (name, text) in &outcome.tir_files {
-        crate::store::files::write_bytes_atomic(&dir.join(name), text.as_bytes())?;
-        n += 1;
+    let fitted: Vec<GroupKey> = outcome
+        .tir_keys
+        .iter()
+        .map(|k| (k.tire.clone(), k.rim_in, k.pressure_kpa_nom))
+        .collect();
+    let (prev_models, prev_names) = match prev_dir {
+        Some(prev) => {
+            let groups = model_groups(prev);
+            let (names, _) = tir_names(&groups);
+            (groups, names)
+        }
+        None => Default::default(),
+    };
+    let reused_models: Vec<&GroupKey> =
+        reused.iter().filter(|k| prev_models.contains(*k)).collect();
+    let all: BTreeSet<GroupKey> = fitted
+        .iter()
+        .cloned()
+        .chain(reused_models.iter().map(|k| (*k).clone()))
+        .collect();
+    let (names, notes) = tir_names(&all);
+    for (key, (_, text)) in fitted.iter().zip(&outcome.tir_files) {
+        crate::store::files::write_bytes_atomic(&dir.join(&names[key]), text.as_bytes())?;
     }
     if let Some(prev) = prev_dir {
-        for (tire, rim, p) in reused {
-            let name = tir_file_name(tire, *rim as f64, *p as f64);
-            let from = prev.join("tir").join(&name);
-            let to = dir.join(&name);
-            if from.is_file() && !to.exists() {
-                if fs::hard_link(&from, &to).is_err() {
-                    fs::copy(&from, &to).map_err(|e| StoreError::io(&to, e))?;
-                }
-                n += 1;
+        for key in reused_models {
+            let from = prev.join("tir").join(&prev_names[key]);
+            let to = dir.join(&names[key]);
+            if from.is_file() && !to.exists() && fs::hard_link(&from, &to).is_err() {
+                fs::copy(&from, &to).map_err(|e| StoreError::io(&to, e))?;
             }
         }
     }
-    Ok(n)
+    Ok((names, notes))
+}
+
+/// Point the `lint` table's `file` column at each group's file name in this version.
+fn rename_lint_files(
+    df: &DataFrame,
+    names: &BTreeMap<GroupKey, String>,
+) -> PolarsResult<DataFrame> {
+    if df.column("file").is_err() || !has_group_columns(df) {
+        return Ok(df.clone());
+    }
+    let tire = df.column("tire")?.str()?;
+    let rim = df.column("rim_in")?.i64()?;
+    let p = df.column("pressure_kpa")?.i64()?;
+    let old = df.column("file")?.str()?;
+    let files: Vec<Option<String>> = (0..df.height())
+        .map(|i| match (tire.get(i), rim.get(i), p.get(i)) {
+            (Some(t), Some(r), Some(p)) => names
+                .get(&(t.to_string(), r, p))
+                .cloned()
+                .or_else(|| old.get(i).map(str::to_string)),
+            _ => old.get(i).map(str::to_string),
+        })
+        .collect();
+    let mut out = df.clone();
+    out.with_column(Column::new("file".into(), files))?;
+    Ok(out)
 }
 
 /// Process the rig sessions (if any) into `staging/inertia.parquet`; the outcome and its rows.

@@ -609,3 +609,51 @@ fn issue20_every_problem_is_on_stderr_and_in_the_manifest() {
         "{log}"
     );
 }
+
+/// Item 4: two tires whose names differ only in case, at the same rim and pressures, get one
+/// `.tir` each (they used to share a file name and overwrite each other), under names that say
+/// which is which, and the run says so.
+#[test]
+fn issue20_tir_names_stay_unique_per_group() {
+    let (_tmp, input, store) = fork();
+    let catalog = input.join("catalog.toml");
+    let text_before = fs::read_to_string(&catalog).unwrap();
+    let (a, b) = ("Hoosier 20.5x7.0-13 R25B", "Hoosier 16.0x7.5-10 R25B");
+    let lower = a.to_lowercase();
+    fs::write(&catalog, text_before.replace(b, &lower)).unwrap();
+
+    let out = run(&input, &store, &[]);
+    let log = text(&out.stderr);
+    check(&out, "run with colliding tire names");
+    assert!(log.contains(".tir file names disambiguated"), "{log}");
+    let (_, dir) = latest(&store);
+    let m = Manifest::read(&dir).unwrap();
+    assert_eq!(m.counts.groups, 4, "{:?}", m.groups);
+    assert_eq!(m.counts.tir_files, 4, "{:?}", m.counts);
+    let files = files_below(&dir.join("tir"));
+    assert_eq!(files.len(), 4, "{:?}", files.keys());
+    assert_eq!(
+        m.problems
+            .iter()
+            .filter(|p| p.kind == ProblemKind::TirName)
+            .count(),
+        4
+    );
+    // Each group's file holds that group's tire.
+    let groups = tirebase::publish::model_groups(&dir);
+    let (names, _) = tirebase::publish::tir_names(&groups);
+    for ((tire, _, p), name) in &names {
+        let body = text(&files[name]);
+        assert!(
+            body.lines()
+                .any(|l| l.trim_start_matches("! : TIRE :").trim() == tire.as_str()),
+            "{name} ({tire}, {p} kPa) holds another tire"
+        );
+    }
+    // The lint table points at files that exist.
+    let lint = read_table(&dir.join("lint.parquet"));
+    for f in lint.column("file").unwrap().str().unwrap().iter().flatten() {
+        assert!(files.contains_key(f), "lint names {f}, not written");
+    }
+    assert_equals_fresh(&input, &store, &[]);
+}

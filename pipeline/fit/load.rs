@@ -231,17 +231,12 @@ pub fn load_segments(store: &Path, rows: &[&SegmentRow]) -> Result<Vec<LoadedSeg
 
 /// Read the columns the stages use from one samples file.
 fn read_sample_columns(path: &Path) -> Result<DataFrame, FitError> {
-    let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
-    let columns: Vec<String> = ["segment_id", "sample_index", "kappa_measured"]
+    let columns: Vec<&str> = ["segment_id", "sample_index", "kappa_measured"]
         .into_iter()
         .chain(REQUIRED)
         .chain(OPTIONAL)
-        .map(str::to_string)
         .collect();
-    ParquetReader::new(file)
-        .with_columns(Some(columns))
-        .finish()
-        .map_err(polars_err(path))
+    Ok(tables::read_sample_columns(path, &columns, true)?)
 }
 
 /// The columns of one samples file.

@@ -40,6 +40,7 @@ pub mod error;
 pub mod example;
 pub mod float;
 pub mod mat;
+pub mod text;
 pub mod units;
 
 #[cfg(test)]

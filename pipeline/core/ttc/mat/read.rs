@@ -645,7 +645,10 @@ fn char_array(cursor: &mut Cursor, dims: Vec<usize>, count: usize) -> Result<Mat
             })
             .collect(),
         MI_UINT8 | MI_INT8 => data.iter().map(|b| u16::from(*b)).collect(),
-        MI_UTF8 => String::from_utf8_lossy(data).encode_utf16().collect(),
+        MI_UTF8 => crate::ttc::text::decode_text(data)
+            .0
+            .encode_utf16()
+            .collect(),
         MI_UTF32 => even_chunks::<4>(data, "char data")?
             .map(|c| {
                 if big_endian {
