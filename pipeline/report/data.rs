@@ -330,7 +330,7 @@ fn read_samples(path: &Path) -> Result<FileSamples, String> {
         "fz_n",
         "mz_nm",
     ];
-    let df = tables::read_sample_columns(path, &columns, false).map_err(|e| e.to_string())?;
+    let df = tables::read_sample_columns(path, &columns, &[], false).map_err(|e| e.to_string())?;
     let sample_index: Vec<i64> = i64_col(&df, "sample_index")
         .into_iter()
         .map(|v| v.unwrap_or(-1))

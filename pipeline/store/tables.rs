@@ -479,11 +479,18 @@ pub fn live_segments(store: &Path) -> Result<Vec<SegmentRecord>, StoreError> {
 pub fn read_sample_columns(
     path: &Path,
     columns: &[&str],
+    optional: &[&str],
     parallel: bool,
 ) -> Result<DataFrame, StoreError> {
     let file = fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
-    let reader = ParquetReader::new(file)
-        .with_columns(Some(columns.iter().map(|c| c.to_string()).collect()));
+    let mut reader = ParquetReader::new(file);
+    let schema = reader.schema().map_err(polars_at(path))?;
+    let wanted = columns
+        .iter()
+        .chain(optional.iter().filter(|c| schema.contains(c)))
+        .map(|c| c.to_string())
+        .collect();
+    let reader = reader.with_columns(Some(wanted));
     let reader = if parallel {
         reader
     } else {

@@ -77,7 +77,7 @@ pub(crate) fn evaluate_with(config: SynthConfig) -> Evaluation {
             &table.pressure_kpa,
             table.loaded_radius_m.as_deref().unwrap_or(&zeros),
         );
-        signals.has_kappa = table.meta.kappa_source.is_measured();
+        signals.has_kappa = table.meta.kappa_source.is_available();
         if let (Some(i), Some(c), Some(o)) = (
             table.tread_inner_temp_c.as_deref(),
             table.tread_centre_temp_c.as_deref(),

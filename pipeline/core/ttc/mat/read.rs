@@ -830,7 +830,7 @@ mod tests {
 
     /// A file of one compressed element: zlib of `inner_tag ++ body ++ trailing zeros`.
     fn compressed_file(inner_len: u32, body: &[u8], trailing_zeros: usize) -> Vec<u8> {
-        let mut z = ZlibEncoder::new(Vec::new(), Compression::fast());
+        let mut z = ZlibEncoder::new(Vec::new(), Compression::best());
         z.write_all(&tag(MI_MATRIX, inner_len)).unwrap();
         z.write_all(body).unwrap();
         let chunk = vec![0u8; 1 << 20];
