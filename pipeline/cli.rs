@@ -402,7 +402,8 @@ segments' mean load and inclination over the swept range):
     the model's PTY/PTX law)
   - the tire's fit quality, coefficients at a bound, lint warnings and failures.
 All quantities SI and ISO-W (x forward, y left, z up; positive slip angle gives negative Fy). A
-chart whose table, column or model is missing shows a \"no data\" note instead.
+chart whose table or model is missing shows a \"no data\" note instead; a table without a column
+the report needs counts as missing, and the index lists it with the column's name.
 
 RESULTS is laid out as the fit stage writes it: <table>.parquet (coefficients, fit_quality,
 spring_rate, thermal, thermal_fit, relaxation, lint, fit_failures) and tir/*.tir, e.g. a

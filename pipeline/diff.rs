@@ -21,7 +21,7 @@ use tirebase_core::tire_model::{Coef, Evaluation, Mode, Pac2002, SlipInput};
 
 use crate::manifest::{Manifest, ManifestError};
 use crate::store::StoreError;
-use crate::store::files::read_parquet;
+use crate::store::results;
 
 /// Relative difference below which two values are the same.
 const SAME_REL: f64 = 1e-12;
@@ -162,7 +162,7 @@ fn read_tir(path: &Path) -> Result<Option<TirFile>, DiffError> {
 fn model_rows(a: &Path, b: &Path, key: &GroupKey, out: &mut Vec<DiffRow>) -> Result<(), DiffError> {
     // Each version names its files among its own models (`naming::unique_tir_names`).
     let name_in = |dir: &Path| {
-        crate::publish::tir_names(&crate::publish::model_groups(dir))
+        results::tir_names(&results::model_groups(dir))
             .0
             .remove(&(key.0.clone(), key.1, key.2))
             .unwrap_or_else(|| tir_file_name(&key.0, key.1 as f64, key.2 as f64))
@@ -388,14 +388,8 @@ fn table_rows(
     tire: Option<&str>,
     out: &mut Vec<DiffRow>,
 ) -> Result<(), DiffError> {
-    let file = format!("{table}.parquet");
     let read = |dir: &Path| -> Result<Option<DataFrame>, DiffError> {
-        let p = dir.join(&file);
-        Ok(if p.is_file() {
-            Some(read_parquet(&p)?)
-        } else {
-            None
-        })
+        Ok(results::read_table(dir, table)?)
     };
     // A table only one version has is compared with an empty table of the same columns.
     let (da, db) = match (read(a)?, read(b)?) {

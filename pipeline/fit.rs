@@ -36,13 +36,14 @@ use tirebase_core::fit::segment_data::TireKey;
 use tirebase_core::naming::{sanitize_tire, unique_tir_names};
 use tirebase_core::tire_model::tir::lint::Severity;
 
+pub use crate::store::results::FitFailure;
 pub use group::StageConfigs;
 pub use load::{LoadedSegment, SegmentRow, judge_qc, live_segments, parse_qc_flag};
 
 use crate::config::Config;
 use crate::progress::Progress;
 use crate::store::StoreError;
-use crate::store::files::{ensure_dir, sha256_bytes, write_bytes_atomic, write_parquet_atomic};
+use crate::store::files::{ensure_dir, sha256_bytes, write_bytes_atomic};
 use crate::store::layout::SWEPT;
 
 /// Store-level errors of the fitting orchestration (per-group problems are data).
@@ -194,25 +195,6 @@ pub struct GroupPlan {
     pub n_segments: usize,
 }
 
-/// A stage that failed for a group, or a part of it.
-#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub struct FitFailure {
-    /// Tire name.
-    pub tire: String,
-    /// Rim width, in.
-    pub rim_in: i64,
-    /// Nominal pressure, kPa.
-    pub pressure_kpa: i64,
-    /// `load`, `spring_rate`, `pac2002`, `relaxation`, `thermal`.
-    pub stage: String,
-    /// The stage name for the whole stage, else the part (a family, a load, a segment).
-    pub scope: String,
-    /// The stage produced nothing for the group.
-    pub fatal: bool,
-    /// One-line reason.
-    pub reason: String,
-}
-
 impl FitFailure {
     fn new(key: &TireKey, stage: &str, scope: &str, fatal: bool, reason: String) -> FitFailure {
         FitFailure {
@@ -224,25 +206,6 @@ impl FitFailure {
             fatal,
             reason: reason.replace('\n', " "),
         }
-    }
-}
-
-impl fmt::Display for FitFailure {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{} on {} in rim at {} kPa: {}{}: {}",
-            self.tire,
-            self.rim_in,
-            self.pressure_kpa,
-            self.stage,
-            if self.scope == self.stage {
-                String::new()
-            } else {
-                format!(" ({})", self.scope)
-            },
-            self.reason
-        )
     }
 }
 
@@ -651,7 +614,7 @@ pub fn write_outcome(outcome: &FitOutcome, out: &Path) -> Result<(), FitError> {
     ensure_dir(out)?;
     for (name, df) in &outcome.tables {
         let mut df = df.clone();
-        write_parquet_atomic(&out.join(format!("{name}.parquet")), &mut df)?;
+        crate::store::results::write_table(out, name, &mut df)?;
     }
     if !outcome.tir_files.is_empty() {
         let dir = out.join("tir");

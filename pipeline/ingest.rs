@@ -35,7 +35,6 @@ use std::time::Instant;
 
 use polars::prelude::*;
 use polars_arrow::array::{BooleanArray, MutableBinaryViewArray, PrimitiveArray, Utf8ViewArray};
-use polars_arrow::record_batch::RecordBatchT;
 use rayon::prelude::*;
 
 use tirebase_core::segment::{self, RunSignals, Segment, SegmentConfig, TreadTemps};
@@ -45,18 +44,14 @@ pub use decide::{Decision, Now, decide};
 
 use crate::catalog::Catalog;
 use crate::progress::Progress;
-use crate::schema;
 use crate::store::StoreError;
-use crate::store::files::{
-    Durability, ensure_dir, read_parquet, sha256_bytes, sync_filesystem,
-    write_arrow_parquet_atomic_with, write_parquet_atomic_with,
-};
-use crate::store::layout::{PartitionKey, SEGMENTS_DIR, SWEPT, partition_dir, source_part_name};
+use crate::store::files::{sha256_bytes, sync_filesystem};
+use crate::store::layout::{PartitionKey, SWEPT, source_part_name};
 use crate::store::lock::{LockWait, StoreLock};
 pub use crate::store::tables::RunRow;
 use crate::store::tables::{
     STATUS_DUPLICATE, STATUS_FAILED, STATUS_OK, STATUS_PARTIAL, collect_garbage, parts_sha256,
-    read_runs, read_segment_file, write_runs,
+    read_runs, relabel_parts, write_runs, write_samples_part, write_segments_part,
 };
 
 /// Ingest errors that stop the whole ingest (per-file problems are recorded, not raised).
@@ -700,50 +695,15 @@ fn relabel(store: &Path, prev: &RunRow, identity: &Identity) -> Result<Option<Ru
     if new_part == old_part {
         return Ok(Some(row));
     }
-    let old_segments = store.join(SEGMENTS_DIR).join(&old_part);
-    if !old_segments.is_file() {
-        return Ok(None);
-    }
-    let records = read_segment_file(&old_segments)?;
-    let mut links: BTreeMap<PathBuf, PathBuf> = BTreeMap::new();
-    for r in &records {
-        let mut key = r.partition();
-        let from = store.join(partition_dir(&key)).join(&old_part);
-        key.tire = identity.tire.clone();
-        key.rim_in = identity.rim_in.unwrap_or(0);
-        links.insert(from, store.join(partition_dir(&key)).join(&new_part));
-    }
-    if links.keys().any(|from| !from.is_file()) {
-        return Ok(None);
-    }
-    let mut df = read_parquet(&old_segments)?;
-    let n = df.height();
-    let relabelled = df
-        .with_column(Column::new("tire".into(), vec![identity.tire.as_str(); n]))
-        .and_then(|df| {
-            df.with_column(Column::new(
-                "rim_in".into(),
-                vec![identity.rim_in.unwrap_or(0); n],
-            ))
-        })
-        .map(|_| ());
-    relabelled.map_err(|e| StoreError::polars(&old_segments, e))?;
-    let mut df = schema::table("segments").conform(df)?;
-    write_parquet_atomic_with(
-        &store.join(SEGMENTS_DIR).join(&new_part),
-        Durability::Deferred,
-        &mut df,
+    let relabelled = relabel_parts(
+        store,
+        &old_part,
+        &new_part,
+        &identity.tire,
+        identity.rim_in.unwrap_or(0),
     )?;
-    for (from, to) in &links {
-        if let Some(dir) = to.parent() {
-            ensure_dir(dir)?;
-        }
-        if to.exists() {
-            fs::remove_file(to).map_err(|e| StoreError::io(to, e))?;
-        }
-        if fs::hard_link(from, to).is_err() {
-            fs::copy(from, to).map_err(|e| StoreError::io(to, e))?;
-        }
+    if !relabelled {
+        return Ok(None);
     }
     Ok(Some(row))
 }
@@ -1025,21 +985,11 @@ fn write_file_parts(
     let write = |(key, segs): (&PartitionKey, &Vec<&Segment>)| -> Result<(), StoreError> {
         let arrays = samples_arrays(ctx, segs);
         let rows = arrays.first().map_or(0, |(_, a)| a.len());
-        let (schema, arrays) = schema::table("samples").conform_arrays(arrays)?;
-        let batch = RecordBatchT::try_new(rows, Arc::new(schema.clone()), arrays)
-            .map_err(|e| StoreError::polars(store, e))?;
-        let dir = store.join(partition_dir(key));
-        ensure_dir(&dir)?;
-        write_arrow_parquet_atomic_with(&dir.join(part_name), Durability::Deferred, schema, batch)
+        write_samples_part(store, key, part_name, rows, arrays)
     };
     let segments_table = || -> Result<(), StoreError> {
         let df = segments_frame(ctx, segments).map_err(|e| StoreError::polars(store, e))?;
-        let mut df = schema::table("segments").conform(df)?;
-        write_parquet_atomic_with(
-            &store.join(SEGMENTS_DIR).join(ctx.part),
-            Durability::Deferred,
-            &mut df,
-        )
+        write_segments_part(store, ctx.part, df)
     };
     // Partitions are independent files (a run has ~30): the calling thread and `writers - 1`
     // scoped threads (which block while they work; rayon workers would steal and nest other

@@ -19,7 +19,6 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use polars::prelude::*;
-use tirebase_core::naming::unique_tir_names;
 
 use crate::fit::{FitFailure, FitOutcome, GroupPlan};
 use crate::inertia::{InertiaRun, process_sessions};
@@ -31,18 +30,17 @@ use crate::progress::Progress;
 use crate::report;
 use crate::run::{Fingerprint, RunError, RunOptions, count_duplicates, runs_table_sha};
 use crate::store::StoreError;
-use crate::store::files::{read_parquet, write_parquet_atomic};
+use crate::store::results::{
+    self, GROUP_COLUMNS, Results, TirNames, has_group_columns, model_groups, rows_of_groups,
+    tir_names,
+};
 use crate::store::tables::{self, STATUS_FAILED, STATUS_OK, STATUS_PARTIAL};
 use crate::store::versions::VersionBuilder;
 
-/// A fit group: (tire, rim_in, pressure_kpa).
-pub type GroupKey = (String, i64, i64);
+pub use crate::store::results::GroupKey;
 
 /// Tables published from the inertia stage (never merged per tire group).
 const INERTIA_TABLE: &str = "inertia";
-
-/// The columns every fit result table has, identifying its group.
-const GROUP_COLUMNS: [&str; 3] = ["tire", "rim_in", "pressure_kpa"];
 
 /// Everything a run hands to publishing.
 pub struct Publication<'a> {
@@ -129,7 +127,7 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
     let t = Instant::now();
     let (tir_names, tir_notes) = publish_tir(&outcome, prev_dir, &reused_keys, &staging)?;
     let tir_files = crate::store::files::files_in(&staging.join("tir"))?.len();
-    let mut tables = merge_tables(
+    let merged = merge_tables(
         &outcome,
         prev_dir,
         &reused_keys,
@@ -137,8 +135,14 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
         &staging,
         progress,
     )?;
+    let mut tables: BTreeMap<String, u64> = merged
+        .iter()
+        .map(|(name, df)| (name.clone(), df.height() as u64))
+        .collect();
+    let results = Results::from_frames(&merged);
+    drop(merged);
     let reused_failures = match prev_dir {
-        Some(dir) => read_fit_failures(&dir.join("fit_failures.parquet"), &reused_keys)?,
+        Some(dir) => results::read_fit_failures(dir, &reused_keys)?,
         None => Vec::new(),
     };
     timings.insert("merge".to_string(), t.elapsed().as_secs_f64());
@@ -151,7 +155,7 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
     timings.insert("inertia".to_string(), t.elapsed().as_secs_f64());
 
     let t = Instant::now();
-    let report_error = report_stage(opts.store, &staging, opts.jobs, progress);
+    let report_error = report_stage(opts.store, &results, &staging, opts.jobs, progress);
     timings.insert("report".to_string(), t.elapsed().as_secs_f64());
 
     let mut problems = file_problems;
@@ -247,7 +251,7 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
         .timings_s
         .insert("total".to_string(), started.elapsed().as_secs_f64());
     manifest.write(&staging)?;
-    let worst_fit = worst_fit(&staging);
+    let worst_fit = worst_fit(&results);
     let dir = builder.commit()?;
     Ok(RunReport {
         manifest,
@@ -277,60 +281,8 @@ fn fit_problem(f: &FitFailure) -> Problem {
     )
 }
 
-/// The rows of a version's `fit_failures` table that belong to `groups`, typed. A table written
-/// before the `fatal` column existed has only fatal rows.
-fn read_fit_failures(
-    path: &Path,
-    groups: &BTreeSet<GroupKey>,
-) -> Result<Vec<FitFailure>, StoreError> {
-    if groups.is_empty() || !path.exists() {
-        return Ok(Vec::new());
-    }
-    let df = read_parquet(path)?;
-    let err = |e: PolarsError| StoreError::polars(path, e);
-    let text = |name: &str| -> Result<Vec<String>, StoreError> {
-        let c = df.column(name).map_err(err)?;
-        Ok(c.str()
-            .map_err(err)?
-            .iter()
-            .map(|v| v.unwrap_or_default().to_string())
-            .collect())
-    };
-    let int = |name: &str| -> Result<Vec<i64>, StoreError> {
-        let c = df.column(name).map_err(err)?;
-        Ok(c.i64()
-            .map_err(err)?
-            .iter()
-            .map(|v| v.unwrap_or(0))
-            .collect())
-    };
-    let (tire, rim, p) = (text("tire")?, int("rim_in")?, int("pressure_kpa")?);
-    let (stage, scope, reason) = (text("stage")?, text("scope")?, text("reason")?);
-    let fatal: Vec<bool> = match df.column("fatal") {
-        Ok(c) => c
-            .bool()
-            .map_err(err)?
-            .iter()
-            .map(|v| v.unwrap_or(true))
-            .collect(),
-        Err(_) => vec![true; df.height()],
-    };
-    Ok((0..df.height())
-        .filter(|&i| groups.contains(&(tire[i].clone(), rim[i], p[i])))
-        .map(|i| FitFailure {
-            tire: tire[i].clone(),
-            rim_in: rim[i],
-            pressure_kpa: p[i],
-            stage: stage[i].clone(),
-            scope: scope[i].clone(),
-            fatal: fatal[i],
-            reason: reason[i].clone(),
-        })
-        .collect())
-}
-
 /// Merge this run's tables with the reused groups' rows of the previous version and write them
-/// into the staging directory. Returns rows per table.
+/// into the staging directory. Returns the merged tables.
 fn merge_tables(
     outcome: &FitOutcome,
     prev_dir: Option<&Path>,
@@ -338,36 +290,35 @@ fn merge_tables(
     tir_names: &BTreeMap<GroupKey, String>,
     staging: &Path,
     progress: &dyn Progress,
-) -> Result<BTreeMap<String, u64>, RunError> {
+) -> Result<BTreeMap<String, DataFrame>, RunError> {
     let mut names: BTreeSet<String> = outcome.tables.keys().cloned().collect();
     if let Some(dir) = prev_dir {
-        for file in crate::store::files::parquet_files_in(dir)? {
-            if let Some(stem) = file.file_stem().and_then(|s| s.to_str())
-                && stem != INERTIA_TABLE
-            {
-                names.insert(stem.to_string());
-            }
-        }
+        names.extend(
+            results::table_names(dir)?
+                .into_iter()
+                .filter(|n| n != INERTIA_TABLE),
+        );
     }
-    let mut rows = BTreeMap::new();
+    let mut out = BTreeMap::new();
     for name in names {
         let table_err = |source| RunError::Table {
             table: name.clone(),
             source,
         };
         let fresh = outcome.tables.get(&name);
-        let old = match prev_dir.map(|d| d.join(format!("{name}.parquet"))) {
-            Some(path) if path.exists() && !reused.is_empty() => {
-                let df = read_parquet(&path)?;
-                if has_group_columns(&df) {
+        let old = match prev_dir {
+            Some(dir) if !reused.is_empty() => match results::read_table(dir, &name)? {
+                None => None,
+                Some(df) if has_group_columns(&df) => {
                     Some(rows_of_groups(&df, reused).map_err(table_err)?)
-                } else {
+                }
+                Some(_) => {
                     progress.note(&format!(
                         "warning: {name}: previous table has no tire/rim_in/pressure_kpa columns; its rows are not carried over"
                     ));
                     None
                 }
-            }
+            },
             _ => None,
         };
         let merged = match (fresh, old) {
@@ -389,73 +340,10 @@ fn merge_tables(
         if name == "lint" {
             merged = rename_lint_files(&merged, tir_names).map_err(table_err)?;
         }
-        rows.insert(name.clone(), merged.height() as u64);
-        write_parquet_atomic(&staging.join(format!("{name}.parquet")), &mut merged)?;
+        results::write_table(staging, &name, &mut merged)?;
+        out.insert(name, merged);
     }
-    Ok(rows)
-}
-
-fn has_group_columns(df: &DataFrame) -> bool {
-    GROUP_COLUMNS.iter().all(|c| df.column(c).is_ok())
-}
-
-/// The rows of `df` whose (tire, rim_in, pressure_kpa) is in `keys`.
-fn rows_of_groups(df: &DataFrame, keys: &BTreeSet<GroupKey>) -> PolarsResult<DataFrame> {
-    let tire = df.column("tire")?.str()?;
-    let rim = df.column("rim_in")?.i64()?;
-    let p = df.column("pressure_kpa")?.i64()?;
-    let mask: BooleanChunked = (0..df.height())
-        .map(|i| match (tire.get(i), rim.get(i), p.get(i)) {
-            (Some(t), Some(r), Some(p)) => keys.contains(&(t.to_string(), r, p)),
-            _ => false,
-        })
-        .collect();
-    df.filter(&mask)
-}
-
-/// The groups of a version or result directory that have a `.tir`: those of its
-/// `coefficients` table (empty when it has none).
-pub fn model_groups(dir: &Path) -> BTreeSet<GroupKey> {
-    let Ok(df) = read_parquet(&dir.join("coefficients.parquet")) else {
-        return BTreeSet::new();
-    };
-    let (Ok(t), Ok(r), Ok(p)) = (
-        df.column("tire"),
-        df.column("rim_in"),
-        df.column("pressure_kpa"),
-    ) else {
-        return BTreeSet::new();
-    };
-    let (Ok(t), Ok(r), Ok(p)) = (t.str(), r.i64(), p.i64()) else {
-        return BTreeSet::new();
-    };
-    t.iter()
-        .zip(r.iter())
-        .zip(p.iter())
-        .filter_map(|((t, r), p)| Some((t?.to_string(), r?, p?)))
-        .collect()
-}
-
-/// `.tir` file names by group, and the notes of the disambiguated ones.
-pub type TirNames = (BTreeMap<GroupKey, String>, Vec<(GroupKey, String)>);
-
-/// The `.tir` file name of every group of a set (`naming::unique_tir_names`), with the notes of
-/// the disambiguated ones.
-pub fn tir_names(groups: &BTreeSet<GroupKey>) -> TirNames {
-    let keys: Vec<&GroupKey> = groups.iter().collect();
-    let args: Vec<(&str, f64, f64)> = keys
-        .iter()
-        .map(|(t, r, p)| (t.as_str(), *r as f64, *p as f64))
-        .collect();
-    let mut names = BTreeMap::new();
-    let mut notes = Vec::new();
-    for (key, (name, note)) in keys.into_iter().zip(unique_tir_names(&args)) {
-        if let Some(n) = note {
-            notes.push((key.clone(), n));
-        }
-        names.insert(key.clone(), name);
-    }
-    (names, notes)
+    Ok(out)
 }
 
 /// Write this run's `.tir` files and link the reused groups' files from the previous version,
@@ -544,7 +432,7 @@ fn inertia_stage(
     let stage = progress.stage("inertia", "sessions", sessions.len() as u64);
     let done = with_pool(jobs, || process_sessions(sessions));
     let mut df = done.table()?;
-    write_parquet_atomic(&staging.join(format!("{INERTIA_TABLE}.parquet")), &mut df)?;
+    results::write_table(staging, INERTIA_TABLE, &mut df)?;
     stage.inc(sessions.len() as u64);
     stage.finish(&format!(
         "{} results, {} failed runs",
@@ -559,12 +447,20 @@ fn inertia_stage(
 /// report does not stop the publish).
 fn report_stage(
     store: &Path,
+    results: &Results,
     staging: &Path,
     jobs: usize,
     progress: &dyn Progress,
 ) -> Option<String> {
     let stage = progress.stage("report", "reports", 1);
-    let write = || report::write_report(store, staging, &staging.join("report"));
+    let write = || {
+        report::write_report_from(
+            store,
+            results,
+            &staging.join("tir"),
+            &staging.join("report"),
+        )
+    };
     let written = match rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .stack_size(crate::WORKER_STACK_BYTES)
@@ -598,36 +494,19 @@ fn with_pool<T: Send>(jobs: usize, f: impl FnOnce() -> T + Send) -> T {
     }
 }
 
-/// The worst row of `fit_quality` by its normalised error (the first column found of
-/// `rmse_pct_of_peak`, `nrmse`, `r2`), as one line naming the group and channel.
-fn worst_fit(staging: &Path) -> Option<String> {
-    let df = read_parquet(&staging.join("fit_quality.parquet")).ok()?;
-    let (column, higher_is_worse) = [("rmse_pct_of_peak", true), ("nrmse", true), ("r2", false)]
-        .into_iter()
-        .find(|(c, _)| df.column(c).is_ok_and(|c| c.dtype() == &DataType::Float64))?;
-    let values = df.column(column).ok()?.f64().ok()?.clone();
-    let (i, v) = values
+/// The worst row of `fit_quality` by its RMSE in percent of the channel's peak, as one line
+/// naming the group and channel.
+fn worst_fit(results: &Results) -> Option<String> {
+    let (q, pct) = results
+        .fit_quality
         .iter()
-        .enumerate()
-        .filter_map(|(i, v)| v.filter(|v| v.is_finite()).map(|v| (i, v)))
-        .max_by(|a, b| {
-            if higher_is_worse {
-                a.1.total_cmp(&b.1)
-            } else {
-                b.1.total_cmp(&a.1)
-            }
-        })?;
-    let label: Vec<String> = df
-        .columns()
-        .iter()
-        .filter(|c| GROUP_COLUMNS.contains(&c.name().as_str()) || c.name() == "channel")
-        .filter_map(|c| {
-            c.get(i)
-                .ok()
-                .map(|v| format!("{}={}", c.name(), v.to_string().trim_matches('"')))
-        })
-        .collect();
-    Some(format!("{column} = {v:.4} ({})", label.join(", ")))
+        .flatten()
+        .filter_map(|q| Some((q, q.rmse_pct_of_peak.filter(|v| v.is_finite())?)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    Some(format!(
+        "rmse_pct_of_peak = {pct:.4} (tire={}, rim_in={}, pressure_kpa={}, channel={})",
+        q.tire, q.rim_in, q.pressure_kpa, q.channel
+    ))
 }
 
 /// Live segments by kind (empty when the store has none or cannot be read).
@@ -832,12 +711,14 @@ mod tests {
         )
         .unwrap();
         let mut df = crate::schema::table("fit_failures").conform(df).unwrap();
-        let path = dir.path().join("fit_failures.parquet");
-        write_parquet_atomic(&path, &mut df).unwrap();
+        results::write_table(dir.path(), "fit_failures", &mut df).unwrap();
         let all = BTreeSet::from([("T".to_string(), 7, 83), ("U".to_string(), 7, 69)]);
-        assert_eq!(read_fit_failures(&path, &all).unwrap(), failures);
+        assert_eq!(
+            results::read_fit_failures(dir.path(), &all).unwrap(),
+            failures
+        );
         let one = BTreeSet::from([("U".to_string(), 7, 69)]);
-        let read = read_fit_failures(&path, &one).unwrap();
+        let read = results::read_fit_failures(dir.path(), &one).unwrap();
         assert_eq!(read, failures[1..].to_vec());
         assert_eq!(
             fit_problem(&read[0]).to_string(),

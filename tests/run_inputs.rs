@@ -640,8 +640,8 @@ fn issue20_tir_names_stay_unique_per_group() {
         4
     );
     // Each group's file holds that group's tire.
-    let groups = tirebase::publish::model_groups(&dir);
-    let (names, _) = tirebase::publish::tir_names(&groups);
+    let groups = tirebase::store::results::model_groups(&dir);
+    let (names, _) = tirebase::store::results::tir_names(&groups);
     for ((tire, _, p), name) in &names {
         let body = text(&files[name]);
         assert!(
