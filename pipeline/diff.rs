@@ -160,8 +160,15 @@ fn read_tir(path: &Path) -> Result<Option<TirFile>, DiffError> {
 
 /// Model added/removed, coefficient changes and force deltas of one group.
 fn model_rows(a: &Path, b: &Path, key: &GroupKey, out: &mut Vec<DiffRow>) -> Result<(), DiffError> {
-    let name = tir_file_name(&key.0, key.1 as f64, key.2 as f64);
-    let old = read_tir(&a.join("tir").join(&name))?;
+    // Each version names its files among its own models (`naming::unique_tir_names`).
+    let name_in = |dir: &Path| {
+        crate::publish::tir_names(&crate::publish::model_groups(dir))
+            .0
+            .remove(&(key.0.clone(), key.1, key.2))
+            .unwrap_or_else(|| tir_file_name(&key.0, key.1 as f64, key.2 as f64))
+    };
+    let (name_a, name) = (name_in(a), name_in(b));
+    let old = read_tir(&a.join("tir").join(&name_a))?;
     let new = read_tir(&b.join("tir").join(&name))?;
     let (old, new) = match (old, new) {
         (None, None) => return Ok(()),

@@ -33,7 +33,7 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use rayon::prelude::*;
 use tirebase_core::fit::segment_data::TireKey;
-use tirebase_core::naming::sanitize_tire;
+use tirebase_core::naming::{sanitize_tire, unique_tir_names};
 use tirebase_core::tire_model::tir::lint::Severity;
 
 pub use group::StageConfigs;
@@ -311,8 +311,13 @@ pub struct FitOutcome {
     /// (str), `rim_in` (i64), `pressure_kpa` (i64, nominal). Sorted deterministically;
     /// conformed to `schemas/<name>.toml`.
     pub tables: BTreeMap<String, DataFrame>,
-    /// `.tir` files: (file name from `tirebase_core::naming::tir_file_name`, text).
+    /// `.tir` files: (file name from `tirebase_core::naming::unique_tir_names` over the fitted
+    /// groups, text).
     pub tir_files: Vec<(String, String)>,
+    /// The group of each entry of `tir_files`.
+    pub tir_keys: Vec<TireKey>,
+    /// One line per `.tir` whose name was disambiguated (tires whose names sanitise alike).
+    pub tir_name_notes: Vec<String>,
     /// Failures, fatal and partial, in group order.
     pub failures: Vec<FitFailure>,
     /// Wall time per stage summed over groups (plus `load`), s.
@@ -594,13 +599,26 @@ pub fn fit_groups(
         }
         outcome.failures.extend(result.failures.iter().cloned());
         if let Some(m) = model {
-            outcome
-                .tir_files
-                .push((m.file_name.clone(), m.text.clone()));
             models.push((result.key.clone(), m));
         }
         results.push(result);
     }
+    // File names unique over the groups (tires whose names differ only in case or punctuation
+    // would overwrite each other's `.tir`).
+    let keys: Vec<(&str, f64, f64)> = models
+        .iter()
+        .map(|(k, _)| (k.tire.as_str(), k.rim_in as f64, k.pressure_kpa_nom as f64))
+        .collect();
+    let names = unique_tir_names(&keys);
+    for ((_, m), (name, note)) in models.iter_mut().zip(names) {
+        m.file_name = name;
+        outcome.tir_name_notes.extend(note);
+    }
+    outcome.tir_files = models
+        .iter()
+        .map(|(_, m)| (m.file_name.clone(), m.text.clone()))
+        .collect();
+    outcome.tir_keys = models.iter().map(|(k, _)| k.clone()).collect();
     let mut tables = BTreeMap::new();
     if opts.stages.pac2002 {
         tables.insert("coefficients".to_string(), tables::coefficients(&models)?);

@@ -234,25 +234,18 @@ pub fn load_segments(store: &Path, rows: &[&SegmentRow]) -> Result<Vec<LoadedSeg
 
 /// Read the columns the stages use from one samples file.
 fn read_sample_columns(path: &Path) -> Result<DataFrame, FitError> {
-    let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
-    let mut reader = ParquetReader::new(file);
-    // Stores written before `kappa_derived` existed lack the column (read as false).
-    let derived = reader
-        .schema()
-        .map_err(polars_err(path))?
-        .contains("kappa_derived")
-        .then_some("kappa_derived");
-    let columns: Vec<String> = ["segment_id", "sample_index", "kappa_measured"]
+    let columns: Vec<&str> = ["segment_id", "sample_index", "kappa_measured"]
         .into_iter()
-        .chain(derived)
         .chain(REQUIRED)
         .chain(OPTIONAL)
-        .map(str::to_string)
         .collect();
-    reader
-        .with_columns(Some(columns))
-        .finish()
-        .map_err(polars_err(path))
+    // Stores written before `kappa_derived` existed lack the column (read as false).
+    Ok(tables::read_sample_columns(
+        path,
+        &columns,
+        &["kappa_derived"],
+        true,
+    )?)
 }
 
 /// The columns of one samples file.

@@ -106,6 +106,9 @@ pub struct ReportData {
     pub tables: BTreeMap<String, DataFrame>,
     /// Models by `.tir` file name.
     pub models: BTreeMap<String, Pac2002>,
+    /// The `.tir` file name of each (tire, rim, nominal pressure) with a model (names are unique
+    /// per result set, see `naming::unique_tir_names`).
+    pub tir_names: BTreeMap<(String, i64, i64), String>,
     /// Slip-test segments, sorted by (tire, rim, pressure, kind, id).
     pub segments: Vec<Segment>,
     /// Tires seen anywhere (segments, tables), sorted.
@@ -121,6 +124,7 @@ pub fn load(store: &Path, results: &Path) -> Result<ReportData, super::ReportErr
     let mut data = ReportData::default();
     load_tables(results, &mut data);
     load_models(results, &mut data);
+    data.tir_names = crate::publish::tir_names(&crate::publish::model_groups(results)).0;
     load_segments(store, &mut data)?;
     for df in data.tables.values() {
         let tires = str_col(df, "tire");
@@ -317,7 +321,6 @@ impl FileSamples {
 }
 
 fn read_samples(path: &Path) -> Result<FileSamples, String> {
-    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
     let columns = [
         "sample_index",
         "alpha_rad",
@@ -327,11 +330,7 @@ fn read_samples(path: &Path) -> Result<FileSamples, String> {
         "fz_n",
         "mz_nm",
     ];
-    let df = ParquetReader::new(file)
-        .with_columns(Some(columns.iter().map(|c| c.to_string()).collect()))
-        .read_parallel(ParallelStrategy::None)
-        .finish()
-        .map_err(|e| e.to_string())?;
+    let df = tables::read_sample_columns(path, &columns, &[], false).map_err(|e| e.to_string())?;
     let sample_index: Vec<i64> = i64_col(&df, "sample_index")
         .into_iter()
         .map(|v| v.unwrap_or(-1))

@@ -90,8 +90,12 @@ pub fn model_for<'a>(
     rim_in: i64,
     p_kpa: i64,
 ) -> Option<&'a Pac2002> {
-    data.models
-        .get(&tir_file_name(tire, rim_in as f64, p_kpa as f64))
+    let name = data
+        .tir_names
+        .get(&(tire.to_string(), rim_in, p_kpa))
+        .cloned()
+        .unwrap_or_else(|| tir_file_name(tire, rim_in as f64, p_kpa as f64));
+    data.models.get(&name)
 }
 
 /// Label of a nominal load (or its rounded mean when not held).

@@ -2,7 +2,8 @@
 //! and samples are live, reads the live segments as typed rows and collects garbage.
 //!
 //! In: a store root. Out: [`RunRow`]s (the runs table, `schemas/runs.toml`), [`SegmentRecord`]s
-//! (the live rows of the segments table, `schemas/segments.toml`), the paths of live part files.
+//! (the live rows of the segments table, `schemas/segments.toml`), the paths of live part files
+//! and columns of a samples file ([`read_sample_columns`]).
 //!
 //! The live rule, stated once: every ingested file's samples and segments are written under one
 //! part name, `<source>-<key12>.parquet` ([`RunRow::part_name`]), where the key is
@@ -470,6 +471,32 @@ pub fn live_segments(store: &Path) -> Result<Vec<SegmentRecord>, StoreError> {
         out.extend(read_segment_file(&path)?);
     }
     Ok(out)
+}
+
+/// Some columns of one samples file (a path from [`SegmentRecord::samples_file`] under the
+/// store root), in file order. `parallel` lets polars use its own thread pool (callers already
+/// reading several files in parallel pass false).
+pub fn read_sample_columns(
+    path: &Path,
+    columns: &[&str],
+    optional: &[&str],
+    parallel: bool,
+) -> Result<DataFrame, StoreError> {
+    let file = fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
+    let mut reader = ParquetReader::new(file);
+    let schema = reader.schema().map_err(polars_at(path))?;
+    let wanted = columns
+        .iter()
+        .chain(optional.iter().filter(|c| schema.contains(c)))
+        .map(|c| c.to_string())
+        .collect();
+    let reader = reader.with_columns(Some(wanted));
+    let reader = if parallel {
+        reader
+    } else {
+        reader.read_parallel(ParallelStrategy::None)
+    };
+    reader.finish().map_err(polars_at(path))
 }
 
 /// Delete parts that are not live (superseded derivations, leftovers of a crashed ingest), stale

@@ -49,6 +49,7 @@ pub mod example;
 pub mod float;
 pub mod mat;
 mod slip;
+pub mod text;
 pub mod units;
 
 #[cfg(test)]
