@@ -12,30 +12,45 @@
 //! inflation pressures: `PRESMIN`, `NOMPRES`, `PRESMAX` (0.75 and 1.25 `NOMPRES` where the range
 //! is unlimited), each point evaluated by the file's own equations. Checks run only for the force
 //! families the declared `USE_MODE` uses (1 Fx, 2 Fy + Mz, 3 both uncombined, 4 combined,
-//! +10 relaxation; 4 when absent):
-//! - errors: `FNOMIN`, `UNLOADED_RADIUS`, `LFZO` <= 0; inverted ranges; a missing (absent or
-//!   zero) defining coefficient of a used family; a shape factor `C <= 0`; `mu_x <= 0`,
-//!   `mu_y` or `Ky_alpha` changing sign or vanishing; `Kx_kappa <= 0`; `Ky_alpha > 0` (an
-//!   SAE-signed file: ISO-W needs `alpha > 0 -> Fy < 0`; the sign of `PDY1` alone is free);
-//!   `Gxa` or `Gyk` <= 0; more than two sign changes of `dF/dslip` along a pure slip sweep
-//!   (oscillation); non-finite outputs.
-//! - warnings: oscillation along a combined-slip sweep (at half the slip limits of the other
-//!   slip, where fitted data rarely reach); `E > 1` before the clamp (limits and raw mode then disagree); `C >= 2` (force
-//!   reverses at large slip); `|RHX1| > 0.05` rad; `Gxa` or `Gyk` above 1.05 (combined slip
-//!   raises the force); `FZMAX < FNOMIN`; `LONGVL <= 0`; an inflation pressure below 10 kPa
-//!   (not in Pa?); for MF 6.x also `NOMPRES <= 0` (error: the pressure terms divide by it).
+//! +10 relaxation; 4 when absent). Two kinds:
+//! - [`dense`]: every channel evaluated through the model's batch API along dense slip sweeps
+//!   (MF 6.x: at each sampled pressure; a finding already made at another pressure is not
+//!   repeated)
+//!   (fine grids around zero slip and the force's zero crossing): spikes and discontinuities,
+//!   friction above 4 and moments out of range, the force's sign against the slip (so the
+//!   supplier's `PDX1 < 0` with `PKX1 > 0`, which evaluates correctly, passes), non-finite
+//!   outputs. Errors.
+//! - coefficient rules on a coarse grid:
+//!   - errors: `FNOMIN`, `UNLOADED_RADIUS`, `LFZO`, `LONGVL`, a given `VERTICAL_STIFFNESS`
+//!     <= 0; inverted ranges; a missing (absent or
+//!     zero) defining coefficient of a used family; a shape factor `C <= 0`; a peak factor
+//!     `mu_x` or `mu_y` changing sign or vanishing over the envelope (its sign is free), or
+//!     `|mu| > 4`; `Kx_kappa <= 0`; `Ky_alpha` changing sign or vanishing; `Ky_alpha > 0` (an
+//!     SAE-signed file: ISO-W needs `alpha > 0 -> Fy < 0`); `Gxa` or `Gyk` <= 0; more than
+//!     two sign changes of `dF/dslip` along a pure slip sweep (oscillation).
+//!   - warnings: oscillation along a combined-slip sweep (at half the slip limits of the other
+//!     slip, where fitted data rarely reach); `E > 1` before the clamp (limits and raw mode then
+//!     disagree); `C >= 2` (force reverses at large slip); `|RHX1| > 0.05` rad; `Gxa` or `Gyk`
+//!     above 1.05 (combined slip raises the force); `FZMAX < FNOMIN`; an inflation pressure
+//!     below 10 kPa (not in Pa?); for MF 6.x also `NOMPRES <= 0` (error: the pressure terms
+//!     divide by it).
+//!
+//! [`UNDEFINED_MODEL_CODES`] marks the errors that leave the model undefined rather than
+//! doubtful.
 //!
 //! Deliberately not here: reading (see `read.rs`; its warnings are the caller's to print),
 //! comparing with measurements (a fitting stage's job).
 
 use std::f64::consts::PI;
 
+mod dense;
+
 use super::TirFile;
 use super::units::PLACEHOLDER;
 use crate::tire_model::factors::slip_factors;
 use crate::tire_model::pac2002::{MagicFormula, load_with};
 use crate::tire_model::params::{Coef, Coef::*, Coefs};
-use crate::tire_model::{Mode, SlipInput, Version};
+use crate::tire_model::{Mode, Pressures, SlipInput, Version};
 
 /// How bad a finding is.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -55,6 +70,19 @@ impl std::fmt::Display for Severity {
     }
 }
 
+/// Codes of the errors that leave the model undefined (as opposed to physically doubtful): a
+/// family the `USE_MODE` needs is missing, a quantity the equations divide by is not positive,
+/// a range is inverted, or evaluation gives NaN. `tir eval` and `tir convert` refuse such a
+/// file unless forced.
+pub const UNDEFINED_MODEL_CODES: [&str; 6] = [
+    "missing-family",
+    "fnomin-not-positive",
+    "not-positive",
+    "range-inverted",
+    "longvl-not-positive",
+    "non-finite",
+];
+
 /// One problem.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Finding {
@@ -64,6 +92,13 @@ pub struct Finding {
     pub code: &'static str,
     /// One line: what, the worst value, where.
     pub message: String,
+}
+
+impl Finding {
+    /// An error that leaves the model undefined ([`UNDEFINED_MODEL_CODES`]).
+    pub fn leaves_model_undefined(&self) -> bool {
+        self.severity == Severity::Error && UNDEFINED_MODEL_CODES.contains(&self.code)
+    }
 }
 
 impl std::fmt::Display for Finding {
@@ -398,11 +433,26 @@ impl Linter {
                 format!("FZMAX = {} N is below FNOMIN = {} N", c[FZMAX], c[FNOMIN]),
             );
         }
-        if c[LONGVL] <= 0.0 && fam.fx {
+        if c[LONGVL].is_nan() || c[LONGVL] <= 0.0 {
             self.push(
-                Severity::Warning,
+                Severity::Error,
                 "longvl-not-positive",
-                format!("LONGVL = {} m/s: My divides by it", c[LONGVL]),
+                format!(
+                    "LONGVL = {} m/s (reference speed) must be positive: the speed terms divide by it",
+                    c[LONGVL]
+                ),
+            );
+        }
+        if file.present[VERTICAL_STIFFNESS]
+            && (c[VERTICAL_STIFFNESS].is_nan() || c[VERTICAL_STIFFNESS] <= 0.0)
+        {
+            self.push(
+                Severity::Error,
+                "not-positive",
+                format!(
+                    "VERTICAL_STIFFNESS = {} N/m must be positive",
+                    c[VERTICAL_STIFFNESS]
+                ),
             );
         }
         let pressures = file.pressures();
@@ -520,6 +570,35 @@ impl<'a> Grid<'a> {
             }
         }
         acc.report(l, self.fam);
+        let dense_start = l.findings.len();
+        for &p in &pressures {
+            let eval = |inputs: &[SlipInput], out: &mut [crate::tire_model::Evaluation<f64>]| {
+                model.eval_batch_at(inputs, Pressures::Uniform(p), Mode::Limits, out)
+            };
+            let before = l.findings.len();
+            points += dense::run(
+                &eval,
+                &self.env,
+                self.fam,
+                self.c[UNLOADED_RADIUS],
+                N_FZ,
+                N_GAMMA,
+                l,
+            );
+            if self.version.is_mf6() {
+                // One finding per code: the first pressure that shows it, named.
+                let mut new: Vec<Finding> = l.findings.drain(before..).collect();
+                new.retain(|f| {
+                    !l.findings[dense_start..before]
+                        .iter()
+                        .any(|g| g.code == f.code)
+                });
+                for f in &mut new {
+                    f.message = format!("{} (at {:.1} kPa)", f.message, p / 1e3);
+                }
+                l.findings.extend(new);
+            }
+        }
         points
     }
 
@@ -538,7 +617,7 @@ impl<'a> Grid<'a> {
         n
     }
 
-    /// Slip sweeps at one load and inclination: pure and combined, oscillation and finiteness.
+    /// Slip sweeps at one load and inclination: pure and combined, oscillation.
     fn sweeps_at(
         &self,
         model: &MagicFormula,
@@ -566,7 +645,6 @@ impl<'a> Grid<'a> {
                 };
                 first.get_or_insert(p);
                 let e = model.eval_at(&p, pressure, Mode::Limits);
-                acc.finite(&p, &[e.fx_n, e.fy_n, e.mx_nm, e.my_nm, e.mz_nm]);
                 values.push(if along_kappa { e.fx_n } else { e.fy_n });
             }
             n += values.len();
@@ -595,14 +673,15 @@ impl<'a> Grid<'a> {
 /// Violations collected over the grid.
 struct Accumulators {
     e_above_one: [Worst; 4],
-    mux: Worst,
+    mux_sign: (Option<f64>, Worst),
     muy_sign: (Option<f64>, Worst),
+    /// `|mu_x|`, `|mu_y|` above [`dense::MU_MAX`].
+    mu_high: [Worst; 2],
     kya_sign: (Option<f64>, Worst),
     kxk: Worst,
     kya_positive: Worst,
     g_low: [Worst; 2],
     g_high: [Worst; 2],
-    non_finite: Worst,
     /// Pure x, pure y, combined x, combined y.
     oscillation: [Worst; 4],
 }
@@ -612,14 +691,14 @@ impl Default for Accumulators {
         let w = Worst::new();
         Accumulators {
             e_above_one: [w; 4],
-            mux: w,
+            mux_sign: (None, w),
             muy_sign: (None, w),
+            mu_high: [w; 2],
             kya_sign: (None, w),
             kxk: w,
             kya_positive: w,
             g_low: [w; 2],
             g_high: [w; 2],
-            non_finite: w,
             oscillation: [w; 4],
         }
     }
@@ -647,10 +726,13 @@ impl Accumulators {
                 self.e_above_one[i].hit(e, p, above);
             }
         }
-        if f.mux.is_nan() || f.mux <= 0.0 {
-            self.mux.hit(f.mux, p, below);
-        }
+        sign_flip(&mut self.mux_sign, f.mux, p);
         sign_flip(&mut self.muy_sign, f.muy, p);
+        for (i, mu) in [f.mux, f.muy].into_iter().enumerate() {
+            if mu.abs() > dense::MU_MAX {
+                self.mu_high[i].hit(mu, p, |a, b| a.abs() > b.abs());
+            }
+        }
         sign_flip(&mut self.kya_sign, f.kya_n_per_rad, p);
         if f.kxk_n.is_nan() || f.kxk_n <= 0.0 {
             self.kxk.hit(f.kxk_n, p, below);
@@ -664,12 +746,6 @@ impl Accumulators {
             } else if g > 1.05 {
                 self.g_high[i].hit(g, p, above);
             }
-        }
-    }
-
-    fn finite(&mut self, p: &SlipInput, values: &[f64]) {
-        if values.iter().any(|v| !v.is_finite()) {
-            self.non_finite.hit(f64::NAN, p, |_, _| false);
         }
     }
 
@@ -733,7 +809,24 @@ impl Accumulators {
                 );
             }
         };
-        err(&self.mux, fam.fx, "friction-sign", "mu_x <= 0");
+        err(
+            &self.mux_sign.1,
+            fam.fx,
+            "friction-sign",
+            "mu_x changes sign or vanishes",
+        );
+        err(
+            &self.mu_high[0],
+            fam.fx,
+            "friction-range",
+            "peak factor |mu_x| > 4",
+        );
+        err(
+            &self.mu_high[1],
+            fam.fy_mz,
+            "friction-range",
+            "peak factor |mu_y| > 4",
+        );
         err(
             &self.muy_sign.1,
             fam.fy_mz,
@@ -778,12 +871,6 @@ impl Accumulators {
             fam.fy_mz,
             "oscillation",
             "pure Fy oscillates along alpha (> 2 sign changes of dFy/dalpha)",
-        );
-        err(
-            &self.non_finite,
-            true,
-            "non-finite",
-            "NaN or infinite force or moment",
         );
         for (w, used, what) in [
             (
@@ -936,7 +1023,7 @@ mod tests {
         let cases = [
             ("FNOMIN", "-1100", "fnomin-not-positive"),
             ("PCY1", "-1.45", "shape-factor"),
-            ("PDX1", "-2.55", "friction-sign"),
+            ("PDX2", "-40", "friction-sign"),
             ("PDY2", "-40", "friction-sign"),
             ("PKY2", "-1.75", "stiffness-sign"),
             ("PKX1", "-52", "stiffness-sign"),
@@ -977,6 +1064,93 @@ mod tests {
                 r.findings
             );
         }
+    }
+
+    const SUPPLIER: &str =
+        include_str!("../../../../tests/fixtures/tir/pac2002_supplier_layout.tir");
+
+    /// Issue 18: the supplier stores `PDX1 < 0` with `PKX1 > 0` (and `PDY1 < 0, PKY1 < 0`):
+    /// the forces evaluate with the right signs, so the lint has no error for it.
+    #[test]
+    fn supplier_sign_conventions_pass() {
+        for (name, text) in [
+            ("supplier layout", SUPPLIER.to_string()),
+            ("supplier layout, PDX1 < 0", with(SUPPLIER, "PDX1", "-2.35")),
+            ("fsae-demo, PDX1 < 0", with(FSAE, "PDX1", "-2.55")),
+            (
+                "fsae-demo, PDX1 < 0 and PDY1 > 0",
+                with(&with(FSAE, "PDX1", "-2.55"), "PDY1", "2.5"),
+            ),
+        ] {
+            let r = lint_text(&text);
+            assert_eq!(r.errors(), 0, "{name}: {:#?}", r.findings);
+        }
+    }
+
+    /// Issue 18: the degenerate aligning-moment fit (QBZ10 = 3.1e5, QDZ6 = -218, QEZ1..3 of
+    /// order 100-500) is a narrow residual-torque spike near alpha = 0 that every fit point
+    /// straddled; the dense sweeps see it.
+    #[test]
+    fn planted_residual_torque_spike_is_caught() {
+        let mut t = SUPPLIER.to_string();
+        for (k, v) in [
+            ("QBZ10", "3.1e5"),
+            ("QDZ6", "-218"),
+            ("QEZ1", "120"),
+            ("QEZ2", "-480"),
+            ("QEZ3", "310"),
+        ] {
+            t = with(&t, k, v);
+        }
+        let r = lint_text(&t);
+        let spike = r
+            .findings
+            .iter()
+            .find(|f| f.code == "spike" && f.message.starts_with("Mz"))
+            .unwrap_or_else(|| panic!("no Mz spike: {:#?}", r.findings));
+        assert_eq!(spike.severity, Severity::Error);
+        println!("{spike}");
+        assert!(
+            codes(&r, Severity::Error).contains(&"moment-range"),
+            "{:#?}",
+            r.findings
+        );
+        // A cornering stiffness so large that Fy steps from +D to -D within microradians.
+        let r = lint_text(&with(SUPPLIER, "PKY1", "-1e6"));
+        assert!(
+            r.findings
+                .iter()
+                .any(|f| f.code == "discontinuity" && f.message.starts_with("Fy")),
+            "{:#?}",
+            r.findings
+        );
+    }
+
+    /// Issue 18: a planted sign flip (the slip stiffness changing sign inside the load range)
+    /// and a planted mu of 6 are errors.
+    #[test]
+    fn planted_sign_flip_and_mu_of_six_are_caught() {
+        // Kx/Fz = PKX1 + PKX2 dfz = 47 - 80 dfz changes sign at dfz = 0.59 (1430 N).
+        let r = lint_text(&with(SUPPLIER, "PKX2", "-80"));
+        let e = codes(&r, Severity::Error);
+        assert!(e.contains(&"force-sign"), "{:#?}", r.findings);
+        let r = lint_text(&with(SUPPLIER, "PDX1", "6.0"));
+        let e = codes(&r, Severity::Error);
+        assert!(e.contains(&"friction-range"), "{:#?}", r.findings);
+        assert!(
+            r.findings
+                .iter()
+                .any(|f| f.code == "friction-range" && f.message.starts_with("Fx")),
+            "the evaluated force says it too: {:#?}",
+            r.findings
+        );
+        // The degenerate fit of the issue: PCX1 on its 0.3 bound with PDX1 = 6.4.
+        let r = lint_text(&with(&with(SUPPLIER, "PCX1", "0.3"), "PDX1", "-6.4"));
+        assert!(
+            codes(&r, Severity::Error).contains(&"friction-range"),
+            "{:#?}",
+            r.findings
+        );
     }
 
     proptest::proptest! {
