@@ -96,12 +96,15 @@ DIR/truth/: tir/<tire>__<rim>in__<P>kPa.tir (the exact PAC2002 truth per tire, r
 pressure, ISO-W, SI), <tire>__<rim>in.toml (vertical stiffness N/m and unloaded radius m static
 and dynamic per pressure, relaxation-length laws, the mu(T) law under [thermal]), segments.csv
 (one row per generated segment: kind, ET range s, nominal pressure kPa, IA deg, load N, slip
-angle deg ISO-W, speed km/h), defects.csv and round.toml (the resolved configuration).
+angle deg ISO-W, speed km/h), defects.csv and round.toml (the resolved configuration); and the
+demo car's rig-inertia sessions under DIR/inertia/ (car_yaw, car_pitch, wheel_trifilar, each
+with expected.toml: the known answers), which `tirebase run` processes into inertia.parquet.
 
 The physics: forces from the truth model with first-order relaxation (sigma_alpha, sigma_kappa),
 tread temperature from slip power with grip following mu(T), loaded and effective radii, wheel
 speed, SL and SR, sensor noise and IR-sensor quirks. Same seed and configuration -> the same
-bytes, whatever --jobs. DIR/raw, DIR/truth and DIR/catalog.toml are replaced.
+bytes, whatever --jobs. DIR/raw, DIR/truth and DIR/catalog.toml are replaced, and in
+DIR/inertia/ the three session directories (other sessions there are kept).
 
 Configuration: built-in defaults < [synth] of --config FILE (see config/default.toml) < flags.")]
 pub struct SynthRoundArgs {
@@ -114,8 +117,8 @@ pub struct SynthRoundArgs {
     /// Seed of every random stream (unsigned 64-bit integer).
     #[arg(long, value_name = "N")]
     pub seed: Option<u64>,
-    /// demo: 2 tire/rim combinations x 2 pressures (seconds); full: 12 combinations x 4-5
-    /// pressure runs, cornering and drive/brake (benchmark load).
+    /// demo: 4 tire/rim combinations (three tires, one on two rims) x 2 pressures (seconds);
+    /// full: 12 combinations x 4-5 pressure runs, cornering and drive/brake (benchmark load).
     #[arg(long, value_enum, value_name = "SIZE")]
     pub size: Option<SynthSize>,
     /// Inject the defects of a real round (duplicated and non-monotonic ET, P = 0 stretch,
@@ -584,7 +587,8 @@ pub struct DiffArgs {
     /// The new version (number, vNNNNNN or latest).
     #[arg(value_name = "B")]
     pub b: String,
-    /// Only this tire (exact name as in the store).
+    /// Only this tire (exact name as in the store); inertia rows, which belong to no tire, are
+    /// left out.
     #[arg(long, value_name = "T")]
     pub tire: Option<String>,
     /// Output format.

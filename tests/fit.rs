@@ -206,7 +206,8 @@ fn check_models(f: &Fitted, limits: [f64; 3]) -> [f64; 3] {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     truths.sort();
-    assert_eq!(truths.len(), 4, "{truths:?}");
+    // 4 tire/rim combinations x 2 pressures.
+    assert_eq!(truths.len(), 8, "{truths:?}");
     let mut worst = [0.0_f64; 3];
     let mut failures = Vec::new();
     for name in &truths {
@@ -278,7 +279,7 @@ fn realistic_round_within_2_percent_forces_5_percent_mz_issue_5() {
         );
     }
     let q = read_table(&f.out, "fit_quality");
-    assert_eq!(q.height(), 4 * 7, "7 fitted channels per model: {q}");
+    assert_eq!(q.height(), 8 * 7, "7 fitted channels per model: {q}");
 }
 
 /// The truth TOML of a tire/rim: (pressure_kpa_nom -> table) and the thermal table.
@@ -426,7 +427,7 @@ fn realistic_round_meets_the_issue_6_tolerances() {
 
     // Thermal: mu(T) peak temperature within 3 degC and gain within 3 %.
     let th = read_table(&f.out, "thermal_fit");
-    assert_eq!(th.height(), 4, "{th}");
+    assert_eq!(th.height(), 8, "{th}");
     let (tt, tr) = (strs(&th, "tire"), f64s(&th, "rim_in"));
     let (t_peak, gain) = (f64s(&th, "t_peak_c"), f64s(&th, "gain_peak_over_cold"));
     for k in 0..th.height() {
@@ -502,7 +503,7 @@ fn jobs_1_and_jobs_2_give_identical_outputs() {
     ok(&o, "fit --jobs 1");
     let (a, b) = (outputs(&out1), outputs(&f.out));
     assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
-    assert_eq!(a.len(), 8 + 4, "{:?}", a.keys());
+    assert_eq!(a.len(), 8 + 8, "8 tables and 8 .tir files: {:?}", a.keys());
     for (name, bytes) in &a {
         assert!(bytes == &b[name], "{name} differs between --jobs 1 and 2");
     }
@@ -548,9 +549,9 @@ fn copy_dir(from: &Path, to: &Path) {
     }
 }
 
-/// Mark every force segment of one tire at one pressure as load-drifting (a QC flag that spoils
+/// Mark every force segment of one tire, rim and pressure as load-drifting (a QC flag that spoils
 /// forces), as a segmenter would for a bad test.
-fn flag_force_segments(store: &Path, tire: &str, pressure_kpa: i64) -> usize {
+fn flag_force_segments(store: &Path, tire: &str, rim_in: i64, pressure_kpa: i64) -> usize {
     let mut flagged = 0;
     for entry in std::fs::read_dir(store.join("segments")).unwrap() {
         let path = entry.unwrap().path();
@@ -561,6 +562,7 @@ fn flag_force_segments(store: &Path, tire: &str, pressure_kpa: i64) -> usize {
             .map(|i| {
                 let s = |c: &str| df.column(c).unwrap().get(i).unwrap().to_string();
                 s("tire").trim_matches('"') == tire
+                    && s("rim_in") == rim_in.to_string()
                     && s("pressure_kpa_nom") == pressure_kpa.to_string()
                     && ["cornering", "drive_brake", "combined"]
                         .contains(&s("kind").trim_matches('"'))
@@ -605,7 +607,7 @@ fn a_failed_group_is_reported_and_the_others_are_written() {
     let (store, out) = (dir.path().join("store"), dir.path().join("out"));
     copy_dir(&f.store, &store);
     let tire = "Hoosier 16.0x7.5-10 R25B";
-    let n = flag_force_segments(&store, tire, 69);
+    let n = flag_force_segments(&store, tire, 7, 69);
     assert!(n > 20, "flagged {n}");
     let o = tirebase(&["fit", "--store", p(&store), "--out", p(&out), "--jobs", "2"]);
     let stderr = String::from_utf8_lossy(&o.stderr);
@@ -615,49 +617,44 @@ fn a_failed_group_is_reported_and_the_others_are_written() {
         "{stderr}"
     );
     let failures = read_table(&out, "fit_failures");
-    let fatal: Vec<(String, String)> = strs(&failures, "tire")
+    let group = |df: &DataFrame| -> Vec<String> {
+        strs(df, "tire")
+            .into_iter()
+            .zip(strs(df, "rim_in"))
+            .zip(strs(df, "pressure_kpa"))
+            .map(|((t, r), p)| format!("{t} {r} {p}"))
+            .collect()
+    };
+    let failed = format!("{tire} 7 69");
+    let fatal: Vec<(String, String)> = group(&failures)
         .into_iter()
-        .zip(strs(&failures, "pressure_kpa"))
         .zip(strs(&failures, "stage"))
         .zip(strs(&failures, "fatal"))
         .filter(|(_, fatal)| fatal == "true")
-        .map(|(((t, p), s), _)| (format!("{t} {p}"), s))
+        .map(|((g, s), _)| (g, s))
         .collect();
     assert!(
-        fatal.contains(&(format!("{tire} 69"), "pac2002".to_string())),
+        fatal.contains(&(failed.clone(), "pac2002".to_string())),
         "{fatal:?}"
     );
-    assert!(
-        fatal.iter().all(|(g, _)| g == &format!("{tire} 69")),
-        "{fatal:?}"
-    );
+    assert!(fatal.iter().all(|(g, _)| g == &failed), "{fatal:?}");
     let mut tirs: Vec<String> = std::fs::read_dir(out.join("tir"))
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     tirs.sort();
-    assert_eq!(tirs.len(), 3, "{tirs:?}");
+    assert_eq!(tirs.len(), 7, "{tirs:?}");
     assert!(!tirs.contains(&tir_file_name(tire, 7.0, 69.0)));
     // The failed group's other stages still ran: its spring-rate holds and thermal test.
     for table in ["spring_rate", "thermal_fit"] {
-        let df = read_table(&out, table);
-        let groups: Vec<String> = strs(&df, "tire")
-            .into_iter()
-            .zip(strs(&df, "pressure_kpa"))
-            .map(|(t, p)| format!("{t} {p}"))
-            .collect();
-        assert!(
-            groups.contains(&format!("{tire} 69")),
-            "{table}: {groups:?}"
-        );
+        let groups = group(&read_table(&out, table));
+        assert!(groups.contains(&failed), "{table}: {groups:?}");
     }
-    let coefs = read_table(&out, "coefficients");
-    let groups: std::collections::BTreeSet<String> = strs(&coefs, "tire")
+    let groups: std::collections::BTreeSet<String> = group(&read_table(&out, "coefficients"))
         .into_iter()
-        .zip(strs(&coefs, "pressure_kpa"))
-        .map(|(t, p)| format!("{t} {p}"))
         .collect();
-    assert_eq!(groups.len(), 3, "{groups:?}");
+    assert_eq!(groups.len(), 7, "{groups:?}");
+    assert!(!groups.contains(&failed));
 }
 
 #[test]

@@ -219,8 +219,10 @@ fn write_table(dir: &Path, name: &str, mut df: DataFrame) {
     ParquetWriter::new(file).finish(&mut df).unwrap();
 }
 
-/// Result tables built from the round's truth files (see the module doc).
-fn write_fixture_tables(round: &Path, results: &Path) {
+/// Result tables built from the round's truth files (see the module doc); returns the number of
+/// tire, rim and pressure groups (the fit-quality fixture's worst rows are `groups + 0.2`,
+/// `+ 0.1` and `+ 0.0` % of peak).
+fn write_fixture_tables(round: &Path, results: &Path) -> usize {
     let mut tires = Vec::new();
     let mut spring = (
         Vec::<String>::new(),
@@ -260,9 +262,13 @@ fn write_fixture_tables(round: &Path, results: &Path) {
         })
         .collect();
     truths.sort();
+    // Rim of every row of each table, in push order.
+    let (mut spring_rim, mut relax_rim, mut tfit_rim, mut therm_rim) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for path in truths {
         let truth: toml::Table = toml::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
         let tire = truth["tire"].as_str().unwrap().to_string();
+        let rim_in = truth["rim_in"].as_float().unwrap().round() as i64;
         let th = truth["thermal"].as_table().unwrap();
         let t_peak = th["t_peak_c"].as_float().unwrap();
         let t_cold = th["t_cold_c"].as_float().unwrap();
@@ -271,9 +277,10 @@ fn write_fixture_tables(round: &Path, results: &Path) {
         for p in truth["pressure"].as_array().unwrap() {
             let p = p.as_table().unwrap();
             let kpa = p["pressure_kpa_nom"].as_float().unwrap().round() as i64;
-            tires.push((tire.clone(), kpa));
+            tires.push((tire.clone(), rim_in, kpa));
             for cond in ["static", "dynamic"] {
                 spring.0.push(tire.clone());
+                spring_rim.push(rim_in);
                 spring.1.push(kpa);
                 spring.2.push(0);
                 spring.3.push(cond.to_string());
@@ -289,6 +296,7 @@ fn write_fixture_tables(round: &Path, results: &Path) {
             ] {
                 for (load, sigma) in p[key].as_table().unwrap() {
                     relax.0.push(tire.clone());
+                    relax_rim.push(rim_in);
                     relax.1.push(kpa);
                     relax.2.push(load.parse().unwrap());
                     relax.3.push(load.parse::<f64>().unwrap());
@@ -297,6 +305,7 @@ fn write_fixture_tables(round: &Path, results: &Path) {
                 }
             }
             tfit.0.push(tire.clone());
+            tfit_rim.push(rim_in);
             tfit.1.push(kpa);
             tfit.2.push(t_peak);
             tfit.3.push(t_cold);
@@ -310,6 +319,7 @@ fn write_fixture_tables(round: &Path, results: &Path) {
             ] {
                 for t in [30.0, 38.0, 46.0, 54.0, 62.0, 70.0] {
                     therm.0.push(tire.clone());
+                    therm_rim.push(rim_in);
                     therm.1.push(kpa);
                     therm.2.push(q.to_string());
                     therm.3.push(t);
@@ -320,20 +330,19 @@ fn write_fixture_tables(round: &Path, results: &Path) {
             }
         }
     }
-    let rim = |n: usize| vec![7i64; n];
-    let n = spring.0.len();
-    write_table(results, "spring_rate", df!("tire" => spring.0, "rim_in" => rim(n), "pressure_kpa" => spring.1, "ia_deg_nom" => spring.2, "condition" => spring.3, "stiffness_n_per_m" => spring.4).unwrap());
+    write_table(results, "spring_rate", df!("tire" => spring.0, "rim_in" => spring_rim, "pressure_kpa" => spring.1, "ia_deg_nom" => spring.2, "condition" => spring.3, "stiffness_n_per_m" => spring.4).unwrap());
     let n = relax.0.len();
-    write_table(results, "relaxation", df!("tire" => relax.0, "rim_in" => rim(n), "pressure_kpa" => relax.1, "fz_n_nom" => relax.2, "fz_n_mean" => relax.3, "direction" => relax.4, "method" => vec!["sweep"; n], "sigma_m" => relax.5, "converged" => vec![true; n]).unwrap());
+    write_table(results, "relaxation", df!("tire" => relax.0, "rim_in" => relax_rim, "pressure_kpa" => relax.1, "fz_n_nom" => relax.2, "fz_n_mean" => relax.3, "direction" => relax.4, "method" => vec!["sweep"; n], "sigma_m" => relax.5, "converged" => vec![true; n]).unwrap());
     let n = tfit.0.len();
-    write_table(results, "thermal_fit", df!("tire" => tfit.0, "rim_in" => rim(n), "pressure_kpa" => tfit.1, "t_peak_c" => tfit.2, "t_cold_c" => tfit.3, "k_cold_per_c2" => tfit.4, "hot_falloff" => vec![1.0; n], "mu_peak_mean" => tfit.5).unwrap());
-    let n = therm.0.len();
-    write_table(results, "thermal", df!("tire" => therm.0, "rim_in" => rim(n), "pressure_kpa" => therm.1, "quadrant" => therm.2, "t_centre_peak_c" => therm.3, "mu_peak" => therm.4).unwrap());
+    write_table(results, "thermal_fit", df!("tire" => tfit.0, "rim_in" => tfit_rim, "pressure_kpa" => tfit.1, "t_peak_c" => tfit.2, "t_cold_c" => tfit.3, "k_cold_per_c2" => tfit.4, "hot_falloff" => vec![1.0; n], "mu_peak_mean" => tfit.5).unwrap());
+    write_table(results, "thermal", df!("tire" => therm.0, "rim_in" => therm_rim, "pressure_kpa" => therm.1, "quadrant" => therm.2, "t_centre_peak_c" => therm.3, "mu_peak" => therm.4).unwrap());
     // Fit quality: three channels per group; one clearly worst row per tire group index.
-    let (mut t, mut p, mut ch, mut pct) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for (i, (tire, kpa)) in tires.iter().enumerate() {
+    let (mut t, mut r, mut p, mut ch, mut pct) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (i, (tire, rim_in, kpa)) in tires.iter().enumerate() {
         for (j, c) in ["fx", "fy", "mz"].into_iter().enumerate() {
             t.push(tire.clone());
+            r.push(*rim_in);
             p.push(*kpa);
             ch.push(c);
             pct.push(1.0 + i as f64 + 0.1 * j as f64);
@@ -341,11 +350,12 @@ fn write_fixture_tables(round: &Path, results: &Path) {
     }
     let n = t.len();
     let r2: Vec<f64> = pct.iter().map(|x| 1.0 - x / 100.0).collect();
-    write_table(results, "fit_quality", df!("tire" => t.clone(), "rim_in" => rim(n), "pressure_kpa" => p.clone(), "channel" => ch, "n" => vec![1000i64; n], "rmse" => pct.clone(), "rmse_pct_of_peak" => pct, "r2" => r2).unwrap());
-    let (tire0, kpa0) = tires[0].clone();
-    write_table(results, "lint", df!("tire" => [tire0.clone()], "rim_in" => [7i64], "pressure_kpa" => [kpa0], "severity" => ["warning"], "code" => ["fixture-lint"], "message" => ["fixture: E > 1 before clamping at Fz 1557 N"]).unwrap());
-    write_table(results, "fit_failures", df!("tire" => [tire0.clone()], "rim_in" => [7i64], "pressure_kpa" => [kpa0], "stage" => ["relaxation"], "reason" => ["fixture: no step-steer segments"]).unwrap());
-    write_table(results, "coefficients", df!("tire" => [tire0.clone(), tire0], "rim_in" => [7i64, 7], "pressure_kpa" => [kpa0, kpa0], "model" => ["pac2002", "pac2002"], "family" => ["fy", "fy"], "name" => ["PEY1", "PDY1"], "value" => [1.0, 2.4], "std_error" => [0.01, 0.02], "at_bound" => [true, false]).unwrap());
+    write_table(results, "fit_quality", df!("tire" => t.clone(), "rim_in" => r, "pressure_kpa" => p.clone(), "channel" => ch, "n" => vec![1000i64; n], "rmse" => pct.clone(), "rmse_pct_of_peak" => pct, "r2" => r2).unwrap());
+    let (tire0, rim0, kpa0) = tires[0].clone();
+    write_table(results, "lint", df!("tire" => [tire0.clone()], "rim_in" => [rim0], "pressure_kpa" => [kpa0], "severity" => ["warning"], "code" => ["fixture-lint"], "message" => ["fixture: E > 1 before clamping at Fz 1557 N"]).unwrap());
+    write_table(results, "fit_failures", df!("tire" => [tire0.clone()], "rim_in" => [rim0], "pressure_kpa" => [kpa0], "stage" => ["relaxation"], "reason" => ["fixture: no step-steer segments"]).unwrap());
+    write_table(results, "coefficients", df!("tire" => [tire0.clone(), tire0], "rim_in" => [rim0, rim0], "pressure_kpa" => [kpa0, kpa0], "model" => ["pac2002", "pac2002"], "family" => ["fy", "fy"], "name" => ["PEY1", "PDY1"], "value" => [1.0, 2.4], "std_error" => [0.01, 0.02], "at_bound" => [true, false]).unwrap());
+    tires.len()
 }
 
 fn copy_dir(from: &Path, to: &Path) {
@@ -409,7 +419,7 @@ fn report_renders_every_plot_in_headless_chromium() {
     // Full result directory: every chart must be drawn on every tire page.
     let results = tmp.path().join("results");
     copy_dir(&round.join("truth").join("tir"), &results.join("tir"));
-    write_fixture_tables(&round, &results);
+    let groups = write_fixture_tables(&round, &results);
     let out = tmp.path().join("report");
     let (output, seconds) = report(&store, &results, &out);
     ok(&output, "report");
@@ -431,7 +441,11 @@ fn report_renders_every_plot_in_headless_chromium() {
         .into_iter()
         .filter(|p| p.file_name().unwrap() != "index.html")
         .collect();
-    assert_eq!(tire_pages.len(), 2, "one page per demo tire");
+    assert_eq!(
+        tire_pages.len(),
+        3,
+        "one page per demo tire (one of them on two rims)"
+    );
     let index = std::fs::read_to_string(out.join("index.html")).unwrap();
     for p in &tire_pages {
         let name = p.file_name().unwrap().to_string_lossy();
@@ -440,8 +454,8 @@ fn report_renders_every_plot_in_headless_chromium() {
             "index links {name}"
         );
     }
-    // The fixture's three worst rows (4.2, 4.1, 4.0 % of peak) are listed first and
-    // highlighted again in the full table.
+    // The fixture's three worst rows (groups + 0.2, + 0.1, + 0.0 % of peak) are listed first
+    // and highlighted again in the full table.
     assert_eq!(index.matches("<tr class=\"worst\">").count(), 6);
     let worst = index
         .split("Worst fits")
@@ -455,8 +469,10 @@ fn report_renders_every_plot_in_headless_chromium() {
             .find(v)
             .unwrap_or_else(|| panic!("{v} not among the worst: {worst}"))
     };
-    assert!(pos("4.2000") < pos("4.1000") && pos("4.1000") < pos("4.0000"));
-    assert!(!worst.contains("3.2000"));
+    let pct = |x: f64| format!("{x:.4}");
+    let n = groups as f64;
+    assert!(pos(&pct(n + 0.2)) < pos(&pct(n + 0.1)) && pos(&pct(n + 0.1)) < pos(&pct(n)));
+    assert!(!worst.contains(&pct(n - 0.8)));
     assert!(index.contains("fixture-lint") && index.contains("fixture: no step-steer segments"));
     let idx = render(&out.join("index.html"), tmp.path());
     assert!(idx.drawn.is_empty() && idx.missing.is_empty());

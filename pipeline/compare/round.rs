@@ -218,12 +218,12 @@ pub fn fit_error(
     FitError {
         relative: sum_sq.sqrt(),
         source: format!(
-            "fit_quality.{column} of {} ({})",
-            channels.join(" and "),
+            "fit_quality.{column} {} ({})",
+            channels.join("+"),
             if out_of_sample {
                 "out-of-sample"
             } else {
-                "in-sample: no out-of-sample error in fit_quality yet"
+                "in-sample"
             }
         ),
     }
@@ -255,50 +255,95 @@ fn slope(points: &[(f64, f64)]) -> Option<f64> {
     (sxx > 0.0).then(|| sxy / sxx)
 }
 
+/// Smallest gain of peak grip over cold for a temperature optimum to mean anything: below it
+/// the fitted parabola is flat and its vertex is noise.
+pub const MIN_THERMAL_GAIN: f64 = 0.01;
+
+/// Bool column `name` of `df` (None where null or missing).
+fn bools(df: &DataFrame, name: &str) -> Vec<Option<bool>> {
+    df.column(name)
+        .ok()
+        .and_then(|c| c.bool().ok().map(|v| v.iter().collect()))
+        .unwrap_or_else(|| vec![None; df.height()])
+}
+
 /// The thermal window of a group from `thermal_fit` (optimum, gain, cold reference) and
 /// `thermal` (the sweep peaks: centre temperature against time, per cold-to-warm test).
+///
+/// Reported only where measured: nothing when the mu(T) fit did not converge; the gain alone
+/// when grip rises by less than [`MIN_THERMAL_GAIN`] or the optimum lies outside the measured
+/// peak temperatures (an extrapolated vertex).
 pub fn thermal_window(tables: &BTreeMap<String, DataFrame>, key: &GroupKey) -> ThermalWindow {
     let finite = |v: f64| v.is_finite().then_some(v);
     let mut w = ThermalWindow::default();
-    let mut t_cold = None;
-    if let Some(df) = tables.get("thermal_fit")
-        && let Some(&i) = rows_by_group(df).get(key).and_then(|r| r.first())
-    {
-        w.t_opt_c = finite(f64s(df, "t_peak_c")[i]);
-        w.gain_over_cold = finite(f64s(df, "gain_peak_over_cold")[i]);
-        t_cold = finite(f64s(df, "t_cold_c")[i]);
-    }
-    let Some(t_opt) = w.t_opt_c else {
+    let Some(df) = tables.get("thermal_fit") else {
         return w;
     };
-    if let Some(df) = tables.get("thermal") {
-        let rows = rows_by_group(df).remove(key).unwrap_or_default();
-        let (seg, et, t) = (
-            strs(df, "segment_id"),
-            f64s(df, "et_peak_s"),
-            f64s(df, "t_centre_peak_c"),
-        );
-        let mut by_test: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-        for i in rows {
-            if et[i].is_finite() && t[i].is_finite() && t[i] < t_opt {
-                by_test
-                    .entry(seg[i].clone().unwrap_or_default())
-                    .or_default()
-                    .push((et[i], t[i]));
-            }
-        }
-        let slopes: Vec<f64> = by_test
-            .values()
-            .filter_map(|p| slope(p))
-            .filter(|s| s.is_finite() && *s > 0.0)
-            .collect();
-        if !slopes.is_empty() {
-            let rate = slopes.iter().sum::<f64>() / slopes.len() as f64;
-            w.warmup_rate_c_per_s = Some(rate);
-            w.warmup_time_s = t_cold.map(|c| (t_opt - c) / rate).filter(|s| *s >= 0.0);
-        }
+    let Some(&i) = rows_by_group(df).get(key).and_then(|r| r.first()) else {
+        return w;
+    };
+    if bools(df, "converged")[i] == Some(false) {
+        return w;
+    }
+    w.gain_over_cold = finite(f64s(df, "gain_peak_over_cold")[i]);
+    let t_opt = finite(f64s(df, "t_peak_c")[i]);
+    let t_cold = finite(f64s(df, "t_cold_c")[i]);
+    let peaks = peak_temperatures(tables, key);
+    let (lo, hi) = peaks
+        .values()
+        .flatten()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.1), hi.max(p.1))
+        });
+    let Some(t_opt) = t_opt
+        .filter(|&t| w.gain_over_cold.is_some_and(|g| g >= MIN_THERMAL_GAIN) && lo <= t && t <= hi)
+    else {
+        return w;
+    };
+    w.t_opt_c = Some(t_opt);
+    let slopes: Vec<f64> = peaks
+        .values()
+        .map(|p| {
+            p.iter()
+                .copied()
+                .filter(|x| x.1 < t_opt)
+                .collect::<Vec<_>>()
+        })
+        .filter_map(|p| slope(&p))
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .collect();
+    if !slopes.is_empty() {
+        let rate = slopes.iter().sum::<f64>() / slopes.len() as f64;
+        w.warmup_rate_c_per_s = Some(rate);
+        w.warmup_time_s = t_cold.map(|c| (t_opt - c) / rate).filter(|s| *s >= 0.0);
     }
     w
+}
+
+/// The group's sweep peaks `(time s, centre temperature degC)` per cold-to-warm test.
+fn peak_temperatures(
+    tables: &BTreeMap<String, DataFrame>,
+    key: &GroupKey,
+) -> BTreeMap<String, Vec<(f64, f64)>> {
+    let mut by_test: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    let Some(df) = tables.get("thermal") else {
+        return by_test;
+    };
+    let rows = rows_by_group(df).remove(key).unwrap_or_default();
+    let (seg, et, t) = (
+        strs(df, "segment_id"),
+        f64s(df, "et_peak_s"),
+        f64s(df, "t_centre_peak_c"),
+    );
+    for i in rows {
+        if et[i].is_finite() && t[i].is_finite() {
+            by_test
+                .entry(seg[i].clone().unwrap_or_default())
+                .or_default()
+                .push((et[i], t[i]));
+        }
+    }
+    by_test
 }
 
 #[cfg(test)]
@@ -376,5 +421,28 @@ mod tests {
         assert!((w.warmup_time_s.unwrap() - 30.0 / 0.6).abs() < 1e-6);
         let none = thermal_window(&t, &("B".to_string(), 7, 83));
         assert_eq!(none, ThermalWindow::default());
+    }
+
+    #[test]
+    fn an_unresolved_optimum_is_not_reported() {
+        let mut t = tables();
+        let fit = |t_peak: f64, gain: f64, converged: bool| {
+            df!(
+                "tire" => ["A"], "rim_in" => [7i64], "pressure_kpa" => [83i64],
+                "t_peak_c" => [t_peak], "gain_peak_over_cold" => [gain], "t_cold_c" => [25.0],
+                "converged" => [converged],
+            )
+            .unwrap()
+        };
+        let a = ("A".to_string(), 7, 83);
+        // No measurable rise of grip with temperature: the vertex means nothing.
+        t.insert("thermal_fit".into(), fit(55.0, 0.002, true));
+        let w = thermal_window(&t, &a);
+        assert_eq!((w.t_opt_c, w.gain_over_cold), (None, Some(0.002)));
+        // An optimum hotter than any measured peak is an extrapolation.
+        t.insert("thermal_fit".into(), fit(300.0, 0.3, true));
+        assert_eq!(thermal_window(&t, &a).t_opt_c, None);
+        t.insert("thermal_fit".into(), fit(55.0, 0.3, false));
+        assert_eq!(thermal_window(&t, &a), ThermalWindow::default());
     }
 }
