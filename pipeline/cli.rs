@@ -158,7 +158,8 @@ Read raw TTC run files (.dat ASCII and .mat MATLAB v5, any round, US customary o
 tire database. Every channel is converted to SI by its own unit string and to the ISO-W axis
 frame (Fz > 0 in compression, alpha = -SA, Fy and Mz negated); each run is split into classified
 segments (spring-rate holds, cold-to-warm, conditioning, cornering, drive/brake, combined, step
-steers, IA and speed sweeps) binned to nominal pressure, inclination, load, slip angle and speed.
+steers, IA and speed sweeps) with the nominal pressure, inclination, load, slip angle and speed
+levels each run holds, learned from its own data (no fixed list of levels).
 
 Incremental: a file whose path, size and modification time are unchanged since its last
 successful ingest is skipped without reading it (--rehash hashes it anyway); a file whose content
@@ -456,6 +457,18 @@ pub enum TirCommand {
     /// written so that reading the output gives back exactly the same values. Sections it
     /// does not know are kept at the end.
     Convert(TirConvertArgs),
+    /// Score a .tir model on a store's measured samples: RMSE of Fx, Fy, Mz per source file and
+    /// nominal pressure.
+    ///
+    /// Evaluates the model (combined slip, ISO-W, SI) at every selected sample's measured load,
+    /// slip ratio, slip angle, inclination and speed, and prints CSV to stdout: tire,
+    /// source_file, pressure_kpa_nom (kPa), n_samples, fx_rmse_n, fy_rmse_n (N), mz_rmse_nm
+    /// (N m), and the RMS of the measured values fx_rms_n, fy_rms_n, mz_rms_nm. Every sample of
+    /// the store counts (not only the sweeps a fit used), filtered by --max-alpha-deg,
+    /// --min-fz-n and --min-speed-kph, then every --every-th sample per source file in time
+    /// order. The defaults are the selection of the real-data check (|alpha| <= 12.5 deg,
+    /// Fz > 100 N, V > 5 km/h, every 5th sample).
+    Score(TirScoreArgs),
 }
 
 /// How inputs are limited when evaluating.
@@ -493,6 +506,38 @@ pub struct TirLintArgs {
     /// The .tir property file to check.
     #[arg(value_name = "FILE")]
     pub file: PathBuf,
+}
+
+/// Arguments of `tir score`.
+#[derive(Debug, Args)]
+pub struct TirScoreArgs {
+    /// The .tir property file (PAC2002 / MF 5.2).
+    #[arg(long, value_name = "FILE")]
+    pub tir: PathBuf,
+    /// Store root directory (written by `tirebase ingest`).
+    #[arg(long, value_name = "DIR")]
+    pub store: PathBuf,
+    /// Only this tire (its name as stored).
+    #[arg(long, value_name = "NAME")]
+    pub tire: Option<String>,
+    /// Only samples of this nominal pressure, kPa (the pressure_kpa_nom partition).
+    #[arg(long, value_name = "KPA")]
+    pub pressure_kpa: Option<i64>,
+    /// Largest |slip angle| scored, deg.
+    #[arg(long, value_name = "DEG", default_value_t = 12.5)]
+    pub max_alpha_deg: f64,
+    /// Smallest vertical load scored, N (compression positive).
+    #[arg(long, value_name = "N", default_value_t = 100.0)]
+    pub min_fz_n: f64,
+    /// Smallest road speed scored, km/h.
+    #[arg(long, value_name = "KPH", default_value_t = 5.0)]
+    pub min_speed_kph: f64,
+    /// Keep every n-th selected sample of each source file (1 = all).
+    #[arg(long, value_name = "N", default_value_t = 5)]
+    pub every: usize,
+    /// Input limiting.
+    #[arg(long, value_enum, default_value_t = EvalMode::Limits)]
+    pub mode: EvalMode,
 }
 
 /// Arguments of `tir convert`.

@@ -7,7 +7,7 @@
 //! fit_groups:   rayon pool of `jobs` threads, one group per task:
 //!               load samples ─▶ spring rate ─▶ PAC2002 (forces) ─▶ relaxation ─▶ PAC2002
 //!               on de-lagged sweeps ─▶ relaxation ; thermal          (fit::group)
-//!               ─▶ .tir text + lint               (fit::tir)
+//!               ─▶ .tir text + lint (an error is a fit_failures row)   (fit::tir)
 //!               ─▶ tables in group order          (fit::tables)
 //! write_outcome: OUT/<table>.parquet, OUT/tir/*.tir (atomic writes)
 //! ```
@@ -34,6 +34,7 @@ use polars::prelude::*;
 use rayon::prelude::*;
 use tirebase_core::fit::segment_data::TireKey;
 use tirebase_core::naming::sanitize_tire;
+use tirebase_core::tire_model::tir::lint::Severity;
 
 pub use group::StageConfigs;
 pub use load::{LoadedSegment, SegmentRow, judge_qc, live_segments, parse_qc_flag};
@@ -179,7 +180,8 @@ pub struct FitOptions {
 }
 
 /// One (tire, rim, nominal pressure) group and the hash of everything its fit depends on: the
-/// sorted (segment_id, source_sha256, qc_flags) of its usable segments, the resolved stage
+/// sorted (segment_id, source_sha256, store part, qc_flags) of its usable segments (the part
+/// names the segmentation settings and tool that computed them), the resolved stage
 /// configurations, the stage set and the tool version.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct GroupPlan {
@@ -398,7 +400,12 @@ pub fn plan_groups(
         .map(|(key, segs)| {
             let mut lines: Vec<String> = segs
                 .iter()
-                .map(|s| format!("{}\t{}\t{}\n", s.segment_id, s.source_sha256, s.qc_flags))
+                .map(|s| {
+                    format!(
+                        "{}\t{}\t{}\t{}\n",
+                        s.segment_id, s.source_sha256, s.part, s.qc_flags
+                    )
+                })
                 .collect();
             lines.sort();
             let text = format!("{key}\n{}{config_text}", lines.concat());
@@ -454,7 +461,25 @@ fn fit_one(
             && let Some(fit) = &result.pac2002
         {
             match tir::build(&result, &fit.notes) {
-                Ok(m) => model = Some(m),
+                Ok(m) => {
+                    // A written model the lint calls physically wrong (a spike, a force against
+                    // its slip, friction above 4, ...) is never silent: one row per error.
+                    for f in m
+                        .lint
+                        .findings
+                        .iter()
+                        .filter(|f| f.severity == Severity::Error)
+                    {
+                        result.failures.push(FitFailure::new(
+                            &plan.key,
+                            "pac2002",
+                            &format!("lint {} {}", m.file_name, f.code),
+                            false,
+                            f.message.clone(),
+                        ));
+                    }
+                    model = Some(m);
+                }
                 Err(reason) => result.failures.push(FitFailure::new(
                     &plan.key, "pac2002", "pac2002", true, reason,
                 )),

@@ -32,6 +32,7 @@ pub mod query;
 pub mod report;
 pub mod run;
 pub mod schema;
+pub mod score;
 pub mod store;
 
 /// Stack of every worker thread that may run polars (ingest, fit, report pools). A rayon worker

@@ -91,8 +91,14 @@ pub struct Counts {
     pub files_ok: u64,
     /// Of those, failed (listed in the runs table with the reason).
     pub files_failed: u64,
-    /// Of those, read and segmented by this run (the others were unchanged).
+    /// Of those, read and segmented by this run because their content was new or changed.
     pub files_ingested: u64,
+    /// Of those, read and segmented again for new segmentation settings or a new tool.
+    pub files_resegmented: u64,
+    /// Of those, relabelled without a parse for a new catalog identity.
+    pub files_relabelled: u64,
+    /// Files of the previous version no longer in the input (removed from the store).
+    pub files_removed: u64,
     /// Live segments in the store, by kind.
     pub segments_by_kind: BTreeMap<String, u64>,
     /// Fit groups.

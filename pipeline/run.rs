@@ -24,7 +24,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::time::{Instant, UNIX_EPOCH};
+use std::time::Instant;
 
 use polars::prelude::*;
 use tirebase_core::naming::tir_file_name;
@@ -43,6 +43,7 @@ use crate::store::StoreError;
 use crate::store::files::{read_parquet, sha256_bytes, sha256_file, write_parquet_atomic};
 use crate::store::layout::runs_file;
 use crate::store::lock::{LockWait, StoreLock};
+use crate::store::tables::STATUS_FAILED;
 use crate::store::versions::{self, VersionBuilder};
 
 /// Folder of the input holding rig-inertia sessions.
@@ -111,6 +112,8 @@ pub enum RunOutcome {
         version: u32,
         /// Wall time, s.
         seconds: f64,
+        /// Input files that failed again (retried; the latest version lists them too).
+        failed_files: Vec<(String, String)>,
     },
     /// A version was published.
     Published(Box<RunReport>),
@@ -184,30 +187,32 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     };
     let mut timings = BTreeMap::new();
 
+    // The fast path reads no samples and no segments: what the store holds is a function of
+    // the files (same paths, sizes and mtimes as recorded), the catalog, the configuration and
+    // the tool version, and the group plan a function of the store. A file that failed last
+    // time is tried again, so a version with failures never takes it.
     let files_unchanged = previous
         .as_ref()
         .is_some_and(|(_, _, m)| same_files(&m.files, &fingerprint.files));
-    // The fast path reads no samples and no segments: the group plan is a function of the live
-    // segments (named by the content hashes the runs table commits), the configuration and the
-    // tool version, so an unchanged runs table, config and tool mean unchanged group hashes.
+    let previous_clean = previous
+        .as_ref()
+        .is_some_and(|(_, _, m)| m.files.iter().all(|f| f.status != STATUS_FAILED));
     if let Some((n, _, prev)) = &previous
         && files_unchanged
+        && previous_clean
         && same_settings(prev, &fingerprint, opts.store)?
     {
         return Ok(RunOutcome::UpToDate {
             version: *n,
             seconds: started.elapsed().as_secs_f64(),
+            failed_files: Vec::new(),
         });
     }
 
-    // Ingest (skipped when every input file has the size and mtime recorded last time).
+    // Ingest: unchanged files cost a stat; new content, a new catalog entry, new segmentation
+    // settings or a retry cost what they need (see `ingest::decide`).
     let t = Instant::now();
-    let ingest_report = if files_unchanged {
-        progress.note("ingest: input files unchanged since the latest version (size, mtime)");
-        None
-    } else {
-        Some(ingest_inputs(opts, progress)?)
-    };
+    let ingest_report = Some(ingest_inputs(opts, progress)?);
     timings.insert("ingest".to_string(), t.elapsed().as_secs_f64());
     let files = input_records(opts.store, &fingerprint.files, previous.as_ref())?;
 
@@ -219,10 +224,11 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
         && same_settings_but_runs(prev, &fingerprint)
         && same_groups(&prev.groups, &plan)
     {
-        // Files were touched (new mtime) but hold the same bytes.
+        // Files were touched (new mtime) but hold the same bytes, or failed files failed again.
         return Ok(RunOutcome::UpToDate {
             version: *n,
             seconds: started.elapsed().as_secs_f64(),
+            failed_files: failed_files(&files, ingest_report.as_ref()),
         });
     }
     let (to_fit, reused) = split_reuse(&plan, previous.as_ref().map(|(_, _, m)| m));
@@ -291,6 +297,13 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
         files_ingested: ingest_report.as_ref().map_or(0, |r| {
             r.count(|s| *s == ingest::FileStatus::Ingested) as u64
         }),
+        files_resegmented: ingest_report.as_ref().map_or(0, |r| {
+            r.count(|s| *s == ingest::FileStatus::Resegmented) as u64
+        }),
+        files_relabelled: ingest_report.as_ref().map_or(0, |r| {
+            r.count(|s| *s == ingest::FileStatus::Relabelled) as u64
+        }),
+        files_removed: ingest_report.as_ref().map_or(0, |r| r.removed.len() as u64),
         segments_by_kind: segments_by_kind(opts.store),
         groups: plan.len() as u64,
         groups_fitted: to_fit.len() as u64,
@@ -426,7 +439,7 @@ fn report_stage(
 fn failed_files(files: &[InputFile], ingest: Option<&IngestReport>) -> Vec<(String, String)> {
     files
         .iter()
-        .filter(|f| f.status == "failed")
+        .filter(|f| f.status == STATUS_FAILED)
         .map(|f| (f.name.clone(), failure_reason(ingest, &f.name)))
         .collect()
 }
@@ -450,14 +463,11 @@ fn with_pool<T: Send>(jobs: usize, f: impl FnOnce() -> T + Send) -> T {
 /// Stats of the raw input files, hashes of the small inputs.
 fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
     let raw = ingest::discover(&[opts.input.to_path_buf()])?;
-    let mut files = Vec::with_capacity(raw.len());
-    for path in &raw {
-        let meta = fs::metadata(path).map_err(|e| StoreError::io(path, e))?;
-        let mtime_ns = meta
-            .modified()
-            .ok()
-            .and_then(|t| t.duration_since(UNIX_EPOCH).ok())
-            .map_or(0, |d| d.as_nanos() as i64);
+    let mut files = Vec::with_capacity(raw.files.len());
+    for path in &raw.files {
+        // A file that cannot be stat'ed (a dangling symlink) is listed with no size; ingest
+        // records it as one failed file.
+        let stamp = ingest::FileStamp::of(path).unwrap_or_default();
         files.push(InputFile {
             name: source_file_name(path),
             path: path
@@ -465,8 +475,8 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
                 .unwrap_or(path)
                 .display()
                 .to_string(),
-            size: meta.len(),
-            mtime_ns,
+            size: u64::try_from(stamp.size_bytes).unwrap_or(0),
+            mtime_ns: stamp.mtime_ns,
             sha256: String::new(),
             status: String::new(),
         });
@@ -583,6 +593,8 @@ fn ingest_inputs(opts: &RunOptions, progress: &dyn Progress) -> Result<IngestRep
         // The nightly run trusts the ingest fast path (unchanged size, mtime and path).
         rehash: false,
         keep_duplicate_runs: false,
+        // The input directory is the whole input: files gone from it leave the store.
+        prune: true,
     };
     Ok(ingest::run_locked(
         &[opts.input.to_path_buf()],
@@ -598,7 +610,7 @@ fn input_records(
     stats: &[InputFile],
     previous: Option<&(u32, PathBuf, Manifest)>,
 ) -> Result<Vec<InputFile>, RunError> {
-    let runs = ingest::read_runs(store)?;
+    let runs = crate::store::tables::read_runs(store)?;
     let prev: BTreeMap<&str, &InputFile> = previous
         .map(|(_, _, m)| m.files.iter().map(|f| (f.path.as_str(), f)).collect())
         .unwrap_or_default();

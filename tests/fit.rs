@@ -252,6 +252,106 @@ fn ideal_round_reproduces_the_truth_models_issue_5() {
     check_models(f, [0.1, 0.1, 0.1]);
 }
 
+/// Issue 17: `tir score` on an ideal round: the truth model reproduces the measured samples
+/// (RMSE under 1 % of the measured RMS), the truth of another pressure does not, and asking for
+/// one pressure scores the same samples as the whole-file run.
+#[test]
+fn tir_score_separates_the_truth_from_another_pressures_model_issue_17() {
+    let f = ideal();
+    let truth_dir = f.round.join("truth/tir");
+    let groups = tirebase(&[
+        "query",
+        "--store",
+        p(&f.store),
+        "--format",
+        "csv",
+        "SELECT DISTINCT tire, rim_in, pressure_kpa_nom FROM segments WHERE kind = 'cornering' \
+         ORDER BY tire, pressure_kpa_nom",
+    ]);
+    ok(&groups, "query");
+    let mut reader = csv::Reader::from_reader(groups.stdout.as_slice());
+    let groups: Vec<(String, f64, i64)> = reader
+        .records()
+        .map(|r| {
+            let r = r.unwrap();
+            (
+                r[0].to_string(),
+                r[1].parse().unwrap(),
+                r[2].parse().unwrap(),
+            )
+        })
+        .collect();
+    let (tire, rim, pressure) = groups[0].clone();
+    let other = groups
+        .iter()
+        .find(|g| g.0 == tire && g.2 != pressure)
+        .expect("a second pressure of the same tire")
+        .2;
+    let score = |model_pressure: i64, only: Option<i64>| -> Vec<Vec<String>> {
+        let tir = truth_dir.join(tir_file_name(&tire, rim, model_pressure as f64));
+        let only = only.map(|p| p.to_string());
+        let mut args = vec![
+            "tir",
+            "score",
+            "--store",
+            p(&f.store),
+            "--tir",
+            p(&tir),
+            "--tire",
+            &tire,
+        ];
+        if let Some(only) = &only {
+            args.extend(["--pressure-kpa", only.as_str()]);
+        }
+        let o = tirebase(&args);
+        ok(&o, "tir score");
+        let mut r = csv::Reader::from_reader(o.stdout.as_slice());
+        assert_eq!(
+            r.headers().unwrap().iter().collect::<Vec<_>>(),
+            [
+                "tire",
+                "source_file",
+                "pressure_kpa_nom",
+                "n_samples",
+                "fx_rmse_n",
+                "fy_rmse_n",
+                "mz_rmse_nm",
+                "fx_rms_n",
+                "fy_rms_n",
+                "mz_rms_nm"
+            ]
+        );
+        r.records()
+            .map(|rec| rec.unwrap().iter().map(str::to_string).collect())
+            .collect()
+    };
+    let num = |row: &Vec<String>, i: usize| row[i].parse::<f64>().unwrap();
+    let all = score(pressure, None);
+    let own = score(pressure, Some(pressure));
+    let wrong = score(other, Some(pressure));
+    assert!(!own.is_empty());
+    assert!(own.iter().all(|r| r[2] == pressure.to_string()));
+    for row in &own {
+        let same = all
+            .iter()
+            .find(|r| r[1] == row[1] && r[2] == row[2])
+            .expect("the whole-file score has the row");
+        assert_eq!(
+            same, row,
+            "one pressure or all: the same samples and errors"
+        );
+        let bad = wrong.iter().find(|r| r[1] == row[1]).expect("same row");
+        eprintln!(
+            "{} at {pressure} kPa: truth Fy RMSE {} N, {other} kPa truth {} N (RMS {} N, {} samples)",
+            row[1], row[5], bad[5], row[8], row[3]
+        );
+        if num(row, 8) > 100.0 {
+            assert!(num(row, 5) < 0.01 * num(row, 8), "{row:?}");
+            assert!(num(bad, 5) > 2.0 * num(row, 5), "{bad:?} vs {row:?}");
+        }
+    }
+}
+
 /// Issue 5, Done when 2: default realism (noise, lag, heat): 2 % Fx/Fy, 5 % Mz.
 #[test]
 fn realistic_round_within_2_percent_forces_5_percent_mz_issue_5() {

@@ -26,6 +26,8 @@ pub fn run(args: &IngestArgs) -> anyhow::Result<ExitCode> {
         },
         rehash: args.rehash,
         keep_duplicate_runs: args.keep_duplicate_runs,
+        // `ingest` may be given part of the input: other files' rows stay.
+        prune: false,
     };
     let progress = progress::for_stderr();
     let report = match ingest::run(&args.paths, &opts, progress.as_ref()) {

@@ -47,12 +47,28 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
     };
     let progress = progress::for_stderr();
     match run::run(&opts, progress.as_ref()) {
-        Ok(RunOutcome::UpToDate { version, seconds }) => {
+        Ok(RunOutcome::UpToDate {
+            version,
+            seconds,
+            failed_files,
+        }) => {
+            for (file, reason) in &failed_files {
+                eprintln!("failed file: {file}: {reason}");
+            }
             eprintln!(
-                "up to date: v{version:06} already holds these inputs ({}; {seconds:.2} s)",
-                args.store.display()
+                "up to date: v{version:06} already holds these inputs ({}; {seconds:.2} s){}",
+                args.store.display(),
+                if failed_files.is_empty() {
+                    String::new()
+                } else {
+                    format!("; {} files still fail", failed_files.len())
+                }
             );
-            Ok(ExitCode::SUCCESS)
+            Ok(if failed_files.is_empty() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            })
         }
         Ok(RunOutcome::Published(report)) => {
             print_summary(&report);
@@ -171,13 +187,27 @@ fn print_summary(report: &RunReport) {
     eprintln!("  changes   {}", m.summary);
     // Neither ok nor failed: a duplicate copy of a run another file holds.
     let duplicates = c.files.saturating_sub(c.files_ok + c.files_failed);
+    let mut work = vec![format!("{} ingested now", c.files_ingested)];
+    for (n, what) in [
+        (c.files_resegmented, "re-segmented"),
+        (c.files_relabelled, "relabelled"),
+    ] {
+        if n > 0 {
+            work.push(format!("{n} {what}"));
+        }
+    }
     eprintln!(
-        "  files     {}: {} ok ({} ingested now), {} failed{}",
+        "  files     {}: {} ok ({}), {} failed{}{}",
         c.files,
         c.files_ok,
-        c.files_ingested,
+        work.join(", "),
         c.files_failed,
-        crate::ingest::duplicate_runs_note(duplicates as usize)
+        crate::ingest::duplicate_runs_note(duplicates as usize),
+        if c.files_removed > 0 {
+            format!("; {} removed from the store", c.files_removed)
+        } else {
+            String::new()
+        }
     );
     let kinds: Vec<String> = c
         .segments_by_kind

@@ -8,7 +8,9 @@
 //!
 //! What goes where: `[DIMENSION] UNLOADED_RADIUS` and `[VERTICAL] VERTICAL_STIFFNESS` from the
 //! spring-rate stage (dynamic, at test speed; the PAC2002 stage already used them),
-//! `BREFF/DREFF/FREFF` from its effective-radius law, `RIM_WIDTH` from the rim, `PTY1/PTY2` and
+//! `BREFF/DREFF/FREFF` from its effective-radius law, `RIM_WIDTH` from the rim, `WIDTH`,
+//! `ASPECT_RATIO` and `RIM_RADIUS` from the size in the tire's name (`16x7.5-10`, `205/55R16`;
+//! left out of the file when the name has none, never written as 0), `PTY1/PTY2` and
 //! `PTX1..3` from the relaxation stage; `USE_MODE` = the families fitted (1 Fx, 2 Fy+Mz, 3 both
 //! pure, 4 combined) + 10 when both relaxation laws were fitted; `[TYRE_CONDITIONS] IP` = median
 //! measured pressure of the fitted sweeps, `IP_NOM` = the nominal pressure; `[MDI_HEADER]`
@@ -115,6 +117,15 @@ pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, Str
             r.origin = "spring_rate".to_string();
         }
     }
+    // Geometry the fit does not use: from the catalog (rim, tire size in the name) or left out.
+    for coef in [
+        Coef::WIDTH,
+        Coef::ASPECT_RATIO,
+        Coef::RIM_RADIUS,
+        Coef::RIM_WIDTH,
+    ] {
+        file.present[coef] = false;
+    }
     if key.rim_in > 0 {
         set(
             &mut file,
@@ -124,6 +135,17 @@ pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, Str
             "scalar",
             "data",
         );
+        file.present[Coef::RIM_WIDTH] = true;
+    }
+    if let Some(size) = TireSize::from_name(&key.tire) {
+        for (coef, value) in [
+            (Coef::WIDTH, size.width_m),
+            (Coef::ASPECT_RATIO, size.aspect_ratio),
+            (Coef::RIM_RADIUS, size.rim_radius_m),
+        ] {
+            set(&mut file, &mut rows, coef, value, "scalar", "catalog");
+            file.present[coef] = true;
+        }
     }
     let fnomin = file.coefs[Coef::FNOMIN];
     if let Some(v) = result.spring_rate.as_ref().and_then(|s| s.vertical.first())
@@ -212,6 +234,56 @@ pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, Str
     })
 }
 
+/// Tire size from a name: `16x7.5-10` (overall diameter x section width - rim diameter, in;
+/// also `16x7.5R10`), `7.0/20.0-13` (width / overall diameter - rim diameter, in) or
+/// `205/55R16` (width mm / aspect ratio % R rim diameter in).
+#[derive(Copy, Clone, Debug, PartialEq)]
+struct TireSize {
+    width_m: f64,
+    aspect_ratio: f64,
+    rim_radius_m: f64,
+}
+
+impl TireSize {
+    fn from_name(name: &str) -> Option<TireSize> {
+        const IN: f64 = 0.0254;
+        name.split_whitespace().find_map(|token| {
+            let t = token.to_ascii_lowercase();
+            let num = |s: &str| s.parse::<f64>().ok().filter(|v| *v > 0.0);
+            if let Some((a, rest)) = t.split_once('x') {
+                let (b, rim) = rest.split_once('-').or_else(|| rest.split_once('r'))?;
+                let (a, b, rim) = (num(a)?, num(b)?, num(rim)?);
+                let (diameter, width) = (a.max(b), a.min(b));
+                let side = 0.5 * (diameter - rim);
+                (side > 0.0).then(|| TireSize {
+                    width_m: width * IN,
+                    aspect_ratio: side / width,
+                    rim_radius_m: 0.5 * rim * IN,
+                })
+            } else {
+                let (w, rest) = t.split_once('/')?;
+                if let Some((ar, rim)) = rest.split_once('r') {
+                    let (w, ar, rim) = (num(w)?, num(ar)?, num(rim.trim_start_matches('-'))?);
+                    return Some(TireSize {
+                        width_m: w * 1e-3,
+                        aspect_ratio: ar / 100.0,
+                        rim_radius_m: 0.5 * rim * IN,
+                    });
+                }
+                // Width / overall diameter - rim diameter, in.
+                let (diameter, rim) = rest.split_once('-')?;
+                let (w, diameter, rim) = (num(w)?, num(diameter)?, num(rim)?);
+                let side = 0.5 * (diameter - rim);
+                (side > 0.0 && w < diameter).then(|| TireSize {
+                    width_m: w * IN,
+                    aspect_ratio: side / w,
+                    rim_radius_m: 0.5 * rim * IN,
+                })
+            }
+        })
+    }
+}
+
 fn header_comments(result: &GroupResult, fit: &Pac2002Fit, notes: &[String]) -> Vec<String> {
     let key = &result.key;
     let comment = |text: &str| format!("! : COMMENT :       {text}");
@@ -236,4 +308,26 @@ fn header_comments(result: &GroupResult, fit: &Pac2002Fit, notes: &[String]) -> 
     ];
     out.extend(notes.iter().map(|n| comment(&n.replace('\n', " "))));
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tire_sizes_from_names() {
+        let s = TireSize::from_name("Hoosier 43075 16x7.5-10 LCO").unwrap();
+        assert!((s.width_m - 7.5 * 0.0254).abs() < 1e-12);
+        assert!((s.rim_radius_m - 5.0 * 0.0254).abs() < 1e-12);
+        assert!((s.aspect_ratio - 3.0 / 7.5).abs() < 1e-12);
+        let s = TireSize::from_name("Hoosier 20.5x7.0-13 R25B").unwrap();
+        assert!((s.rim_radius_m - 6.5 * 0.0254).abs() < 1e-12);
+        let s = TireSize::from_name("Some 205/55R16 91V").unwrap();
+        assert!((s.width_m - 0.205).abs() < 1e-12 && (s.aspect_ratio - 0.55).abs() < 1e-12);
+        let s = TireSize::from_name("Avon 7.0/20.0-13 A45").unwrap();
+        assert!((s.width_m - 7.0 * 0.0254).abs() < 1e-12);
+        assert!((s.rim_radius_m - 6.5 * 0.0254).abs() < 1e-12);
+        assert_eq!(TireSize::from_name("projectunknown-rununknown"), None);
+        assert_eq!(TireSize::from_name("Tire A"), None);
+    }
 }

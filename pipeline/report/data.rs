@@ -16,8 +16,7 @@ use polars::prelude::*;
 use tirebase_core::tire_model::Pac2002;
 use tirebase_core::tire_model::tir::TirFile;
 
-use crate::query;
-use crate::store::layout::{PartitionKey, SWEPT, partition_dir, source_part_name};
+use crate::store::tables::{self, SegmentRecord};
 
 /// Result tables the report looks for (others in the directory are ignored).
 pub const TABLES: [&str; 8] = [
@@ -193,24 +192,22 @@ fn load_models(results: &Path, data: &mut ReportData) {
 /// Live, QC-clean slip-test segments with their samples.
 ///
 /// Samples are read straight from the partition file each segment lives in (its kind, tire,
-/// rim and nominal levels name the directory, its source file and hash the file) with only the
+/// rim and nominal levels name the directory, its store part the file) with only the
 /// numeric columns plotted, and split by the segment's sample-index range: far cheaper than a
 /// hive scan with string columns, which matters because the report runs after every fit.
 fn load_segments(store: &Path, data: &mut ReportData) -> Result<(), super::ReportError> {
-    let mut ctx = query::context(store).map_err(|source| super::ReportError::Store {
-        path: store.to_path_buf(),
-        source,
-    })?;
-    let kinds = SLIP_KINDS.map(|k| format!("'{k}'")).join(", ");
-    let seg_sql = format!("SELECT * FROM segments WHERE kind IN ({kinds}) AND qc_ok");
-    let segs = match ctx.execute(&seg_sql).and_then(|lf| lf.collect()) {
-        Ok(df) => df,
+    let records = match tables::live_segments(store) {
+        Ok(r) => r,
         Err(e) => {
             data.notes.push(format!("store segments unreadable: {e}"));
             return Ok(());
         }
     };
-    let mut segments = build_segments(&segs);
+    let mut segments = build_segments(
+        records
+            .into_iter()
+            .filter(|r| r.qc_ok && SLIP_KINDS.contains(&r.kind.as_str())),
+    );
 
     let mut by_file: BTreeMap<PathBuf, Vec<usize>> = BTreeMap::new();
     for (i, (_, src)) in segments.iter().enumerate() {
@@ -359,74 +356,37 @@ fn read_samples(path: &Path) -> Result<FileSamples, String> {
 
 /// Segments (without samples yet) and where their samples are, sorted by
 /// (tire, rim, pressure, kind, id).
-fn build_segments(segs: &DataFrame) -> Vec<(Segment, SampleSource)> {
-    let ids = str_col(segs, "segment_id");
-    let kinds = str_col(segs, "kind");
-    let tires = str_col(segs, "tire");
-    let sources = str_col(segs, "source_file");
-    let shas = str_col(segs, "source_sha256");
-    let starts = i64_col(segs, "sample_start");
-    let ends = i64_col(segs, "sample_end");
-    let rims = i64_col(segs, "rim_in");
-    let p_nom = i64_col(segs, "pressure_kpa_nom");
-    let ia_nom = i64_col(segs, "ia_deg_nom");
-    let fz_nom = i64_col(segs, "fz_n_nom");
-    let alpha_nom = i64_col(segs, "alpha_deg_nom");
-    let fz_mean = f64_col(segs, "fz_n_mean");
-    let ia_mean = f64_col(segs, "ia_deg_mean");
-    let v_mean = f64_col(segs, "speed_kph_mean");
-    let a_mean = f64_col(segs, "alpha_deg_mean");
-    let a_min = f64_col(segs, "alpha_deg_min");
-    let a_max = f64_col(segs, "alpha_deg_max");
-    let k_min = f64_col(segs, "kappa_min");
-    let k_max = f64_col(segs, "kappa_max");
-    let mut out = Vec::new();
-    for i in 0..segs.height() {
-        let (Some(id), Some(kind), Some(tire), Some(p), Some(source), Some(sha)) = (
-            &ids[i],
-            &kinds[i],
-            &tires[i],
-            p_nom[i],
-            &sources[i],
-            &shas[i],
-        ) else {
-            continue;
-        };
-        let key = PartitionKey {
-            test: kind.clone(),
-            tire: tire.clone(),
-            rim_in: rims[i].unwrap_or(0),
-            pressure_kpa_nom: p,
-            ia_deg_nom: ia_nom[i].unwrap_or(SWEPT),
-            fz_n_nom: fz_nom[i].unwrap_or(SWEPT),
-        };
-        let src = SampleSource {
-            file: partition_dir(&key).join(source_part_name(source, sha)),
-            sample_range: (starts[i].unwrap_or(0), ends[i].unwrap_or(i64::MAX)),
-        };
-        let seg = Segment {
-            id: id.clone(),
-            kind: kind.clone(),
-            tire: tire.clone(),
-            rim_in: rims[i].unwrap_or(0),
-            pressure_kpa_nom: p,
-            ia_deg_nom: ia_nom[i],
-            fz_n_nom: fz_nom[i],
-            alpha_deg_nom: alpha_nom[i],
-            fz_n_mean: fz_mean[i],
-            ia_deg_mean: ia_mean[i],
-            speed_kph_mean: v_mean[i],
-            alpha_deg_mean: a_mean[i],
-            alpha_deg_range: (a_min[i], a_max[i]),
-            kappa_range: (k_min[i], k_max[i]),
-            samples: Vec::new(),
-            stats: SegmentStats {
-                mu_y_peak: f64::NAN,
-                cornering_stiffness_n_per_rad: f64::NAN,
-            },
-        };
-        out.push((seg, src));
-    }
+fn build_segments(records: impl Iterator<Item = SegmentRecord>) -> Vec<(Segment, SampleSource)> {
+    let mut out: Vec<(Segment, SampleSource)> = records
+        .map(|r| {
+            let src = SampleSource {
+                file: r.samples_file(),
+                sample_range: (r.sample_start, r.sample_end),
+            };
+            let seg = Segment {
+                id: r.segment_id,
+                kind: r.kind,
+                tire: r.tire,
+                rim_in: r.rim_in,
+                pressure_kpa_nom: r.pressure_kpa_nom,
+                ia_deg_nom: r.ia_deg_nom,
+                fz_n_nom: r.fz_n_nom,
+                alpha_deg_nom: r.alpha_deg_nom,
+                fz_n_mean: r.fz_n_mean,
+                ia_deg_mean: r.ia_deg_mean,
+                speed_kph_mean: r.speed_kph_mean,
+                alpha_deg_mean: r.alpha_deg_mean,
+                alpha_deg_range: (r.alpha_deg_min, r.alpha_deg_max),
+                kappa_range: (r.kappa_min, r.kappa_max),
+                samples: Vec::new(),
+                stats: SegmentStats {
+                    mu_y_peak: f64::NAN,
+                    cornering_stiffness_n_per_rad: f64::NAN,
+                },
+            };
+            (seg, src)
+        })
+        .collect();
     out.sort_by(|(a, _), (b, _)| {
         (&a.tire, a.rim_in, a.pressure_kpa_nom, &a.kind, &a.id).cmp(&(
             &b.tire,

@@ -1,5 +1,5 @@
 //! The only code that touches the store's disk layout: paths, atomic Parquet files, the lock,
-//! and (in later modules) versions.
+//! the store's tables and what of them is live (`tables`), and versions.
 //!
 //! In: DataFrames and keys. Out: files under a store root that polars, pandas, DuckDB and Spark
 //! read directly (hive-partitioned Parquet). Deliberately not here: what a table contains (the
@@ -8,6 +8,7 @@
 pub mod files;
 pub mod layout;
 pub mod lock;
+pub mod tables;
 pub mod versions;
 
 use std::path::{Path, PathBuf};

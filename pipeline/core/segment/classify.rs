@@ -138,6 +138,7 @@ pub(crate) fn classify(
     bins: &[NominalLevels],
     speed_means_kph: &[f64],
     centre_temp_c: Option<&[f64]>,
+    main_speed_label: Option<i32>,
     cfg: &SegmentConfig,
 ) -> (Vec<Classified>, Option<i32>) {
     let c = &cfg.classify;
@@ -237,7 +238,7 @@ pub(crate) fn classify(
         }
     }
 
-    let main_speed = main_speed(&out, bins, cfg);
+    let main_speed = main_speed(&out, bins, main_speed_label);
     for (o, b) in out.iter_mut().zip(bins) {
         if o.kind.is_matrix() && b.speed_kph != main_speed {
             o.kind = SegmentKind::SpeedSweep;
@@ -295,13 +296,9 @@ fn matrix_train_length(trains: &[Train], rest: &[usize]) -> usize {
         .map_or(1, |(len, _)| *len)
 }
 
-/// The configured main speed if any data cycle runs at it, else the most common data speed.
-fn main_speed(out: &[Classified], bins: &[NominalLevels], cfg: &SegmentConfig) -> Option<i32> {
-    let main = super::binning::nearest(
-        cfg.classify.main_speed_kph,
-        &cfg.levels.speed_kph,
-        cfg.levels.speed_tol,
-    );
+/// The configured main speed (`main`: its label among the run's speed levels) if any data cycle
+/// runs at it, else the most common data speed.
+fn main_speed(out: &[Classified], bins: &[NominalLevels], main: Option<i32>) -> Option<i32> {
     let mut counts: BTreeMap<Option<i32>, usize> = BTreeMap::new();
     for (o, b) in out.iter().zip(bins) {
         if o.kind.is_matrix() {
@@ -370,7 +367,14 @@ mod tests {
     fn kinds(plan: Vec<(Detection, NominalLevels)>) -> Vec<SegmentKind> {
         let (dets, bins): (Vec<_>, Vec<_>) = plan.into_iter().unzip();
         let speeds = vec![40.0; dets.len()];
-        let (out, _) = classify(&dets, &bins, &speeds, None, &SegmentConfig::default());
+        let (out, _) = classify(
+            &dets,
+            &bins,
+            &speeds,
+            None,
+            Some(40),
+            &SegmentConfig::default(),
+        );
         out.into_iter().map(|c| c.kind).collect()
     }
 

@@ -15,7 +15,8 @@
 //! plateau   (used by sweep) held levels of P, IA, FZ, V
 //! sweep     slip activity -> set-point pieces -> SA/SL sweep cycles, step steers;
 //!           quiet stretches -> spring-rate staircases, IA ramps
-//! binning   measured means/std and nominal bins of every candidate
+//! levels    the run's own set-point levels, clustered from the candidates' measured means
+//! binning   measured means/std and learned nominal levels of every candidate
 //! classify  whole-run rules: cold-to-warm, conditioning, matrix kinds, speed sweeps
 //! qc        flags per segment
 //! ```
@@ -25,6 +26,7 @@ mod binning;
 mod classify;
 mod config;
 mod gaps;
+mod levels;
 mod output;
 mod plateau;
 mod prepare;
@@ -41,6 +43,8 @@ mod truth_eval;
 
 use std::collections::BTreeMap;
 use std::ops::Range;
+
+use levels::{HeldValues, RunLevels};
 
 pub use config::{
     ActivityConfig, ClassifyConfig, GapConfig, IaSweepConfig, LevelConfig, PlateauConfig, QcConfig,
@@ -86,13 +90,13 @@ pub fn run(
         .iter()
         .map(|d| source.measure(d.samples.clone()))
         .collect();
-    let bins: Vec<NominalLevels> = measured
-        .iter()
-        .map(|m| binning::bin_all(m, &cfg.levels))
-        .collect();
+    let levels = RunLevels::learn(&held_values(&detections, &measured), &cfg.levels);
+    let bins: Vec<NominalLevels> = measured.iter().map(|m| levels.bin_all(m)).collect();
     let speeds: Vec<f64> = measured.iter().map(|m| m.speed_kph.mean).collect();
     let centre = signals.tread_temps.map(|t| t.centre_c);
-    let (classes, main_speed) = classify::classify(&detections, &bins, &speeds, centre, cfg);
+    let main_label = levels.speed_kph.label_of(cfg.classify.main_speed_kph);
+    let (classes, main_speed) =
+        classify::classify(&detections, &bins, &speeds, centre, main_label, cfg);
     let (detections, classes) = classify::merge_warm_up_blocks(detections, classes);
     let measured: Vec<MeasuredLevels> = detections
         .iter()
@@ -136,7 +140,7 @@ pub fn run(
         .collect();
     let flags = qc::flag(signals, &timeline, &prep.dropouts.p, &drafts, cfg);
     for (index, ((s, e), f)) in segments.iter_mut().zip(&extras).zip(flags).enumerate() {
-        finish(s, index, e.1, e.2, f, signals, &source, cfg);
+        finish(s, index, e.1, e.2, f, signals, &source, &levels);
     }
 
     let mut counts: BTreeMap<SegmentKind, usize> =
@@ -150,9 +154,43 @@ pub fn run(
         sample_period_s: timeline.period_s,
         n_blocks: timeline.blocks.len(),
         main_speed_kph: main_speed,
-        warnings: warnings(signals, &timeline, &segments),
+        warnings: warnings(signals, &timeline, &segments)
+            .into_iter()
+            .chain(levels.warnings())
+            .collect(),
     };
     Ok((segments, report))
+}
+
+/// What each detection tells about the run's set-points: the measured mean of every channel
+/// its motion holds (a sweep holds P, IA, FZ and V; a load staircase P, IA, V and SA = 0; an IA
+/// ramp P, FZ, V and SA = 0; an SL sweep and a step steer also a slip angle), weighted by its
+/// sample count.
+fn held_values(detections: &[sweep::Detection], measured: &[MeasuredLevels]) -> HeldValues {
+    use sweep::Motion;
+    let mut held = HeldValues::default();
+    for (d, m) in detections.iter().zip(measured) {
+        let w = d.samples.len() as f64;
+        let (ia, fz, alpha) = match d.motion {
+            Motion::SaSweep => (true, true, None),
+            Motion::SlSweep => (true, true, Some(m.alpha_deg.mean)),
+            Motion::StepSteer => (true, true, d.held_sa_deg),
+            Motion::LoadSteps => (true, false, Some(m.alpha_deg.mean)),
+            Motion::IaRamp => (false, true, Some(m.alpha_deg.mean)),
+        };
+        held.pressure_kpa.push((m.pressure_kpa.mean, w));
+        held.speed_kph.push((m.speed_kph.mean, w));
+        if ia {
+            held.ia_deg.push((m.ia_deg.mean, w));
+        }
+        if fz {
+            held.fz_n.push((m.fz_n.mean, w));
+        }
+        if let Some(a) = alpha {
+            held.alpha_deg.push((a, w));
+        }
+    }
+    held
 }
 
 /// A segment with its range and kind; levels, ET and flags are filled by [`finish`].
@@ -182,7 +220,7 @@ fn finish(
     mut flags: Vec<QcFlag>,
     signals: &RunSignals,
     source: &binning::StatsSource,
-    cfg: &SegmentConfig,
+    levels: &RunLevels,
 ) {
     s.index = index;
     s.et_start_s = signals.et_s[s.samples.start];
@@ -190,9 +228,8 @@ fn finish(
     if s.kind == SegmentKind::Other {
         s.measured = source.measure(s.samples.clone());
     }
-    let bins = binning::bin_all(&s.measured, &cfg.levels);
-    let held =
-        held_sa_deg.map(|a| binning::nearest(a, &cfg.levels.alpha_deg, cfg.levels.alpha_tol));
+    let bins = levels.bin_all(&s.measured);
+    let held = held_sa_deg.map(|a| levels.alpha_deg.label_of(a));
     let (nominal, off) = binning::nominal_for(s.kind, s.sweep, &bins, held);
     s.nominal = nominal;
     s.sweep_rate = rate;

@@ -284,18 +284,30 @@ fn set_scalars(
     let alpha = range(&|s| s.alpha_rad);
     let gamma = range(&|s| s.gamma_rad);
     let fz = range(&|s| s.fz_n);
-    for (coef, v) in [
-        (KPUMIN, kappa.0),
-        (KPUMAX, kappa.1),
-        (ALPMIN, alpha.0),
-        (ALPMAX, alpha.1),
-        (CAMMIN, gamma.0),
-        (CAMMAX, gamma.1),
-        (FZMIN, fz.0),
-        (FZMAX, fz.1),
+    for (lo, hi, range, what) in [
+        (KPUMIN, KPUMAX, kappa, "longitudinal slip"),
+        (ALPMIN, ALPMAX, alpha, "slip angle"),
+        (CAMMIN, CAMMAX, gamma, "inclination"),
+        (FZMIN, FZMAX, fz, "load"),
     ] {
-        c[coef] = v;
-        origins.push((coef, None, CoefficientOrigin::Data));
+        if range.1 - range.0 > 1e-4 * range.1.abs().max(1.0) {
+            c[lo] = range.0;
+            c[hi] = range.1;
+            origins.push((lo, None, CoefficientOrigin::Data));
+            origins.push((hi, None, CoefficientOrigin::Data));
+        } else {
+            // A channel the data hold constant (a cornering-only file's slip ratio): no range.
+            origins.push((lo, None, CoefficientOrigin::Placeholder));
+            origins.push((hi, None, CoefficientOrigin::Placeholder));
+            notes.push(format!(
+                "{}/{} left at the PAC2002 defaults {}/{}: the data hold the {what} at {:.4}",
+                lo.name(),
+                hi.name(),
+                c[lo],
+                c[hi],
+                range.0
+            ));
+        }
     }
     let rl = radius_from_rl(sweeps);
     match (ctx.unloaded_radius_m, rl) {

@@ -9,23 +9,31 @@
 //! `[KPUMIN, KPUMAX]` (at most |1|), `alpha` in `[ALPMIN, ALPMAX]` (at most 45 deg): the caps
 //! keep "no limit" defaults from sampling meaningless states. Checks run only for the force
 //! families the declared `USE_MODE` uses (1 Fx, 2 Fy + Mz, 3 both uncombined, 4 combined,
-//! +10 relaxation; 4 when absent):
-//! - errors: `FNOMIN`, `UNLOADED_RADIUS`, `LFZO` <= 0; inverted ranges; a missing (absent or
-//!   zero) defining coefficient of a used family; a shape factor `C <= 0`; `mu_x <= 0`,
-//!   `mu_y` or `Ky_alpha` changing sign or vanishing; `Kx_kappa <= 0`; `Ky_alpha > 0` (an
-//!   SAE-signed file: ISO-W needs `alpha > 0 -> Fy < 0`; the sign of `PDY1` alone is free);
-//!   `Gxa` or `Gyk` <= 0; more than two sign changes of `dF/dslip` along a pure slip sweep
-//!   (oscillation); non-finite outputs.
-//! - warnings: oscillation along a combined-slip sweep (at half the slip limits of the other
-//!   slip, where fitted data rarely reach); `E > 1` before the clamp (limits and raw mode then disagree); `C >= 2` (force
-//!   reverses at large slip); `|RHX1| > 0.05` rad; `Gxa` or `Gyk` above 1.05 (combined slip
-//!   raises the force); `FZMAX < FNOMIN`; `LONGVL <= 0`; an inflation pressure below 10 kPa
-//!   (not in Pa?).
+//! +10 relaxation; 4 when absent). Two kinds:
+//! - [`dense`]: every channel evaluated through the model's batch API along dense slip sweeps
+//!   (fine grids around zero slip and the force's zero crossing): spikes and discontinuities,
+//!   friction above 4 and moments out of range, the force's sign against the slip (so the
+//!   supplier's `PDX1 < 0` with `PKX1 > 0`, which evaluates correctly, passes), non-finite
+//!   outputs. Errors.
+//! - coefficient rules on a coarse grid:
+//!   - errors: `FNOMIN`, `UNLOADED_RADIUS`, `LFZO` <= 0; inverted ranges; a missing (absent or
+//!     zero) defining coefficient of a used family; a shape factor `C <= 0`; a peak factor
+//!     `mu_x` or `mu_y` changing sign or vanishing over the envelope (its sign is free), or
+//!     `|mu| > 4`; `Kx_kappa <= 0`; `Ky_alpha` changing sign or vanishing; `Ky_alpha > 0` (an
+//!     SAE-signed file: ISO-W needs `alpha > 0 -> Fy < 0`); `Gxa` or `Gyk` <= 0; more than
+//!     two sign changes of `dF/dslip` along a pure slip sweep (oscillation).
+//!   - warnings: oscillation along a combined-slip sweep (at half the slip limits of the other
+//!     slip, where fitted data rarely reach); `E > 1` before the clamp (limits and raw mode then
+//!     disagree); `C >= 2` (force reverses at large slip); `|RHX1| > 0.05` rad; `Gxa` or `Gyk`
+//!     above 1.05 (combined slip raises the force); `FZMAX < FNOMIN`; `LONGVL <= 0`; an
+//!     inflation pressure below 10 kPa (not in Pa?).
 //!
 //! Deliberately not here: reading (see `read.rs`; its warnings are the caller's to print),
 //! comparing with measurements (a fitting stage's job).
 
 use std::f64::consts::PI;
+
+mod dense;
 
 use super::TirFile;
 use super::units::PLACEHOLDER;
@@ -448,6 +456,18 @@ impl<'a> Grid<'a> {
             }
         }
         acc.report(l, self.fam);
+        let eval = |inputs: &[SlipInput], out: &mut [crate::tire_model::Evaluation<f64>]| {
+            model.eval_batch(inputs, Mode::Limits, out)
+        };
+        points += dense::run(
+            &eval,
+            &self.env,
+            self.fam,
+            self.c[UNLOADED_RADIUS],
+            N_FZ,
+            N_GAMMA,
+            l,
+        );
         points
     }
 
@@ -465,7 +485,7 @@ impl<'a> Grid<'a> {
         n
     }
 
-    /// Slip sweeps at one load and inclination: pure and combined, oscillation and finiteness.
+    /// Slip sweeps at one load and inclination: pure and combined, oscillation.
     fn sweeps_at(&self, model: &Pac2002, fz: f64, gamma: f64, acc: &mut Accumulators) -> usize {
         let (k_lo, k_hi) = self.env.kappa;
         let (a_lo, a_hi) = self.env.alpha_rad;
@@ -486,7 +506,6 @@ impl<'a> Grid<'a> {
                 };
                 first.get_or_insert(p);
                 let e = model.eval(&p, Mode::Limits);
-                acc.finite(&p, &[e.fx_n, e.fy_n, e.mx_nm, e.my_nm, e.mz_nm]);
                 values.push(if along_kappa { e.fx_n } else { e.fy_n });
             }
             n += values.len();
@@ -515,14 +534,15 @@ impl<'a> Grid<'a> {
 /// Violations collected over the grid.
 struct Accumulators {
     e_above_one: [Worst; 4],
-    mux: Worst,
+    mux_sign: (Option<f64>, Worst),
     muy_sign: (Option<f64>, Worst),
+    /// `|mu_x|`, `|mu_y|` above [`dense::MU_MAX`].
+    mu_high: [Worst; 2],
     kya_sign: (Option<f64>, Worst),
     kxk: Worst,
     kya_positive: Worst,
     g_low: [Worst; 2],
     g_high: [Worst; 2],
-    non_finite: Worst,
     /// Pure x, pure y, combined x, combined y.
     oscillation: [Worst; 4],
 }
@@ -532,14 +552,14 @@ impl Default for Accumulators {
         let w = Worst::new();
         Accumulators {
             e_above_one: [w; 4],
-            mux: w,
+            mux_sign: (None, w),
             muy_sign: (None, w),
+            mu_high: [w; 2],
             kya_sign: (None, w),
             kxk: w,
             kya_positive: w,
             g_low: [w; 2],
             g_high: [w; 2],
-            non_finite: w,
             oscillation: [w; 4],
         }
     }
@@ -567,10 +587,13 @@ impl Accumulators {
                 self.e_above_one[i].hit(e, p, above);
             }
         }
-        if f.mux.is_nan() || f.mux <= 0.0 {
-            self.mux.hit(f.mux, p, below);
-        }
+        sign_flip(&mut self.mux_sign, f.mux, p);
         sign_flip(&mut self.muy_sign, f.muy, p);
+        for (i, mu) in [f.mux, f.muy].into_iter().enumerate() {
+            if mu.abs() > dense::MU_MAX {
+                self.mu_high[i].hit(mu, p, |a, b| a.abs() > b.abs());
+            }
+        }
         sign_flip(&mut self.kya_sign, f.kya_n_per_rad, p);
         if f.kxk_n.is_nan() || f.kxk_n <= 0.0 {
             self.kxk.hit(f.kxk_n, p, below);
@@ -584,12 +607,6 @@ impl Accumulators {
             } else if g > 1.05 {
                 self.g_high[i].hit(g, p, above);
             }
-        }
-    }
-
-    fn finite(&mut self, p: &SlipInput, values: &[f64]) {
-        if values.iter().any(|v| !v.is_finite()) {
-            self.non_finite.hit(f64::NAN, p, |_, _| false);
         }
     }
 
@@ -653,7 +670,24 @@ impl Accumulators {
                 );
             }
         };
-        err(&self.mux, fam.fx, "friction-sign", "mu_x <= 0");
+        err(
+            &self.mux_sign.1,
+            fam.fx,
+            "friction-sign",
+            "mu_x changes sign or vanishes",
+        );
+        err(
+            &self.mu_high[0],
+            fam.fx,
+            "friction-range",
+            "peak factor |mu_x| > 4",
+        );
+        err(
+            &self.mu_high[1],
+            fam.fy_mz,
+            "friction-range",
+            "peak factor |mu_y| > 4",
+        );
         err(
             &self.muy_sign.1,
             fam.fy_mz,
@@ -698,12 +732,6 @@ impl Accumulators {
             fam.fy_mz,
             "oscillation",
             "pure Fy oscillates along alpha (> 2 sign changes of dFy/dalpha)",
-        );
-        err(
-            &self.non_finite,
-            true,
-            "non-finite",
-            "NaN or infinite force or moment",
         );
         for (w, used, what) in [
             (
@@ -816,7 +844,7 @@ mod tests {
         let cases = [
             ("FNOMIN", "-1100", "fnomin-not-positive"),
             ("PCY1", "-1.45", "shape-factor"),
-            ("PDX1", "-2.55", "friction-sign"),
+            ("PDX2", "-40", "friction-sign"),
             ("PDY2", "-40", "friction-sign"),
             ("PKY2", "-1.75", "stiffness-sign"),
             ("PKX1", "-52", "stiffness-sign"),
@@ -857,6 +885,93 @@ mod tests {
                 r.findings
             );
         }
+    }
+
+    const SUPPLIER: &str =
+        include_str!("../../../../tests/fixtures/tir/pac2002_supplier_layout.tir");
+
+    /// Issue 18: the supplier stores `PDX1 < 0` with `PKX1 > 0` (and `PDY1 < 0, PKY1 < 0`):
+    /// the forces evaluate with the right signs, so the lint has no error for it.
+    #[test]
+    fn supplier_sign_conventions_pass() {
+        for (name, text) in [
+            ("supplier layout", SUPPLIER.to_string()),
+            ("supplier layout, PDX1 < 0", with(SUPPLIER, "PDX1", "-2.35")),
+            ("fsae-demo, PDX1 < 0", with(FSAE, "PDX1", "-2.55")),
+            (
+                "fsae-demo, PDX1 < 0 and PDY1 > 0",
+                with(&with(FSAE, "PDX1", "-2.55"), "PDY1", "2.5"),
+            ),
+        ] {
+            let r = lint_text(&text);
+            assert_eq!(r.errors(), 0, "{name}: {:#?}", r.findings);
+        }
+    }
+
+    /// Issue 18: the degenerate aligning-moment fit (QBZ10 = 3.1e5, QDZ6 = -218, QEZ1..3 of
+    /// order 100-500) is a narrow residual-torque spike near alpha = 0 that every fit point
+    /// straddled; the dense sweeps see it.
+    #[test]
+    fn planted_residual_torque_spike_is_caught() {
+        let mut t = SUPPLIER.to_string();
+        for (k, v) in [
+            ("QBZ10", "3.1e5"),
+            ("QDZ6", "-218"),
+            ("QEZ1", "120"),
+            ("QEZ2", "-480"),
+            ("QEZ3", "310"),
+        ] {
+            t = with(&t, k, v);
+        }
+        let r = lint_text(&t);
+        let spike = r
+            .findings
+            .iter()
+            .find(|f| f.code == "spike" && f.message.starts_with("Mz"))
+            .unwrap_or_else(|| panic!("no Mz spike: {:#?}", r.findings));
+        assert_eq!(spike.severity, Severity::Error);
+        println!("{spike}");
+        assert!(
+            codes(&r, Severity::Error).contains(&"moment-range"),
+            "{:#?}",
+            r.findings
+        );
+        // A cornering stiffness so large that Fy steps from +D to -D within microradians.
+        let r = lint_text(&with(SUPPLIER, "PKY1", "-1e6"));
+        assert!(
+            r.findings
+                .iter()
+                .any(|f| f.code == "discontinuity" && f.message.starts_with("Fy")),
+            "{:#?}",
+            r.findings
+        );
+    }
+
+    /// Issue 18: a planted sign flip (the slip stiffness changing sign inside the load range)
+    /// and a planted mu of 6 are errors.
+    #[test]
+    fn planted_sign_flip_and_mu_of_six_are_caught() {
+        // Kx/Fz = PKX1 + PKX2 dfz = 47 - 80 dfz changes sign at dfz = 0.59 (1430 N).
+        let r = lint_text(&with(SUPPLIER, "PKX2", "-80"));
+        let e = codes(&r, Severity::Error);
+        assert!(e.contains(&"force-sign"), "{:#?}", r.findings);
+        let r = lint_text(&with(SUPPLIER, "PDX1", "6.0"));
+        let e = codes(&r, Severity::Error);
+        assert!(e.contains(&"friction-range"), "{:#?}", r.findings);
+        assert!(
+            r.findings
+                .iter()
+                .any(|f| f.code == "friction-range" && f.message.starts_with("Fx")),
+            "the evaluated force says it too: {:#?}",
+            r.findings
+        );
+        // The degenerate fit of the issue: PCX1 on its 0.3 bound with PDX1 = 6.4.
+        let r = lint_text(&with(&with(SUPPLIER, "PCX1", "0.3"), "PDX1", "-6.4"));
+        assert!(
+            codes(&r, Severity::Error).contains(&"friction-range"),
+            "{:#?}",
+            r.findings
+        );
     }
 
     proptest::proptest! {

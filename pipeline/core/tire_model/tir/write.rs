@@ -6,8 +6,10 @@
 //! `[SHAPE]` when present, `[VERTICAL]`, the four range sections, `[SCALING_COEFFICIENTS]` and
 //! the five coefficient sections, then the sections the reader did not know, in their order.
 //! Every coefficient is written (defaults where the source had none), once, with its
-//! description as a `$` comment; LF line endings; numbers in the shortest form that reads back
-//! to the same `f64` ([`format_f64`]), so `parse(render(x)) == x` bit for bit.
+//! description as a `$` comment, except the geometry keys no equation uses (`WIDTH`,
+//! `ASPECT_RATIO`, `RIM_RADIUS`, `RIM_WIDTH`), which are written only when present; LF line
+//! endings; numbers in the shortest form that reads back to the same `f64` ([`format_f64`]), so
+//! `parse(render(x)) == x` bit for bit.
 //! Deliberately not here: unit conversion (values are SI already) and any check of physical
 //! sense beyond a positive `FNOMIN` (see `lint.rs`).
 
@@ -282,9 +284,22 @@ fn model(out: &mut Out, tir: &TirFile) -> Result<(), TirWriteError> {
     extras(out, tir, "MODEL")
 }
 
+/// Geometry keys no equation uses: written only when the file carries them (a fitter that does
+/// not know the section width leaves `WIDTH` out rather than writing 0).
+const OPTIONAL_GEOMETRY: [Coef; 4] = [
+    Coef::WIDTH,
+    Coef::ASPECT_RATIO,
+    Coef::RIM_RADIUS,
+    Coef::RIM_WIDTH,
+];
+
 fn coefficients(out: &mut Out, tir: &TirFile, section: Section) -> Result<(), TirWriteError> {
     out.section(section.tir_name());
-    for c in Coef::ALL.iter().filter(|c| c.section() == section) {
+    for c in Coef::ALL
+        .iter()
+        .filter(|c| c.section() == section)
+        .filter(|c| tir.present[**c] || !OPTIONAL_GEOMETRY.contains(c))
+    {
         out.pair(c.name(), &number(c.name(), tir.coefs[*c])?, c.description());
     }
     extras(out, tir, section.tir_name())
