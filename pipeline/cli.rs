@@ -387,9 +387,16 @@ pub struct CompareArgs {
 Write a self-contained HTML report (inline SVG charts and CSS, no script, nothing loaded from a
 network) of a result directory: OUT/index.html and one OUT/tire-<name>.html per tire.
 
-index.html: the round overview (tires, rims, nominal pressures, segments and models per tire),
-the fit-quality table with the three worst fits (largest RMSE in percent of the channel's peak)
-highlighted, lint warnings, failures and every input that was missing or unreadable.
+index.html: the tire selection at the conditions of the car of --car (default config/car.toml,
+a typical FSAE car; the figures of `tirebase compare`): with a pressure selector (each tire's
+best tested pressure, or one tested pressure), peak mu_y (-) and cornering stiffness (kN/rad)
+against load Fz (N) per tire and rim at its design camber, peak mu_y against camber (deg) at the
+nominal load, the thermal window (grip relative to its optimum against tread temperature,
+degC), the friction envelopes (Fx against Fy, N) of the top four tires at the nominal load, and
+the ranked comparison table; then the round overview (tires, rims, nominal pressures, segments
+and models per tire), the rig-inertia results (inertia.parquet), the fit-quality table with the
+three worst fits (largest RMSE in percent of the channel's peak) highlighted, lint warnings,
+failures and every input that was missing or unreadable.
 
 Each tire page draws, with measured samples of QC-clean segments as markers (decimated) and the
 fitted PAC2002 model of RESULTS/tir/<tire>__<rim>in__<P>kPa.tir as lines (evaluated at the
@@ -408,8 +415,8 @@ All quantities SI and ISO-W (x forward, y left, z up; positive slip angle gives 
 chart whose table, column or model is missing shows a \"no data\" note instead.
 
 RESULTS is laid out as the fit stage writes it: <table>.parquet (coefficients, fit_quality,
-spring_rate, thermal, thermal_fit, relaxation, lint, fit_failures) and tir/*.tir, e.g. a
-published STORE/versions/v000003. Existing pages in OUT are replaced.")]
+spring_rate, thermal, thermal_fit, relaxation, lint, fit_failures, inertia) and tir/*.tir, e.g.
+a published STORE/versions/v000003. Existing pages in OUT are replaced.")]
 pub struct ReportArgs {
     /// Store root directory (the measured segments and samples).
     #[arg(long, value_name = "DIR")]
@@ -420,6 +427,9 @@ pub struct ReportArgs {
     /// Output directory for index.html and the tire pages (created if missing).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+    /// Car file of the front page's tire selection (format and defaults: config/car.toml).
+    #[arg(long, value_name = "FILE")]
+    pub car: Option<PathBuf>,
 }
 
 /// `tirebase tir ...`

@@ -413,7 +413,8 @@ fn report_stage(
     progress: &dyn Progress,
 ) -> Option<String> {
     let stage = progress.stage("report", "reports", 1);
-    let write = || report::write_report(store, staging, &staging.join("report"));
+    let car = crate::compare::car::Car::builtin();
+    let write = || report::write_report(store, staging, &staging.join("report"), &car);
     let written = match rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .stack_size(crate::WORKER_STACK_BYTES)

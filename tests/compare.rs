@@ -559,6 +559,63 @@ fn on_the_default_round_lateral_thermal_and_stiffness_figures_match_the_truth() 
     );
 }
 
+/// Two rounds of the same tires (the two fixtures: the same plan with and without the heat
+/// model, standing in for a tire tested in two rounds): every row is matched across them, the
+/// spread between the rounds is reported, and it is added to the uncertainty of every
+/// cross-round pair (the same tire, rim and pressure in both rounds always ties).
+#[test]
+fn across_rounds_the_same_tire_is_matched_and_the_spread_is_shown() {
+    let (a, b) = (without_heat(), default_round());
+    let o = tirebase(&[
+        "compare",
+        "--store",
+        p(&a.store),
+        "--store",
+        p(&b.store),
+        "--format",
+        "csv",
+    ]);
+    ok(&o, "compare over two rounds");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("cross-round pairs add"), "{stderr}");
+    let df = frame(&o.stdout);
+    assert_eq!(df.height(), 16, "8 groups in each round");
+    let rounds = strs(&df, "round");
+    let labels: std::collections::BTreeSet<&String> = rounds.iter().collect();
+    assert_eq!(labels.len(), 2, "{labels:?}");
+    let (tested, spread, value) = (
+        f64s(&df, "rounds_tested"),
+        f64s(&df, "objective_spread"),
+        f64s(&df, "lateral_mu"),
+    );
+    let key = |i: usize| {
+        (
+            strs(&df, "tire")[i].clone(),
+            f64s(&df, "rim_in")[i] as i64,
+            f64s(&df, "pressure_kpa")[i] as i64,
+        )
+    };
+    let tied = strs(&df, "tied_with");
+    for i in 0..df.height() {
+        assert_eq!(tested[i], 2.0);
+        let twin = (0..df.height())
+            .find(|&j| j != i && key(j) == key(i))
+            .expect("the same tire in the other round");
+        assert!(
+            (spread[i] - (value[i] - value[twin]).abs()).abs() < 1e-12,
+            "spread of {:?}",
+            key(i)
+        );
+        let (tire, rim, kpa) = key(i);
+        assert!(
+            tied[i].contains(&format!("{tire} {rim}in/{kpa}kPa [{}]", rounds[twin])),
+            "{:?} is tied with its twin: {}",
+            key(i),
+            tied[i]
+        );
+    }
+}
+
 #[test]
 fn help_documents_units_and_axes_and_bad_input_is_a_clear_error() {
     let o = tirebase(&["compare", "--help"]);

@@ -306,7 +306,7 @@ pub fn thermal_window(tables: &BTreeMap<String, DataFrame>, key: &GroupKey) -> T
         .map(|p| {
             p.iter()
                 .copied()
-                .filter(|x| x.1 < t_opt)
+                .filter(|x| x.0.is_finite() && x.1 < t_opt)
                 .collect::<Vec<_>>()
         })
         .filter_map(|p| slope(&p))
@@ -320,7 +320,8 @@ pub fn thermal_window(tables: &BTreeMap<String, DataFrame>, key: &GroupKey) -> T
     w
 }
 
-/// The group's sweep peaks `(time s, centre temperature degC)` per cold-to-warm test.
+/// The group's sweep peaks `(time s, centre temperature degC)` per cold-to-warm test (the time
+/// NaN when not recorded).
 fn peak_temperatures(
     tables: &BTreeMap<String, DataFrame>,
     key: &GroupKey,
@@ -336,7 +337,7 @@ fn peak_temperatures(
         f64s(df, "t_centre_peak_c"),
     );
     for i in rows {
-        if et[i].is_finite() && t[i].is_finite() {
+        if t[i].is_finite() {
             by_test
                 .entry(seg[i].clone().unwrap_or_default())
                 .or_default()

@@ -12,14 +12,13 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+use crate::compare::round::{TirModel, read_tir};
 use polars::prelude::*;
-use tirebase_core::tire_model::Pac2002;
-use tirebase_core::tire_model::tir::TirFile;
 
 use crate::store::tables::{self, SegmentRecord};
 
 /// Result tables the report looks for (others in the directory are ignored).
-pub const TABLES: [&str; 8] = [
+pub const TABLES: [&str; 9] = [
     "coefficients",
     "fit_quality",
     "spring_rate",
@@ -28,6 +27,7 @@ pub const TABLES: [&str; 8] = [
     "relaxation",
     "lint",
     "fit_failures",
+    "inertia",
 ];
 
 /// Segment kinds whose samples are plotted.
@@ -104,8 +104,8 @@ pub struct Segment {
 pub struct ReportData {
     /// Result tables present and readable, by name.
     pub tables: BTreeMap<String, DataFrame>,
-    /// Models by `.tir` file name.
-    pub models: BTreeMap<String, Pac2002>,
+    /// Models (and their `USE_MODE`) by `.tir` file name.
+    pub models: BTreeMap<String, TirModel>,
     /// Slip-test segments, sorted by (tire, rim, pressure, kind, id).
     pub segments: Vec<Segment>,
     /// Tires seen anywhere (segments, tables), sorted.
@@ -177,12 +177,9 @@ fn load_models(results: &Path, data: &mut ReportData) {
             .unwrap_or_default()
             .to_string_lossy()
             .into_owned();
-        let parsed = std::fs::read(&path)
-            .map_err(|e| e.to_string())
-            .and_then(|bytes| TirFile::parse_bytes(&bytes).map_err(|e| e.to_string()));
-        match parsed {
-            Ok((tir, _)) => {
-                data.models.insert(name, tir.model());
+        match read_tir(&path) {
+            Ok(model) => {
+                data.models.insert(name, model);
             }
             Err(e) => data.notes.push(format!("tir/{name}: unreadable: {e}")),
         }

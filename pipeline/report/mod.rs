@@ -2,9 +2,12 @@
 //! (inline CSS and SVG, no script, nothing fetched from a network or another file except the
 //! links between the pages).
 //!
-//! In: a store (the measured samples and segments) and a result directory as
-//! `fit::write_outcome` writes it (`<table>.parquet`, `tir/*.tir`). Out: the pages in `out_dir`
-//! and a [`ReportSummary`]. Each tire page shows data against model for Fy-SA, Mz-SA and Fx-SL
+//! In: a store (the measured samples and segments), a result directory as
+//! `fit::write_outcome` writes it (`<table>.parquet`, `tir/*.tir`) and the car the tires are
+//! chosen for. Out: the pages in `out_dir` and a [`ReportSummary`]. The index opens with the tire
+//! selection (`selection.rs`: every tire at the car's conditions, charts and the ranked
+//! comparison), then the tires, the rig-inertia results, fit quality, lint warnings, failures.
+//! Each tire page shows data against model for Fy-SA, Mz-SA and Fx-SL
 //! per load and inclination (the seed's figures 18-19), the friction envelope (figure 22), peak
 //! mu and cornering stiffness against load per pressure (figures 23-24), vertical stiffness
 //! against pressure and inclination, mu against tread temperature (figure 29), relaxation length
@@ -16,9 +19,16 @@
 mod data;
 mod pages;
 mod plots;
+mod selection;
 pub mod svg;
 
 use std::path::{Path, PathBuf};
+
+use tirebase_core::compare::Objective;
+
+use crate::compare::car::Car;
+use crate::compare::round::RoundResults;
+use crate::compare::{TireFilter, compare};
 
 pub use data::ReportData;
 
@@ -68,11 +78,13 @@ pub struct ReportSummary {
 
 /// Writes a self-contained HTML report (index.html + one page per tire, inline SVG, no network)
 /// into `out_dir` from the store's samples/segments and a finished result directory laid out as
-/// write_outcome writes it (tables as <name>.parquet, tir/*.tir).
+/// write_outcome writes it (tables as <name>.parquet, tir/*.tir); the index opens with the
+/// tire selection for `car`.
 pub fn write_report(
     store: &Path,
     results: &Path,
     out_dir: &Path,
+    car: &Car,
 ) -> Result<ReportSummary, ReportError> {
     if !results.is_dir() {
         return Err(ReportError::NoResults {
@@ -80,7 +92,14 @@ pub fn write_report(
         });
     }
     let data = data::load(store, results)?;
-    let built = pages::build(&data);
+    let round = RoundResults {
+        label: "this round".to_string(),
+        tables: data.tables.clone(),
+        models: data.models.clone(),
+        notes: Vec::new(),
+    };
+    let comparison = compare(&[round], car, Objective::Lateral, &TireFilter::default());
+    let built = pages::build(&data, &comparison);
     crate::store::files::ensure_dir(out_dir).map_err(|source| ReportError::Write {
         path: out_dir.to_path_buf(),
         source,

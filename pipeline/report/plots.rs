@@ -92,6 +92,7 @@ pub fn model_for<'a>(
 ) -> Option<&'a Pac2002> {
     data.models
         .get(&tir_file_name(tire, rim_in as f64, p_kpa as f64))
+        .map(|m| &m.model)
 }
 
 /// Label of a nominal load (or its rounded mean when not held).
