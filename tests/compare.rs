@@ -381,6 +381,13 @@ fn figures_against_truth(
         compare_csv(&pubd.store, &[]),
         "compare --format csv must be byte-stable"
     );
+    let one_thread = Command::new(env!("CARGO_BIN_EXE_tirebase"))
+        .args(["compare", "--store", p(&pubd.store), "--format", "csv"])
+        .env("RAYON_NUM_THREADS", "1")
+        .output()
+        .unwrap();
+    ok(&one_thread, "compare on one thread");
+    assert_eq!(csv, one_thread.stdout, "the same bytes on one thread");
     let df = frame(&csv);
     let header: Vec<String> = df
         .get_column_names()
