@@ -121,6 +121,12 @@ pub struct IngestReport {
     /// Directory entries that were not ingested, with the reason (non-regular files, symlink
     /// loops).
     pub skipped: Vec<(PathBuf, String)>,
+    /// Files stored although their rows stop early (`status = partial`), with the reason; every
+    /// such file of the input, not only those read now.
+    pub partial: Vec<(String, String)>,
+    /// Warnings of the files read now (reader, segmentation, copies of one run that disagree),
+    /// one per entry: (file, warning).
+    pub warnings: Vec<(String, String)>,
     /// Segments written by this ingest, by kind.
     pub segments_by_kind: BTreeMap<String, usize>,
     /// Samples written by this ingest.
@@ -479,6 +485,28 @@ pub fn run_locked(
         report.rows += n;
     }
     report.files.sort();
+    for (name, _) in &report.files {
+        let Some(row) = rows.get(name) else { continue };
+        if row.status == STATUS_PARTIAL {
+            report
+                .partial
+                .push((name.clone(), row.error.clone().unwrap_or_default()));
+        }
+        // Parsed now, or newly found to be a copy of another file's run.
+        let read_now = written.get(name).is_some_and(|(_, n)| *n > 0) || marked.contains_key(name);
+        if read_now && let Some(w) = &row.warnings {
+            // The warning that makes a file partial is reported as such, not twice.
+            let partial_reason = row
+                .error
+                .as_deref()
+                .filter(|_| row.status == STATUS_PARTIAL);
+            report.warnings.extend(
+                w.split("; ")
+                    .filter(|w| !w.is_empty() && !partial_reason.is_some_and(|r| r.contains(w)))
+                    .map(|w| (name.clone(), w.to_string())),
+            );
+        }
+    }
     if rows != previous {
         // The runs table is the commit point: every sample and segment file it names is made
         // durable first (written with `Durability::Deferred`).
@@ -786,13 +814,19 @@ fn parse_and_store(
     let mut warnings = run.meta.warnings.clone();
     warnings.extend(seg_report.warnings.iter().cloned());
     let run_class = seg_report.run_class.as_str().to_string();
+    let stops_early = stops_early(&run);
     let row = RunRow {
         source_file: name.to_string(),
         source_path: path.display().to_string(),
         sha256: sha.clone(),
         data_sha256: Some(sha.clone()),
-        status: STATUS_OK.into(),
-        error: None,
+        status: if stops_early.is_some() {
+            STATUS_PARTIAL
+        } else {
+            STATUS_OK
+        }
+        .into(),
+        error: stops_early,
         project: run.meta.project.map(i64::from),
         run: run.meta.run.map(i64::from),
         format: Some(
@@ -835,6 +869,17 @@ fn parse_and_store(
     };
     let n = run.len();
     Ok((row, FileStatus::Ingested, segments, n))
+}
+
+/// Why a run's rows stop early (a transfer cut the file), if the reader saw it: the `.dat`
+/// reader drops a truncated last line with a warning that says so. A file cut exactly at a line
+/// end cannot be told from a short run.
+fn stops_early(run: &RunTable) -> Option<String> {
+    run.meta
+        .warnings
+        .iter()
+        .find(|w| w.contains("truncated last line"))
+        .map(|w| format!("rows stop early (file cut in transfer?): {w}"))
 }
 
 /// Which tire and rim a run is, and where that came from.
@@ -1229,6 +1274,7 @@ fn mark_duplicate_runs(rows: &mut BTreeMap<String, RunRow>) -> BTreeMap<String, 
     }
     let preference = |r: &RunRow| {
         (
+            r.status == STATUS_PARTIAL,
             r.units.as_deref() != Some("SI"),
             !TtcFileName::parse(&r.source_file).is_some_and(|n| n.raw),
             r.format.as_deref() != Some("mat"),
@@ -1243,20 +1289,30 @@ fn mark_duplicate_runs(rows: &mut BTreeMap<String, RunRow>) -> BTreeMap<String, 
         copies.sort_by_key(|r| preference(r));
         let canonical = copies[0].source_file.clone();
         for r in &copies[1..] {
+            let disagreement = copies_disagree(copies[0], r);
             marked.insert(
                 r.source_file.clone(),
-                (canonical.clone(), format!("project {project}, run {run}")),
+                (
+                    canonical.clone(),
+                    format!("project {project}, run {run}"),
+                    disagreement,
+                ),
             );
         }
     }
     marked
         .into_iter()
-        .map(|(name, (canonical, which))| {
+        .map(|(name, (canonical, which, disagreement))| {
             let row = rows.get_mut(&name).expect("marked rows exist");
             row.status = DUPLICATE.to_string();
             row.error = Some(format!(
                 "same run as {canonical} ({which}), which is the copy stored"
             ));
+            // The copy's own reader warnings concern data that is not stored; what matters is
+            // whether it agrees with the copy that is.
+            row.warnings = disagreement.map(|d| {
+                format!("copies of {which} disagree: {d} ({canonical} is the copy stored)")
+            });
             row.data_sha256 = None;
             row.parts_sha256 = None;
             row.n_segments = 0;
@@ -1265,9 +1321,81 @@ fn mark_duplicate_runs(rows: &mut BTreeMap<String, RunRow>) -> BTreeMap<String, 
         .collect()
 }
 
+/// How two copies of one run disagree, if they do: copies of the same kind (both "run", both
+/// "raw") hold the same rows over the same elapsed-time range; a "run" copy (dwells cut) holds
+/// at most the rows of a "raw" copy, within its time range. Tolerance: half a sample period.
+fn copies_disagree(kept: &RunRow, copy: &RunRow) -> Option<String> {
+    let (Some(k0), Some(k1), Some(c0), Some(c1)) = (
+        kept.et_start_s,
+        kept.et_end_s,
+        copy.et_start_s,
+        copy.et_end_s,
+    ) else {
+        return None;
+    };
+    let raw = |r: &RunRow| TtcFileName::parse(&r.source_file).is_some_and(|n| n.raw);
+    let rate = kept.sample_rate_hz.filter(|r| *r > 0.0).unwrap_or(100.0);
+    let tol = 0.5 / rate;
+    let describe = || {
+        format!(
+            "{} has {} rows over ET {k0:.3}..{k1:.3} s, {} has {} rows over ET {c0:.3}..{c1:.3} s",
+            kept.source_file, kept.rows, copy.source_file, copy.rows
+        )
+    };
+    let agree = if raw(kept) == raw(copy) {
+        kept.rows == copy.rows && (k0 - c0).abs() <= tol && (k1 - c1).abs() <= tol
+    } else {
+        // The raw copy holds the run copy.
+        let (big, small) = if raw(kept) {
+            ((kept.rows, k0, k1), (copy.rows, c0, c1))
+        } else {
+            ((copy.rows, c0, c1), (kept.rows, k0, k1))
+        };
+        small.0 <= big.0 && small.1 >= big.1 - tol && small.2 <= big.2 + tol
+    };
+    (!agree).then(describe)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn copies_of_one_run_must_hold_the_same_rows_and_time_range() {
+        let copy = |name: &str, rows: i64, et: (f64, f64)| RunRow {
+            source_file: name.into(),
+            rows,
+            et_start_s: Some(et.0),
+            et_end_s: Some(et.1),
+            sample_rate_hz: Some(100.0),
+            ..RunRow::default()
+        };
+        let kept = copy("B1965run51.mat", 1000, (0.0, 9.99));
+        assert_eq!(
+            copies_disagree(&kept, &copy("A1965run51.dat", 1000, (0.0, 9.99))),
+            None
+        );
+        assert_eq!(
+            copies_disagree(&kept, &copy("A1965run51.dat", 1000, (0.001, 9.992))),
+            None
+        );
+        let other = copies_disagree(&kept, &copy("A1965run51.dat", 800, (0.0, 7.99))).unwrap();
+        assert!(other.contains("B1965run51.mat has 1000 rows"), "{other}");
+        assert!(
+            other.contains("A1965run51.dat has 800 rows over ET 0.000..7.990 s"),
+            "{other}"
+        );
+        assert!(copies_disagree(&kept, &copy("A1965run51.dat", 1000, (20.0, 29.99))).is_some());
+        // A raw copy keeps the dwells a run copy cuts: more rows, a wider time range.
+        let raw = copy("B1965raw51.mat", 1500, (0.0, 14.99));
+        assert_eq!(copies_disagree(&raw, &kept), None);
+        assert_eq!(copies_disagree(&kept, &raw), None);
+        assert!(copies_disagree(&raw, &copy("B1965run51.dat", 1600, (0.0, 15.99))).is_some());
+        // Rows stored before the time range was recorded are not compared.
+        let mut legacy = copy("A1965run51.dat", 5, (0.0, 1.0));
+        legacy.et_start_s = None;
+        assert_eq!(copies_disagree(&kept, &legacy), None);
+    }
 
     fn row(name: &str, run: Option<i64>, units: &str, format: &str) -> RunRow {
         RunRow {

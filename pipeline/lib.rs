@@ -28,6 +28,7 @@ pub mod inertia;
 pub mod ingest;
 pub mod manifest;
 pub mod progress;
+pub mod publish;
 pub mod query;
 pub mod report;
 pub mod run;

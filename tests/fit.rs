@@ -649,8 +649,8 @@ fn copy_dir(from: &Path, to: &Path) {
     }
 }
 
-/// Mark every force segment of one tire, rim and pressure as load-drifting (a QC flag that spoils
-/// forces), as a segmenter would for a bad test.
+/// Mark every force segment of one tire, rim and pressure as having a zeroed lateral force (a
+/// QC flag that spoils forces), as a segmenter would for a bad test.
 fn flag_force_segments(store: &Path, tire: &str, rim_in: i64, pressure_kpa: i64) -> usize {
     let mut flagged = 0;
     for entry in std::fs::read_dir(store.join("segments")).unwrap() {
@@ -676,7 +676,13 @@ fn flag_force_segments(store: &Path, tire: &str, rim_in: i64, pressure_kpa: i64)
         let flags: Vec<String> = strs(&df, "qc_flags")
             .into_iter()
             .zip(&hit)
-            .map(|(f, h)| if *h { "load_drift".to_string() } else { f })
+            .map(|(f, h)| {
+                if *h {
+                    "zeroed_channel:fy_n".to_string()
+                } else {
+                    f
+                }
+            })
             .collect();
         let qc_ok: Vec<bool> = df
             .column("qc_ok")

@@ -5,7 +5,9 @@
 //!
 //! Each test starts from one shared first run of a demo round (copied per test) and changes one
 //! input: the catalog (item 1), the `[segment]` configuration (item 2), the set of input files
-//! (item 3).
+//! (item 3), a file that fails for an environmental reason and a store that cannot be written
+//! (item 5), bad directory entries (item 6), a file cut in transfer and many problems at once
+//! (item 7).
 
 use std::collections::BTreeMap;
 use std::fs;
@@ -14,7 +16,7 @@ use std::process::{Command, Output};
 use std::sync::OnceLock;
 
 use polars::prelude::*;
-use tirebase::manifest::Manifest;
+use tirebase::manifest::{Manifest, ProblemKind};
 use tirebase::store::tables;
 
 fn bin() -> Command {
@@ -150,11 +152,22 @@ fn groups(m: &Manifest) -> Vec<(String, i64, i64, String, u64)> {
 }
 
 /// The latest version of `store` and its store tables equal what a fresh store builds from the
-/// same input and arguments.
+/// same input and arguments (which must succeed).
 fn assert_equals_fresh(input: &Path, store: &Path, extra: &[&str]) {
+    assert_equals_fresh_with_exit(input, store, extra, 0);
+}
+
+/// [`assert_equals_fresh`] where the fresh run exits with `code` (1: published with problems).
+fn assert_equals_fresh_with_exit(input: &Path, store: &Path, extra: &[&str], code: i32) {
     let fresh_dir = tempfile::tempdir().unwrap();
     let fresh = fresh_dir.path().join("store");
-    check(&run(input, &fresh, extra), "fresh run");
+    let o = run(input, &fresh, extra);
+    assert_eq!(
+        o.status.code(),
+        Some(code),
+        "fresh run: {}",
+        text(&o.stderr)
+    );
     let ((_, a), (_, b)) = (latest(store), latest(&fresh));
     let (ma, mb) = (Manifest::read(&a).unwrap(), Manifest::read(&b).unwrap());
 
@@ -169,6 +182,7 @@ fn assert_equals_fresh(input: &Path, store: &Path, extra: &[&str]) {
         "live segments"
     );
     assert_eq!(ma.config, mb.config, "resolved configuration");
+    assert_eq!(ma.problems, mb.problems, "problems of the version");
     assert_eq!(
         (ma.counts.files, ma.counts.files_ok, ma.counts.tir_files),
         (mb.counts.files, mb.counts.files_ok, mb.counts.tir_files)
@@ -314,4 +328,284 @@ fn issue20_removed_input_file_leaves_the_store_and_the_models() {
             .all(|s| s.source_file != "B2410raw5.mat")
     );
     assert_equals_fresh(&input, &store, &[]);
+}
+
+/// Item 5: a file that fails for an environmental reason (here a dangling symlink, as a
+/// permission problem or an unmounted share would) is tried again every night: the night after
+/// is not "up to date, exit 0", and once it reads, the version equals a fresh run.
+#[test]
+fn issue20_failed_file_is_retried_every_run() {
+    let (tmp, input, store) = fork();
+    let file = input.join("raw/B2410run2.dat");
+    let outside = tmp.path().join("outside");
+    fs::create_dir_all(&outside).unwrap();
+    fs::rename(&file, outside.join("B2410run2.dat")).unwrap();
+    std::os::unix::fs::symlink(outside.join("later.dat"), &file).unwrap();
+
+    let second = run(&input, &store, &[]);
+    let log = text(&second.stderr);
+    assert_eq!(second.status.code(), Some(1), "{log}");
+    assert!(log.contains("failed file: B2410run2.dat: "), "{log}");
+    let m = Manifest::read(&latest(&store).1).unwrap();
+    let failed: Vec<_> = m
+        .problems
+        .iter()
+        .filter(|p| p.kind == ProblemKind::FailedFile)
+        .collect();
+    assert_eq!(failed.len(), 1, "{:?}", m.problems);
+    assert!(failed[0].reason.contains("later.dat") || failed[0].reason.contains("No such file"));
+
+    // Nothing changed: retried, fails again, said so, exit 1, no new version.
+    let third = run(&input, &store, &[]);
+    let log = text(&third.stderr);
+    assert_eq!(third.status.code(), Some(1), "{log}");
+    assert!(
+        log.contains("up to date") && log.contains("still failed"),
+        "{log}"
+    );
+    assert!(log.contains("failed file: B2410run2.dat: "), "{log}");
+    assert_eq!(latest(&store).0, 2);
+
+    // The share comes back: the file reads, a version equal to a fresh run.
+    fs::rename(outside.join("B2410run2.dat"), outside.join("later.dat")).unwrap();
+    let fourth = run(&input, &store, &[]);
+    check(&fourth, "run after the file came back");
+    assert_eq!(latest(&store).0, 3);
+    assert_equals_fresh(&input, &store, &[]);
+}
+
+/// Item 5: a store that cannot be written is a store error (exit 2, nothing recorded against
+/// the input file), and the next run after the repair completes.
+#[test]
+fn issue20_store_write_error_is_a_store_error_not_a_failed_file() {
+    let (_tmp, input, store) = fork();
+    let catalog = input.join("catalog.toml");
+    let (old, new) = ("Hoosier 16.0x7.5-10 R25B", "Hoosier 16.0x7.5-10 R25B v2");
+    let text_before = fs::read_to_string(&catalog).unwrap();
+    fs::write(&catalog, text_before.replace(old, new)).unwrap();
+    // A file where the relabelled samples' partition directory must go.
+    let blocker = store.join("samples/test=cornering").join(format!(
+        "tire={}",
+        tirebase::store::layout::hive_encode(new)
+    ));
+    fs::write(&blocker, b"not a directory").unwrap();
+    let runs_before = tables::read_runs(&store).unwrap();
+
+    let second = run(&input, &store, &[]);
+    let log = text(&second.stderr);
+    assert_eq!(second.status.code(), Some(2), "{log}");
+    assert!(
+        log.contains("store error") && log.contains("tire="),
+        "{log}"
+    );
+    assert!(!log.contains("failed file"), "{log}");
+    assert_eq!(latest(&store).0, 1, "no version after a store error");
+    assert_eq!(
+        tables::read_runs(&store).unwrap(),
+        runs_before,
+        "runs table untouched"
+    );
+
+    fs::remove_file(&blocker).unwrap();
+    check(&run(&input, &store, &[]), "run after the repair");
+    assert_equals_fresh(&input, &store, &[]);
+}
+
+/// `tirebase run` in the background, killed after `secs` (a hang fails the test, never blocks it).
+fn run_with_deadline(input: &Path, store: &Path, secs: u64) -> Output {
+    let child = bin()
+        .arg("run")
+        .arg("--input")
+        .arg(input)
+        .arg("--store")
+        .arg(store)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let id = child.id();
+    let watchdog = std::thread::spawn(move || {
+        std::thread::sleep(std::time::Duration::from_secs(secs));
+        // SIGKILL by pid: only if the run is still going (the test then fails on its status).
+        let _ = Command::new("kill").args(["-9", &id.to_string()]).status();
+    });
+    let out = child.wait_with_output().unwrap();
+    drop(watchdog);
+    assert!(out.status.code().is_some(), "killed after {secs} s: a hang");
+    out
+}
+
+/// Item 6: a FIFO named `*.dat`, a directory symlink loop, a looping and a dangling file symlink
+/// neither hang nor stop `run` or `ingest`: the FIFO and the loop are skipped with a line, each
+/// symlink is one failed file, the rest is ingested.
+#[test]
+fn issue20_bad_directory_entries_neither_stop_nor_hang_run_or_ingest() {
+    let (_tmp, input, store) = fork();
+    let raw = input.join("raw");
+    let status = Command::new("mkfifo")
+        .arg(raw.join("pipe.dat"))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    std::os::unix::fs::symlink("..", raw.join("loop")).unwrap();
+    std::os::unix::fs::symlink("self.dat", raw.join("self.dat")).unwrap();
+    std::os::unix::fs::symlink("/nonexistent/x.dat", raw.join("dangling.dat")).unwrap();
+
+    let out = run_with_deadline(&input, &store, 600);
+    let log = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{log}");
+    assert!(
+        log.contains("pipe.dat: a FIFO, not a regular file"),
+        "{log}"
+    );
+    assert!(log.contains("raw/loop: directory symlink"), "{log}");
+    assert!(log.contains("failed file: dangling.dat: "), "{log}");
+    assert!(log.contains("failed file: self.dat: "), "{log}");
+    let m = Manifest::read(&latest(&store).1).unwrap();
+    assert_eq!(m.counts.files_failed, 2, "{:?}", m.counts);
+    assert_eq!(m.counts.entries_skipped, 2, "{:?}", m.counts);
+    assert_eq!(m.counts.files_ok, 8, "{:?}", m.counts);
+
+    // `ingest` on the same entries, into a new store.
+    let other = input.parent().unwrap().join("ingest-store");
+    let mut child = bin()
+        .arg("ingest")
+        .arg(&raw)
+        .arg("--store")
+        .arg(&other)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    let code = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s.code();
+        }
+        if started.elapsed().as_secs() > 600 {
+            child.kill().unwrap();
+            panic!("ingest hangs");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    let log = {
+        use std::io::Read;
+        let mut s = String::new();
+        child.stderr.take().unwrap().read_to_string(&mut s).unwrap();
+        s
+    };
+    assert_eq!(code, Some(1), "{log}");
+    assert!(
+        log.contains("skipped: ") && log.contains("pipe.dat: a FIFO"),
+        "{log}"
+    );
+    assert!(log.contains("failed: dangling.dat: "), "{log}");
+    assert!(log.contains("failed: self.dat: "), "{log}");
+    assert!(log.contains("8 ingested"), "{log}");
+}
+
+/// Item 7: a `.dat` cut in transfer is stored as a flagged partial file (never plain "ok"),
+/// said on stderr and listed in the manifest; the version equals a fresh run of that input.
+#[test]
+fn issue20_file_cut_in_transfer_is_partial_and_said() {
+    let (_tmp, input, store) = fork();
+    let file = input.join("raw/B2410run7.dat");
+    let bytes = fs::read(&file).unwrap();
+    let mut cut = bytes.len() / 2;
+    while bytes[cut - 1] == b'\n' || bytes[cut] == b'\n' {
+        cut += 1;
+    }
+    fs::write(&file, &bytes[..cut]).unwrap();
+
+    let second = run(&input, &store, &[]);
+    let log = text(&second.stderr);
+    assert_eq!(second.status.code(), Some(1), "{log}");
+    assert!(
+        log.contains("partial file: B2410run7.dat: rows stop early")
+            && log.contains("truncated last line"),
+        "{log}"
+    );
+    let runs = tables::read_runs(&store).unwrap();
+    assert_eq!(runs["B2410run7.dat"].status, "partial");
+    let m = Manifest::read(&latest(&store).1).unwrap();
+    assert_eq!(m.counts.files_partial, 1);
+    assert!(
+        m.problems
+            .iter()
+            .any(|p| p.kind == ProblemKind::PartialFile && p.subject == "B2410run7.dat")
+    );
+    assert_equals_fresh_with_exit(&input, &store, &[], 1);
+}
+
+/// Item 7: with many problems nothing is truncated away: every failed file and every failed
+/// inertia run is one stderr line under a counted heading and a manifest problem with its reason.
+#[test]
+fn issue20_every_problem_is_on_stderr_and_in_the_manifest() {
+    let (_tmp, input, store) = fork();
+    for k in 0..12 {
+        fs::write(
+            input.join(format!("raw/bad{k:02}.dat")),
+            format!("not a TIRF file {k}\n"),
+        )
+        .unwrap();
+    }
+    let o = bin()
+        .args(["synth", "inertia", "--out"])
+        .arg(input.join("inertia"))
+        .output()
+        .unwrap();
+    check(&o, "synth inertia");
+    // Every run of the yaw sessions loses its samples (header line kept).
+    let mut broken = 0;
+    let mut stack = vec![input.join("inertia")];
+    while let Some(dir) = stack.pop() {
+        for entry in fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|e| e == "csv")
+                && path.display().to_string().contains("yaw")
+            {
+                let t = fs::read_to_string(&path).unwrap();
+                fs::write(&path, format!("{}\n", t.lines().next().unwrap())).unwrap();
+                broken += 1;
+            }
+        }
+    }
+    assert!(broken >= 7, "{broken}");
+
+    let out = run(&input, &store, &[]);
+    let log = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{log}");
+    assert!(log.contains("12 input files failed:"), "{log}");
+    for k in 0..12 {
+        assert!(
+            log.contains(&format!("failed file: bad{k:02}.dat: ")),
+            "{log}"
+        );
+    }
+    assert!(!log.contains("more (see"), "{log}");
+    let m = Manifest::read(&latest(&store).1).unwrap();
+    let of = |k: ProblemKind| m.problems.iter().filter(|p| p.kind == k).count() as u64;
+    assert_eq!(of(ProblemKind::FailedFile), 12);
+    assert!(
+        m.problems.iter().all(|p| !p.reason.is_empty()),
+        "{:?}",
+        m.problems
+    );
+    assert!(m.counts.inertia_failed_runs >= 7, "{:?}", m.counts);
+    assert_eq!(of(ProblemKind::InertiaRun), m.counts.inertia_failed_runs);
+    for p in m
+        .problems
+        .iter()
+        .filter(|p| p.kind == ProblemKind::InertiaRun)
+    {
+        assert!(log.contains(&p.to_string()), "{p} not on stderr: {log}");
+    }
+    assert!(
+        log.contains(&format!(
+            "{} inertia runs failed:",
+            m.counts.inertia_failed_runs
+        )),
+        "{log}"
+    );
 }

@@ -381,7 +381,8 @@ mod tests {
         assert_eq!(judge_qc(""), (true, true));
         assert_eq!(judge_qc("off_nominal:ia"), (true, true));
         assert_eq!(judge_qc("saturated_channel:tread_outer_c"), (true, false));
-        assert_eq!(judge_qc("off_nominal:fz,load_drift"), (false, false));
+        assert_eq!(judge_qc("off_nominal:fz,load_drift"), (true, true));
+        assert_eq!(judge_qc("too_short,zero_pressure"), (false, false));
         assert_eq!(judge_qc("something_new"), (false, false));
     }
 }

@@ -16,21 +16,22 @@ use std::path::{Path, PathBuf};
 /// Store errors; each names the file it concerns.
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
-    /// Operating-system error on a path.
-    #[error("{path}: {source}")]
+    /// Operating-system error on a path. (The OS error is part of the message, not a separate
+    /// `source`, so a printed error chain names it once.)
+    #[error("{path}: {error}")]
     Io {
         /// The file or directory.
         path: PathBuf,
         /// The OS error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// polars failed to read or write a table.
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     Polars {
         /// The table file.
         path: PathBuf,
         /// The polars error.
-        source: polars::error::PolarsError,
+        error: polars::error::PolarsError,
     },
     /// Another process holds the store lock.
     #[error(
@@ -57,7 +58,7 @@ impl StoreError {
     pub fn io(path: &Path, source: std::io::Error) -> Self {
         StoreError::Io {
             path: path.to_path_buf(),
-            source,
+            error: source,
         }
     }
 
@@ -65,7 +66,7 @@ impl StoreError {
     pub fn polars(path: &Path, source: polars::error::PolarsError) -> Self {
         StoreError::Polars {
             path: path.to_path_buf(),
-            source,
+            error: source,
         }
     }
 }

@@ -248,20 +248,27 @@ pub(crate) fn classify(
 }
 
 /// Cold-to-warm and conditioning cycles of one train that follow each other without a gap
+/// (adjacent samples, no ET gap between them: a "run" file's cut dwell separates procedures)
 /// become one segment: a warm-up block is one procedure (the thesis keeps it as one structure,
 /// the virtual machine's truth as one segment); the thermal stage splits it by zero crossings.
+/// Each merged segment keeps the levels (`bins`) of its first cycle (one train, one key).
 pub(crate) fn merge_warm_up_blocks(
     dets: Vec<Detection>,
     classes: Vec<Classified>,
-) -> (Vec<Detection>, Vec<Classified>) {
+    bins: Vec<NominalLevels>,
+    blocks: &[std::ops::Range<usize>],
+) -> (Vec<Detection>, Vec<Classified>, Vec<NominalLevels>) {
+    let block_of = |i: usize| blocks.partition_point(|b| b.end <= i);
     let mut out_d: Vec<Detection> = Vec::with_capacity(dets.len());
     let mut out_c: Vec<Classified> = Vec::with_capacity(classes.len());
+    let mut out_b: Vec<NominalLevels> = Vec::with_capacity(bins.len());
     let mut members = 1usize;
-    for (d, c) in dets.into_iter().zip(classes) {
+    for ((d, c), b) in dets.into_iter().zip(classes).zip(bins) {
         if let (Some(last_d), Some(last_c)) = (out_d.last_mut(), out_c.last())
             && c.train.is_some()
             && last_c.train == c.train
             && last_d.samples.end == d.samples.start
+            && block_of(last_d.samples.start) == block_of(d.samples.start)
         {
             let (a, b) = (members as f64, 1.0);
             last_d.rate = match (last_d.rate, d.rate) {
@@ -277,8 +284,9 @@ pub(crate) fn merge_warm_up_blocks(
         members = 1;
         out_d.push(d);
         out_c.push(c);
+        out_b.push(b);
     }
-    (out_d, out_c)
+    (out_d, out_c, out_b)
 }
 
 /// Most common train length among `rest` (ties to the shortest), 1 with fewer than 3 trains.
