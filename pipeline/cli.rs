@@ -412,7 +412,8 @@ segments' mean load and inclination over the swept range):
     the model's PTY/PTX law)
   - the tire's fit quality, coefficients at a bound, lint warnings and failures.
 All quantities SI and ISO-W (x forward, y left, z up; positive slip angle gives negative Fy). A
-chart whose table, column or model is missing shows a \"no data\" note instead.
+chart whose table or model is missing shows a \"no data\" note instead; a table without a column
+the report needs counts as missing, and the index lists it with the column's name.
 
 RESULTS is laid out as the fit stage writes it: <table>.parquet (coefficients, fit_quality,
 spring_rate, thermal, thermal_fit, relaxation, lint, fit_failures, inertia) and tir/*.tir, e.g.
@@ -508,6 +509,11 @@ pub struct TirEvalArgs {
     /// Input limiting.
     #[arg(long, value_enum, default_value_t = EvalMode::Limits)]
     pub mode: EvalMode,
+    /// Evaluate even a file whose lint errors leave the model undefined (a family the
+    /// USE_MODE needs is missing, a non-positive FNOMIN, UNLOADED_RADIUS, LONGVL or
+    /// VERTICAL_STIFFNESS, an inverted range, NaN outputs); refused by default.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `tir lint`.
@@ -548,6 +554,11 @@ pub struct TirScoreArgs {
     /// Input limiting.
     #[arg(long, value_enum, default_value_t = EvalMode::Limits)]
     pub mode: EvalMode,
+    /// Evaluate even a file whose lint errors leave the model undefined (a family the
+    /// USE_MODE needs is missing, a non-positive FNOMIN, UNLOADED_RADIUS, LONGVL or
+    /// VERTICAL_STIFFNESS, an inverted range, NaN outputs); refused by default.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `tir convert`.
@@ -559,6 +570,10 @@ pub struct TirConvertArgs {
     /// Where to write the normalised PAC2002 file.
     #[arg(long, value_name = "G")]
     pub output: PathBuf,
+    /// Convert even a file whose lint errors leave the model undefined (see `tir eval
+    /// --force`); refused by default, as the output would read as a complete model.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// The nightly run: ingest, segment, fit, inertia, report, publish a version (incremental).
@@ -570,16 +585,22 @@ spring rate, thermal, relaxation), process the inertia sessions, write the HTML 
 everything as the next immutable version STORE/versions/vNNNNNN/ (tables as <table>.parquet,
 tir/*.tir, report/index.html, manifest.toml).
 
-Incremental: a group whose segments, configuration and tool version are unchanged takes its rows
-and .tir file from the previous version. With nothing changed it publishes nothing and prints
-\"up to date\" (on stderr; logs go to stderr, stdout stays empty).
+Incremental, and a function of its inputs: what the store holds for a file follows its content,
+its catalog entry, the [segment] configuration and the tool version (a catalog edit relabels, a
+[segment] edit re-segments), a file gone from INPUT leaves the store, and a group whose segments,
+configuration and tool version are unchanged takes its rows and .tir file from the previous
+version. Failed files are retried every run. With nothing changed it publishes nothing and prints
+\"up to date\" (on stderr; logs go to stderr, stdout stays empty). Every problem (failed or
+partial files, warnings, skipped entries, failed fits, failed inertia runs) is listed on stderr
+and in the version's manifest.
 
 Without --input it runs on the embedded virtual round, generated with the fixed default seed into
 outputs/round/ on first use, into outputs/store (paths relative to the working directory).
 
-Exit codes: 0 published (or up to date) with no failure, 1 published but some files, fits,
-inertia runs or the report failed, 2 nothing could be done (no input, store locked with
---no-wait, nothing to fit).")]
+Exit codes: 0 published (or up to date) with no failure, 1 published but some files (failed or
+partial), fits, inertia runs or the report failed, or up to date while input files still fail,
+2 nothing could be done (no input, store locked with --no-wait, a store that cannot be written,
+nothing to fit).")]
 pub struct RunArgs {
     /// Input directory (raw files below it, rig sessions under inertia/). Default: the embedded
     /// virtual round in outputs/round/ (generated on first use).

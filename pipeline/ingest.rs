@@ -35,7 +35,6 @@ use std::time::Instant;
 
 use polars::prelude::*;
 use polars_arrow::array::{BooleanArray, MutableBinaryViewArray, PrimitiveArray, Utf8ViewArray};
-use polars_arrow::record_batch::RecordBatchT;
 use rayon::prelude::*;
 
 use tirebase_core::segment::{self, RunSignals, Segment, SegmentConfig, TreadTemps};
@@ -45,18 +44,14 @@ pub use decide::{Decision, Now, decide};
 
 use crate::catalog::Catalog;
 use crate::progress::Progress;
-use crate::schema;
 use crate::store::StoreError;
-use crate::store::files::{
-    Durability, ensure_dir, read_parquet, sha256_bytes, sync_filesystem,
-    write_arrow_parquet_atomic_with, write_parquet_atomic_with,
-};
-use crate::store::layout::{PartitionKey, SEGMENTS_DIR, SWEPT, partition_dir, source_part_name};
+use crate::store::files::{sha256_bytes, sync_filesystem};
+use crate::store::layout::{PartitionKey, SWEPT, source_part_name};
 use crate::store::lock::{LockWait, StoreLock};
 pub use crate::store::tables::RunRow;
 use crate::store::tables::{
     STATUS_DUPLICATE, STATUS_FAILED, STATUS_OK, STATUS_PARTIAL, collect_garbage, parts_sha256,
-    read_runs, read_segment_file, write_runs,
+    read_runs, relabel_parts, write_runs, write_samples_part, write_segments_part,
 };
 
 /// Ingest errors that stop the whole ingest (per-file problems are recorded, not raised).
@@ -700,50 +695,15 @@ fn relabel(store: &Path, prev: &RunRow, identity: &Identity) -> Result<Option<Ru
     if new_part == old_part {
         return Ok(Some(row));
     }
-    let old_segments = store.join(SEGMENTS_DIR).join(&old_part);
-    if !old_segments.is_file() {
-        return Ok(None);
-    }
-    let records = read_segment_file(&old_segments)?;
-    let mut links: BTreeMap<PathBuf, PathBuf> = BTreeMap::new();
-    for r in &records {
-        let mut key = r.partition();
-        let from = store.join(partition_dir(&key)).join(&old_part);
-        key.tire = identity.tire.clone();
-        key.rim_in = identity.rim_in.unwrap_or(0);
-        links.insert(from, store.join(partition_dir(&key)).join(&new_part));
-    }
-    if links.keys().any(|from| !from.is_file()) {
-        return Ok(None);
-    }
-    let mut df = read_parquet(&old_segments)?;
-    let n = df.height();
-    let relabelled = df
-        .with_column(Column::new("tire".into(), vec![identity.tire.as_str(); n]))
-        .and_then(|df| {
-            df.with_column(Column::new(
-                "rim_in".into(),
-                vec![identity.rim_in.unwrap_or(0); n],
-            ))
-        })
-        .map(|_| ());
-    relabelled.map_err(|e| StoreError::polars(&old_segments, e))?;
-    let mut df = schema::table("segments").conform(df)?;
-    write_parquet_atomic_with(
-        &store.join(SEGMENTS_DIR).join(&new_part),
-        Durability::Deferred,
-        &mut df,
+    let relabelled = relabel_parts(
+        store,
+        &old_part,
+        &new_part,
+        &identity.tire,
+        identity.rim_in.unwrap_or(0),
     )?;
-    for (from, to) in &links {
-        if let Some(dir) = to.parent() {
-            ensure_dir(dir)?;
-        }
-        if to.exists() {
-            fs::remove_file(to).map_err(|e| StoreError::io(to, e))?;
-        }
-        if fs::hard_link(from, to).is_err() {
-            fs::copy(from, to).map_err(|e| StoreError::io(to, e))?;
-        }
+    if !relabelled {
+        return Ok(None);
     }
     Ok(Some(row))
 }
@@ -889,14 +849,17 @@ pub struct Identity {
     pub tire: String,
     /// Rim width, whole inches.
     pub rim_in: Option<i64>,
-    /// `catalog`, `tireid`, `tire_name` or `fallback`.
+    /// `catalog`, `tireid`, `tire_name` or `unknown` (named after the file, see [`identify`]).
     pub source: &'static str,
     /// Run kind from the catalog.
     pub kind_hint: Option<String>,
 }
 
 /// Tire identity: the catalog entry, else the file's own tire fields (`.mat` `tireid`, `.dat`
-/// `Tire_Name=`/`Rim_Width=`), else `project<p>-run<n>` with the rim unknown.
+/// `Tire_Name=`/`Rim_Width=`), else the tire is unknown and the run is named from what it has:
+/// `unknown (<file stem>)`, plus `project <p> run <n>` when the header states them and the file
+/// name does not (`unknown (drivebrake)`, `unknown (B1965run51)`), rim unknown, source
+/// `unknown`. A later catalog entry for the run's project and run re-labels it.
 pub fn identify(run: &RunTable, catalog: Option<&Catalog>) -> Identity {
     let meta = &run.meta;
     if let (Some(c), Some(p), Some(r)) = (catalog, meta.project, meta.run)
@@ -921,14 +884,21 @@ pub fn identify(run: &RunTable, catalog: Option<&Catalog>) -> Identity {
             kind_hint: None,
         };
     }
-    let project = meta
-        .project
-        .map_or("unknown".to_string(), |p| p.to_string());
-    let run_no = meta.run.map_or("unknown".to_string(), |r| r.to_string());
+    let base = meta
+        .source_name
+        .rsplit(['/', '\\'])
+        .next()
+        .unwrap_or(&meta.source_name);
+    let stem = base.rsplit_once('.').map_or(base, |(stem, _)| stem);
+    let mut name = format!("unknown ({stem}");
+    if let (None, Some(p), Some(r)) = (&meta.file_name, meta.project, meta.run) {
+        name.push_str(&format!(", project {p} run {r}"));
+    }
+    name.push(')');
     Identity {
-        tire: format!("project{project}-run{run_no}"),
+        tire: name,
         rim_in: None,
-        source: "fallback",
+        source: "unknown",
         kind_hint: None,
     }
 }
@@ -950,7 +920,7 @@ fn signals(run: &RunTable) -> RunSignals<'_> {
     static EMPTY: Vec<f64> = Vec::new();
     let rl = run.loaded_radius_m.as_deref().unwrap_or(&EMPTY);
     let mut s = RunSignals::from_iso_w(&run.tire, &run.et_s, &run.speed_kph, &run.pressure_kpa, rl);
-    s.has_kappa = run.meta.kappa_source.is_measured();
+    s.has_kappa = run.meta.kappa_source.is_available();
     if let (Some(inner_c), Some(centre_c), Some(outer_c)) = (
         run.tread_inner_temp_c.as_deref(),
         run.tread_centre_temp_c.as_deref(),
@@ -1015,21 +985,11 @@ fn write_file_parts(
     let write = |(key, segs): (&PartitionKey, &Vec<&Segment>)| -> Result<(), StoreError> {
         let arrays = samples_arrays(ctx, segs);
         let rows = arrays.first().map_or(0, |(_, a)| a.len());
-        let (schema, arrays) = schema::table("samples").conform_arrays(arrays)?;
-        let batch = RecordBatchT::try_new(rows, Arc::new(schema.clone()), arrays)
-            .map_err(|e| StoreError::polars(store, e))?;
-        let dir = store.join(partition_dir(key));
-        ensure_dir(&dir)?;
-        write_arrow_parquet_atomic_with(&dir.join(part_name), Durability::Deferred, schema, batch)
+        write_samples_part(store, key, part_name, rows, arrays)
     };
     let segments_table = || -> Result<(), StoreError> {
         let df = segments_frame(ctx, segments).map_err(|e| StoreError::polars(store, e))?;
-        let mut df = schema::table("segments").conform(df)?;
-        write_parquet_atomic_with(
-            &store.join(SEGMENTS_DIR).join(ctx.part),
-            Durability::Deferred,
-            &mut df,
-        )
+        write_segments_part(store, ctx.part, df)
     };
     // Partitions are independent files (a run has ~30): the calling thread and `writers - 1`
     // scoped threads (which block while they work; rayon workers would steal and nest other
@@ -1117,6 +1077,7 @@ fn samples_arrays(ctx: &FileContext, segs: &[&Segment]) -> Vec<(&'static str, Ar
     };
     let f = |c: &Vec<f64>| float_array(Some(c), &idx);
     let kappa_measured = run.meta.kappa_source.is_measured();
+    let kappa_derived = run.meta.kappa_source == ttc::KappaSource::Derived;
     vec![
         ("segment_id", string_runs(&seg_ids)),
         ("source_file", string_runs(&[(ctx.name, n)])),
@@ -1144,6 +1105,10 @@ fn samples_arrays(ctx: &FileContext, segs: &[&Segment]) -> Vec<(&'static str, Ar
         (
             "kappa_measured",
             BooleanArray::from_slice(vec![kappa_measured; n]).boxed(),
+        ),
+        (
+            "kappa_derived",
+            BooleanArray::from_slice(vec![kappa_derived; n]).boxed(),
         ),
         ("sr", float_array(run.sr.as_ref(), &idx)),
         ("pressure_kpa", f(&run.pressure_kpa)),
@@ -1395,6 +1360,26 @@ mod tests {
         let mut legacy = copy("A1965run51.dat", 5, (0.0, 1.0));
         legacy.et_start_s = None;
         assert_eq!(copies_disagree(&kept, &legacy), None);
+    }
+
+    /// Issue 17: without a catalog entry or a tire field, the tire is unknown and named after
+    /// the file (and the header's project and run when the name does not carry them).
+    #[test]
+    fn a_tire_without_catalog_or_tireid_is_unknown_and_named_after_the_file() {
+        use tirebase_core::ttc::example::{RoundStyle, example_dat, example_mat};
+        use tirebase_core::ttc::mat::Compression;
+        let dat = ttc::read_run(
+            &example_dat(RoundStyle::R4Uscs, 20, false),
+            "in/drivebrake.dat",
+        )
+        .unwrap();
+        let id = identify(&dat, None);
+        assert_eq!(id.tire, "unknown (drivebrake, project 1320 run 125)");
+        assert_eq!((id.rim_in, id.source), (None, "unknown"));
+        let mut mat =
+            ttc::read_run(&example_mat(20, Compression::None), "x/B1320run15.mat").unwrap();
+        mat.meta.tire_name = None;
+        assert_eq!(identify(&mat, None).tire, "unknown (B1320run15)");
     }
 
     fn row(name: &str, run: Option<i64>, units: &str, format: &str) -> RunRow {

@@ -199,11 +199,13 @@ pub enum ProblemKind {
     SkippedEntry,
     /// A skipped part of a fit stage whose result was still written.
     FitSkipped,
+    /// A `.tir` written under a disambiguated name (tires whose names sanitise alike).
+    TirName,
 }
 
 impl ProblemKind {
     /// Every kind, in report order.
-    pub const ALL: [ProblemKind; 8] = [
+    pub const ALL: [ProblemKind; 9] = [
         ProblemKind::FailedFile,
         ProblemKind::PartialFile,
         ProblemKind::FitFailure,
@@ -212,6 +214,7 @@ impl ProblemKind {
         ProblemKind::FileWarning,
         ProblemKind::SkippedEntry,
         ProblemKind::FitSkipped,
+        ProblemKind::TirName,
     ];
 
     /// A failure (the run exits 1), rather than a warning.
@@ -237,6 +240,7 @@ impl ProblemKind {
             ProblemKind::FileWarning => "warning",
             ProblemKind::SkippedEntry => "skipped entry",
             ProblemKind::FitSkipped => "warning: skipped",
+            ProblemKind::TirName => "renamed .tir",
         }
     }
 
@@ -251,6 +255,7 @@ impl ProblemKind {
             ProblemKind::FileWarning => "input file warnings",
             ProblemKind::SkippedEntry => "input entries skipped",
             ProblemKind::FitSkipped => "parts of fit stages skipped",
+            ProblemKind::TirName => ".tir file names disambiguated",
         }
     }
 }

@@ -19,7 +19,6 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use polars::prelude::*;
-use tirebase_core::naming::tir_file_name;
 
 use crate::fit::{FitFailure, FitOutcome, GroupPlan};
 use crate::inertia::{InertiaRun, process_sessions};
@@ -31,18 +30,15 @@ use crate::progress::Progress;
 use crate::report;
 use crate::run::{Fingerprint, RunError, RunOptions, count_duplicates, runs_table_sha};
 use crate::store::StoreError;
-use crate::store::files::{read_parquet, write_parquet_atomic};
+use crate::store::results::{
+    self, GROUP_COLUMNS, INERTIA_TABLE, Results, TirNames, has_group_columns, model_groups,
+    rows_of_groups,
+    tir_names,
+};
 use crate::store::tables::{self, STATUS_FAILED, STATUS_OK, STATUS_PARTIAL};
 use crate::store::versions::VersionBuilder;
 
-/// A fit group: (tire, rim_in, pressure_kpa).
-pub type GroupKey = (String, i64, i64);
-
-/// Tables published from the inertia stage (never merged per tire group).
-const INERTIA_TABLE: &str = "inertia";
-
-/// The columns every fit result table has, identifying its group.
-const GROUP_COLUMNS: [&str; 3] = ["tire", "rim_in", "pressure_kpa"];
+pub use crate::store::results::GroupKey;
 
 /// Everything a run hands to publishing.
 pub struct Publication<'a> {
@@ -127,26 +123,48 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
     let prev_dir = previous.map(|(_, d, _)| d.as_path());
 
     let t = Instant::now();
-    let mut tables = merge_tables(&outcome, prev_dir, &reused_keys, &staging, progress)?;
-    let tir_files = publish_tir(&outcome, prev_dir, &reused_keys, &staging)?;
+    let (tir_names, tir_notes) = publish_tir(&outcome, prev_dir, &reused_keys, &staging)?;
+    let tir_files = crate::store::files::files_in(&staging.join("tir"))?.len();
+    let merged = merge_tables(
+        &outcome,
+        prev_dir,
+        &reused_keys,
+        &tir_names,
+        &staging,
+        progress,
+    )?;
+    let mut tables: BTreeMap<String, u64> = merged
+        .iter()
+        .map(|(name, df)| (name.clone(), df.height() as u64))
+        .collect();
+    let mut results = Results::from_frames(&merged);
+    drop(merged);
     let reused_failures = match prev_dir {
-        Some(dir) => read_fit_failures(&dir.join("fit_failures.parquet"), &reused_keys)?,
+        Some(dir) => results::read_fit_failures(dir, &reused_keys)?,
         None => Vec::new(),
     };
     timings.insert("merge".to_string(), t.elapsed().as_secs_f64());
 
     let t = Instant::now();
     let inertia = inertia_stage(&fingerprint.inertia_sessions, opts.jobs, &staging, progress)?;
-    if let Some((_, rows)) = &inertia {
-        tables.insert(INERTIA_TABLE.to_string(), *rows);
+    if let Some((_, df)) = &inertia {
+        tables.insert(INERTIA_TABLE.to_string(), df.height() as u64);
+        results.set_inertia(df);
     }
     timings.insert("inertia".to_string(), t.elapsed().as_secs_f64());
 
     let t = Instant::now();
-    let report_error = report_stage(opts.store, &staging, opts.jobs, progress);
+    let report_error = report_stage(opts.store, &results, &staging, opts.jobs, progress);
     timings.insert("report".to_string(), t.elapsed().as_secs_f64());
 
     let mut problems = file_problems;
+    problems.extend(tir_notes.into_iter().map(|((t, r, p), note)| {
+        Problem::new(
+            ProblemKind::TirName,
+            format!("{t} on {r} in rim at {p} kPa"),
+            note,
+        )
+    }));
     let mut failures: Vec<&FitFailure> = outcome.failures.iter().chain(&reused_failures).collect();
     failures.sort();
     problems.extend(failures.iter().map(|f| fit_problem(f)));
@@ -232,7 +250,7 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
         .timings_s
         .insert("total".to_string(), started.elapsed().as_secs_f64());
     manifest.write(&staging)?;
-    let worst_fit = worst_fit(&staging);
+    let worst_fit = worst_fit(&results);
     let dir = builder.commit()?;
     Ok(RunReport {
         manifest,
@@ -262,96 +280,44 @@ fn fit_problem(f: &FitFailure) -> Problem {
     )
 }
 
-/// The rows of a version's `fit_failures` table that belong to `groups`, typed. A table written
-/// before the `fatal` column existed has only fatal rows.
-fn read_fit_failures(
-    path: &Path,
-    groups: &BTreeSet<GroupKey>,
-) -> Result<Vec<FitFailure>, StoreError> {
-    if groups.is_empty() || !path.exists() {
-        return Ok(Vec::new());
-    }
-    let df = read_parquet(path)?;
-    let err = |e: PolarsError| StoreError::polars(path, e);
-    let text = |name: &str| -> Result<Vec<String>, StoreError> {
-        let c = df.column(name).map_err(err)?;
-        Ok(c.str()
-            .map_err(err)?
-            .iter()
-            .map(|v| v.unwrap_or_default().to_string())
-            .collect())
-    };
-    let int = |name: &str| -> Result<Vec<i64>, StoreError> {
-        let c = df.column(name).map_err(err)?;
-        Ok(c.i64()
-            .map_err(err)?
-            .iter()
-            .map(|v| v.unwrap_or(0))
-            .collect())
-    };
-    let (tire, rim, p) = (text("tire")?, int("rim_in")?, int("pressure_kpa")?);
-    let (stage, scope, reason) = (text("stage")?, text("scope")?, text("reason")?);
-    let fatal: Vec<bool> = match df.column("fatal") {
-        Ok(c) => c
-            .bool()
-            .map_err(err)?
-            .iter()
-            .map(|v| v.unwrap_or(true))
-            .collect(),
-        Err(_) => vec![true; df.height()],
-    };
-    Ok((0..df.height())
-        .filter(|&i| groups.contains(&(tire[i].clone(), rim[i], p[i])))
-        .map(|i| FitFailure {
-            tire: tire[i].clone(),
-            rim_in: rim[i],
-            pressure_kpa: p[i],
-            stage: stage[i].clone(),
-            scope: scope[i].clone(),
-            fatal: fatal[i],
-            reason: reason[i].clone(),
-        })
-        .collect())
-}
-
 /// Merge this run's tables with the reused groups' rows of the previous version and write them
-/// into the staging directory. Returns rows per table.
+/// into the staging directory. Returns the merged tables.
 fn merge_tables(
     outcome: &FitOutcome,
     prev_dir: Option<&Path>,
     reused: &BTreeSet<GroupKey>,
+    tir_names: &BTreeMap<GroupKey, String>,
     staging: &Path,
     progress: &dyn Progress,
-) -> Result<BTreeMap<String, u64>, RunError> {
+) -> Result<BTreeMap<String, DataFrame>, RunError> {
     let mut names: BTreeSet<String> = outcome.tables.keys().cloned().collect();
     if let Some(dir) = prev_dir {
-        for file in crate::store::files::parquet_files_in(dir)? {
-            if let Some(stem) = file.file_stem().and_then(|s| s.to_str())
-                && stem != INERTIA_TABLE
-            {
-                names.insert(stem.to_string());
-            }
-        }
+        names.extend(
+            results::table_names(dir)?
+                .into_iter()
+                .filter(|n| n != INERTIA_TABLE),
+        );
     }
-    let mut rows = BTreeMap::new();
+    let mut out = BTreeMap::new();
     for name in names {
         let table_err = |source| RunError::Table {
             table: name.clone(),
             source,
         };
         let fresh = outcome.tables.get(&name);
-        let old = match prev_dir.map(|d| d.join(format!("{name}.parquet"))) {
-            Some(path) if path.exists() && !reused.is_empty() => {
-                let df = read_parquet(&path)?;
-                if has_group_columns(&df) {
+        let old = match prev_dir {
+            Some(dir) if !reused.is_empty() => match results::read_table(dir, &name)? {
+                None => None,
+                Some(df) if has_group_columns(&df) => {
                     Some(rows_of_groups(&df, reused).map_err(table_err)?)
-                } else {
+                }
+                Some(_) => {
                     progress.note(&format!(
                         "warning: {name}: previous table has no tire/rim_in/pressure_kpa columns; its rows are not carried over"
                     ));
                     None
                 }
-            }
+            },
             _ => None,
         };
         let merged = match (fresh, old) {
@@ -370,95 +336,131 @@ fn merge_tables(
         } else {
             merged
         };
-        rows.insert(name.clone(), merged.height() as u64);
-        write_parquet_atomic(&staging.join(format!("{name}.parquet")), &mut merged)?;
+        if name == "lint" {
+            merged = rename_lint_files(&merged, tir_names).map_err(table_err)?;
+        }
+        results::write_table(staging, &name, &mut merged)?;
+        out.insert(name, merged);
     }
-    Ok(rows)
+    Ok(out)
 }
 
-fn has_group_columns(df: &DataFrame) -> bool {
-    GROUP_COLUMNS.iter().all(|c| df.column(c).is_ok())
-}
-
-/// The rows of `df` whose (tire, rim_in, pressure_kpa) is in `keys`.
-fn rows_of_groups(df: &DataFrame, keys: &BTreeSet<GroupKey>) -> PolarsResult<DataFrame> {
-    let tire = df.column("tire")?.str()?;
-    let rim = df.column("rim_in")?.i64()?;
-    let p = df.column("pressure_kpa")?.i64()?;
-    let mask: BooleanChunked = (0..df.height())
-        .map(|i| match (tire.get(i), rim.get(i), p.get(i)) {
-            (Some(t), Some(r), Some(p)) => keys.contains(&(t.to_string(), r, p)),
-            _ => false,
-        })
-        .collect();
-    df.filter(&mask)
-}
-
-/// Write this run's `.tir` files and link the reused groups' files from the previous version.
+/// Write this run's `.tir` files and link the reused groups' files from the previous version,
+/// each under its name among all the version's models (a reused file is renamed when a new
+/// tire's name now collides with it). Returns the names by group and the disambiguation notes.
 fn publish_tir(
     outcome: &FitOutcome,
     prev_dir: Option<&Path>,
     reused: &BTreeSet<GroupKey>,
     staging: &Path,
-) -> Result<usize, StoreError> {
+) -> Result<TirNames, StoreError> {
     let dir = staging.join("tir");
     crate::store::files::ensure_dir(&dir)?;
-    let mut n = 0;
-    for (name, text) in &outcome.tir_files {
-        crate::store::files::write_bytes_atomic(&dir.join(name), text.as_bytes())?;
-        n += 1;
+    let fitted: Vec<GroupKey> = outcome
+        .tir_keys
+        .iter()
+        .map(|k| (k.tire.clone(), k.rim_in, k.pressure_kpa_nom))
+        .collect();
+    let (prev_models, prev_names) = match prev_dir {
+        Some(prev) => {
+            let groups = model_groups(prev);
+            let (names, _) = tir_names(&groups);
+            (groups, names)
+        }
+        None => Default::default(),
+    };
+    let reused_models: Vec<&GroupKey> =
+        reused.iter().filter(|k| prev_models.contains(*k)).collect();
+    let all: BTreeSet<GroupKey> = fitted
+        .iter()
+        .cloned()
+        .chain(reused_models.iter().map(|k| (*k).clone()))
+        .collect();
+    let (names, notes) = tir_names(&all);
+    for (key, (_, text)) in fitted.iter().zip(&outcome.tir_files) {
+        crate::store::files::write_bytes_atomic(&dir.join(&names[key]), text.as_bytes())?;
     }
     if let Some(prev) = prev_dir {
-        for (tire, rim, p) in reused {
-            let name = tir_file_name(tire, *rim as f64, *p as f64);
-            let from = prev.join("tir").join(&name);
-            let to = dir.join(&name);
-            if from.is_file() && !to.exists() {
-                if fs::hard_link(&from, &to).is_err() {
-                    fs::copy(&from, &to).map_err(|e| StoreError::io(&to, e))?;
-                }
-                n += 1;
+        for key in reused_models {
+            let from = prev.join("tir").join(&prev_names[key]);
+            let to = dir.join(&names[key]);
+            if from.is_file() && !to.exists() && fs::hard_link(&from, &to).is_err() {
+                fs::copy(&from, &to).map_err(|e| StoreError::io(&to, e))?;
             }
         }
     }
-    Ok(n)
+    Ok((names, notes))
 }
 
-/// Process the rig sessions (if any) into `staging/inertia.parquet`; the outcome and its rows.
+/// Point the `lint` table's `file` column at each group's file name in this version.
+fn rename_lint_files(
+    df: &DataFrame,
+    names: &BTreeMap<GroupKey, String>,
+) -> PolarsResult<DataFrame> {
+    if df.column("file").is_err() || !has_group_columns(df) {
+        return Ok(df.clone());
+    }
+    let tire = df.column("tire")?.str()?;
+    let rim = df.column("rim_in")?.i64()?;
+    let p = df.column("pressure_kpa")?.i64()?;
+    let old = df.column("file")?.str()?;
+    let files: Vec<Option<String>> = (0..df.height())
+        .map(|i| match (tire.get(i), rim.get(i), p.get(i)) {
+            (Some(t), Some(r), Some(p)) => names
+                .get(&(t.to_string(), r, p))
+                .cloned()
+                .or_else(|| old.get(i).map(str::to_string)),
+            _ => old.get(i).map(str::to_string),
+        })
+        .collect();
+    let mut out = df.clone();
+    out.with_column(Column::new("file".into(), files))?;
+    Ok(out)
+}
+
+/// Process the rig sessions (if any) into `staging/inertia.parquet`; the outcome and the table.
 fn inertia_stage(
     sessions: &[PathBuf],
     jobs: usize,
     staging: &Path,
     progress: &dyn Progress,
-) -> Result<Option<(InertiaRun, u64)>, RunError> {
+) -> Result<Option<(InertiaRun, DataFrame)>, RunError> {
     if sessions.is_empty() {
         return Ok(None);
     }
     let stage = progress.stage("inertia", "sessions", sessions.len() as u64);
     let done = with_pool(jobs, || process_sessions(sessions));
     let mut df = done.table()?;
-    write_parquet_atomic(&staging.join(format!("{INERTIA_TABLE}.parquet")), &mut df)?;
+    results::write_table(staging, INERTIA_TABLE, &mut df)?;
     stage.inc(sessions.len() as u64);
     stage.finish(&format!(
         "{} results, {} failed runs",
         done.results.len(),
         done.errors().count()
     ));
-    let rows = df.height() as u64;
-    Ok(Some((done, rows)))
+    Ok(Some((done, df)))
 }
 
 /// Write the HTML report into `staging/report/`; the one-line error if it failed (a failed
 /// report does not stop the publish).
 fn report_stage(
     store: &Path,
+    results: &Results,
     staging: &Path,
     jobs: usize,
     progress: &dyn Progress,
 ) -> Option<String> {
     let stage = progress.stage("report", "reports", 1);
     let car = crate::compare::car::Car::builtin();
-    let write = || report::write_report(store, staging, &staging.join("report"), &car);
+    let write = || {
+        report::write_report_from(
+            store,
+            results,
+            &staging.join("tir"),
+            &staging.join("report"),
+            &car,
+        )
+    };
     let written = match rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .stack_size(crate::WORKER_STACK_BYTES)
@@ -492,36 +494,19 @@ fn with_pool<T: Send>(jobs: usize, f: impl FnOnce() -> T + Send) -> T {
     }
 }
 
-/// The worst row of `fit_quality` by its normalised error (the first column found of
-/// `rmse_pct_of_peak`, `nrmse`, `r2`), as one line naming the group and channel.
-fn worst_fit(staging: &Path) -> Option<String> {
-    let df = read_parquet(&staging.join("fit_quality.parquet")).ok()?;
-    let (column, higher_is_worse) = [("rmse_pct_of_peak", true), ("nrmse", true), ("r2", false)]
-        .into_iter()
-        .find(|(c, _)| df.column(c).is_ok_and(|c| c.dtype() == &DataType::Float64))?;
-    let values = df.column(column).ok()?.f64().ok()?.clone();
-    let (i, v) = values
+/// The worst row of `fit_quality` by its RMSE in percent of the channel's peak, as one line
+/// naming the group and channel.
+fn worst_fit(results: &Results) -> Option<String> {
+    let (q, pct) = results
+        .fit_quality
         .iter()
-        .enumerate()
-        .filter_map(|(i, v)| v.filter(|v| v.is_finite()).map(|v| (i, v)))
-        .max_by(|a, b| {
-            if higher_is_worse {
-                a.1.total_cmp(&b.1)
-            } else {
-                b.1.total_cmp(&a.1)
-            }
-        })?;
-    let label: Vec<String> = df
-        .columns()
-        .iter()
-        .filter(|c| GROUP_COLUMNS.contains(&c.name().as_str()) || c.name() == "channel")
-        .filter_map(|c| {
-            c.get(i)
-                .ok()
-                .map(|v| format!("{}={}", c.name(), v.to_string().trim_matches('"')))
-        })
-        .collect();
-    Some(format!("{column} = {v:.4} ({})", label.join(", ")))
+        .flatten()
+        .filter_map(|q| Some((q, q.rmse_pct_of_peak.filter(|v| v.is_finite())?)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    Some(format!(
+        "rmse_pct_of_peak = {pct:.4} (tire={}, rim_in={}, pressure_kpa={}, channel={})",
+        q.tire, q.rim_in, q.pressure_kpa, q.channel
+    ))
 }
 
 /// Live segments by kind (empty when the store has none or cannot be read).
@@ -726,12 +711,14 @@ mod tests {
         )
         .unwrap();
         let mut df = crate::schema::table("fit_failures").conform(df).unwrap();
-        let path = dir.path().join("fit_failures.parquet");
-        write_parquet_atomic(&path, &mut df).unwrap();
+        results::write_table(dir.path(), "fit_failures", &mut df).unwrap();
         let all = BTreeSet::from([("T".to_string(), 7, 83), ("U".to_string(), 7, 69)]);
-        assert_eq!(read_fit_failures(&path, &all).unwrap(), failures);
+        assert_eq!(
+            results::read_fit_failures(dir.path(), &all).unwrap(),
+            failures
+        );
         let one = BTreeSet::from([("U".to_string(), 7, 69)]);
-        let read = read_fit_failures(&path, &one).unwrap();
+        let read = results::read_fit_failures(dir.path(), &one).unwrap();
         assert_eq!(read, failures[1..].to_vec());
         assert_eq!(
             fit_problem(&read[0]).to_string(),

@@ -20,9 +20,8 @@ use polars::sql::SQLContext;
 
 use crate::manifest::Manifest;
 use crate::schema::{self, TableSchema};
-use crate::store::files::{parquet_files_in, read_parquet};
 use crate::store::layout::{SAMPLES_DIR, runs_file};
-use crate::store::{StoreError, tables, versions};
+use crate::store::{StoreError, results, tables, versions};
 
 /// Query errors.
 #[derive(Debug, thiserror::Error)]
@@ -70,12 +69,7 @@ pub fn context(root: &Path) -> Result<SQLContext, QueryError> {
     }
     let mut ctx = SQLContext::new();
 
-    let runs = if runs_path.exists() {
-        read_parquet(&runs_path)?
-    } else {
-        DataFrame::empty_with_schema(&schema::table("runs").file_schema())
-    };
-    ctx.register("runs", runs.lazy());
+    ctx.register("runs", tables::runs_frame(root)?.lazy());
 
     // Only the part files the runs table names are scanned (`store::tables`' live rule).
     let seg_files = tables::live_segment_files(root)?;
@@ -106,15 +100,14 @@ fn register_versions(ctx: &mut SQLContext, root: &Path) -> Result<(), QueryError
     let newest = all.last().map_or(0, |(n, _)| *n as i64);
     let mut tables: std::collections::BTreeMap<String, Vec<DataFrame>> = Default::default();
     for (n, dir) in &all {
-        for file in parquet_files_in(dir)? {
-            let Some(name) = file.file_stem().and_then(|s| s.to_str()) else {
-                continue;
-            };
+        for name in results::table_names(dir)? {
             // Read eagerly: result tables are small, and polars 0.55 fails `count(*)` over a
             // union of lazy Parquet scans ("casting from UInt32 to UInt128").
-            let mut df = read_parquet(&file)?;
+            let Some(mut df) = results::read_table(dir, &name)? else {
+                continue;
+            };
             df.with_column(Column::new("version".into(), vec![*n as i64; df.height()]))?;
-            tables.entry(name.to_string()).or_default().push(df);
+            tables.entry(name).or_default().push(df);
         }
     }
     for (name, frames) in tables {

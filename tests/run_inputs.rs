@@ -609,3 +609,110 @@ fn issue20_every_problem_is_on_stderr_and_in_the_manifest() {
         "{log}"
     );
 }
+
+/// Item 4: two tires whose names differ only in case, at the same rim and pressures, get one
+/// `.tir` each (they used to share a file name and overwrite each other), under names that say
+/// which is which, and the run says so.
+#[test]
+fn issue20_tir_names_stay_unique_per_group() {
+    let (_tmp, input, store) = fork();
+    let catalog = input.join("catalog.toml");
+    let text_before = fs::read_to_string(&catalog).unwrap();
+    let (a, b) = ("Hoosier 20.5x7.0-13 R25B", "Hoosier 16.0x7.5-10 R25B");
+    let lower = a.to_lowercase();
+    fs::write(&catalog, text_before.replace(b, &lower)).unwrap();
+
+    let out = run(&input, &store, &[]);
+    let log = text(&out.stderr);
+    check(&out, "run with colliding tire names");
+    assert!(log.contains(".tir file names disambiguated"), "{log}");
+    let (_, dir) = latest(&store);
+    let m = Manifest::read(&dir).unwrap();
+    assert_eq!(m.counts.groups, 4, "{:?}", m.groups);
+    assert_eq!(m.counts.tir_files, 4, "{:?}", m.counts);
+    let files = files_below(&dir.join("tir"));
+    assert_eq!(files.len(), 4, "{:?}", files.keys());
+    assert_eq!(
+        m.problems
+            .iter()
+            .filter(|p| p.kind == ProblemKind::TirName)
+            .count(),
+        4
+    );
+    // Each group's file holds that group's tire.
+    let groups = tirebase::store::results::model_groups(&dir);
+    let (names, _) = tirebase::store::results::tir_names(&groups);
+    for ((tire, _, p), name) in &names {
+        let body = text(&files[name]);
+        assert!(
+            body.lines()
+                .any(|l| l.trim_start_matches("! : TIRE :").trim() == tire.as_str()),
+            "{name} ({tire}, {p} kPa) holds another tire"
+        );
+    }
+    // The lint table points at files that exist.
+    let lint = read_table(&dir.join("lint.parquet"));
+    for f in lint.column("file").unwrap().str().unwrap().iter().flatten() {
+        assert!(files.contains_key(f), "lint names {f}, not written");
+    }
+    assert_equals_fresh(&input, &store, &[]);
+}
+
+/// Other changes of the same kind, at once: a run moved to the other tire in the catalog, a run
+/// dropped from the catalog (its file's own `Tire_Name=` applies again), a file renamed (same
+/// bytes, new identity). Two runs on one store end where a fresh store does, and a third run is
+/// up to date.
+#[test]
+fn issue20_mixed_input_changes_equal_a_fresh_run() {
+    let (_tmp, input, store) = fork();
+    let catalog = input.join("catalog.toml");
+    let text_before = fs::read_to_string(&catalog).unwrap();
+    let entry = |run: u32| {
+        let head = format!("[[run]]\nproject = 2410\nrun = {run}\n");
+        let start = text_before.find(&head).unwrap();
+        let end = text_before[start + head.len()..]
+            .find("[[run]]")
+            .map_or(text_before.len(), |e| start + head.len() + e);
+        text_before[start..end].to_string()
+    };
+    let (run3, run7) = (entry(3), entry(7));
+    let edited = text_before
+        .replace(
+            &run3,
+            &run3.replace("Hoosier 20.5x7.0-13 R25B", "Hoosier 16.0x7.5-10 R25B"),
+        )
+        .replace(&run7, "");
+    fs::write(&catalog, edited).unwrap();
+    fs::rename(
+        input.join("raw/A2410run6.dat"),
+        input.join("raw/A2410run6-resent.dat"),
+    )
+    .unwrap();
+
+    let second = run(&input, &store, &[]);
+    let log = text(&second.stderr);
+    check(&second, "run after the mixed changes");
+    assert!(
+        log.contains("relabelled") && log.contains("1 files removed"),
+        "{log}"
+    );
+    let runs = tables::read_runs(&store).unwrap();
+    assert_eq!(
+        runs["B2410run3.mat"].tire.as_deref(),
+        Some("Hoosier 16.0x7.5-10 R25B")
+    );
+    assert_eq!(
+        runs["B2410run7.dat"].tire_source.as_deref(),
+        Some("tire_name")
+    );
+    assert!(!runs.contains_key("A2410run6.dat"));
+    assert_eq!(runs["A2410run6-resent.dat"].status, "ok");
+    assert_equals_fresh(&input, &store, &[]);
+    let third = run(&input, &store, &[]);
+    check(&third, "third run");
+    assert!(
+        text(&third.stderr).contains("up to date"),
+        "{}",
+        text(&third.stderr)
+    );
+}

@@ -32,6 +32,36 @@ fn read_tir(path: &Path) -> anyhow::Result<(TirFile, Vec<ReadWarning>)> {
     TirFile::parse_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
 }
 
+/// Refuse a file whose lint errors leave the model undefined (unless `force`, which prints
+/// them as warnings); each finding is one stderr line naming the file.
+fn refuse_undefined(path: &Path, file: &TirFile, force: bool) -> anyhow::Result<()> {
+    let report = lint::lint(file);
+    let fatal: Vec<_> = report
+        .findings
+        .iter()
+        .filter(|f| f.leaves_model_undefined())
+        .collect();
+    if fatal.is_empty() {
+        return Ok(());
+    }
+    for f in &fatal {
+        eprintln!("{}: {f}", path.display());
+    }
+    if force {
+        eprintln!(
+            "{}: warning: --force: using a model that is undefined ({} lint errors above)",
+            path.display(),
+            fatal.len()
+        );
+        return Ok(());
+    }
+    bail!(
+        "{}: refused: {} lint errors leave the model undefined (listed above; `tirebase tir lint` for all findings, --force to use it anyway)",
+        path.display(),
+        fatal.len()
+    )
+}
+
 fn print_read_warnings(path: &Path, warnings: &[ReadWarning]) {
     for w in warnings {
         eprintln!("{}: warning: {w}", path.display());
@@ -46,6 +76,7 @@ const OUTPUT_COLUMNS: [&str; 5] = ["Fx_N", "Fy_N", "Mx_Nm", "My_Nm", "Mz_Nm"];
 fn eval(args: &TirEvalArgs) -> anyhow::Result<ExitCode> {
     let (file, warnings) = read_tir(&args.tir)?;
     print_read_warnings(&args.tir, &warnings);
+    refuse_undefined(&args.tir, &file, args.force)?;
     let fnomin = file.coefs[Coef::FNOMIN];
     if fnomin.is_nan() || fnomin <= 0.0 {
         bail!(
@@ -101,6 +132,9 @@ fn read_points(path: &Path) -> anyhow::Result<PointTable> {
             *x = text.parse().map_err(|_| {
                 anyhow::anyhow!("{shown}: line {line}: column {name}: '{text}' is not a number")
             })?;
+            if !f64::is_finite(*x) {
+                bail!("{shown}: line {line}: column {name}: '{text}' is not a finite number");
+            }
         }
         points.push(SlipInput {
             fz_n: v[0],
@@ -187,6 +221,7 @@ fn lint_file(args: &TirLintArgs) -> anyhow::Result<ExitCode> {
 fn convert(args: &TirConvertArgs) -> anyhow::Result<ExitCode> {
     let (file, warnings) = read_tir(&args.input)?;
     print_read_warnings(&args.input, &warnings);
+    refuse_undefined(&args.input, &file, args.force)?;
     let text = file
         .render()
         .map_err(|e| anyhow::anyhow!("{}: cannot write as PAC2002: {e}", args.input.display()))?;

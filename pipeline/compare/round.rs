@@ -55,20 +55,14 @@ pub fn load(dir: &Path, label: &str) -> RoundResults {
         ..Default::default()
     };
     for name in TABLES {
-        let path = dir.join(format!("{name}.parquet"));
-        if !path.exists() {
-            round
-                .notes
-                .push(format!("{}: {name}.parquet not present", dir.display()));
-            continue;
-        }
-        match crate::store::files::read_parquet(&path) {
-            Ok(df) => {
+        match crate::store::results::read_table(dir, name) {
+            Ok(Some(df)) => {
                 round.tables.insert(name.to_string(), df);
             }
-            Err(e) => round
+            Ok(None) => round
                 .notes
-                .push(format!("{}: unreadable: {e}", path.display())),
+                .push(format!("{}: {name}.parquet not present", dir.display())),
+            Err(e) => round.notes.push(format!("unreadable: {e}")),
         }
     }
     let tir_dir = dir.join("tir");

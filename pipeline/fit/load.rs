@@ -64,8 +64,11 @@ pub struct LoadedSegment {
     pub segment: MeasuredSegment,
     /// Overturning moment, N m (ISO-W), one per sample.
     pub mx_nm: Vec<f64>,
-    /// The run recorded a longitudinal slip channel (else `kappa` is 0 throughout).
+    /// The run recorded a longitudinal slip channel.
     pub kappa_measured: bool,
+    /// The run had no SL channel but swept its slip ratio: `kappa` was derived from N and V.
+    /// (Neither flag: `kappa` is 0 throughout.)
+    pub kappa_derived: bool,
     /// The segments-table row it was loaded for.
     pub row: SegmentRow,
 }
@@ -231,17 +234,18 @@ pub fn load_segments(store: &Path, rows: &[&SegmentRow]) -> Result<Vec<LoadedSeg
 
 /// Read the columns the stages use from one samples file.
 fn read_sample_columns(path: &Path) -> Result<DataFrame, FitError> {
-    let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
-    let columns: Vec<String> = ["segment_id", "sample_index", "kappa_measured"]
+    let columns: Vec<&str> = ["segment_id", "sample_index", "kappa_measured"]
         .into_iter()
         .chain(REQUIRED)
         .chain(OPTIONAL)
-        .map(str::to_string)
         .collect();
-    ParquetReader::new(file)
-        .with_columns(Some(columns))
-        .finish()
-        .map_err(polars_err(path))
+    // Stores written before `kappa_derived` existed lack the column (read as false).
+    Ok(tables::read_sample_columns(
+        path,
+        &columns,
+        &["kappa_derived"],
+        true,
+    )?)
 }
 
 /// The columns of one samples file.
@@ -250,6 +254,7 @@ struct SampleColumns {
     rows_of: BTreeMap<String, Vec<usize>>,
     sample_index: Vec<Option<i64>>,
     kappa_measured: Vec<Option<bool>>,
+    kappa_derived: Vec<Option<bool>>,
     required: BTreeMap<&'static str, Vec<Option<f64>>>,
     optional: BTreeMap<&'static str, Vec<Option<f64>>>,
 }
@@ -295,6 +300,11 @@ impl SampleColumns {
             rows_of,
             sample_index: i64_column(df, "sample_index", path)?,
             kappa_measured: bool_column(df, "kappa_measured", path)?,
+            kappa_derived: if df.column("kappa_derived").is_ok() {
+                bool_column(df, "kappa_derived", path)?
+            } else {
+                vec![None; df.height()]
+            },
             required,
             optional,
         })
@@ -355,6 +365,7 @@ impl SampleColumns {
             },
             mx_nm: req("mx_nm"),
             kappa_measured: idx.iter().all(|&i| self.kappa_measured[i].unwrap_or(false)),
+            kappa_derived: idx.iter().all(|&i| self.kappa_derived[i].unwrap_or(false)),
             row: row.clone(),
         })
     }

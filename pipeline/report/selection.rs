@@ -20,8 +20,10 @@ use tirebase_core::compare::{
     Pac2002Tire, SteadyStateTire, cornering_stiffness, envelope_outline, peak_fy,
 };
 
-use super::data::{ReportData, f64_col, i64_col};
-use super::plots::rows_of;
+use polars::prelude::{AnyValue, DataFrame};
+
+use super::data::ReportData;
+use super::pages::{Cell, grid_html};
 use super::svg::{Axis, Plot, Series, Style, escape};
 use crate::compare::{CompareRow, Comparison};
 
@@ -71,8 +73,10 @@ fn tire_label(c: &Comparison, r: &CompareRow) -> String {
 
 /// A row's model, ready to evaluate (None when its `.tir` is not loaded).
 fn tire_of(data: &ReportData, r: &CompareRow, max_load: f64) -> Option<Pac2002Tire> {
-    let file =
-        tirebase_core::naming::tir_file_name(&r.tire, r.rim_in as f64, r.pressure_kpa as f64);
+    let key = (r.tire.clone(), r.rim_in, r.pressure_kpa);
+    let file = data.tir_names.get(&key).cloned().unwrap_or_else(|| {
+        tirebase_core::naming::tir_file_name(&r.tire, r.rim_in as f64, r.pressure_kpa as f64)
+    });
     data.models
         .get(&file)
         .map(|m| Pac2002Tire::new(&m.model, m.use_mode, max_load))
@@ -272,35 +276,34 @@ fn thermal_chart(
     );
     plot.missing_reason =
         "no thermal window measured (no converged mu(T) fit with an optimum)".to_string();
-    let Some(df) = data.tables.get("thermal_fit") else {
+    let Some(fits) = &data.results.thermal_fit else {
         return plot;
     };
-    let (rims, ps) = (i64_col(df, "rim_in"), i64_col(df, "pressure_kpa"));
-    let (t_cold, k, hot) = (
-        f64_col(df, "t_cold_c"),
-        f64_col(df, "k_cold_per_c2"),
-        f64_col(df, "hot_falloff"),
-    );
     for &i in &choice.rows {
         let r = &c.rows[i];
         let Some(t_opt) = r.thermal.t_opt_c else {
             continue;
         };
-        let Some(j) = rows_of(df, &r.tire)
-            .into_iter()
-            .find(|&j| rims[j] == Some(r.rim_in) && ps[j] == Some(r.pressure_kpa))
+        let Some(fit) = fits
+            .iter()
+            .find(|f| f.tire == r.tire && f.rim_in == r.rim_in && f.pressure_kpa == r.pressure_kpa)
         else {
             continue;
         };
-        let hot_k = if hot[j].is_finite() { hot[j] } else { 1.0 } * k[j];
-        let from = if t_cold[j].is_finite() {
-            t_cold[j]
+        let k = fit.k_cold_per_c2;
+        let hot_k = if fit.hot_falloff.is_finite() {
+            fit.hot_falloff
+        } else {
+            1.0
+        } * k;
+        let from = if fit.t_cold_c.is_finite() {
+            fit.t_cold_c
         } else {
             t_opt - 30.0
         };
         let curve: Vec<(f64, f64)> = linspace(from, t_opt + 25.0, CURVE_POINTS)
             .map(|t| {
-                let kk = if t > t_opt { hot_k } else { k[j] };
+                let kk = if t > t_opt { hot_k } else { k };
                 (t, 1.0 - kk * (t - t_opt).powi(2))
             })
             .collect();
@@ -401,6 +404,27 @@ fn table_columns(c: &Comparison) -> Vec<String> {
     cols
 }
 
+/// The columns of the comparison frame named in `columns` (those present) as an HTML table.
+fn frame_html(df: &DataFrame, columns: &[String]) -> String {
+    let cols: Vec<&String> = columns
+        .iter()
+        .filter(|c| df.column(c.as_str()).is_ok())
+        .collect();
+    let cell = |c: &str, i: usize| match df.column(c).ok().and_then(|col| col.get(i).ok()) {
+        Some(AnyValue::Float64(x)) => Cell::Float(x),
+        Some(AnyValue::Int64(x)) => Cell::Int(x),
+        Some(AnyValue::Boolean(b)) => Cell::Bool(b),
+        Some(AnyValue::String(s)) => Cell::Text(s.to_string()),
+        Some(AnyValue::StringOwned(s)) => Cell::Text(s.to_string()),
+        Some(AnyValue::Null) | None => Cell::Empty,
+        Some(other) => Cell::Text(other.to_string()),
+    };
+    grid_html(
+        &cols,
+        (0..df.height()).map(|i| (false, cols.iter().map(|c| cell(c, i)).collect())),
+    )
+}
+
 /// The whole section.
 pub fn section(data: &ReportData, c: &Comparison) -> SelectionSection {
     let mut out = String::from("<h2 id=\"selection\">Tire selection</h2>\n");
@@ -468,17 +492,7 @@ pub fn section(data: &ReportData, c: &Comparison) -> SelectionSection {
     out.push_str("</div>\n");
     out.push_str("<h3 id=\"comparison\">Comparison at the car's conditions</h3>\n");
     match crate::compare::table::to_frame(c) {
-        Ok(df) => {
-            let cols = table_columns(c);
-            let cols: Vec<&str> = cols.iter().map(|s| s.as_str()).collect();
-            let rows: Vec<usize> = (0..df.height()).collect();
-            out.push_str(&super::pages::table_html(
-                &df,
-                &rows,
-                &cols,
-                &Default::default(),
-            ));
-        }
+        Ok(df) => out.push_str(&frame_html(&df, &table_columns(c))),
         Err(e) => {
             let _ = writeln!(
                 out,

@@ -1,13 +1,16 @@
 //! The only code that touches the store's disk layout: paths, atomic Parquet files, the lock,
-//! the store's tables and what of them is live (`tables`), and versions.
+//! the store's tables and what of them is live (`tables`), versions, and the result tables of a
+//! version (`results`, typed for the readers that use their values).
 //!
 //! In: DataFrames and keys. Out: files under a store root that polars, pandas, DuckDB and Spark
 //! read directly (hive-partitioned Parquet). Deliberately not here: what a table contains (the
 //! schemas and the stages decide) and any computation on the data.
 
+pub mod columns;
 pub mod files;
 pub mod layout;
 pub mod lock;
+pub mod results;
 pub mod tables;
 pub mod versions;
 

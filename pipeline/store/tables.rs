@@ -1,8 +1,10 @@
-//! The store's tables: the one place that reads and writes the runs table, says which segments
-//! and samples are live, reads the live segments as typed rows and collects garbage.
+//! The store's tables: the one place that reads and writes the runs table and the segments and
+//! samples parts (written by ingest, relabelled without a parse), says which of them are live,
+//! reads the live segments as typed rows and collects garbage.
 //!
 //! In: a store root. Out: [`RunRow`]s (the runs table, `schemas/runs.toml`), [`SegmentRecord`]s
-//! (the live rows of the segments table, `schemas/segments.toml`), the paths of live part files.
+//! (the live rows of the segments table, `schemas/segments.toml`), the paths of live part files
+//! and columns of a samples file ([`read_sample_columns`]).
 //!
 //! The live rule, stated once: every ingested file's samples and segments are written under one
 //! part name, `<source>-<key12>.parquet` ([`RunRow::part_name`]), where the key is
@@ -17,9 +19,14 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
+use polars_arrow::record_batch::RecordBatchT;
 
 use super::StoreError;
-use super::files::{parquet_files_below, parquet_files_in, read_parquet, sha256_bytes};
+use super::columns::{opt_f64, opt_i64, opt_str, polars_at, req_bool, req_f64, req_i64, req_str};
+use super::files::{
+    Durability, ensure_dir, parquet_files_below, parquet_files_in, read_parquet, sha256_bytes,
+    write_arrow_parquet_atomic_with, write_parquet_atomic_with,
+};
 use super::layout::{
     PartitionKey, SAMPLES_DIR, SEGMENTS_DIR, SWEPT, TEMP_SUFFIX, partition_dir, runs_file,
     source_part_name,
@@ -110,83 +117,6 @@ pub fn parts_sha256(
     )
 }
 
-fn polars_at(path: &Path) -> impl Fn(PolarsError) -> StoreError + '_ {
-    move |e| StoreError::polars(path, e)
-}
-
-/// A string column (other types cast); `None` when the column is absent.
-fn opt_str(
-    df: &DataFrame,
-    name: &str,
-    path: &Path,
-) -> Result<Option<Vec<Option<String>>>, StoreError> {
-    let Ok(c) = df.column(name) else {
-        return Ok(None);
-    };
-    let c = c.cast(&DataType::String).map_err(polars_at(path))?;
-    Ok(Some(
-        c.str()
-            .map_err(polars_at(path))?
-            .iter()
-            .map(|v| v.map(str::to_string))
-            .collect(),
-    ))
-}
-
-fn opt_i64(
-    df: &DataFrame,
-    name: &str,
-    path: &Path,
-) -> Result<Option<Vec<Option<i64>>>, StoreError> {
-    let Ok(c) = df.column(name) else {
-        return Ok(None);
-    };
-    let c = c.cast(&DataType::Int64).map_err(polars_at(path))?;
-    Ok(Some(c.i64().map_err(polars_at(path))?.iter().collect()))
-}
-
-fn opt_f64(
-    df: &DataFrame,
-    name: &str,
-    path: &Path,
-) -> Result<Option<Vec<Option<f64>>>, StoreError> {
-    let Ok(c) = df.column(name) else {
-        return Ok(None);
-    };
-    let c = c.cast(&DataType::Float64).map_err(polars_at(path))?;
-    Ok(Some(c.f64().map_err(polars_at(path))?.iter().collect()))
-}
-
-fn opt_bool(
-    df: &DataFrame,
-    name: &str,
-    path: &Path,
-) -> Result<Option<Vec<Option<bool>>>, StoreError> {
-    let Ok(c) = df.column(name) else {
-        return Ok(None);
-    };
-    Ok(Some(c.bool().map_err(polars_at(path))?.iter().collect()))
-}
-
-fn missing(path: &Path, name: &str) -> StoreError {
-    StoreError::Schema {
-        table: path.display().to_string(),
-        message: format!("required column {name} is missing"),
-    }
-}
-
-fn req_str(df: &DataFrame, name: &str, path: &Path) -> Result<Vec<Option<String>>, StoreError> {
-    opt_str(df, name, path)?.ok_or_else(|| missing(path, name))
-}
-
-fn req_i64(df: &DataFrame, name: &str, path: &Path) -> Result<Vec<Option<i64>>, StoreError> {
-    opt_i64(df, name, path)?.ok_or_else(|| missing(path, name))
-}
-
-fn req_f64(df: &DataFrame, name: &str, path: &Path) -> Result<Vec<Option<f64>>, StoreError> {
-    opt_f64(df, name, path)?.ok_or_else(|| missing(path, name))
-}
-
 /// The runs table by source file (empty for a new store). Columns added after a store was
 /// written read as nulls (every such file is then re-derived once).
 pub fn read_runs(store: &Path) -> Result<BTreeMap<String, RunRow>, StoreError> {
@@ -274,6 +204,18 @@ pub fn read_runs(store: &Path) -> Result<BTreeMap<String, RunRow>, StoreError> {
         out.insert(row.source_file.clone(), row);
     }
     Ok(out)
+}
+
+/// The runs table as stored, for SQL (`query`): every column, an empty table with the schema's
+/// columns for a new store.
+pub fn runs_frame(store: &Path) -> Result<DataFrame, StoreError> {
+    let path = store.join(runs_file());
+    if !path.exists() {
+        return Ok(DataFrame::empty_with_schema(
+            &schema::table("runs").file_schema(),
+        ));
+    }
+    read_parquet(&path)
 }
 
 /// Rewrite the runs table atomically (the commit point of every change to the store's data).
@@ -430,7 +372,7 @@ pub fn read_segment_file(path: &Path) -> Result<Vec<SegmentRecord>, StoreError> 
         f("kappa_min")?,
         f("kappa_max")?,
     );
-    let qc_ok = opt_bool(&df, "qc_ok", path)?.ok_or_else(|| missing(path, "qc_ok"))?;
+    let qc_ok = req_bool(&df, "qc_ok", path)?;
     let nan = |v: Option<f64>| v.unwrap_or(f64::NAN);
     Ok((0..df.height())
         .map(|k| SegmentRecord {
@@ -470,6 +412,107 @@ pub fn live_segments(store: &Path) -> Result<Vec<SegmentRecord>, StoreError> {
         out.extend(read_segment_file(&path)?);
     }
     Ok(out)
+}
+
+/// Some columns of one samples file (a path from [`SegmentRecord::samples_file`] under the
+/// store root), in file order. `parallel` lets polars use its own thread pool (callers already
+/// reading several files in parallel pass false).
+pub fn read_sample_columns(
+    path: &Path,
+    columns: &[&str],
+    optional: &[&str],
+    parallel: bool,
+) -> Result<DataFrame, StoreError> {
+    let file = fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
+    let mut reader = ParquetReader::new(file);
+    let schema = reader.schema().map_err(polars_at(path))?;
+    let wanted = columns
+        .iter()
+        .chain(optional.iter().filter(|c| schema.contains(c)))
+        .map(|c| c.to_string())
+        .collect();
+    let reader = reader.with_columns(Some(wanted));
+    let reader = if parallel {
+        reader
+    } else {
+        reader.read_parallel(ParallelStrategy::None)
+    };
+    reader.finish().map_err(polars_at(path))
+}
+
+/// Write one file's part of the segments table (`segments/<part>`), conformed to its schema.
+/// Not durable until the caller syncs the filesystem (the runs table commits it).
+pub fn write_segments_part(store: &Path, part: &str, df: DataFrame) -> Result<(), StoreError> {
+    let mut df = schema::table("segments").conform(df)?;
+    write_parquet_atomic_with(
+        &store.join(SEGMENTS_DIR).join(part),
+        Durability::Deferred,
+        &mut df,
+    )
+}
+
+/// Write one file's samples of one partition (`samples/<partition>/<part>`), conformed to the
+/// samples schema. Not durable until the caller syncs the filesystem.
+pub fn write_samples_part(
+    store: &Path,
+    key: &PartitionKey,
+    part: &str,
+    rows: usize,
+    arrays: Vec<(&str, ArrayRef)>,
+) -> Result<(), StoreError> {
+    let (schema, arrays) = schema::table("samples").conform_arrays(arrays)?;
+    let batch = RecordBatchT::try_new(rows, Arc::new(schema.clone()), arrays)
+        .map_err(|e| StoreError::polars(store, e))?;
+    let dir = store.join(partition_dir(key));
+    ensure_dir(&dir)?;
+    write_arrow_parquet_atomic_with(&dir.join(part), Durability::Deferred, schema, batch)
+}
+
+/// Relabel a file's stored parts with a new tire and rim without recomputing them: the segments
+/// part is rewritten as `new_part` with the new labels, the samples files (whose content does
+/// not name the tire) are linked into the new partitions under `new_part`. False (nothing
+/// written) when a part of `old_part` is missing.
+pub fn relabel_parts(
+    store: &Path,
+    old_part: &str,
+    new_part: &str,
+    tire: &str,
+    rim_in: i64,
+) -> Result<bool, StoreError> {
+    let old_segments = store.join(SEGMENTS_DIR).join(old_part);
+    if !old_segments.is_file() {
+        return Ok(false);
+    }
+    let records = read_segment_file(&old_segments)?;
+    let mut links: BTreeMap<PathBuf, PathBuf> = BTreeMap::new();
+    for r in &records {
+        let mut key = r.partition();
+        let from = store.join(partition_dir(&key)).join(old_part);
+        key.tire = tire.to_string();
+        key.rim_in = rim_in;
+        links.insert(from, store.join(partition_dir(&key)).join(new_part));
+    }
+    if links.keys().any(|from| !from.is_file()) {
+        return Ok(false);
+    }
+    let mut df = read_parquet(&old_segments)?;
+    let n = df.height();
+    df.with_column(Column::new("tire".into(), vec![tire; n]))
+        .and_then(|df| df.with_column(Column::new("rim_in".into(), vec![rim_in; n])))
+        .map_err(polars_at(&old_segments))?;
+    write_segments_part(store, new_part, df)?;
+    for (from, to) in &links {
+        if let Some(dir) = to.parent() {
+            ensure_dir(dir)?;
+        }
+        if to.exists() {
+            fs::remove_file(to).map_err(|e| StoreError::io(to, e))?;
+        }
+        if fs::hard_link(from, to).is_err() {
+            fs::copy(from, to).map_err(|e| StoreError::io(to, e))?;
+        }
+    }
+    Ok(true)
 }
 
 /// Delete parts that are not live (superseded derivations, leftovers of a crashed ingest), stale

@@ -645,7 +645,10 @@ fn char_array(cursor: &mut Cursor, dims: Vec<usize>, count: usize) -> Result<Mat
             })
             .collect(),
         MI_UINT8 | MI_INT8 => data.iter().map(|b| u16::from(*b)).collect(),
-        MI_UTF8 => String::from_utf8_lossy(data).encode_utf16().collect(),
+        MI_UTF8 => crate::ttc::text::decode_text(data)
+            .0
+            .encode_utf16()
+            .collect(),
         MI_UTF32 => even_chunks::<4>(data, "char data")?
             .map(|c| {
                 if big_endian {
@@ -827,7 +830,7 @@ mod tests {
 
     /// A file of one compressed element: zlib of `inner_tag ++ body ++ trailing zeros`.
     fn compressed_file(inner_len: u32, body: &[u8], trailing_zeros: usize) -> Vec<u8> {
-        let mut z = ZlibEncoder::new(Vec::new(), Compression::fast());
+        let mut z = ZlibEncoder::new(Vec::new(), Compression::best());
         z.write_all(&tag(MI_MATRIX, inner_len)).unwrap();
         z.write_all(body).unwrap();
         let chunk = vec![0u8; 1 << 20];
