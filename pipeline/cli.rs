@@ -536,6 +536,10 @@ pub struct TirScoreArgs {
     /// Only this tire (its name as stored).
     #[arg(long, value_name = "NAME")]
     pub tire: Option<String>,
+    /// Only samples on this rim width, whole inches (the rim_in partition): a tire tested on
+    /// two rims has one model per rim.
+    #[arg(long, value_name = "IN")]
+    pub rim_in: Option<i64>,
     /// Only samples of this nominal pressure, kPa (the pressure_kpa_nom partition).
     #[arg(long, value_name = "KPA")]
     pub pressure_kpa: Option<i64>,

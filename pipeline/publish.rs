@@ -32,8 +32,7 @@ use crate::run::{Fingerprint, RunError, RunOptions, count_duplicates, runs_table
 use crate::store::StoreError;
 use crate::store::results::{
     self, GROUP_COLUMNS, INERTIA_TABLE, Results, TirNames, has_group_columns, model_groups,
-    rows_of_groups,
-    tir_names,
+    rows_of_groups, tir_names,
 };
 use crate::store::tables::{self, STATUS_FAILED, STATUS_OK, STATUS_PARTIAL};
 use crate::store::versions::VersionBuilder;

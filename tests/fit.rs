@@ -252,9 +252,11 @@ fn ideal_round_reproduces_the_truth_models_issue_5() {
     check_models(f, [0.1, 0.1, 0.1]);
 }
 
-/// Issue 17: `tir score` on an ideal round: the truth model reproduces the measured samples
-/// (RMSE under 1 % of the measured RMS), the truth of another pressure does not, and asking for
-/// one pressure scores the same samples as the whole-file run.
+/// Issue 17: `tir score` on an ideal round: the truth model of one (tire, rim, pressure)
+/// reproduces that rim's measured samples (RMSE under 1 % of the measured RMS), the truth of
+/// another pressure does not, and asking for one pressure scores the same samples as the
+/// whole-file run. `--rim-in` keeps the files of the tire's other rims (other models) out: the
+/// demo round's first tire is tested on two rims.
 #[test]
 fn tir_score_separates_the_truth_from_another_pressures_model_issue_17() {
     let f = ideal();
@@ -266,11 +268,11 @@ fn tir_score_separates_the_truth_from_another_pressures_model_issue_17() {
         "--format",
         "csv",
         "SELECT DISTINCT tire, rim_in, pressure_kpa_nom FROM segments WHERE kind = 'cornering' \
-         ORDER BY tire, pressure_kpa_nom",
+         ORDER BY tire, rim_in, pressure_kpa_nom",
     ]);
     ok(&groups, "query");
     let mut reader = csv::Reader::from_reader(groups.stdout.as_slice());
-    let groups: Vec<(String, f64, i64)> = reader
+    let groups: Vec<(String, i64, i64)> = reader
         .records()
         .map(|r| {
             let r = r.unwrap();
@@ -284,12 +286,13 @@ fn tir_score_separates_the_truth_from_another_pressures_model_issue_17() {
     let (tire, rim, pressure) = groups[0].clone();
     let other = groups
         .iter()
-        .find(|g| g.0 == tire && g.2 != pressure)
-        .expect("a second pressure of the same tire")
+        .find(|g| g.0 == tire && g.1 == rim && g.2 != pressure)
+        .expect("a second pressure of the same tire and rim")
         .2;
     let score = |model_pressure: i64, only: Option<i64>| -> Vec<Vec<String>> {
-        let tir = truth_dir.join(tir_file_name(&tire, rim, model_pressure as f64));
+        let tir = truth_dir.join(tir_file_name(&tire, rim as f64, model_pressure as f64));
         let only = only.map(|p| p.to_string());
+        let rim_arg = rim.to_string();
         let mut args = vec![
             "tir",
             "score",
@@ -299,6 +302,8 @@ fn tir_score_separates_the_truth_from_another_pressures_model_issue_17() {
             p(&tir),
             "--tire",
             &tire,
+            "--rim-in",
+            &rim_arg,
         ];
         if let Some(only) = &only {
             args.extend(["--pressure-kpa", only.as_str()]);
@@ -331,6 +336,27 @@ fn tir_score_separates_the_truth_from_another_pressures_model_issue_17() {
     let wrong = score(other, Some(pressure));
     assert!(!own.is_empty());
     assert!(own.iter().all(|r| r[2] == pressure.to_string()));
+    // The rows are the files of this tire on this rim, none of another rim.
+    let files = tirebase(&[
+        "query",
+        "--store",
+        p(&f.store),
+        "--format",
+        "csv",
+        &format!(
+            "SELECT DISTINCT source_file FROM samples WHERE tire = '{tire}' AND rim_in = {rim} \
+             ORDER BY source_file"
+        ),
+    ]);
+    ok(&files, "query");
+    let mut reader = csv::Reader::from_reader(files.stdout.as_slice());
+    let files: Vec<String> = reader
+        .records()
+        .map(|r| r.unwrap()[0].to_string())
+        .collect();
+    let mut scored: Vec<String> = all.iter().map(|r| r[1].clone()).collect();
+    scored.dedup();
+    assert_eq!(scored, files, "{tire} on {rim} in: the files scored");
     for row in &own {
         let same = all
             .iter()

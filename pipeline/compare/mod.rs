@@ -23,11 +23,11 @@ pub mod table;
 
 use std::collections::BTreeMap;
 
+use car::Car;
 use rayon::prelude::*;
+use round::{FitError, GroupKey, RoundResults, ThermalWindow, TirModel};
 use tirebase_core::compare::rank::{difference_tolerance, rank};
 use tirebase_core::compare::{self as figures_of, Figures, Objective, Pac2002Tire};
-use car::Car;
-use round::{FitError, GroupKey, RoundResults, ThermalWindow, TirModel};
 
 /// Which tires to keep: case-insensitive; a pattern with `*` or `?` matches the whole name as
 /// a glob, any other pattern is a substring. No pattern keeps every tire.

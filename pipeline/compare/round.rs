@@ -37,11 +37,7 @@ pub struct RoundResults {
 
 impl RoundResults {
     /// A round of `results` and its `models` (by `.tir` file name).
-    pub fn new(
-        label: &str,
-        results: Results,
-        models: BTreeMap<String, TirModel>,
-    ) -> RoundResults {
+    pub fn new(label: &str, results: Results, models: BTreeMap<String, TirModel>) -> RoundResults {
         RoundResults {
             label: label.to_string(),
             tir_names: tir_names(&results.model_groups()).0,
@@ -82,7 +78,11 @@ pub fn load(dir: &Path, label: &str) -> RoundResults {
     let table_notes: Vec<String> = results
         .notes
         .iter()
-        .filter(|n| TABLES.iter().any(|t| n.starts_with(&format!("{t}.parquet:"))))
+        .filter(|n| {
+            TABLES
+                .iter()
+                .any(|t| n.starts_with(&format!("{t}.parquet:")))
+        })
         .cloned()
         .collect();
     let mut round = RoundResults::new(label, results, models);
@@ -310,8 +310,7 @@ mod tests {
         for (s, rate) in [("s1", 0.5), ("s2", 0.7)] {
             for k in 0..8 {
                 let time = 100.0 + 5.0 * k as f64;
-                let t =
-                    (30.0 + rate * (time - 100.0)).min(80.0) + if k > 5 { 30.0 } else { 0.0 };
+                let t = (30.0 + rate * (time - 100.0)).min(80.0) + if k > 5 { 30.0 } else { 0.0 };
                 thermal.push(ThermalRow {
                     tire: "A".into(),
                     rim_in: 7,
