@@ -60,6 +60,14 @@ pub enum IngestError {
     /// A path given on the command line does not exist.
     #[error("{0}: no such file or directory")]
     MissingInput(PathBuf),
+    /// An input directory could not be listed (an input problem, not a store error).
+    #[error("{path}: cannot read the input: {error}")]
+    Input {
+        /// The directory.
+        path: PathBuf,
+        /// The OS error.
+        error: std::io::Error,
+    },
     /// The store could not be read or written.
     #[error(transparent)]
     Store(#[from] StoreError),
@@ -244,7 +252,8 @@ pub fn discover(paths: &[PathBuf]) -> Result<Discovery, IngestError> {
         match fs::metadata(p) {
             Ok(meta) if meta.is_dir() => {
                 visited.insert(dir_id(p, &meta));
-                walk(p, &mut visited, &mut out).map_err(|e| StoreError::io(p, e))?;
+                walk(p, &mut visited, &mut out)
+                    .map_err(|(path, error)| IngestError::Input { path, error })?;
             }
             Ok(meta) if meta.is_file() => out.files.push(p.clone()),
             Ok(meta) => out.skipped.push((p.clone(), file_kind(&meta).to_string())),
@@ -259,16 +268,20 @@ pub fn discover(paths: &[PathBuf]) -> Result<Discovery, IngestError> {
     Ok(out)
 }
 
+/// List `dir` recursively into `out`; the directory that could not be listed and why.
 fn walk(
     dir: &Path,
     visited: &mut BTreeSet<(u64, u64, PathBuf)>,
     out: &mut Discovery,
-) -> std::io::Result<()> {
-    let mut entries: Vec<_> = fs::read_dir(dir)?.collect::<Result<_, _>>()?;
+) -> Result<(), (PathBuf, std::io::Error)> {
+    let at = |e| (dir.to_path_buf(), e);
+    let mut entries: Vec<_> = fs::read_dir(dir)
+        .and_then(|d| d.collect::<Result<_, _>>())
+        .map_err(at)?;
     entries.sort_by_key(|e| e.path());
     for entry in entries {
         let path = entry.path();
-        let file_type = entry.file_type()?;
+        let file_type = entry.file_type().map_err(|e| (path.clone(), e))?;
         let meta = if file_type.is_symlink() {
             match fs::metadata(&path) {
                 Ok(m) => m,
@@ -280,7 +293,7 @@ fn walk(
                 }
             }
         } else {
-            entry.metadata()?
+            entry.metadata().map_err(|e| (path.clone(), e))?
         };
         if meta.is_dir() {
             if visited.insert(dir_id(&path, &meta)) {

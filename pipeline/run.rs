@@ -42,9 +42,10 @@ pub use crate::publish::RunReport;
 use crate::publish::{self, GroupKey, Publication};
 use crate::store::StoreError;
 use crate::store::files::{sha256_bytes, sha256_file};
-use crate::store::layout::runs_file;
 use crate::store::lock::{LockWait, StoreLock};
-use crate::store::tables::{RunRow, STATUS_DUPLICATE, STATUS_FAILED, STATUS_PARTIAL, read_runs};
+use crate::store::tables::{
+    self, RunRow, STATUS_DUPLICATE, STATUS_FAILED, STATUS_PARTIAL, read_runs,
+};
 use crate::store::versions;
 
 /// Folder of the input holding rig-inertia sessions.
@@ -56,6 +57,15 @@ pub enum RunError {
     /// The input directory does not exist.
     #[error("{0}: no such input directory")]
     MissingInput(PathBuf),
+    /// An input (the catalog, a rig-session file) could not be read: an input problem, not a
+    /// store error.
+    #[error("{path}: cannot read the input: {error}")]
+    Input {
+        /// The file or directory.
+        path: PathBuf,
+        /// The OS error.
+        error: std::io::Error,
+    },
     /// The store could not be read or written (includes a refused lock).
     #[error(transparent)]
     Store(#[from] StoreError),
@@ -340,13 +350,13 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
         });
     }
     let catalog_sha256 = match opts.catalog {
-        Some(p) => sha256_file(p)?,
+        Some(p) => sha256_file(p).map_err(input_error)?,
         None => String::new(),
     };
     let sessions = find_sessions(&opts.input.join(INERTIA_DIR));
     let mut inertia_files = Vec::new();
     for dir in &sessions {
-        hash_tree(dir, &opts.input.join(INERTIA_DIR), &mut inertia_files)?;
+        hash_tree(dir, &opts.input.join(INERTIA_DIR), &mut inertia_files).map_err(input_error)?;
     }
     inertia_files.sort();
     Ok(Fingerprint {
@@ -357,6 +367,14 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
         inertia_sessions: sessions,
         inertia_files,
     })
+}
+
+/// A file-system error on an input path, as an input error.
+fn input_error(e: StoreError) -> RunError {
+    match e {
+        StoreError::Io { path, error } => RunError::Input { path, error },
+        other => RunError::Store(other),
+    }
 }
 
 /// Hash every file below `dir` (paths relative to `base`).
@@ -390,7 +408,8 @@ fn same_files(previous: &[InputFile], now: &[InputFile]) -> bool {
 
 /// Same tool version, configuration, catalog, inertia inputs and runs table as `prev`.
 fn same_settings(prev: &Manifest, now: &Fingerprint, store: &Path) -> Result<bool, RunError> {
-    Ok(same_settings_but_runs(prev, now) && prev.input.runs_table_sha256 == runs_table_sha(store)?)
+    Ok(same_settings_but_runs(prev, now)
+        && prev.input.runs_table_sha256 == tables::runs_sha256(store)?)
 }
 
 /// Same tool version, configuration, catalog and inertia inputs as `prev`.
@@ -430,16 +449,6 @@ fn same_groups(prev: &[GroupRecord], plan: &[GroupPlan]) -> bool {
         })
         .collect();
     a == b
-}
-
-/// SHA-256 of the store's runs table ("" without one).
-pub(crate) fn runs_table_sha(store: &Path) -> Result<String, StoreError> {
-    let path = store.join(runs_file());
-    if path.exists() {
-        sha256_file(&path)
-    } else {
-        Ok(String::new())
-    }
 }
 
 fn ingest_inputs(opts: &RunOptions, progress: &dyn Progress) -> Result<IngestReport, RunError> {

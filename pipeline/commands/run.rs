@@ -93,6 +93,14 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
             eprintln!("error: {e}");
             Ok(ExitCode::from(2))
         }
+        Err(
+            e @ (RunError::Input { .. }
+            | RunError::Ingest(IngestError::Input { .. } | IngestError::MissingInput(_))),
+        ) => {
+            // The previous version stays the latest; the next run starts over.
+            eprintln!("error: {e}; nothing published");
+            Ok(ExitCode::from(2))
+        }
         Err(e @ (RunError::Store(_) | RunError::Ingest(IngestError::Store(_)))) => {
             // Nothing was published and no input file is blamed; the next run starts over.
             eprintln!("error: store error, nothing published: {e}");

@@ -22,7 +22,6 @@ use tirebase_core::segment::{Level, QcFlag};
 
 use super::FitError;
 use crate::store::StoreError;
-use crate::store::layout::runs_file;
 use crate::store::tables;
 
 /// One live row of the segments table (`schemas/segments.toml`).
@@ -164,7 +163,7 @@ fn bool_column(df: &DataFrame, name: &str, path: &Path) -> Result<Vec<Option<boo
 /// Every live segment of the store (`store::tables` says what is live), sorted by (tire, rim,
 /// pressure, source file, index). Rows of a kind this build does not know are skipped.
 pub fn live_segments(store: &Path) -> Result<Vec<SegmentRow>, FitError> {
-    if !store.join(runs_file()).exists() {
+    if !tables::has_runs(store) {
         return Err(FitError::NotAStore(store.display().to_string()));
     }
     let mut rows: Vec<SegmentRow> = tables::live_segments(store)?
