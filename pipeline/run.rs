@@ -25,7 +25,6 @@
 //! printing (the command layer prints the [`RunReport`]).
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -116,7 +115,8 @@ pub enum RunOutcome {
         version: u32,
         /// Wall time, s.
         seconds: f64,
-        /// Failed (retried now, failing again) and partial input files of the latest version.
+        /// Failed (retried now, failing again) and partial input files of the latest version,
+        /// and the directory entries skipped now.
         problems: Vec<Problem>,
     },
     /// A version was published.
@@ -183,7 +183,11 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
         return Ok(RunOutcome::UpToDate {
             version: *n,
             seconds: started.elapsed().as_secs_f64(),
-            problems: failures_of_files(&prev.problems),
+            problems: failures_of_files(&prev.problems)
+                .into_iter()
+                .filter(|p| p.kind != ProblemKind::SkippedEntry)
+                .chain(skipped_problems(&fingerprint.skipped))
+                .collect(),
         });
     }
 
@@ -250,13 +254,26 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     Ok(RunOutcome::Published(Box::new(report)))
 }
 
-/// The failed and partial files among `problems`.
+/// What an up-to-date run still says about its inputs: the failed and partial files and the
+/// skipped directory entries among `problems`.
 fn failures_of_files(problems: &[Problem]) -> Vec<Problem> {
     problems
         .iter()
-        .filter(|p| matches!(p.kind, ProblemKind::FailedFile | ProblemKind::PartialFile))
+        .filter(|p| {
+            matches!(
+                p.kind,
+                ProblemKind::FailedFile | ProblemKind::PartialFile | ProblemKind::SkippedEntry
+            )
+        })
         .cloned()
         .collect()
+}
+
+/// Skipped directory entries as problems of the version.
+fn skipped_problems(skipped: &[(PathBuf, String)]) -> impl Iterator<Item = Problem> + '_ {
+    skipped
+        .iter()
+        .map(|(p, why)| Problem::new(ProblemKind::SkippedEntry, p.display().to_string(), why))
 }
 
 fn count_status(files: &[InputFile], status: &str) -> u64 {
@@ -320,19 +337,22 @@ fn file_problems(
             );
         }
     }
-    out.extend(
-        skipped
-            .iter()
-            .map(|(p, why)| Problem::new(ProblemKind::SkippedEntry, p.display().to_string(), why)),
-    );
+    out.extend(skipped_problems(skipped));
     out
 }
 
 /// Stats of the raw input files, hashes of the small inputs.
 fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
-    let found = ingest::discover(&[opts.input.to_path_buf()])?;
+    let inertia_dir = opts.input.join(INERTIA_DIR);
+    let sessions = find_sessions(&inertia_dir);
+    let in_session = |p: &Path| sessions.iter().any(|s| p.starts_with(s));
+    // One walk of the input for raw files and rig-session files: every directory once (a
+    // symlink loop is a skipped entry), a FIFO or device is a skipped entry, never read.
+    let found = ingest::discover_with(&[opts.input.to_path_buf()], &|p| {
+        ingest::is_run_file(p) || in_session(p)
+    })?;
     let mut files = Vec::with_capacity(found.files.len());
-    for path in &found.files {
+    for path in found.files.iter().filter(|p| ingest::is_run_file(p)) {
         // A file that cannot be stat'ed (a dangling symlink) is listed with no size; ingest
         // records it as one failed file.
         let stamp = ingest::FileStamp::of(path).unwrap_or_default();
@@ -353,10 +373,16 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
         Some(p) => sha256_file(p).map_err(input_error)?,
         None => String::new(),
     };
-    let sessions = find_sessions(&opts.input.join(INERTIA_DIR));
     let mut inertia_files = Vec::new();
-    for dir in &sessions {
-        hash_tree(dir, &opts.input.join(INERTIA_DIR), &mut inertia_files).map_err(input_error)?;
+    for path in found.files.iter().filter(|p| in_session(p)) {
+        inertia_files.push(HashedFile {
+            path: path
+                .strip_prefix(&inertia_dir)
+                .unwrap_or(path)
+                .display()
+                .to_string(),
+            sha256: sha256_file(path).map_err(input_error)?,
+        });
     }
     inertia_files.sort();
     Ok(Fingerprint {
@@ -375,27 +401,6 @@ fn input_error(e: StoreError) -> RunError {
         StoreError::Io { path, error } => RunError::Input { path, error },
         other => RunError::Store(other),
     }
-}
-
-/// Hash every file below `dir` (paths relative to `base`).
-fn hash_tree(dir: &Path, base: &Path, out: &mut Vec<HashedFile>) -> Result<(), StoreError> {
-    let entries = fs::read_dir(dir).map_err(|e| StoreError::io(dir, e))?;
-    for entry in entries {
-        let path = entry.map_err(|e| StoreError::io(dir, e))?.path();
-        if path.is_dir() {
-            hash_tree(&path, base, out)?;
-        } else {
-            out.push(HashedFile {
-                path: path
-                    .strip_prefix(base)
-                    .unwrap_or(&path)
-                    .display()
-                    .to_string(),
-                sha256: sha256_file(&path)?,
-            });
-        }
-    }
-    Ok(())
 }
 
 /// Same set of input files with the same size and modification time as last time.
@@ -561,6 +566,6 @@ mod tests {
                 "skipped entry: raw/pipe.dat: a FIFO",
             ]
         );
-        assert_eq!(failures_of_files(&p).len(), 2);
+        assert_eq!(failures_of_files(&p).len(), 3);
     }
 }

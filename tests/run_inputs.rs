@@ -864,3 +864,73 @@ fn issue20_permission_problems_are_retried_and_store_errors_are_not_blamed_on_in
     assert_eq!(latest(&store).0, 4);
     assert_equals_fresh(&input, &store, &extra);
 }
+
+/// Item 6 in rig sessions: an input of rig sessions only publishes (it used to stop at "not a
+/// tirebase store"); a FIFO in a session, a FIFO in place of a run file and directory symlinks
+/// back up the tree neither hang the run (hashing the FIFO blocked forever) nor make it hash the
+/// tree again through the loop: each is a skipped entry with a line, the run file's run fails
+/// with its reason, and the next night, up to date, still says what it skips.
+#[test]
+fn issue20_rig_session_entries_neither_hang_nor_stop_the_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (input, store) = (tmp.path().join("input"), tmp.path().join("store"));
+    let o = bin()
+        .args(["synth", "inertia", "--out"])
+        .arg(input.join("inertia"))
+        .output()
+        .unwrap();
+    check(&o, "synth inertia");
+    let first = run_with_deadline(&input, &store, 600);
+    check(&first, "run on rig sessions only");
+    let m = Manifest::read(&latest(&store).1).unwrap();
+    assert_eq!(m.counts.files, 0);
+    assert!(m.counts.inertia_results > 0, "{:?}", m.counts);
+    let hashed = m.inertia_files.len();
+
+    let session = input.join("inertia/v2c_yaw_calibration_factor");
+    let run_file = session.join("yaw/yaw-cal.csv");
+    assert!(run_file.is_file());
+    fs::remove_file(&run_file).unwrap();
+    for fifo in [session.join("pipe.csv"), run_file.clone()] {
+        assert!(
+            Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .unwrap()
+                .success()
+        );
+    }
+    std::os::unix::fs::symlink("..", session.join("loop")).unwrap();
+    std::os::unix::fs::symlink("../..", session.join("loop2")).unwrap();
+
+    let second = run_with_deadline(&input, &store, 600);
+    let log = text(&second.stderr);
+    assert_eq!(second.status.code(), Some(1), "{log}");
+    for entry in ["loop: directory symlink", "loop2: directory symlink"] {
+        assert!(log.contains(entry), "{entry}: {log}");
+    }
+    for fifo in ["pipe.csv: a FIFO", "yaw/yaw-cal.csv: a FIFO"] {
+        assert!(log.contains(fifo), "{fifo}: {log}");
+    }
+    assert!(
+        log.contains("failed inertia run: v2c_yaw_calibration_factor/yaw-cal: ")
+            && log.contains("not a regular file"),
+        "{log}"
+    );
+    let m = Manifest::read(&latest(&store).1).unwrap();
+    assert_eq!(m.version, 2);
+    assert_eq!(m.counts.entries_skipped, 4, "{:?}", m.problems);
+    assert_eq!(
+        m.inertia_files.len(),
+        hashed - 1,
+        "hashed once, not through the loops"
+    );
+
+    let third = run_with_deadline(&input, &store, 600);
+    let log = text(&third.stderr);
+    assert_eq!(third.status.code(), Some(0), "{log}");
+    assert!(
+        log.contains("up to date") && log.contains("4 input entries skipped:"),
+        "{log}"
+    );
+}
