@@ -322,6 +322,16 @@ fn file_problems(
         };
         let reason = row.error.clone().unwrap_or_default();
         match row.status.as_str() {
+            // A failed file keeps the data of its last good content (see `ingest`): said, as
+            // the version's models hold them.
+            STATUS_FAILED if row.has_live_data() => out.push(Problem::new(
+                ProblemKind::FailedFile,
+                &f.name,
+                format!(
+                    "{reason} (the {} rows of its last good content stay in the store and the models)",
+                    row.rows
+                ),
+            )),
             STATUS_FAILED => out.push(Problem::new(ProblemKind::FailedFile, &f.name, &reason)),
             STATUS_PARTIAL => out.push(Problem::new(ProblemKind::PartialFile, &f.name, &reason)),
             _ => {}

@@ -789,7 +789,9 @@ fn issue20_permission_problems_are_retried_and_store_errors_are_not_blamed_on_in
     let log = text(&second.stderr);
     assert_eq!(second.status.code(), Some(1), "{log}");
     assert!(
-        log.contains("failed file: B2410run2.dat: ") && log.contains("Permission denied"),
+        log.contains("failed file: B2410run2.dat: ")
+            && log.contains("Permission denied")
+            && log.contains("rows of its last good content stay in the store and the models"),
         "{log}"
     );
     assert_eq!(latest(&store).0, 2, "{log}");

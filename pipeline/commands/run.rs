@@ -15,7 +15,7 @@ use crate::cli::RunArgs;
 use crate::commands::synth::write_round;
 use crate::config::Config;
 use crate::ingest::IngestError;
-use crate::manifest::{Problem, group_problems};
+use crate::manifest::{Problem, ProblemKind, group_problems};
 use crate::progress;
 use crate::run::{self, RunError, RunOptions, RunOutcome, RunReport};
 use crate::store::StoreError;
@@ -56,13 +56,24 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
         }) => {
             print_problems(&problems);
             let failing = problems.iter().filter(|p| p.kind.is_failure()).count();
+            let count = |kind: ProblemKind| problems.iter().filter(|p| p.kind == kind).count();
+            let mut still = Vec::new();
+            // Failed files were read again now; a partial file's content is what it was.
+            for (n, what) in [
+                (count(ProblemKind::FailedFile), "still failed (tried again)"),
+                (count(ProblemKind::PartialFile), "still partial"),
+            ] {
+                if n > 0 {
+                    still.push(format!("{n} input files {what}"));
+                }
+            }
             eprintln!(
                 "up to date: v{version:06} already holds these inputs ({}; {seconds:.2} s){}",
                 args.store.display(),
-                if failing == 0 {
+                if still.is_empty() {
                     String::new()
                 } else {
-                    format!("; {failing} input files still failed or partial (retried)")
+                    format!("; {}", still.join(", "))
                 }
             );
             Ok(if failing == 0 {
