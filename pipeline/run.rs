@@ -380,7 +380,19 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
         });
     }
     let catalog_sha256 = match opts.catalog {
-        Some(p) => sha256_file(p).map_err(input_error)?,
+        Some(p) => {
+            // A FIFO would block the read forever.
+            match std::fs::metadata(p) {
+                Ok(m) if !m.is_file() => {
+                    return Err(RunError::Input {
+                        path: p.to_path_buf(),
+                        error: std::io::Error::other("not a regular file"),
+                    });
+                }
+                _ => {}
+            }
+            sha256_file(p).map_err(input_error)?
+        }
         None => String::new(),
     };
     let mut inertia_files = Vec::new();

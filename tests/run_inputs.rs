@@ -871,7 +871,8 @@ fn issue20_permission_problems_are_retried_and_store_errors_are_not_blamed_on_in
 /// tirebase store"); a FIFO in a session, a FIFO in place of a run file and directory symlinks
 /// back up the tree neither hang the run (hashing the FIFO blocked forever) nor make it hash the
 /// tree again through the loop: each is a skipped entry with a line, the run file's run fails
-/// with its reason, and the next night, up to date, still says what it skips.
+/// with its reason, and the next night, up to date, still says what it skips; a FIFO catalog
+/// is an input error.
 #[test]
 fn issue20_rig_session_entries_neither_hang_nor_stop_the_run() {
     let tmp = tempfile::tempdir().unwrap();
@@ -935,4 +936,22 @@ fn issue20_rig_session_entries_neither_hang_nor_stop_the_run() {
         log.contains("up to date") && log.contains("4 input entries skipped:"),
         "{log}"
     );
+
+    // A catalog.toml that is a FIFO is an input error (it used to be silently no catalog, and
+    // hung the run when given by --catalog).
+    assert!(
+        Command::new("mkfifo")
+            .arg(input.join("catalog.toml"))
+            .status()
+            .unwrap()
+            .success()
+    );
+    let fourth = run_with_deadline(&input, &store, 600);
+    let log = text(&fourth.stderr);
+    assert_eq!(fourth.status.code(), Some(2), "{log}");
+    assert!(
+        log.contains("catalog.toml: cannot read the input: not a regular file"),
+        "{log}"
+    );
+    assert_eq!(latest(&store).0, 2);
 }

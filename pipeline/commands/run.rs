@@ -31,9 +31,13 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
         Some(dir) => dir.clone(),
         None => embedded_round(Path::new(EMBEDDED_ROUND), args.jobs)?,
     };
+    // The input's catalog.toml whatever it is (one that is not a readable file is an input
+    // error, not silently no catalog).
     let catalog = args.catalog.clone().or_else(|| {
         let default = input.join("catalog.toml");
-        default.is_file().then_some(default)
+        std::fs::symlink_metadata(&default)
+            .is_ok()
+            .then_some(default)
     });
     let opts = RunOptions {
         input: &input,
