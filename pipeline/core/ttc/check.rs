@@ -256,7 +256,7 @@ fn check_radius(
         }
         None => {
             let evidence = format!(
-                "no usable wheel speed to compare with; median {} as read {mid:.4} m (unit read {unit_raw}), {} of a tire's radius range {}..{} m",
+                "no usable wheel speed to compare with, median {} as read {mid:.4} m (unit read {unit_raw}), {} of a tire's radius range {}..{} m",
                 channel.name(),
                 if inside(mid, TIRE_RADIUS_M) {
                     "inside"
@@ -418,6 +418,13 @@ mod tests {
         assert!(t.effective_radius_m.is_none() && t.wheel_speed_rpm.is_none());
         assert!(t.loaded_radius_m.is_some(), "RL 0.20 m is a tire radius");
         assert_eq!(t.meta.warnings.len(), 2, "one line per channel");
+        // Stored warnings are joined with "; " and split on it again for stderr: a note must
+        // not contain the separator, or it prints as two lines.
+        assert!(
+            t.meta.warnings.iter().all(|w| !w.contains("; ")),
+            "{:?}",
+            t.meta.warnings
+        );
     }
 
     /// Spring-rate holds at standstill give no kinematic radius: RL in inches read as cm is
