@@ -98,6 +98,7 @@ pub fn parse_qc_flag(text: &str) -> Option<QcFlag> {
         Some(("zeroed_channel", c)) => QcFlag::ZeroedChannel(c.to_string()),
         Some(("saturated_channel", c)) => QcFlag::SaturatedChannel(c.to_string()),
         Some(("off_nominal", l)) => QcFlag::OffNominal(level(l)?),
+        Some(("out_of_range", c)) => QcFlag::OutOfRange(c.to_string()),
         Some(_) => return None,
     })
 }
@@ -385,6 +386,7 @@ mod tests {
             QcFlag::LoadDrift,
             QcFlag::SaturatedChannel("tread_centre_c".into()),
             QcFlag::OffNominal(Level::SlipAngle),
+            QcFlag::OutOfRange("pressure_kpa".into()),
         ] {
             assert_eq!(parse_qc_flag(&flag.to_string()), Some(flag));
         }
@@ -394,5 +396,6 @@ mod tests {
         assert_eq!(judge_qc("off_nominal:fz,load_drift"), (true, true));
         assert_eq!(judge_qc("too_short,zero_pressure"), (false, false));
         assert_eq!(judge_qc("something_new"), (false, false));
+        assert_eq!(judge_qc("out_of_range:pressure_kpa"), (false, false));
     }
 }
