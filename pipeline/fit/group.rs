@@ -19,6 +19,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
+use tirebase_core::fit::mf61::{Mf61Sample, Mf61Sweep};
 use tirebase_core::fit::pac2002::{
     self, FitConfig, FitContext, FitInput, Pac2002Fit, RelaxationLaw as DelagLaw,
     RelaxationLengths, Sweep,
@@ -246,6 +247,42 @@ fn pac2002_input(
         },
         sweeps,
     })
+}
+
+/// The sweeps the MF 6.1 stage reads from one group: the PAC2002 stage's (force-clean cornering,
+/// and drive/brake and combined sweeps with a slip ratio), each sample with its measured
+/// inflation pressure.
+pub fn mf61_sweeps(segments: &[LoadedSegment]) -> Vec<Mf61Sweep> {
+    segments
+        .iter()
+        .filter(|s| pac2002_segment(s))
+        .filter(|s| s.segment.kind == SegmentKind::Cornering || has_kappa(s))
+        .filter_map(|s| {
+            let sweep = sweep_of(s)?;
+            let p_kpa = &s.segment.channels.pressure_kpa;
+            Some(Mf61Sweep {
+                id: sweep.id,
+                kind: sweep.kind,
+                samples: sweep
+                    .samples
+                    .iter()
+                    .enumerate()
+                    .map(|(i, x)| Mf61Sample {
+                        fz_n: x.fz_n,
+                        kappa: x.kappa,
+                        alpha_rad: x.alpha_rad,
+                        gamma_rad: x.gamma_rad,
+                        vx_mps: x.vx_mps,
+                        p_pa: p_kpa.get(i).map_or(f64::NAN, |p| p * 1e3),
+                        fx_n: x.fx_n,
+                        fy_n: x.fy_n,
+                        mz_nm: x.mz_nm,
+                        mx_nm: x.mx_nm,
+                    })
+                    .collect(),
+            })
+        })
+        .collect()
 }
 
 /// The segment's kappa is a slip (measured SL, or derived from N and V), not an assumed zero.
