@@ -210,8 +210,8 @@ pub struct IngestArgs {
     pub keep_duplicate_runs: bool,
 }
 
-/// Fit every tire, rim and pressure of a store: PAC2002 .tir files, spring rate, thermal,
-/// relaxation tables.
+/// Fit every tire, rim and pressure of a store: PAC2002 .tir files per pressure, an MF 6.1 .tir
+/// per tire and rim, spring rate, thermal, relaxation tables.
 #[derive(Debug, Args)]
 #[command(long_about = "\
 Fit every (tire, rim, nominal pressure) of a store and write the results to OUT. Stages, in
@@ -244,7 +244,18 @@ dependency order, per group (groups run in parallel; the output does not depend 
                (t_peak_c degC, gain_peak_over_cold: peak mu / mu at t_cold_c - 1, t_cold_c the air
                temperature over the group's runs, degC)
 
-Every table starts with tire, rim_in (in), pressure_kpa (nominal, kPa). A stage that fails for
+Then, per (tire, rim), with [fit] models containing mf61 (default: pac2002 and mf61) and the
+pac2002 stage on: one Magic Formula 6.1 model across every tested pressure, started from the
+per-pressure PAC2002 fits (pressure terms from their trends, PFZ1 from the spring-rate
+stiffnesses) and refined jointly over all pressures; no turn slip.
+               -> OUT/tir/<tire>__<rim>in__mf61.tir (FITTYP 61, NOMPRES = the tested pressure
+               nearest the mean, PRESMIN..PRESMAX the measured range, Pa), rows with
+               model = mf61 in coefficients (pressure_kpa = NOMPRES in kPa), fit_quality (per
+               tested pressure and family: rmse, oos_rmse N or N m from the model refitted
+               without that pressure) and lint.
+
+Every table starts with tire, rim_in (in), pressure_kpa (nominal, kPa); coefficients,
+fit_quality and lint then name the model (pac2002 or mf61). A stage that fails for
 a group is a row of OUT/fit_failures.parquet (stage, scope, fatal, reason) and a line on stderr;
 the other groups and stages are still written.
 
