@@ -531,7 +531,7 @@ fn fit_one(
             let vertical = result.spring_rate.as_ref().and_then(|s| s.vertical.first());
             mf61::Mf61Part::new(
                 &plan.key,
-                &group::mf61_sweeps(&segments),
+                &group::mf61_sweeps(&segments, &result, cfg),
                 model.as_ref(),
                 vertical,
                 c,
