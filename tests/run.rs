@@ -197,11 +197,24 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
         "outputs/store",
         "--format",
         "csv",
-        "SELECT tire, pressure_kpa, value FROM coefficients WHERE name = 'PDY1' AND version = 1",
+        "SELECT tire, pressure_kpa, value FROM coefficients WHERE name = 'PDY1' AND version = 1 \
+         AND model = 'pac2002'",
     ]);
     check(&q, "query");
     let rows: Vec<String> = text(&q.stdout).lines().skip(1).map(String::from).collect();
     assert_eq!(rows.len() as u64, m1.counts.groups, "{rows:?}");
+    // ... and one MF 6.1 PDY1 per tire and rim.
+    let q61 = tb(&[
+        "query",
+        "--store",
+        "outputs/store",
+        "--format",
+        "csv",
+        "SELECT tire, pressure_kpa, value FROM coefficients WHERE name = 'PDY1' AND version = 1 \
+         AND model = 'mf61'",
+    ]);
+    check(&q61, "query mf61");
+    assert_eq!(text(&q61.stdout).lines().skip(1).count(), 4);
     for r in &rows {
         let v: f64 = r.rsplit(',').next().unwrap().parse().unwrap();
         // |mu_y| of a racing tire; the sign follows the fit's ISO-W convention.
