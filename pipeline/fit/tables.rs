@@ -13,8 +13,10 @@ use polars::prelude::*;
 use tirebase_core::fit::segment_data::TireKey;
 
 use super::group::GroupResult;
+use super::mf61::Mf61Outcome;
 use super::tir::WrittenModel;
 use super::{FitError, FitFailure};
+use crate::config::FitModel;
 use crate::schema;
 
 /// A column being built.
@@ -22,6 +24,7 @@ enum Data {
     Str(Vec<String>),
     F64(Vec<f64>),
     I64(Vec<i64>),
+    OptI64(Vec<Option<i64>>),
     Bool(Vec<bool>),
 }
 
@@ -71,6 +74,13 @@ impl Frame {
         self
     }
 
+    fn oi(&mut self, col: &'static str, v: Option<i64>) -> &mut Self {
+        if let Data::OptI64(x) = self.slot(col, || Data::OptI64(Vec::new())) {
+            x.push(v);
+        }
+        self
+    }
+
     fn b(&mut self, col: &'static str, v: bool) -> &mut Self {
         if let Data::Bool(x) = self.slot(col, || Data::Bool(Vec::new())) {
             x.push(v);
@@ -96,6 +106,7 @@ impl Frame {
             let col = match data {
                 Data::Str(v) => Column::new(name.into(), v),
                 Data::I64(v) => Column::new(name.into(), v),
+                Data::OptI64(v) => Column::new(name.into(), v),
                 Data::Bool(v) => Column::new(name.into(), v),
                 Data::F64(v) if nullable(name) => Column::new(
                     name.into(),
@@ -121,7 +132,7 @@ pub fn coefficients(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, Fit
     for (key, m) in models {
         for c in &m.coefficients {
             f.key(key)
-                .s("model", "PAC2002")
+                .s("model", m.model.as_str())
                 .s("family", c.family.clone())
                 .s("name", c.coef.name())
                 .f("value", c.value)
@@ -139,6 +150,7 @@ pub fn lint(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, FitError> {
     for (key, m) in models {
         for finding in &m.lint.findings {
             f.key(key)
+                .s("model", m.model.as_str())
                 .s("file", m.file_name.clone())
                 .s("severity", finding.severity.to_string())
                 .s("code", finding.code)
@@ -148,20 +160,30 @@ pub fn lint(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, FitError> {
     f.finish()
 }
 
-/// `fit_quality`: one row per fitted family of every written model.
-pub fn fit_quality(results: &[GroupResult]) -> Result<DataFrame, FitError> {
-    let mut f = Frame::new("fit_quality");
-    for r in results {
+/// `fit_quality`: one row per fitted family of every written PAC2002 model (`pac2002`: the
+/// PAC2002 models are written), then per tested pressure and family of every MF 6.1 model; rows
+/// sorted by group, PAC2002 before MF 6.1 within a group.
+pub fn fit_quality(
+    results: &[GroupResult],
+    pac2002: bool,
+    mf61: &[Mf61Outcome],
+) -> Result<DataFrame, FitError> {
+    let mut rows: Vec<(TireKey, u8, Frame)> = Vec::new();
+    for r in results.iter().filter(|_| pac2002) {
         let Some(fit) = &r.pac2002 else { continue };
+        let mut f = Frame::new("fit_quality");
         for fam in &fit.families {
             let Some(q) = &fam.quality else { continue };
             f.key(&r.key)
+                .s("model", FitModel::Pac2002.as_str())
                 .s("channel", fam.family.as_str())
-                .i("n", q.n as i64)
+                .f("oos_rmse", f64::NAN)
                 .f("rmse", q.rmse)
+                .f("oos_ratio", f64::NAN)
+                .i("n", q.n as i64)
                 .f("rmse_pct_of_peak", q.rmse_pct_of_peak)
                 .f("r2", q.r2)
-                .i("n_samples", q.n_samples as i64)
+                .oi("n_samples", Some(q.n_samples as i64))
                 .f("sample_rmse", q.sample_rmse)
                 .f("initial_rmse", q.initial_rmse)
                 .i("iterations", q.iterations as i64)
@@ -169,8 +191,68 @@ pub fn fit_quality(results: &[GroupResult]) -> Result<DataFrame, FitError> {
                 .i("evaluations", q.evaluations as i64)
                 .f("seconds", q.seconds);
         }
+        rows.push((r.key.clone(), 0, f));
     }
-    f.finish()
+    for o in mf61 {
+        let Some(fit) = &o.fit else { continue };
+        let mut by_pressure: std::collections::BTreeMap<i64, Frame> = Default::default();
+        for q in &fit.family_quality {
+            let key = TireKey {
+                pressure_kpa_nom: q.pressure_kpa_nom,
+                ..o.key.clone()
+            };
+            let family = fit.families.iter().find(|x| x.family == q.family);
+            let oos = q.oos_rmse.unwrap_or(f64::NAN);
+            by_pressure
+                .entry(q.pressure_kpa_nom)
+                .or_insert_with(|| Frame::new("fit_quality"))
+                .key(&key)
+                .s("model", FitModel::Mf61.as_str())
+                .s("channel", q.family.name())
+                .f("oos_rmse", oos)
+                .f("rmse", q.rmse)
+                .f(
+                    "oos_ratio",
+                    if q.rmse > 0.0 { oos / q.rmse } else { f64::NAN },
+                )
+                .i("n", q.n as i64)
+                .f("rmse_pct_of_peak", q.rmse_pct_of_peak)
+                .f("r2", q.r2)
+                .oi("n_samples", None)
+                .f("sample_rmse", f64::NAN)
+                .f("initial_rmse", f64::NAN)
+                .i("iterations", family.map_or(0, |x| x.iterations as i64))
+                .s(
+                    "termination",
+                    family.map_or("not_refined", |x| x.termination.as_str()),
+                )
+                .i("evaluations", family.map_or(0, |x| x.evaluations as i64))
+                .f("seconds", family.map_or(0.0, |x| x.seconds));
+        }
+        for (p, f) in by_pressure {
+            let key = TireKey {
+                pressure_kpa_nom: p,
+                ..o.key.clone()
+            };
+            rows.push((key, 1, f));
+        }
+    }
+    rows.sort_by(|a, b| (&a.0, a.1).cmp(&(&b.0, b.1)));
+    let mut out: Option<DataFrame> = None;
+    for (_, _, f) in rows {
+        let df = f.finish()?;
+        out = Some(match out {
+            None => df,
+            Some(acc) => acc.vstack(&df).map_err(|e| FitError::Table {
+                table: "fit_quality".to_string(),
+                message: e.to_string(),
+            })?,
+        });
+    }
+    match out {
+        Some(df) => Ok(df),
+        None => Frame::new("fit_quality").finish(),
+    }
 }
 
 /// `fit_failures`.
@@ -347,7 +429,7 @@ mod tests {
 
         let mut f = Frame::new("coefficients");
         f.key(&key)
-            .s("model", "PAC2002")
+            .s("model", "pac2002")
             .s("family", "Fy0")
             .s("name", "PDY1")
             .f("value", -2.5)

@@ -352,6 +352,28 @@ pub struct PressureQuality {
     pub oos_rmse_pct_of_peak: Option<f64>,
 }
 
+/// Fit quality of one family at one tested pressure: the family's channel evaluated on the
+/// collapsed points of that pressure's sweeps the family reads (cornering sweeps for `Fy0` and
+/// `Mz0`, drive/brake for `Fx0`, combined for `Fx`, `Fy`, `Mz`, all for `Mx`), so a row compares
+/// one to one with the PAC2002 fit of that pressure.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FamilyQuality {
+    /// The tested pressure, kPa.
+    pub pressure_kpa_nom: i64,
+    /// The family.
+    pub family: Mf61Family,
+    /// Collapsed points.
+    pub n: usize,
+    /// In-sample RMSE (N or N m).
+    pub rmse: f64,
+    /// `rmse` relative to the largest `|value|` among the points, %.
+    pub rmse_pct_of_peak: f64,
+    /// Coefficient of determination.
+    pub r2: f64,
+    /// RMSE of the model fitted without this pressure (`None` with one pressure).
+    pub oos_rmse: Option<f64>,
+}
+
 /// The stage's result.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mf61Fit {
@@ -361,6 +383,8 @@ pub struct Mf61Fit {
     pub coefficients: Vec<Mf61Coefficient>,
     /// Per tested pressure and output.
     pub quality: Vec<PressureQuality>,
+    /// Per tested pressure and family (in pressure, then fit order).
+    pub family_quality: Vec<FamilyQuality>,
     /// Per family, in fit order.
     pub families: Vec<FamilyOutcome>,
     /// What the model could not carry, what was held.
@@ -458,8 +482,20 @@ fn fit_points(
         if data.len() < 8 {
             continue;
         }
+        // Pressure levels are the tested pressures (groups), not the measured values: a group's
+        // measured pressure wanders by a few kPa, which would otherwise count as extra levels
+        // and free the quadratic pressure terms on two tested pressures.
+        let levels: std::collections::BTreeSet<usize> = points
+            .iter()
+            .filter(|p| {
+                family.reads(p.kind).is_some_and(|o| {
+                    p.values[o as usize].is_finite() && p.weights[o as usize] > 0.0
+                })
+            })
+            .map(|p| p.group)
+            .collect();
         let variation = Variation {
-            pressures: distinct(data.pressures.iter().copied(), 0.02 * nominal_pa),
+            pressures: levels.len(),
             loads: distinct(
                 data.inputs.iter().map(|p| p.fz_n),
                 0.1 * model.coefs[FNOMIN],
@@ -576,25 +612,111 @@ fn group_quality(
     out
 }
 
-/// Fit one (tire, rim).
+/// Per family at one group: (family, n, rmse, peak, r2).
+fn group_family_quality(
+    model: &MagicFormula,
+    points: &[Point],
+    group: usize,
+) -> Vec<(Mf61Family, usize, f64, f64, f64)> {
+    let pts: Vec<Point> = points
+        .iter()
+        .filter(|p| p.group == group)
+        .copied()
+        .collect();
+    let mut out = Vec::new();
+    for family in Mf61Family::ALL {
+        let d = family_data(&pts, family);
+        if d.is_empty() {
+            continue;
+        }
+        let mut v = vec![0.0; d.len()];
+        model.channel_into_at(
+            family.channel(),
+            &d.inputs,
+            Pressures::PerPoint(&d.pressures),
+            FIT_MODE,
+            &mut v,
+        );
+        let n = d.len();
+        let sse: f64 = v
+            .iter()
+            .zip(&d.measured)
+            .map(|(m, y)| (m - y) * (m - y))
+            .sum();
+        let mean_y = d.measured.iter().sum::<f64>() / n as f64;
+        let sst: f64 = d.measured.iter().map(|y| (y - mean_y) * (y - mean_y)).sum();
+        let peak = d.measured.iter().fold(0.0_f64, |m, y| m.max(y.abs()));
+        let r2 = if sst > 0.0 { 1.0 - sse / sst } else { f64::NAN };
+        out.push((family, n, (sse / n as f64).sqrt(), peak, r2));
+    }
+    out
+}
+
+/// One tested pressure's sweeps, already collapsed ([`collapse_group`]): what a caller keeps in
+/// memory between the per-pressure fits and the MF 6.1 fit instead of every sample.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CollapsedGroup {
+    /// Nominal pressure of the group, kPa.
+    pub pressure_kpa_nom: i64,
+    /// Its collapsed points.
+    pub points: Vec<Point>,
+    /// Its PAC2002 fit and spring-rate results (`None`: the group's PAC2002 fit failed).
+    pub pac2002: Option<PressureModel>,
+}
+
+/// Collapse one tested pressure's sweeps (as [`fit`] does).
+pub fn collapse_group(sweeps: &[Mf61Sweep], cfg: &CollapseConfig) -> Vec<Point> {
+    data::collapse(&[sweeps], cfg)
+}
+
+/// Fit one (tire, rim) from its sweeps.
 pub fn fit(input: &Mf61Input, cfg: &Mf61Config) -> Result<Mf61Fit, Mf61Error> {
+    let groups: Vec<CollapsedGroup> = input
+        .groups
+        .iter()
+        .map(|g| CollapsedGroup {
+            pressure_kpa_nom: g.pressure_kpa_nom,
+            points: collapse_group(&g.sweeps, &cfg.collapse),
+            pac2002: g.pac2002.clone(),
+        })
+        .collect();
+    fit_collapsed(&input.tire, input.rim_in, input.nominal_pa, &groups, cfg)
+}
+
+/// Fit one (tire, rim) from its tested pressures' collapsed points.
+pub fn fit_collapsed(
+    tire: &str,
+    rim_in: f64,
+    nominal_pa: f64,
+    collapsed: &[CollapsedGroup],
+    cfg: &Mf61Config,
+) -> Result<Mf61Fit, Mf61Error> {
     let started = Instant::now();
-    if !(input.nominal_pa.is_finite() && input.nominal_pa > 0.0) {
+    if !(nominal_pa.is_finite() && nominal_pa > 0.0) {
         return Err(Mf61Error::BadNominal {
-            tire: input.tire.clone(),
-            value: input.nominal_pa,
+            tire: tire.to_string(),
+            value: nominal_pa,
         });
     }
-    let mut groups: Vec<&PressureGroup> = input.groups.iter().collect();
+    let mut groups: Vec<&CollapsedGroup> = collapsed.iter().collect();
     groups.sort_by_key(|g| g.pressure_kpa_nom);
     if groups.iter().all(|g| g.pac2002.is_none()) {
         return Err(Mf61Error::NoStart {
-            tire: input.tire.clone(),
-            rim_in: input.rim_in,
+            tire: tire.to_string(),
+            rim_in,
         });
     }
-    let sweep_sets: Vec<&[Mf61Sweep]> = groups.iter().map(|g| g.sweeps.as_slice()).collect();
-    let points = data::collapse(&sweep_sets, &cfg.collapse);
+    let mut points = Vec::new();
+    let mut sweep_offset = 0;
+    for (g, group) in groups.iter().enumerate() {
+        let n_sweeps = group.points.iter().map(|p| p.sweep + 1).max().unwrap_or(0);
+        points.extend(group.points.iter().map(|p| Point {
+            group: g,
+            sweep: p.sweep + sweep_offset,
+            ..*p
+        }));
+        sweep_offset += n_sweeps;
+    }
     let range_of = |gs: &[usize]| {
         let ps: Vec<f64> = points
             .iter()
@@ -618,13 +740,7 @@ pub fn fit(input: &Mf61Input, cfg: &Mf61Config) -> Result<Mf61Fit, Mf61Error> {
             .collect()
     };
     let all: Vec<usize> = (0..groups.len()).collect();
-    let full = fit_points(
-        &models_of(None),
-        &points,
-        input.nominal_pa,
-        range_of(&all),
-        cfg,
-    );
+    let full = fit_points(&models_of(None), &points, nominal_pa, range_of(&all), cfg);
     let mut quality = Vec::new();
     for (g, group) in groups.iter().enumerate() {
         for (o, n, rmse, peak, r2) in group_quality(&full.model, &points, g) {
@@ -640,6 +756,20 @@ pub fn fit(input: &Mf61Input, cfg: &Mf61Config) -> Result<Mf61Fit, Mf61Error> {
             });
         }
     }
+    let mut family_quality = Vec::new();
+    for (g, group) in groups.iter().enumerate() {
+        for (family, n, rmse, peak, r2) in group_family_quality(&full.model, &points, g) {
+            family_quality.push(FamilyQuality {
+                pressure_kpa_nom: group.pressure_kpa_nom,
+                family,
+                n,
+                rmse,
+                rmse_pct_of_peak: 100.0 * rmse / peak.max(1e-9),
+                r2,
+                oos_rmse: None,
+            });
+        }
+    }
     let mut notes = full.notes.clone();
     if cfg.leave_one_pressure_out && groups.len() >= 2 {
         for (g, group) in groups.iter().enumerate() {
@@ -650,7 +780,7 @@ pub fn fit(input: &Mf61Input, cfg: &Mf61Config) -> Result<Mf61Fit, Mf61Error> {
             let training: Vec<Point> = points.iter().filter(|p| p.group != g).copied().collect();
             let rest: Vec<usize> = all.iter().copied().filter(|x| *x != g).collect();
             // The left-out pressure must be evaluated as such, not clipped to the others' range.
-            let mut held = fit_points(&models, &training, input.nominal_pa, range_of(&rest), cfg);
+            let mut held = fit_points(&models, &training, nominal_pa, range_of(&rest), cfg);
             held.model.coefs[PRESMIN] = PRESMIN.default_value();
             held.model.coefs[PRESMAX] = PRESMAX.default_value();
             for (o, _, rmse, peak, _) in group_quality(&held.model, &points, g) {
@@ -660,6 +790,14 @@ pub fn fit(input: &Mf61Input, cfg: &Mf61Config) -> Result<Mf61Fit, Mf61Error> {
                 {
                     q.oos_rmse = Some(rmse);
                     q.oos_rmse_pct_of_peak = Some(100.0 * rmse / peak.max(1e-9));
+                }
+            }
+            for (family, _, rmse, _, _) in group_family_quality(&held.model, &points, g) {
+                if let Some(q) = family_quality
+                    .iter_mut()
+                    .find(|q| q.pressure_kpa_nom == group.pressure_kpa_nom && q.family == family)
+                {
+                    q.oos_rmse = Some(rmse);
                 }
             }
         }
@@ -675,6 +813,7 @@ pub fn fit(input: &Mf61Input, cfg: &Mf61Config) -> Result<Mf61Fit, Mf61Error> {
         model: full.model,
         coefficients,
         quality,
+        family_quality,
         families: full.families,
         notes,
         seconds: started.elapsed().as_secs_f64(),
