@@ -156,14 +156,17 @@ pub fn start(models: &[PressureModel], nominal_pa: f64) -> Start {
             c[*k] = base[*k] / f;
         }
     }
-    // Carcass stiffnesses (relaxation lengths |Kx/Cx|, |Ky/Cy|): only where the PAC2002 models
-    // carry relaxation.
-    let with_relaxation: Vec<usize> = (0..models.len())
-        .filter(|&i| models[i].model.coefs[PTX1] != 0.0 || models[i].model.coefs[PTY1] != 0.0)
-        .collect();
-    if with_relaxation.len() >= 2 {
-        for (stiffness, term) in [(LONGITUDINAL_STIFFNESS, PCFX3), (LATERAL_STIFFNESS, PCFY3)] {
-            let pts: Vec<(f64, f64)> = with_relaxation
+    // Carcass stiffnesses (relaxation lengths |Kx/Cx|, |Ky/Cy|): each direction from the
+    // PAC2002 models that carry its relaxation law.
+    for (law, stiffness, term) in [
+        (PTX1, LONGITUDINAL_STIFFNESS, PCFX3),
+        (PTY1, LATERAL_STIFFNESS, PCFY3),
+    ] {
+        let with_law: Vec<usize> = (0..models.len())
+            .filter(|&i| models[i].model.coefs[law] != 0.0)
+            .collect();
+        if with_law.len() >= 2 {
+            let pts: Vec<(f64, f64)> = with_law
                 .iter()
                 .filter_map(|&i| {
                     lifted[i]
@@ -176,11 +179,13 @@ pub fn start(models: &[PressureModel], nominal_pa: f64) -> Start {
                 c[term] = a;
                 c[stiffness] = base[stiffness] / (1.0 + a * d_ref);
             }
+        } else if !with_law.is_empty() {
+            notes.push(format!(
+                "relaxation: one pressure with {}; {} = 0",
+                law.name(),
+                term.name()
+            ));
         }
-    } else if !with_relaxation.is_empty() {
-        notes.push(
-            "relaxation: one pressure with relaxation lengths; PCFX3 = PCFY3 = 0".to_string(),
-        );
     }
     // Vertical: PFZ1 from the spring-rate stiffness at each pressure; the unloaded radius at
     // NOMPRES (MF 6.1 has no pressure term for it).

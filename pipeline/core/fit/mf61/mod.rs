@@ -280,6 +280,17 @@ fn free_coefficients(family: Mf61Family, v: Variation) -> Vec<Coef> {
     out
 }
 
+/// The pressure terms of a family.
+fn pressure_terms(family: Mf61Family) -> &'static [Coef] {
+    match family {
+        Mf61Family::Fy0 => &[PPY1, PPY2, PPY3, PPY4, PPY5],
+        Mf61Family::Mz0 => &[PPZ1, PPZ2],
+        Mf61Family::Fx0 => &[PPX1, PPX2, PPX3, PPX4],
+        Mf61Family::Mx => &[PPMX1],
+        Mf61Family::Fx | Mf61Family::Fy | Mf61Family::Mz => &[],
+    }
+}
+
 /// Box bounds of a coefficient in the refinement.
 fn bounds_of(c: Coef) -> (f64, f64) {
     match c {
@@ -506,6 +517,20 @@ fn fit_points(
             ),
         };
         let free = free_coefficients(family, variation);
+        // A pressure term the family's data cannot determine (its sweeps at fewer tested
+        // pressures than the term needs) is 0, not the start's trend: that trend may come from
+        // a pressure whose PAC2002 fit had no data for the family (its defaults).
+        for term in pressure_terms(family) {
+            if !free.contains(term) && model.coefs[*term] != 0.0 {
+                notes.push(format!(
+                    "{}: {} = 0 ({} tested pressure(s) with data for the family)",
+                    family.name(),
+                    term.name(),
+                    variation.pressures
+                ));
+                model.coefs[*term] = 0.0;
+            }
+        }
         let channel = family.channel();
         let initial_rmse = rmse_of(&model, channel, &data);
         let problem = FamilyProblem {

@@ -276,3 +276,30 @@ fn one_pressure_gives_a_model_without_pressure_terms() {
     );
     assert!(fit.quality.iter().all(|q| q.oos_rmse.is_none()));
 }
+
+/// A pressure whose PAC2002 fit had no cornering data (its lateral coefficients at their
+/// defaults) and whose sweeps hold none: the Fy0 pressure terms are 0 (the start's trend came
+/// from those defaults), not the trend clipped at its limit, and Fy stays within 1 % of peak of
+/// the truth at the pressure that has lateral data.
+#[test]
+fn a_pressure_without_lateral_data_leaves_the_fy0_pressure_terms_at_zero() {
+    let truth = truth();
+    let mut input = input(&truth, &[69, 83]);
+    let low = &mut input.groups[0];
+    low.sweeps.retain(|s| s.kind != SweepKind::Cornering);
+    let pac = low.pac2002.as_mut().unwrap();
+    for c in [PCY1, PDY1, PDY2, PKY1, PKY2, PEY1, PHY1, PVY1] {
+        pac.model.coefs[c] = c.default_value();
+    }
+    let fit = fit(&input, &Mf61Config::default()).unwrap();
+    for c in [PPY1, PPY2, PPY3, PPY4, PPY5] {
+        assert_eq!(fit.model.coefs[c], 0.0, "{}", c.name());
+    }
+    assert!(
+        fit.notes.iter().any(|n| n.starts_with("Fy0: PPY")),
+        "{:?}",
+        fit.notes
+    );
+    let [_, fy, _] = envelope_error(&fit.model, &truth, 83e3);
+    assert!(fy < 0.01, "Fy at 83 kPa: {:.3} % of peak", 100.0 * fy);
+}
