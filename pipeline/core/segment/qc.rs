@@ -24,8 +24,9 @@ use std::ops::Range;
 use super::config::SegmentConfig;
 use super::gaps::Timeline;
 use super::output::{QcFlag, SegmentKind};
-use super::prepare::{is_exact_zero, median, zero_runs};
+use super::prepare::{is_exact_zero, zero_runs};
 use super::signals::RunSignals;
+use crate::numerics::stats::median_high;
 
 /// What QC needs to know about a segment.
 pub(crate) struct Draft {
@@ -169,7 +170,7 @@ pub(crate) fn zeroed_stretches(
     }
     let side = |r: Range<usize>| {
         let mut v: Vec<f64> = x[r].iter().map(|v| v.abs()).collect();
-        median(&mut v).unwrap_or(0.0)
+        median_high(&mut v).unwrap_or(0.0)
     };
     let block_of = |i: usize| {
         let k = blocks.partition_point(|b| b.end <= i);
@@ -278,7 +279,7 @@ fn shape_flags(
             .filter(|d| d.kind == kind)
             .map(|d| d.samples.len() as f64)
             .collect();
-        median(&mut lens).unwrap_or(0.0)
+        median_high(&mut lens).unwrap_or(0.0)
     };
     for (d, f) in drafts.iter().zip(flags.iter_mut()) {
         if d.kind == SegmentKind::Other {

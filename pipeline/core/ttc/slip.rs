@@ -12,6 +12,7 @@
 //! ratio (a cornering run keeps kappa = 0, not measured).
 
 use super::RunTable;
+use crate::numerics::stats::median_high;
 
 /// Minimum span (2nd to 98th percentile) of SR while rolling for a slip-ratio sweep to exist.
 pub(crate) const SWEEP_SPAN: f64 = 0.1;
@@ -105,10 +106,7 @@ fn zero_crossings(t: &RunTable, q: &[f64]) -> Vec<(f64, f64)> {
 /// more than 3 robust deviations away; a constant (the median) with fewer than
 /// [`MIN_CROSSINGS_LINE`] crossings.
 fn radius_line(points: &[(f64, f64)]) -> (f64, f64) {
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
+    let median = |mut v: Vec<f64>| median_high(&mut v).unwrap_or(f64::NAN);
     let constant = median(points.iter().map(|p| p.1).collect());
     if points.len() < MIN_CROSSINGS_LINE {
         return (constant, 0.0);
