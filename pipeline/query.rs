@@ -191,6 +191,12 @@ pub fn write_csv(df: &mut DataFrame, out: &mut dyn Write) -> PolarsResult<()> {
 
 /// Render a frame as an aligned text table (every row; floats to 6 significant digits).
 pub fn format_table(df: &DataFrame) -> String {
+    aligned_text(df, |v| format!("{v:.6}"))
+}
+
+/// A frame as text: a header line, a rule, then one line per row, columns padded to their widest
+/// cell and separated by two spaces; floats through `float`, nulls empty.
+pub fn aligned_text(df: &DataFrame, float: impl Fn(f64) -> String) -> String {
     let names: Vec<String> = df
         .get_column_names()
         .iter()
@@ -203,7 +209,7 @@ pub fn format_table(df: &DataFrame) -> String {
             .iter()
             .map(|c| match c.get(i) {
                 Ok(AnyValue::Null) => String::new(),
-                Ok(AnyValue::Float64(v)) => format!("{v:.6}"),
+                Ok(AnyValue::Float64(v)) => float(v),
                 Ok(AnyValue::String(s)) => s.to_string(),
                 Ok(v) => v.to_string(),
                 Err(_) => String::new(),

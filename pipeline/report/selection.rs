@@ -165,30 +165,33 @@ fn choice_charts(
     let cond = &c.car.conditions;
     let loads = &cond.loads_n;
     let (lo, hi) = (0.5 * loads[0], 1.25 * loads[loads.len() - 1]);
-    let suffix = format!(" · {}", choice.label);
-    let mut mu = Plot::new(
-        format!("sel-mu-{}", choice.id),
+    // `sel-<id>-<choice>`, the title ending with the choice's label
+    let plot = |id: &str, kind: &str, title: String, x: Axis, y: Axis| {
+        let title = format!("{title} · {}", choice.label);
+        Plot::new(format!("sel-{id}-{}", choice.id), kind, title, x, y)
+    };
+    let load_axis = || Axis::from_zero("vertical load Fz (N)");
+    let mu_axis = || Axis::new("peak μy = |Fy|/Fz (-)");
+    let mut mu = plot(
+        "mu",
         "sel_peak_mu",
-        format!("Peak μy vs load at the design camber{suffix}"),
-        Axis::from_zero("vertical load Fz (N)"),
-        Axis::new("peak μy = |Fy|/Fz (-)"),
+        "Peak μy vs load at the design camber".into(),
+        load_axis(),
+        mu_axis(),
     );
-    let mut ky = Plot::new(
-        format!("sel-ky-{}", choice.id),
+    let mut ky = plot(
+        "ky",
         "sel_cornering_stiffness",
-        format!("Cornering stiffness vs load{suffix}"),
-        Axis::from_zero("vertical load Fz (N)"),
+        "Cornering stiffness vs load".into(),
+        load_axis(),
         Axis::from_zero("cornering stiffness |dFy/dα| (kN/rad)"),
     );
-    let mut camber = Plot::new(
-        format!("sel-camber-{}", choice.id),
+    let mut camber = plot(
+        "camber",
         "sel_camber",
-        format!(
-            "Peak μy vs camber at Fz = {:.0} N{suffix}",
-            cond.nominal_load_n
-        ),
+        format!("Peak μy vs camber at Fz = {:.0} N", cond.nominal_load_n),
         Axis::from_zero("inclination, leaning into the turn (deg)"),
-        Axis::new("peak μy = |Fy|/Fz (-)"),
+        mu_axis(),
     );
     let max_load = hi.max(cond.nominal_load_n);
     for &i in &choice.rows {

@@ -18,6 +18,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
+use tirebase_core::inertia::InertiaResult;
 use tirebase_core::naming::unique_tir_names;
 use tirebase_core::tire_model::Pac2002;
 use tirebase_core::tire_model::tir::TirFile;
@@ -207,23 +208,6 @@ pub struct RelaxationRow {
     pub converged: bool,
 }
 
-/// A row of `inertia` (the rig-inertia results) as the report uses it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct InertiaRow {
-    pub session: String,
-    pub run: String,
-    /// Vehicle id, `table`, `platform` or a calibration body.
-    pub object: String,
-    pub axis: String,
-    pub quantity: String,
-    pub method: String,
-    /// SI, in `units`.
-    pub value: f64,
-    /// Standard uncertainty (k = 1), NaN when not evaluated.
-    pub uncertainty: f64,
-    pub units: String,
-}
-
 /// A row of `lint`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LintRow {
@@ -250,7 +234,7 @@ pub struct Results {
     pub fit_failures: Option<Vec<FitFailure>>,
     /// The rig-inertia results (`None` when the results have none: not every result set comes
     /// with rig sessions, so a missing `inertia.parquet` is no note; an unreadable one is).
-    pub inertia: Option<Vec<InertiaRow>>,
+    pub inertia: Option<Vec<InertiaResult>>,
     /// One line per table that is not present or could not be read.
     pub notes: Vec<String>,
 }
@@ -576,7 +560,7 @@ fn lint_rows(df: &DataFrame, path: &Path) -> Result<Vec<LintRow>, StoreError> {
         .collect())
 }
 
-fn inertia_rows(df: &DataFrame, path: &Path) -> Result<Vec<InertiaRow>, StoreError> {
+fn inertia_rows(df: &DataFrame, path: &Path) -> Result<Vec<InertiaResult>, StoreError> {
     let s = |n: &str| req_str(df, n, path).map(strings);
     let (session, run, object, axis, quantity, method, units) = (
         s("session")?,
@@ -587,10 +571,14 @@ fn inertia_rows(df: &DataFrame, path: &Path) -> Result<Vec<InertiaRow>, StoreErr
         s("method")?,
         s("units")?,
     );
+    // optional: the report does not show it, and test tables may leave it out
+    let diagnostics = opt_str(df, "diagnostics", path)?
+        .map(strings)
+        .unwrap_or_else(|| vec![String::new(); df.height()]);
     let value = floats(req_f64(df, "value", path)?);
     let uncertainty = floats(req_f64(df, "uncertainty", path)?);
     Ok((0..df.height())
-        .map(|i| InertiaRow {
+        .map(|i| InertiaResult {
             session: session[i].clone(),
             run: run[i].clone(),
             object: object[i].clone(),
@@ -600,6 +588,7 @@ fn inertia_rows(df: &DataFrame, path: &Path) -> Result<Vec<InertiaRow>, StoreErr
             value: value[i],
             uncertainty: uncertainty[i],
             units: units[i].clone(),
+            diagnostics: diagnostics[i].clone(),
         })
         .collect())
 }
