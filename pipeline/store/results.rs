@@ -21,7 +21,7 @@ use polars::prelude::*;
 use tirebase_core::inertia::InertiaResult;
 use tirebase_core::naming::unique_tir_names;
 use tirebase_core::tire_model::Pac2002;
-use tirebase_core::tire_model::tir::TirFile;
+use tirebase_core::tire_model::tir::{TirFile, TirReadError};
 
 use super::StoreError;
 use super::columns::{opt_bool, opt_f64, opt_i64, opt_str, req_bool, req_f64, req_i64, req_str};
@@ -659,10 +659,21 @@ pub struct TirModel {
     pub use_mode: Option<i64>,
 }
 
-/// Read one `.tir` file; the reason when it cannot be read.
-pub fn read_tir_model(path: &Path) -> Result<TirModel, String> {
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
-    let (tir, _) = TirFile::parse_bytes(&bytes).map_err(|e| e.to_string())?;
+/// Why a `.tir` file could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum TirModelError {
+    /// The file could not be read.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    /// The file is not a readable `.tir`.
+    #[error(transparent)]
+    Read(#[from] TirReadError),
+}
+
+/// Read one `.tir` file.
+pub fn read_tir_model(path: &Path) -> Result<TirModel, TirModelError> {
+    let bytes = std::fs::read(path)?;
+    let (tir, _) = TirFile::parse_bytes(&bytes)?;
     Ok(TirModel {
         model: tir.model(),
         use_mode: tir.use_mode,

@@ -57,7 +57,7 @@ mod tests;
 
 use crate::frame::{IsoW, TireChannels};
 
-pub use channel::Channel;
+pub use channel::{Channel, UnitError};
 pub use dat::read_dat;
 pub use error::TtcError;
 pub use mat::read_mat;

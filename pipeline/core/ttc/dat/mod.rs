@@ -277,7 +277,7 @@ fn parse_units(
                                 source_name: source_name.to_string(),
                                 location: format!("line 3, column {}", index + 1),
                                 channel: printable(name),
-                                message,
+                                message: Box::new(message),
                             })?,
                     )
                 }

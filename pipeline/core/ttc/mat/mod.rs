@@ -286,7 +286,7 @@ fn run_from_variables(
                         source_name: source_name.to_string(),
                         location: format!("variable channel, units{{{}}}", entry.index + 1),
                         channel: printable(&name),
-                        message,
+                        message: Box::new(message),
                     })?;
                 (entry.unit.clone(), Some(unit))
             }
