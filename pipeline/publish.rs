@@ -34,7 +34,7 @@ use crate::store::results::{
     self, GROUP_COLUMNS, INERTIA_TABLE, Results, TirNames, has_group_columns, model_groups,
     rows_of_groups, tir_names,
 };
-use crate::store::tables::{self, STATUS_FAILED, STATUS_OK, STATUS_PARTIAL};
+use crate::store::tables::{self, RunStatus};
 use crate::store::versions::VersionBuilder;
 
 pub use crate::store::results::GroupKey;
@@ -192,13 +192,13 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
             from_version: reused.get(&plan_key(g)).copied().unwrap_or(number),
         })
         .collect();
-    let status = |s: &str| files.iter().filter(|f| f.status == s).count() as u64;
+    let status = |s: RunStatus| files.iter().filter(|f| f.status == s.as_str()).count() as u64;
     let done = |s: FileStatus| ingest.count(|x| *x == s) as u64;
     let counts = Counts {
         files: files.len() as u64,
-        files_ok: status(STATUS_OK),
-        files_partial: status(STATUS_PARTIAL),
-        files_failed: status(STATUS_FAILED),
+        files_ok: status(RunStatus::Ok),
+        files_partial: status(RunStatus::Partial),
+        files_failed: status(RunStatus::Failed),
         files_duplicate: count_duplicates(&files),
         files_ingested: done(FileStatus::Ingested),
         files_resegmented: done(FileStatus::Resegmented),

@@ -251,7 +251,7 @@ mod tests {
 
     use crate::store::files::write_parquet_atomic;
     use crate::store::layout::{PartitionKey, partition_dir};
-    use crate::store::tables::RunRow;
+    use crate::store::tables::{RunRow, RunStatus};
 
     /// A two-file store where one file's data is live and the other's was superseded.
     fn tiny_store(root: &Path) {
@@ -260,12 +260,12 @@ mod tests {
                 source_file: "a.dat".into(),
                 data_sha256: Some("aaa".into()),
                 parts_sha256: Some("111111111111".into()),
-                status: "ok".into(),
+                status: RunStatus::Ok,
                 ..RunRow::default()
             },
             RunRow {
                 source_file: "b.dat".into(),
-                status: "failed".into(),
+                status: RunStatus::Failed,
                 ..RunRow::default()
             },
         ]

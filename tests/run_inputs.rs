@@ -16,7 +16,7 @@ use std::process::{Command, Output};
 
 use polars::prelude::*;
 use tirebase::manifest::{Manifest, ProblemKind};
-use tirebase::store::tables::{self, RunRow};
+use tirebase::store::tables::{self, RunRow, RunStatus};
 
 use crate::harness::{bin, copy_tree, demo_published, ok, run, text};
 
@@ -473,7 +473,7 @@ fn issue20_file_cut_in_transfer_is_partial_and_said() {
         "{log}"
     );
     let runs = tables::read_runs(&store).unwrap();
-    assert_eq!(runs["B2410run7.dat"].status, "partial");
+    assert_eq!(runs["B2410run7.dat"].status, RunStatus::Partial);
     let m = Manifest::read(&latest(&store).1).unwrap();
     assert_eq!(m.counts.files_partial, 1);
     assert!(
@@ -668,7 +668,7 @@ fn issue20_mixed_input_changes_equal_a_fresh_run() {
         Some("tire_name")
     );
     assert!(!runs.contains_key("A2410run6.dat"));
-    assert_eq!(runs["A2410run6-resent.dat"].status, "ok");
+    assert_eq!(runs["A2410run6-resent.dat"].status, RunStatus::Ok);
     assert_equals_fresh(&input, &store, &[]);
     let third = run(&input, &store, &[]);
     ok(&third, "third run");
@@ -758,7 +758,7 @@ fn issue20_permission_problems_are_retried_and_store_errors_are_not_blamed_on_in
     );
     assert_eq!(latest(&store).0, 2, "{log}");
     let runs = tables::read_runs(&store).unwrap();
-    assert_eq!(runs["B2410run2.dat"].status, "failed");
+    assert_eq!(runs["B2410run2.dat"].status, RunStatus::Failed);
     assert_eq!(
         runs["B2410run2.dat"].data_sha256, runs_before["B2410run2.dat"].data_sha256,
         "the last good data of a file that cannot be read now stays"

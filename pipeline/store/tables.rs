@@ -33,14 +33,49 @@ use super::layout::{
 };
 use crate::schema;
 
-/// `runs.status` of a file whose data is stored and complete.
-pub const STATUS_OK: &str = "ok";
-/// `runs.status` of a file whose rows stop early (a truncated transfer): stored, flagged.
-pub const STATUS_PARTIAL: &str = "partial";
-/// `runs.status` of a file whose last attempt failed (an earlier stored version stays).
-pub const STATUS_FAILED: &str = "failed";
-/// `runs.status` of a file whose run another file holds (no data of its own).
-pub const STATUS_DUPLICATE: &str = "duplicate";
+/// `runs.status`: what the store holds for an input file.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum RunStatus {
+    /// Its data are stored and complete.
+    Ok,
+    /// Its rows stop early (a truncated transfer): stored, flagged.
+    Partial,
+    /// Its last attempt failed (an earlier stored version stays).
+    #[default]
+    Failed,
+    /// Another file holds its run (no data of its own).
+    Duplicate,
+}
+
+impl RunStatus {
+    /// The name in the runs table and the manifest.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            RunStatus::Ok => "ok",
+            RunStatus::Partial => "partial",
+            RunStatus::Failed => "failed",
+            RunStatus::Duplicate => "duplicate",
+        }
+    }
+
+    /// The status named `name`, if any.
+    pub fn parse(name: &str) -> Option<RunStatus> {
+        [
+            RunStatus::Ok,
+            RunStatus::Partial,
+            RunStatus::Failed,
+            RunStatus::Duplicate,
+        ]
+        .into_iter()
+        .find(|s| s.as_str() == name)
+    }
+}
+
+impl std::fmt::Display for RunStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
 
 /// One row of the runs table (see `schemas/runs.toml`).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -49,7 +84,7 @@ pub struct RunRow {
     pub source_path: String,
     pub sha256: String,
     pub data_sha256: Option<String>,
-    pub status: String,
+    pub status: RunStatus,
     pub error: Option<String>,
     pub project: Option<i64>,
     pub run: Option<i64>,
@@ -172,12 +207,17 @@ pub fn read_runs(store: &Path) -> Result<BTreeMap<String, RunRow>, StoreError> {
     let (et_start_s, et_end_s) = (of("et_start_s")?, of("et_end_s")?);
     let mut out = BTreeMap::new();
     for k in 0..n {
+        let status_name = status[k].as_deref().unwrap_or_default();
+        let run_status = RunStatus::parse(status_name).ok_or_else(|| StoreError::Schema {
+            table: path.display().to_string(),
+            message: format!("row {}: unknown status {status_name:?}", k + 1),
+        })?;
         let row = RunRow {
             source_file: source_file[k].clone().unwrap_or_default(),
             source_path: source_path[k].clone().unwrap_or_default(),
             sha256: sha256[k].clone().unwrap_or_default(),
             data_sha256: data_sha256[k].clone(),
-            status: status[k].clone().unwrap_or_default(),
+            status: run_status,
             error: error[k].clone(),
             project: project[k],
             run: run[k],
@@ -577,7 +617,7 @@ mod tests {
     fn row(name: &str, data: Option<&str>, parts: Option<&str>) -> RunRow {
         RunRow {
             source_file: name.into(),
-            status: STATUS_OK.into(),
+            status: RunStatus::Ok,
             data_sha256: data.map(String::from),
             parts_sha256: parts.map(String::from),
             ..RunRow::default()
