@@ -15,7 +15,7 @@ use tirebase_core::inertia::analysis::{SessionOutcome, analyze_session};
 use tirebase_core::inertia::session::{SessionError, load_dir_reader, load_session};
 use tirebase_core::inertia::{InertiaResult, RunError};
 
-use crate::schema;
+use crate::schema::{self, TableName};
 use crate::store::StoreError;
 
 /// The processed sessions.
@@ -188,5 +188,5 @@ pub fn results_frame(rows: &[InertiaResult]) -> Result<DataFrame, StoreError> {
         table: "inertia".into(),
         message: e.to_string(),
     })?;
-    schema::table("inertia").conform(df)
+    schema::table(TableName::Inertia).conform(df)
 }

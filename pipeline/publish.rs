@@ -29,6 +29,7 @@ use crate::manifest::{
 use crate::progress::Progress;
 use crate::report;
 use crate::run::{Fingerprint, RunError, RunOptions, count_duplicates};
+use crate::schema::TableName;
 use crate::store::StoreError;
 use crate::store::results::{
     self, GROUP_COLUMNS, INERTIA_TABLE, Results, TirNames, has_group_columns, model_groups,
@@ -294,7 +295,7 @@ fn merge_tables(
         names.extend(
             results::table_names(dir)?
                 .into_iter()
-                .filter(|n| n != INERTIA_TABLE),
+                .filter(|n| n != INERTIA_TABLE.as_str()),
         );
     }
     let mut out = BTreeMap::new();
@@ -335,7 +336,7 @@ fn merge_tables(
         } else {
             merged
         };
-        if name == "lint" {
+        if name == TableName::Lint.as_str() {
             merged = rename_lint_files(&merged, tir_names).map_err(table_err)?;
         }
         results::write_table(staging, &name, &mut merged)?;
@@ -709,8 +710,10 @@ mod tests {
             "reason" => failures.iter().map(|f| f.reason.as_str()).collect::<Vec<_>>(),
         )
         .unwrap();
-        let mut df = crate::schema::table("fit_failures").conform(df).unwrap();
-        results::write_table(dir.path(), "fit_failures", &mut df).unwrap();
+        let mut df = crate::schema::table(TableName::FitFailures)
+            .conform(df)
+            .unwrap();
+        results::write_table(dir.path(), TableName::FitFailures, &mut df).unwrap();
         let all = BTreeSet::from([("T".to_string(), 7, 83), ("U".to_string(), 7, 69)]);
         assert_eq!(
             results::read_fit_failures(dir.path(), &all).unwrap(),

@@ -19,7 +19,7 @@ use polars::prelude::*;
 use polars::sql::SQLContext;
 
 use crate::manifest::Manifest;
-use crate::schema::{self, TableSchema};
+use crate::schema::{self, TableName, TableSchema};
 use crate::store::layout::{SAMPLES_DIR, runs_file};
 use crate::store::{StoreError, results, tables, versions};
 
@@ -74,7 +74,7 @@ pub fn context(root: &Path) -> Result<SQLContext, QueryError> {
     // Only the part files the runs table names are scanned (`store::tables`' live rule).
     let seg_files = tables::live_segment_files(root)?;
     let segments = if seg_files.is_empty() {
-        empty_frame(schema::table("segments"))
+        empty_frame(schema::table(TableName::Segments))
     } else {
         scan_files(&seg_files, false)?
     };
@@ -82,7 +82,7 @@ pub fn context(root: &Path) -> Result<SQLContext, QueryError> {
 
     let sample_files = tables::live_sample_files(root)?;
     let samples = if sample_files.is_empty() {
-        empty_frame(schema::table("samples"))
+        empty_frame(schema::table(TableName::Samples))
     } else {
         scan_files(&sample_files, true)?
     };

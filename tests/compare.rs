@@ -24,6 +24,7 @@ use tirebase::core::compare::envelope::{convex_hull, polygon_area};
 use tirebase::core::naming::{tir_file_name, tire_rim_stem};
 use tirebase::core::tire_model::tir::TirFile;
 use tirebase::core::tire_model::{Coef, Evaluation, Mode, Pac2002, SlipInput};
+use tirebase::schema::TableName;
 
 use crate::harness::{bin, demo_published, ok, p, run, synth_round, tirebase};
 
@@ -374,7 +375,7 @@ fn figures_against_truth(
         .iter()
         .map(|s| s.to_string())
         .collect();
-    let schema = tirebase::schema::table("compare").for_loads(&[350, 700, 1050]);
+    let schema = tirebase::schema::table(TableName::Compare).for_loads(&[350, 700, 1050]);
     let expected: Vec<String> = schema.columns.iter().map(|c| c.name.clone()).collect();
     assert_eq!(header, expected, "CSV header = schemas/compare.toml");
     let version = pubd.store.join("versions/v000001");

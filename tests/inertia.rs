@@ -5,6 +5,7 @@
 
 use std::fs;
 use std::path::{Path, PathBuf};
+use tirebase::schema::TableName;
 
 use polars::prelude::*;
 
@@ -143,7 +144,7 @@ fn written_parquet_matches_schema() {
         String::from_utf8_lossy(&out.stderr)
     );
     let df = read_table(&out_dir.join("inertia.parquet"));
-    let conformed = tirebase::schema::table("inertia")
+    let conformed = tirebase::schema::table(TableName::Inertia)
         .conform(df.clone())
         .unwrap();
     assert_eq!(

@@ -278,7 +278,7 @@ const KINDS: [&str; 9] = [
 /// are null (the report reads typed rows, and a table without a column counts as missing).
 fn write_table(dir: &Path, name: &str, mut df: DataFrame) {
     let n = df.height();
-    for c in tirebase::schema::table(name).file_columns() {
+    for c in tirebase::schema::table_named(name).unwrap().file_columns() {
         if df.column(&c.name).is_err() {
             df.with_column(Column::full_null(
                 c.name.as_str().into(),

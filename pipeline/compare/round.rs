@@ -12,13 +12,19 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use crate::schema::TableName;
 pub use crate::store::results::{GroupKey, TirModel};
 use crate::store::results::{
     QualityRow, Results, ThermalFitRow, ThermalRow, read_tir_models, tir_names,
 };
 
 /// Result tables a comparison reads (notes about the others are left out).
-pub const TABLES: [&str; 4] = ["fit_quality", "coefficients", "thermal_fit", "thermal"];
+pub const TABLES: [TableName; 4] = [
+    TableName::FitQuality,
+    TableName::Coefficients,
+    TableName::ThermalFit,
+    TableName::Thermal,
+];
 
 /// A round's typed result tables and models.
 #[derive(Clone, Debug, Default)]

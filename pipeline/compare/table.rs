@@ -8,11 +8,12 @@
 use polars::prelude::*;
 
 use super::{Comparison, objective_column};
+use crate::schema::TableName;
 use crate::store::StoreError;
 
 /// The comparison as the `compare` table.
 pub fn to_frame(c: &Comparison) -> Result<DataFrame, StoreError> {
-    let schema = crate::schema::table("compare").for_loads(&c.car.loads_whole_n());
+    let schema = crate::schema::table(TableName::Compare).for_loads(&c.car.loads_whole_n());
     let rows = &c.rows;
     let opt = |v: Option<f64>| v.filter(|x| x.is_finite());
     let f = |g: &dyn Fn(&super::CompareRow) -> f64| -> Vec<f64> { rows.iter().map(g).collect() };

@@ -26,6 +26,7 @@ use tirebase_core::tire_model::tir::{TirFile, TirReadError};
 use super::StoreError;
 use super::columns::{opt_bool, opt_f64, opt_i64, opt_str, req_bool, req_f64, req_i64, req_str};
 use super::files::{parquet_files_in, read_parquet, write_parquet_atomic};
+use crate::schema::TableName;
 
 /// A fit group: (tire, rim_in, pressure_kpa nominal).
 pub type GroupKey = (String, i64, i64);
@@ -34,8 +35,8 @@ pub type GroupKey = (String, i64, i64);
 pub const GROUP_COLUMNS: [&str; 3] = ["tire", "rim_in", "pressure_kpa"];
 
 /// The file of table `name` in a result directory.
-pub fn table_path(dir: &Path, name: &str) -> PathBuf {
-    dir.join(format!("{name}.parquet"))
+pub fn table_path(dir: &Path, name: impl AsRef<str>) -> PathBuf {
+    dir.join(format!("{}.parquet", name.as_ref()))
 }
 
 /// Names of the tables a result directory holds, sorted.
@@ -47,7 +48,7 @@ pub fn table_names(dir: &Path) -> Result<Vec<String>, StoreError> {
 }
 
 /// Table `name` of a result directory; `None` when the directory has no such table.
-pub fn read_table(dir: &Path, name: &str) -> Result<Option<DataFrame>, StoreError> {
+pub fn read_table(dir: &Path, name: impl AsRef<str>) -> Result<Option<DataFrame>, StoreError> {
     let path = table_path(dir, name);
     if !path.is_file() {
         return Ok(None);
@@ -56,7 +57,11 @@ pub fn read_table(dir: &Path, name: &str) -> Result<Option<DataFrame>, StoreErro
 }
 
 /// Write table `name` into a result directory atomically.
-pub fn write_table(dir: &Path, name: &str, df: &mut DataFrame) -> Result<(), StoreError> {
+pub fn write_table(
+    dir: &Path,
+    name: impl AsRef<str>,
+    df: &mut DataFrame,
+) -> Result<(), StoreError> {
     write_parquet_atomic(&table_path(dir, name), df)
 }
 
@@ -240,18 +245,18 @@ pub struct Results {
 }
 
 /// The rig-inertia results table of a version (not a fit table: no group columns).
-pub const INERTIA_TABLE: &str = "inertia";
+pub const INERTIA_TABLE: TableName = TableName::Inertia;
 
 /// The fit tables [`Results`] holds (besides [`INERTIA_TABLE`]).
-pub const RESULT_TABLES: [&str; 8] = [
-    "coefficients",
-    "fit_quality",
-    "spring_rate",
-    "thermal",
-    "thermal_fit",
-    "relaxation",
-    "lint",
-    "fit_failures",
+pub const RESULT_TABLES: [TableName; 8] = [
+    TableName::Coefficients,
+    TableName::FitQuality,
+    TableName::SpringRate,
+    TableName::Thermal,
+    TableName::ThermalFit,
+    TableName::Relaxation,
+    TableName::Lint,
+    TableName::FitFailures,
 ];
 
 impl Results {
@@ -266,7 +271,7 @@ impl Results {
                 }
                 Ok(None) => {}
                 Err(e) => {
-                    unreadable.insert(name, e.to_string());
+                    unreadable.insert(name.as_str(), e.to_string());
                 }
             }
         }
@@ -620,22 +625,24 @@ pub fn read_fit_failures(
     if groups.is_empty() {
         return Ok(Vec::new());
     }
-    let Some(df) = read_table(dir, "fit_failures")? else {
+    let Some(df) = read_table(dir, TableName::FitFailures)? else {
         return Ok(Vec::new());
     };
-    Ok(fit_failure_rows(&df, &table_path(dir, "fit_failures"))?
-        .into_iter()
-        .filter(|f| groups.contains(&(f.tire.clone(), f.rim_in, f.pressure_kpa)))
-        .collect())
+    Ok(
+        fit_failure_rows(&df, &table_path(dir, TableName::FitFailures))?
+            .into_iter()
+            .filter(|f| groups.contains(&(f.tire.clone(), f.rim_in, f.pressure_kpa)))
+            .collect(),
+    )
 }
 
 /// The groups of a result directory that have a `.tir`: those of its `coefficients` table
 /// (empty when it has none or it cannot be read).
 pub fn model_groups(dir: &Path) -> BTreeSet<GroupKey> {
-    let Ok(Some(df)) = read_table(dir, "coefficients") else {
+    let Ok(Some(df)) = read_table(dir, TableName::Coefficients) else {
         return BTreeSet::new();
     };
-    let path = table_path(dir, "coefficients");
+    let path = table_path(dir, TableName::Coefficients);
     let (Ok(tire), Ok(rim), Ok(p)) = (
         req_str(&df, "tire", &path),
         req_i64(&df, "rim_in", &path),

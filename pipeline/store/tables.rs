@@ -31,7 +31,7 @@ use super::layout::{
     PartitionKey, SAMPLES_DIR, SEGMENTS_DIR, SWEPT, TEMP_SUFFIX, partition_dir, runs_file,
     source_part_name,
 };
-use crate::schema;
+use crate::schema::{self, TableName};
 
 /// `runs.status`: what the store holds for an input file.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -268,7 +268,7 @@ pub fn runs_frame(store: &Path) -> Result<DataFrame, StoreError> {
     let path = store.join(runs_file());
     if !path.exists() {
         return Ok(DataFrame::empty_with_schema(
-            &schema::table("runs").file_schema(),
+            &schema::table(TableName::Runs).file_schema(),
         ));
     }
     read_parquet(&path)
@@ -309,7 +309,7 @@ pub fn write_runs(store: &Path, rows: &BTreeMap<String, RunRow>) -> Result<(), S
         "parts_sha256" => s(|x| x.parts_sha256.clone()),
     )
     .map_err(polars_at(&path))?;
-    let mut df = schema::table("runs").conform(df)?;
+    let mut df = schema::table(TableName::Runs).conform(df)?;
     super::files::write_parquet_atomic(&path, &mut df)
 }
 
@@ -499,7 +499,7 @@ pub fn read_sample_columns(
 /// Write one file's part of the segments table (`segments/<part>`), conformed to its schema.
 /// Not durable until the caller syncs the filesystem (the runs table commits it).
 pub fn write_segments_part(store: &Path, part: &str, df: DataFrame) -> Result<(), StoreError> {
-    let mut df = schema::table("segments").conform(df)?;
+    let mut df = schema::table(TableName::Segments).conform(df)?;
     write_parquet_atomic_with(
         &store.join(SEGMENTS_DIR).join(part),
         Durability::Deferred,
@@ -516,7 +516,7 @@ pub fn write_samples_part(
     rows: usize,
     arrays: Vec<(&str, ArrayRef)>,
 ) -> Result<(), StoreError> {
-    let (schema, arrays) = schema::table("samples").conform_arrays(arrays)?;
+    let (schema, arrays) = schema::table(TableName::Samples).conform_arrays(arrays)?;
     let batch = RecordBatchT::try_new(rows, Arc::new(schema.clone()), arrays)
         .map_err(|e| StoreError::polars(store, e))?;
     let dir = store.join(partition_dir(key));
