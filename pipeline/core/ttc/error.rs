@@ -15,7 +15,7 @@ use super::channel::UnitError;
 /// characters, so even binary garbage stays on one short line.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum TtcError {
-    /// The file could not be read at all (only from the `read_path` convenience).
+    /// The bytes could not be read at all (only from `read_dat_from`'s reader).
     #[error("{source_name}: cannot read: {message}")]
     Io {
         source_name: String,

@@ -660,6 +660,12 @@ fn big_endian_files_decode() {
     assert_eq!(file.variables[0].value.as_vector(), Some(&[1.5, -2.25][..]));
 }
 
+/// A fixture file read from disk and parsed with [`read_run`] (the library reads no files).
+fn read_path(path: &std::path::Path) -> Result<RunTable, TtcError> {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    read_run(&bytes, &path.display().to_string())
+}
+
 #[test]
 fn files_from_the_independent_python_encoder_read_correctly() {
     let dir = repo_root().join("tests/fixtures/ttc");
