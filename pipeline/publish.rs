@@ -622,14 +622,7 @@ mod tests {
     }
 
     fn file(name: &str, sha: &str) -> InputFile {
-        InputFile {
-            name: name.into(),
-            path: format!("raw/{name}"),
-            size: 10,
-            mtime_ns: 5,
-            sha256: sha.into(),
-            status: "ok".into(),
-        }
+        InputFile::ok_for_test(name, sha)
     }
 
     #[test]

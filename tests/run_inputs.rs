@@ -28,6 +28,14 @@ fn fork() -> (tempfile::TempDir, PathBuf, PathBuf) {
     (tmp, input, store)
 }
 
+/// A run on unchanged inputs: exit 0, "up to date".
+fn assert_up_to_date(input: &Path, store: &Path) {
+    let again = run(input, store, &[]);
+    ok(&again, "run on unchanged inputs");
+    let log = text(&again.stderr);
+    assert!(log.contains("up to date"), "{log}");
+}
+
 /// A run stopped by a store error: exit 2, a store error naming `says`, no input file blamed,
 /// no version after `latest_version`, the runs table as it was.
 fn assert_stopped_on_store_error(
@@ -227,15 +235,8 @@ fn issue20_catalog_edit_relabels_the_store_and_the_models() {
     let runs = tables::read_runs(&store).unwrap();
     assert!(runs.values().all(|r| r.tire.as_deref() != Some(old)));
     assert_equals_fresh(&input, &store, &[]);
-
     // Unchanged since: up to date.
-    let third = run(&input, &store, &[]);
-    ok(&third, "third run");
-    assert!(
-        text(&third.stderr).contains("up to date"),
-        "{}",
-        text(&third.stderr)
-    );
+    assert_up_to_date(&input, &store);
 }
 
 /// Item 2: a `[segment]` change re-segments every file and refits.
@@ -670,13 +671,7 @@ fn issue20_mixed_input_changes_equal_a_fresh_run() {
     assert!(!runs.contains_key("A2410run6.dat"));
     assert_eq!(runs["A2410run6-resent.dat"].status, RunStatus::Ok);
     assert_equals_fresh(&input, &store, &[]);
-    let third = run(&input, &store, &[]);
-    ok(&third, "third run");
-    assert!(
-        text(&third.stderr).contains("up to date"),
-        "{}",
-        text(&third.stderr)
-    );
+    assert_up_to_date(&input, &store);
 }
 
 /// `tirebase run` as a user that file permissions apply to. Root reads and writes everything,
