@@ -12,8 +12,9 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-// `Coefs`, `MagicFormula`, `SlipInput` and `tir` are used by the included test-support module
-// via `super::`.
+// `Coefs`, `MagicFormula`, `SlipInput`, `SplitMix64` and `tir` are used by the included
+// test-support module via `super::`.
+use tirebase_core::numerics::random::SplitMix64;
 use tirebase_core::tire_model::{
     Channel, Coef, Coefs, Evaluation, MagicFormula, Mode, Pac2002, Pressures, SlipInput, Version,
     tir,
