@@ -51,8 +51,10 @@ pub fn model_from_tir(text: &str) -> super::MagicFormula {
 
 /// `n` pressures drawn uniformly in `[lo, hi]` times `nominal_pa`.
 pub fn random_pressures(n: usize, seed: u64, nominal_pa: f64, lo: f64, hi: f64) -> Vec<f64> {
-    let mut rng = SplitMix64(seed);
-    (0..n).map(|_| rng.uniform(lo, hi) * nominal_pa).collect()
+    let mut rng = SplitMix64::new(seed);
+    (0..n)
+        .map(|_| rng.uniform_in(lo, hi) * nominal_pa)
+        .collect()
 }
 
 /// One reference row: the input point and MFeval's `[Fx, Fy, Mx, My, Mz]`.
