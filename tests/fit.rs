@@ -669,7 +669,12 @@ fn jobs_1_and_jobs_2_give_identical_outputs() {
     ok(&o, "fit --jobs 1");
     let (a, b) = (outputs(&out1), outputs(&f.out));
     assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
-    assert_eq!(a.len(), 8 + 8, "8 tables and 8 .tir files: {:?}", a.keys());
+    assert_eq!(
+        a.len(),
+        8 + 8 + 4,
+        "8 tables, 8 PAC2002 and 4 MF 6.1 .tir files: {:?}",
+        a.keys()
+    );
     for (name, bytes) in &a {
         assert!(bytes == &b[name], "{name} differs between --jobs 1 and 2");
     }
