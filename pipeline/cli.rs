@@ -101,6 +101,14 @@ angle deg ISO-W, speed km/h), defects.csv and round.toml (the resolved configura
 demo car's rig-inertia sessions under DIR/inertia/ (car_yaw, car_pitch, wheel_trifilar, each
 with expected.toml: the known answers), which `tirebase run` processes into inertia.parquet.
 
+With --truth mf61 ([synth] truth = \"mf61\") the truth is instead one MF 6.1 model per tire and rim
+with inflation-pressure terms (PPX1-4, PPY1-5, PPZ1-2, PPMX1, PFZ1, PCFX3, PCFY3; NOMPRES 12 psi,
+82.7 kPa), evaluated at each sample's true pressure (commanded + servo wander), so an MF 6.1 fit
+can recover it exactly; it is written as truth/tir/<tire>__<rim>in__mf61.tir, and the
+per-pressure files are the same model with INFLPRES at that pressure. The default pac2002 truth
+folds pressure effects into one PAC2002 set per pressure, which no single MF 6.1 model matches
+exactly (PAC2002's camber shift PHY3, its Mz trail term, its relaxation laws, R0(p)).
+
 The physics: forces from the truth model with first-order relaxation (sigma_alpha, sigma_kappa),
 tread temperature from slip power with grip following mu(T), loaded and effective radii, wheel
 speed, SL and SR, sensor noise and IR-sensor quirks. Same seed and configuration -> the same
@@ -131,6 +139,10 @@ pub struct SynthRoundArgs {
     /// column's decimals). Same as --no-noise --no-lag --no-heat.
     #[arg(long)]
     pub ideal: bool,
+    /// Truth model: pac2002 (default; one PAC2002 set per pressure) or mf61 (one MF 6.1 model
+    /// per tire and rim with pressure terms, written as truth/tir/<tire>__<rim>in__mf61.tir).
+    #[arg(long, value_enum, value_name = "FORM")]
+    pub truth: Option<SynthTruth>,
     /// No sensor noise or servo wander (realism.noise_scale = 0).
     #[arg(long)]
     pub no_noise: bool,
@@ -143,6 +155,13 @@ pub struct SynthRoundArgs {
     /// Worker threads (default: all cores); the output does not depend on it.
     #[arg(long, value_name = "N")]
     pub jobs: Option<usize>,
+}
+
+/// Truth model form for `synth round --truth`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SynthTruth {
+    Pac2002,
+    Mf61,
 }
 
 /// Round size for `synth round`.

@@ -22,3 +22,6 @@ pub use version::Version;
 
 #[cfg(test)]
 pub(crate) mod test_support;
+// The seeded generator `test_support` reaches as `super::SplitMix64` (the benches import it too).
+#[cfg(test)]
+use crate::numerics::random::SplitMix64;

@@ -12,7 +12,8 @@
 //! up/down average is enough for a model spanning pressures), QC (the caller passes clean
 //! sweeps).
 
-use crate::fit::pac2002::SweepKind;
+use crate::fit::pac2002::{Sweep, SweepKind};
+use crate::fit::segment_data::MeasuredSegment;
 use crate::tire_model::SlipInput;
 
 /// One measured sample, ISO-W, SI. Channels not recorded are NaN.
@@ -49,6 +50,37 @@ pub struct Mf61Sweep {
     pub kind: SweepKind,
     /// Samples in time order.
     pub samples: Vec<Mf61Sample>,
+}
+
+impl Mf61Sweep {
+    /// The sweep of a segment the PAC2002 stage takes ([`Sweep::from_segment`]: cornering,
+    /// drive/brake and combined segments with a nominal load and inclination), each sample with
+    /// its measured inflation pressure. `mx_nm`: the overturning moment per sample (NaN when
+    /// absent).
+    pub fn from_segment(seg: &MeasuredSegment, mx_nm: Option<&[f64]>) -> Option<Mf61Sweep> {
+        let sweep = Sweep::from_segment(seg, mx_nm, true)?;
+        Some(Mf61Sweep {
+            id: sweep.id,
+            kind: sweep.kind,
+            samples: sweep
+                .samples
+                .iter()
+                .zip(&seg.channels.pressure_kpa)
+                .map(|(s, p_kpa)| Mf61Sample {
+                    fz_n: s.fz_n,
+                    kappa: s.kappa,
+                    alpha_rad: s.alpha_rad,
+                    gamma_rad: s.gamma_rad,
+                    vx_mps: s.vx_mps,
+                    p_pa: p_kpa * 1e3,
+                    fx_n: s.fx_n,
+                    fy_n: s.fy_n,
+                    mz_nm: s.mz_nm,
+                    mx_nm: s.mx_nm,
+                })
+                .collect(),
+        })
+    }
 }
 
 /// The output channels a point carries.

@@ -33,6 +33,10 @@ pub mod problem;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+pub(crate) mod virtual_input;
+#[cfg(test)]
+mod virtual_round;
 
 use std::time::Instant;
 

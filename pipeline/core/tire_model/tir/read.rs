@@ -73,7 +73,7 @@ pub enum TirReadError {
         /// 1-based line number.
         line: usize,
         /// What is unknown and what is accepted.
-        reason: String,
+        reason: units::UnknownUnit,
     },
     /// A model other than PAC2002 / MF 5.2 / MF 6.1 / MF 6.2.
     #[error(
