@@ -115,6 +115,9 @@ speed, SL and SR, sensor noise and IR-sensor quirks. Same seed and configuration
 bytes, whatever --jobs. DIR/raw, DIR/truth and DIR/catalog.toml are replaced, and in
 DIR/inertia/ the three session directories (other sessions there are kept).
 
+[synth] tires = [\"<catalogue name>\", ...] and rims_in = [<in>, ...] keep only those tires and rims
+of the round's size (e.g. size = \"full\" for every tested pressure of one tire on one rim).
+
 Configuration: built-in defaults < [synth] of --config FILE (see config/default.toml) < flags.")]
 pub struct SynthRoundArgs {
     /// Output directory of the round (created if missing).

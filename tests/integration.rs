@@ -7,6 +7,7 @@ mod fit;
 mod harness;
 mod inertia;
 mod ingest;
+mod mf61_run;
 mod real;
 mod report;
 mod run;

@@ -97,6 +97,11 @@ pub struct SynthConfig {
     /// rim with pressure terms, evaluated at each sample's true pressure; written as
     /// `truth/tir/<tire>__<rim>in__mf61.tir` too).
     pub truth: TruthForm,
+    /// Catalogue tires to keep, by exact name (empty: every tire of the size); with `rims_in`, a
+    /// smaller round for one tire, e.g. `size = "full"` with every pressure of that tire.
+    pub tires: Vec<String>,
+    /// Rim widths to keep, in (empty: every rim of the kept tires).
+    pub rims_in: Vec<f64>,
     /// Realism knobs.
     pub realism: RealismConfig,
     /// Schedule knobs.
@@ -113,6 +118,8 @@ impl Default for SynthConfig {
             project: 2410,
             defects: false,
             truth: TruthForm::Pac2002,
+            tires: Vec::new(),
+            rims_in: Vec::new(),
             realism: RealismConfig::default(),
             schedule: ScheduleSettings::default(),
             quirks: QuirksConfig::default(),
@@ -254,6 +261,20 @@ impl SynthConfig {
         if let Some((key, value, message)) = self.quirks.invalid() {
             return bad(key, value, message);
         }
+        if let Some(name) = self
+            .tires
+            .iter()
+            .find(|n| !CATALOGUE.iter().any(|t| t.name == n.as_str()))
+        {
+            return Err(RoundError::Config {
+                key: "tires",
+                value: format!("{name:?}"),
+                message: "not a catalogue tire (synth::tires::CATALOGUE)",
+            });
+        }
+        if let Some(rim) = self.rims_in.iter().find(|r| !(r.is_finite() && **r > 0.0)) {
+            return bad("rims_in", *rim, "must be a positive rim width, in");
+        }
         if !(1..=99_999).contains(&self.project) {
             return bad(
                 "project",
@@ -357,6 +378,20 @@ pub fn plan_round(config: &SynthConfig) -> Result<RoundPlan, RoundError> {
             None,
         ),
     };
+    let combos: Vec<Combo> = combos
+        .into_iter()
+        .filter(|c| config.tires.is_empty() || config.tires.iter().any(|t| t == c.tire()))
+        .filter(|c| {
+            config.rims_in.is_empty() || config.rims_in.iter().any(|r| (r - c.rim_in).abs() < 1e-9)
+        })
+        .collect();
+    if combos.is_empty() {
+        return Err(RoundError::Config {
+            key: "tires",
+            value: format!("{:?} with rims_in = {:?}", config.tires, config.rims_in),
+            message: "no tire and rim of the round's size matches",
+        });
+    }
     let mut runs = Vec::new();
     let mut truths = Vec::new();
     let mut thermal = Vec::new();
@@ -975,8 +1010,9 @@ pub fn mf61_tir_file_name(tire: &str, rim_in: f64) -> String {
     format!("{}__mf61.tir", tire_rim_stem(tire, rim_in))
 }
 
-/// `round.toml`: the resolved `[synth]` table. `truth` is written only when it is not the default
-/// `pac2002`, so a default round's files keep the bytes they had before the option existed.
+/// `round.toml`: the resolved `[synth]` table. `truth`, `tires` and `rims_in` are written only
+/// when they are not the defaults, so a default round's files keep the bytes they had before
+/// those options existed.
 #[derive(Serialize)]
 struct RoundToml<'a> {
     synth: RoundSynthToml<'a>,
@@ -990,6 +1026,10 @@ struct RoundSynthToml<'a> {
     defects: bool,
     #[serde(skip_serializing_if = "TruthForm::is_pac2002")]
     truth: TruthForm,
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    tires: &'a [String],
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    rims_in: &'a [f64],
     realism: &'a RealismConfig,
     schedule: &'a ScheduleSettings,
     quirks: &'a QuirksConfig,
@@ -1003,6 +1043,8 @@ impl<'a> RoundToml<'a> {
             project,
             defects,
             truth,
+            tires,
+            rims_in,
             realism,
             schedule,
             quirks,
@@ -1014,6 +1056,8 @@ impl<'a> RoundToml<'a> {
                 project: *project,
                 defects: *defects,
                 truth: *truth,
+                tires,
+                rims_in,
                 realism,
                 schedule,
                 quirks,

@@ -656,3 +656,55 @@ fn mf61_truth_is_one_mf61_model_across_pressures() {
     );
     assert!(!toml.contains("pty1"), "{toml}");
 }
+
+/// `[synth] tires` / `rims_in` keep one tire on one rim of the full round (every planned
+/// pressure, cornering and drive/brake each), and a name not in the catalogue or a filter that
+/// keeps nothing is an error naming the key.
+#[test]
+fn tires_and_rims_narrow_the_round() {
+    use super::round::RoundError;
+    let tire = CATALOGUE[1].name.to_string();
+    let plan = plan_round(&SynthConfig {
+        size: Size::Full,
+        tires: vec![tire.clone()],
+        rims_in: vec![7.0],
+        realism: RealismConfig::ideal(),
+        ..SynthConfig::default()
+    })
+    .unwrap();
+    assert_eq!(plan.combos.len(), 1);
+    assert_eq!(
+        (plan.combos[0].tire(), plan.combos[0].rim_in),
+        (tire.as_str(), 7.0)
+    );
+    assert_eq!(
+        plan.runs.len(),
+        2 * CATALOGUE[1].pressures_psi.len(),
+        "every planned pressure, two runs each"
+    );
+    let err = |cfg: SynthConfig| match plan_round(&cfg) {
+        Err(RoundError::Config { key, .. }) => key,
+        other => panic!("{:?}", other.map(|p| p.combos.len())),
+    };
+    assert_eq!(
+        err(SynthConfig {
+            tires: vec!["No Such Tire".to_string()],
+            ..SynthConfig::default()
+        }),
+        "tires"
+    );
+    assert_eq!(
+        err(SynthConfig {
+            rims_in: vec![11.0],
+            ..SynthConfig::default()
+        }),
+        "tires"
+    );
+    assert_eq!(
+        err(SynthConfig {
+            rims_in: vec![-1.0],
+            ..SynthConfig::default()
+        }),
+        "rims_in"
+    );
+}

@@ -16,7 +16,8 @@
 //!    agree), the pressure terms from the trends of the PAC2002 coefficients across pressures.
 //! 3. [`problem`]: each family refined jointly over all pressures (bounded Levenberg-Marquardt,
 //!    Huber loss), in the PAC2002 stage's order: `Fy0` (cornering `Fy`), `Mz0` (cornering `Mz`),
-//!    `Fx0` (drive/brake `Fx`), combined `Fx`, `Fy`, `Mz`, then `Mx`; its free coefficients are
+//!    `Fx0` (drive/brake `Fx`), combined `Fx`, `Fy`, then `Mz` (every sweep: the `Mz0`
+//!    coefficients again with the combined-slip arm `SSZ*`), then `Mx`; its free coefficients are
 //!    the family's MF 6.1 coefficients and their pressure terms (linear terms with two pressures,
 //!    quadratic ones with three), camber terms only where the data vary the camber, load terms
 //!    only where they vary the load. `PKY4 = 2`, `PKY5 = PEY5 = 0`, `RBX3 = RBY4 = 0` are held:
@@ -134,7 +135,8 @@ pub enum Mf61Family {
     Fx,
     /// Combined-slip lateral force.
     Fy,
-    /// Combined-slip aligning moment (`SSZ*`).
+    /// Aligning moment on every sweep: the `Mz0` coefficients (trail, residual torque, `PPZ*`)
+    /// and the arm `SSZ*` of combined slip, jointly.
     Mz,
     /// Overturning moment.
     Mx,
@@ -186,9 +188,67 @@ impl Mf61Family {
             (Mf61Family::Fx0, DriveBrake) => Some(Output::Fx),
             (Mf61Family::Fx, Combined) => Some(Output::Fx),
             (Mf61Family::Fy, Combined) => Some(Output::Fy),
-            (Mf61Family::Mz, Combined) => Some(Output::Mz),
+            (Mf61Family::Mz, _) => Some(Output::Mz),
             (Mf61Family::Mx, _) => Some(Output::Mx),
             _ => None,
+        }
+    }
+}
+
+/// The pure-slip data each tested pressure carries, which the families fitted on top of them
+/// need at that same pressure: combined `Fx` needs `Fx0` (drive/brake sweeps), combined `Fy`
+/// and `Mx` on slip-ratio sweeps need `Fy0` (cornering sweeps), `Mz` on slip-ratio sweeps
+/// needs both (its trail and residual torque come from `Fy0` / `Mz0`, its arm multiplies `Fx`).
+/// A family reads a pressure's points only when that pressure carries what it needs (as the
+/// PAC2002 stage leaves `Fy`, `Mz`, `Mx` out of a drive/brake-only group): fitted against another
+/// family's unmeasured start, its coefficients would absorb that family's error instead of
+/// describing their own effect.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct PureData {
+    /// Groups with cornering `Fy` points.
+    lateral: std::collections::BTreeSet<usize>,
+    /// Groups with drive/brake `Fx` points.
+    longitudinal: std::collections::BTreeSet<usize>,
+}
+
+impl PureData {
+    fn of(points: &[Point]) -> PureData {
+        let mut d = PureData::default();
+        for p in points {
+            let has = |o: Output| p.values[o as usize].is_finite() && p.weights[o as usize] > 0.0;
+            match p.kind {
+                SweepKind::Cornering if has(Output::Fy) => {
+                    d.lateral.insert(p.group);
+                }
+                SweepKind::DriveBrake if has(Output::Fx) => {
+                    d.longitudinal.insert(p.group);
+                }
+                _ => {}
+            }
+        }
+        d
+    }
+
+    /// Whether `family` may read the points of `group`'s sweeps of `kind`.
+    fn allows(&self, family: Mf61Family, kind: SweepKind, group: usize) -> bool {
+        let lat = self.lateral.contains(&group);
+        let lon = self.longitudinal.contains(&group);
+        match (family, kind) {
+            (Mf61Family::Fy0 | Mf61Family::Mz0 | Mf61Family::Fx0, _) => true,
+            (Mf61Family::Mz | Mf61Family::Mx, SweepKind::Cornering) => true,
+            (Mf61Family::Fx, _) => lon,
+            (Mf61Family::Fy | Mf61Family::Mx, _) => lat,
+            (Mf61Family::Mz, _) => lat && lon,
+        }
+    }
+
+    /// What `family` needs at a pressure, for notes.
+    fn need(family: Mf61Family) -> &'static str {
+        match family {
+            Mf61Family::Fy0 | Mf61Family::Mz0 | Mf61Family::Fx0 => "",
+            Mf61Family::Fx => "drive/brake sweeps (Fx0)",
+            Mf61Family::Fy | Mf61Family::Mx => "cornering sweeps (Fy0)",
+            Mf61Family::Mz => "cornering (Fy0, Mz0) and drive/brake (Fx0) sweeps",
         }
     }
 }
@@ -267,6 +327,12 @@ fn free_coefficients(family: Mf61Family, v: Variation) -> Vec<Coef> {
             add(&[RVY3], camber);
         }
         Mf61Family::Mz => {
+            // The trail and residual-torque coefficients with the s Fx arm, on every sweep:
+            // MF 6.x's combined-slip Mz takes its trail force at zero camber (Fy' = Gyk
+            // Fy0(gamma = 0)) and its residual torque at an equivalent slip angle, so the Mz0
+            // coefficients chosen on cornering sweeps alone need not carry over to slip-ratio
+            // sweeps, and the arm alone cannot make up for them.
+            add(&free_coefficients(Mf61Family::Mz0, v), true);
             add(&[SSZ1, SSZ2], true);
             add(&[SSZ3], camber);
             add(&[SSZ4], camber && v.loads);
@@ -284,10 +350,10 @@ fn free_coefficients(family: Mf61Family, v: Variation) -> Vec<Coef> {
 fn pressure_terms(family: Mf61Family) -> &'static [Coef] {
     match family {
         Mf61Family::Fy0 => &[PPY1, PPY2, PPY3, PPY4, PPY5],
-        Mf61Family::Mz0 => &[PPZ1, PPZ2],
+        Mf61Family::Mz0 | Mf61Family::Mz => &[PPZ1, PPZ2],
         Mf61Family::Fx0 => &[PPX1, PPX2, PPX3, PPX4],
         Mf61Family::Mx => &[PPMX1],
-        Mf61Family::Fx | Mf61Family::Fy | Mf61Family::Mz => &[],
+        Mf61Family::Fx | Mf61Family::Fy => &[],
     }
 }
 
@@ -365,8 +431,9 @@ pub struct PressureQuality {
 
 /// Fit quality of one family at one tested pressure: the family's channel evaluated on the
 /// collapsed points of that pressure's sweeps the family reads (cornering sweeps for `Fy0` and
-/// `Mz0`, drive/brake for `Fx0`, combined for `Fx`, `Fy`, `Mz`, all for `Mx`), so a row compares
-/// one to one with the PAC2002 fit of that pressure.
+/// `Mz0`, drive/brake for `Fx0`, combined for `Fx`, `Fy`, all for `Mz` and `Mx`; slip-ratio
+/// sweeps only at pressures that also carry the pure-slip data the family needs), so a row
+/// compares with the PAC2002 fit of that pressure.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FamilyQuality {
     /// The tested pressure, kPa.
@@ -435,12 +502,54 @@ struct Fitted {
     notes: Vec<String>,
 }
 
-fn family_data(points: &[Point], family: Mf61Family) -> FamilyData {
+fn family_data(points: &[Point], family: Mf61Family, pure: &PureData) -> FamilyData {
+    family_data_scaled(points, family, pure, |_| 1.0)
+}
+
+/// The `Mz` family's data with cornering and slip-ratio sweeps weighing the same in total (each
+/// sweep already weighs the same relative to its peak; there are more slip-ratio sweeps than
+/// cornering ones, which would otherwise pull the trail and residual torque away from the
+/// cornering sweeps that `Mz0` was fitted on).
+fn mz_data(points: &[Point], pure: &PureData) -> FamilyData {
+    let family = Mf61Family::Mz;
+    let mut sweeps = [
+        std::collections::BTreeSet::new(),
+        std::collections::BTreeSet::new(),
+    ];
+    for p in points {
+        if p.value(Output::Mz).is_finite() && pure.allows(family, p.kind, p.group) {
+            sweeps[usize::from(p.kind != SweepKind::Cornering)].insert(p.sweep);
+        }
+    }
+    let (cornering, slip_ratio) = (sweeps[0].len() as f64, sweeps[1].len() as f64);
+    let scale = if cornering > 0.0 && slip_ratio > 0.0 {
+        (slip_ratio / cornering).sqrt()
+    } else {
+        1.0
+    };
+    family_data_scaled(points, family, pure, |p| {
+        if p.kind == SweepKind::Cornering {
+            scale
+        } else {
+            1.0
+        }
+    })
+}
+
+fn family_data_scaled(
+    points: &[Point],
+    family: Mf61Family,
+    pure: &PureData,
+    scale: impl Fn(&Point) -> f64,
+) -> FamilyData {
     let mut d = FamilyData::default();
     for p in points {
         let Some(out) = family.reads(p.kind) else {
             continue;
         };
+        if !pure.allows(family, p.kind, p.group) {
+            continue;
+        }
         let k = out as usize;
         if !p.values[k].is_finite() || p.weights[k] <= 0.0 {
             continue;
@@ -448,7 +557,7 @@ fn family_data(points: &[Point], family: Mf61Family) -> FamilyData {
         d.inputs.push(p.input);
         d.pressures.push(p.p_pa);
         d.measured.push(p.values[k]);
-        d.weights.push(p.weights[k]);
+        d.weights.push(p.weights[k] * scale(p));
     }
     d
 }
@@ -487,10 +596,64 @@ fn fit_points(
     let mut notes = start.notes;
     let mut families = Vec::new();
     let mut std_errors = Vec::new();
+    let pure = PureData::of(points);
     for family in Mf61Family::ALL {
         let started = Instant::now();
-        let data = family_data(points, family);
+        let data = if family == Mf61Family::Mz {
+            mz_data(points, &pure)
+        } else {
+            family_data(points, family, &pure)
+        };
+        let mut left_out: Vec<usize> = points
+            .iter()
+            .filter(|p| {
+                family.reads(p.kind).is_some_and(|o| {
+                    p.values[o as usize].is_finite() && p.weights[o as usize] > 0.0
+                }) && !pure.allows(family, p.kind, p.group)
+            })
+            .map(|p| p.group)
+            .collect();
+        left_out.sort_unstable();
+        left_out.dedup();
+        if !left_out.is_empty() {
+            let kpa: Vec<String> = left_out
+                .iter()
+                .filter_map(|g| {
+                    points
+                        .iter()
+                        .find(|p| p.group == *g)
+                        .map(|p| format!("{:.0}", p.p_pa / 1e3))
+                })
+                .collect();
+            notes.push(format!(
+                "{}: {} at {} kPa (measured) not fitted: the family needs {} at the same \
+                 pressure{}",
+                family.name(),
+                match family {
+                    Mf61Family::Mz | Mf61Family::Mx => "the slip-ratio sweeps",
+                    _ => "the combined sweeps",
+                },
+                kpa.join(" / "),
+                PureData::need(family),
+                if data.len() < 8 {
+                    "; not refined (its coefficients keep the values lifted from the PAC2002 fits)"
+                } else {
+                    ""
+                }
+            ));
+        }
         if data.len() < 8 {
+            continue;
+        }
+        // Without slip-ratio sweeps the joint Mz refinement would only repeat Mz0 (the arm
+        // SSZ* multiplies Fx, which is zero there).
+        if family == Mf61Family::Mz
+            && !points.iter().any(|p| {
+                p.kind != SweepKind::Cornering
+                    && p.value(Output::Mz).is_finite()
+                    && pure.allows(family, p.kind, p.group)
+            })
+        {
             continue;
         }
         // Pressure levels are the tested pressures (groups), not the measured values: a group's
@@ -499,9 +662,10 @@ fn fit_points(
         let levels: std::collections::BTreeSet<usize> = points
             .iter()
             .filter(|p| {
-                family.reads(p.kind).is_some_and(|o| {
-                    p.values[o as usize].is_finite() && p.weights[o as usize] > 0.0
-                })
+                pure.allows(family, p.kind, p.group)
+                    && family.reads(p.kind).is_some_and(|o| {
+                        p.values[o as usize].is_finite() && p.weights[o as usize] > 0.0
+                    })
             })
             .map(|p| p.group)
             .collect();
@@ -648,9 +812,10 @@ fn group_family_quality(
         .filter(|p| p.group == group)
         .copied()
         .collect();
+    let pure = PureData::of(&pts);
     let mut out = Vec::new();
     for family in Mf61Family::ALL {
-        let d = family_data(&pts, family);
+        let d = family_data(&pts, family, &pure);
         if d.is_empty() {
             continue;
         }

@@ -303,3 +303,64 @@ fn a_pressure_without_lateral_data_leaves_the_fy0_pressure_terms_at_zero() {
     let [_, fy, _] = envelope_error(&fit.model, &truth, 83e3);
     assert!(fy < 0.01, "Fy at 83 kPa: {:.3} % of peak", 100.0 * fy);
 }
+
+/// The same 69 kPa pressure without cornering sweeps: the combined `Fy`, `Mz` and `Mx` families
+/// read only the 83 kPa sweeps (they need `Fy0` at the pressure they read), a note names 69 kPa,
+/// and the fit-quality rows at 69 kPa hold only the families fitted there.
+#[test]
+fn combined_lateral_families_skip_a_pressure_without_cornering_sweeps() {
+    let truth = truth();
+    let mut input = input(&truth, &[69, 83]);
+    input.groups[0]
+        .sweeps
+        .retain(|s| s.kind != SweepKind::Cornering);
+    let fit = fit(&input, &Mf61Config::default()).unwrap();
+    for family in ["Fy", "Mz", "Mx"] {
+        assert!(
+            fit.notes
+                .iter()
+                .any(|n| n.starts_with(&format!("{family}: ")) && n.contains("69 kPa")),
+            "{family}: {:?}",
+            fit.notes
+        );
+    }
+    let at = |kpa: i64| -> Vec<&str> {
+        fit.family_quality
+            .iter()
+            .filter(|q| q.pressure_kpa_nom == kpa)
+            .map(|q| q.family.name())
+            .collect()
+    };
+    assert_eq!(at(69), ["Fx0", "Fx"]);
+    assert_eq!(at(83), ["Fy0", "Mz0", "Fx0", "Fx", "Fy", "Mz", "Mx"]);
+    let [_, fy, mz] = envelope_error(&fit.model, &truth, 83e3);
+    assert!(fy < 0.01 && mz < 0.02, "83 kPa: Fy {fy}, Mz {mz}");
+}
+
+/// No cornering sweep at any pressure (a tire tested on drive/brake only): only `Fx0` and `Fx`
+/// are refined; `Fy`, `Mz`, `Mx` keep their lifted values, with a note each.
+#[test]
+fn drive_brake_only_tire_refines_only_the_longitudinal_families() {
+    let truth = truth();
+    let mut input = input(&truth, &[69, 83]);
+    for g in &mut input.groups {
+        g.sweeps.retain(|s| s.kind != SweepKind::Cornering);
+    }
+    let fit = fit(&input, &Mf61Config::default()).unwrap();
+    let refined: Vec<&str> = fit.families.iter().map(|f| f.family.name()).collect();
+    assert_eq!(refined, ["Fx0", "Fx"]);
+    for family in ["Fy", "Mz", "Mx"] {
+        assert!(
+            fit.notes
+                .iter()
+                .any(|n| n.starts_with(&format!("{family}: ")) && n.contains("not refined")),
+            "{family}: {:?}",
+            fit.notes
+        );
+    }
+    assert!(
+        fit.family_quality
+            .iter()
+            .all(|q| matches!(q.family, Mf61Family::Fx0 | Mf61Family::Fx))
+    );
+}

@@ -26,8 +26,11 @@ use crate::ttc::{RunTable, read_run};
 pub struct Prepared {
     /// The stage's input (every tested pressure).
     pub input: Mf61Input,
-    /// The MF 6.1 truth of the tire.
+    /// The truth of the tire: its MF 6.1 model (under the default PAC2002 truth: the first
+    /// tested pressure's PAC2002 set).
     pub truth: MagicFormula,
+    /// The truth model of each tested pressure (kPa, nominal), `INFLPRES` set.
+    pub pressure_truths: BTreeMap<i64, MagicFormula>,
     /// Per tested pressure (kPa, nominal): the commanded pressure (Pa) and the tested envelope
     /// (every sweep at its nominal load and inclination, and held slip angle, over the slip range
     /// it covered; `vx_mps` 0: the caller sets the speed).
@@ -59,15 +62,22 @@ fn channels(table: &RunTable, r: std::ops::Range<usize>) -> Channels {
     }
 }
 
-/// The segments of every run of catalogue tire `tire_index` on rim `rim_in` (full round, MF 6.1
-/// truth), keyed by (tire, rim, nominal pressure), and the truth.
+/// The segments of every run of catalogue tire `tire_index` on rim `rim_in` (that tire and rim
+/// of the full round, truth `form`), keyed by (tire, rim, nominal pressure), and the truth of
+/// each nominal pressure (kPa).
 fn segments(
     tire_index: usize,
     rim_in: f64,
-) -> (BTreeMap<TireKey, Vec<MeasuredSegment>>, MagicFormula) {
+    form: TruthForm,
+) -> (
+    BTreeMap<TireKey, Vec<MeasuredSegment>>,
+    BTreeMap<i64, MagicFormula>,
+) {
     let plan = plan_round(&SynthConfig {
         size: Size::Full,
-        truth: TruthForm::Mf61,
+        truth: form,
+        tires: vec![CATALOGUE[tire_index].name.to_string()],
+        rims_in: vec![rim_in],
         ..SynthConfig::default()
     })
     .expect("plan");
@@ -115,14 +125,13 @@ fn segments(
             });
         }
     }
-    let truth = plan
+    let truths = plan
         .truths
         .iter()
-        .find(|t| t.tire_index == tire_index && (t.rim_in - rim_in).abs() < 1e-9)
-        .expect("truth")
-        .model
-        .clone();
-    (out, truth)
+        .filter(|t| t.tire_index == tire_index && (t.rim_in - rim_in).abs() < 1e-9)
+        .map(|t| (t.pressure_kpa().round() as i64, t.model.clone()))
+        .collect();
+    (out, truths)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -207,10 +216,20 @@ fn pressure_group(key: &TireKey, segs: &[MeasuredSegment]) -> (PressureGroup, Ve
     (group, env)
 }
 
-/// Catalogue tire `tire_index` on rim `rim_in`: its runs rendered, read, segmented and fitted
-/// per pressure (PAC2002), as the MF 6.1 stage's input.
+/// Catalogue tire `tire_index` on rim `rim_in` of a round with an MF 6.1 truth: its runs
+/// rendered, read, segmented and fitted per pressure (PAC2002), as the MF 6.1 stage's input.
 pub fn prepare(tire_index: usize, rim_in: f64) -> Prepared {
-    let (per_key, truth) = segments(tire_index, rim_in);
+    prepare_with(tire_index, rim_in, TruthForm::Mf61)
+}
+
+/// [`prepare`] with the truth form of the round.
+pub fn prepare_with(tire_index: usize, rim_in: f64, form: TruthForm) -> Prepared {
+    let (per_key, pressure_truths) = segments(tire_index, rim_in, form);
+    let truth = pressure_truths
+        .values()
+        .next()
+        .expect("a tested pressure")
+        .clone();
     let mut groups = Vec::new();
     let mut envelopes = BTreeMap::new();
     for (key, segs) in &per_key {
@@ -233,6 +252,7 @@ pub fn prepare(tire_index: usize, rim_in: f64) -> Prepared {
             groups,
         },
         truth,
+        pressure_truths,
         envelopes,
     }
 }

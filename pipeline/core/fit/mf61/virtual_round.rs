@@ -101,3 +101,195 @@ fn mf61_truth_round_is_recovered_and_a_left_out_pressure_predicted() {
     }
     assert!(violations.is_empty(), "{violations:#?}");
 }
+
+/// Diagnosis of the combined-slip `Mz` gap on a PAC2002-truth round (not an assertion; prints
+/// the figures): per pressure, on the combined sweeps' collapsed points, the RMSE of `Mz`, `Fx`,
+/// `Fy` for the MF 6.1 fit, the per-pressure PAC2002 fit and the truth, then the `Mz` family
+/// refitted with larger free sets, and the MF 6.1 fit of the noise-free truth values.
+#[test]
+#[ignore = "diagnostic: cargo test -p tirebase-core --lib combined_mz_diagnostic -- --ignored --nocapture"]
+fn combined_mz_diagnostic() {
+    use crate::synth::tires::TruthForm;
+    let prep = super::virtual_input::prepare_with(1, 7.0, TruthForm::Pac2002);
+    let cfg = Mf61Config {
+        leave_one_pressure_out: false,
+        ..Mf61Config::default()
+    };
+    let full = fit(&prep.input, &cfg).expect("fit");
+    for f in &full.families {
+        println!(
+            "{}: free {:?} rmse {:.4} (start {:.4})",
+            f.family.name(),
+            f.free.iter().map(|c| c.name()).collect::<Vec<_>>(),
+            f.rmse,
+            f.initial_rmse
+        );
+    }
+    let mut all = FamilyData::default();
+    let mut all_truth = FamilyData::default();
+    for g in &prep.input.groups {
+        let mut pts = collapse_group(&g.sweeps, &cfg.collapse);
+        for p in &mut pts {
+            p.group = 0;
+        }
+        let pure = PureData::of(&pts);
+        let truth = &prep.pressure_truths[&g.pressure_kpa_nom];
+        let pac = &g.pac2002.as_ref().unwrap().model;
+        let mut line = format!("{} kPa:", g.pressure_kpa_nom);
+        for (family, ch) in [
+            (Mf61Family::Mz, Channel::Mz),
+            (Mf61Family::Fx, Channel::Fx),
+            (Mf61Family::Fy, Channel::Fy),
+        ] {
+            let combined: Vec<Point> = pts
+                .iter()
+                .filter(|p| p.kind == SweepKind::Combined)
+                .copied()
+                .collect();
+            let d = family_data(&combined, family, &pure);
+            let peak = d.measured.iter().fold(0.0_f64, |m, y| m.max(y.abs()));
+            let pct = |m: &MagicFormula| 100.0 * rmse_of(m, ch, &d) / peak;
+            line += &format!(
+                " {}: mf61 {:.3} % pac2002 {:.3} % truth {:.3} % (n {}, peak {:.1});",
+                family.name(),
+                pct(&full.model),
+                pct(pac),
+                pct(truth),
+                d.len(),
+                peak
+            );
+            if family == Mf61Family::Mz {
+                let mut t = d.clone();
+                truth.channel_into_at(
+                    Channel::Mz,
+                    &d.inputs,
+                    Pressures::PerPoint(&d.pressures),
+                    FIT_MODE,
+                    &mut t.measured,
+                );
+                all.inputs.extend(&d.inputs);
+                all.pressures.extend(&d.pressures);
+                all.measured.extend(&d.measured);
+                all.weights.extend(&d.weights);
+                all_truth.inputs.extend(&t.inputs);
+                all_truth.pressures.extend(&t.pressures);
+                all_truth.measured.extend(&t.measured);
+                all_truth.weights.extend(&t.weights);
+            }
+        }
+        println!("{line}");
+    }
+    // Against the truth of each pressure over its tested envelope: Mz RMS in % of the truth's
+    // peak Mz over the whole envelope, by sweep kind and inclination.
+    for (kpa, (p_pa, env)) in &prep.envelopes {
+        let truth = &prep.pressure_truths[kpa];
+        let pac = &prep
+            .input
+            .groups
+            .iter()
+            .find(|g| g.pressure_kpa_nom == *kpa)
+            .unwrap()
+            .pac2002
+            .as_ref()
+            .unwrap()
+            .model;
+        let vx = truth.coefs[LONGVL];
+        let eval = |m: &MagicFormula, x: &SlipInput| {
+            m.eval_at(&SlipInput { vx_mps: vx, ..*x }, *p_pa, Mode::Limits)
+                .mz_nm
+        };
+        let peak = env.iter().fold(0.0_f64, |a, x| a.max(eval(truth, x).abs()));
+        let mut line = format!("{kpa} kPa vs truth, Mz % of peak {peak:.1} N m:");
+        for kind in ["cornering", "drive/brake", "combined"] {
+            for ia in [0.0_f64, 2.0, 4.0] {
+                let pts: Vec<&SlipInput> = env
+                    .iter()
+                    .filter(|x| {
+                        let k = if x.kappa == 0.0 {
+                            "cornering"
+                        } else if x.alpha_rad == 0.0 {
+                            "drive/brake"
+                        } else {
+                            "combined"
+                        };
+                        k == kind && (x.gamma_rad - ia.to_radians()).abs() < 1e-6
+                    })
+                    .collect();
+                if pts.is_empty() {
+                    continue;
+                }
+                let rms = |m: &MagicFormula| {
+                    100.0
+                        * (pts
+                            .iter()
+                            .map(|x| (eval(m, x) - eval(truth, x)).powi(2))
+                            .sum::<f64>()
+                            / pts.len() as f64)
+                            .sqrt()
+                        / peak
+                };
+                line += &format!(
+                    " {kind} IA {ia}: mf61 {:.2} pac2002 {:.2};",
+                    rms(&full.model),
+                    rms(pac)
+                );
+            }
+        }
+        println!("{line}");
+    }
+    let variants: [(&str, &[Coef]); 5] = [
+        ("SSZ1-4", &[SSZ1, SSZ2, SSZ3, SSZ4]),
+        (
+            "SSZ + Mzr camber (QDZ8-11)",
+            &[SSZ1, SSZ2, SSZ3, SSZ4, QDZ8, QDZ9, QDZ10, QDZ11],
+        ),
+        (
+            "SSZ + Mzr (QDZ6-11, QBZ9-10)",
+            &[
+                SSZ1, SSZ2, SSZ3, SSZ4, QDZ6, QDZ7, QDZ8, QDZ9, QDZ10, QDZ11, QBZ9, QBZ10,
+            ],
+        ),
+        (
+            "SSZ + trail (QBZ1-5, QDZ1-4, QEZ1-5, QHZ1-4)",
+            &[
+                SSZ1, SSZ2, SSZ3, SSZ4, QBZ1, QBZ2, QBZ3, QBZ4, QBZ5, QDZ1, QDZ2, QDZ3, QDZ4, QEZ1,
+                QEZ2, QEZ3, QEZ4, QEZ5, QHZ1, QHZ2, QHZ3, QHZ4,
+            ],
+        ),
+        (
+            "SSZ + trail + Mzr",
+            &[
+                SSZ1, SSZ2, SSZ3, SSZ4, QBZ1, QBZ2, QBZ3, QBZ4, QBZ5, QDZ1, QDZ2, QDZ3, QDZ4, QEZ1,
+                QEZ2, QEZ3, QEZ4, QEZ5, QHZ1, QHZ2, QHZ3, QHZ4, QDZ6, QDZ7, QDZ8, QDZ9, QDZ10,
+                QDZ11, QBZ9, QBZ10,
+            ],
+        ),
+    ];
+    let peak = all.measured.iter().fold(0.0_f64, |m, y| m.max(y.abs()));
+    for (label, data) in [("measured", &all), ("noise-free truth", &all_truth)] {
+        println!(
+            "{label}: start {:.3} % of peak",
+            100.0 * rmse_of(&full.model, Channel::Mz, data) / peak
+        );
+        for (name, free) in variants {
+            let problem = FamilyProblem {
+                base: &full.model,
+                free,
+                channel: Channel::Mz,
+                data,
+            };
+            let bounds = Bounds {
+                lower: vec![f64::NEG_INFINITY; free.len()],
+                upper: vec![f64::INFINITY; free.len()],
+            };
+            let start: Vec<f64> = free.iter().map(|c| full.model.coefs[*c]).collect();
+            let out = minimize(&problem, &start, &bounds, &Options::default());
+            let m = problem.model_at(&out.params);
+            println!(
+                "  {label}, {name}: Mz {:.3} % of peak ({:?})",
+                100.0 * rmse_of(&m, Channel::Mz, data) / peak,
+                out.termination
+            );
+        }
+    }
+}
