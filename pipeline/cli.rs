@@ -221,8 +221,11 @@ dependency order, per group (groups run in parallel; the output does not depend 
                pressure in [MDI_HEADER], IP/IP_NOM in Pa, USE_MODE = families fitted, +10
                with PTY*/PTX*), OUT/coefficients.parquet (long form: name, value SI,
                std_error, at_bound, origin), OUT/fit_quality.parquet (per channel Fy0 Mz0 Fx0
-               Fx Fy Mz Mx: n, rmse N or N m, rmse_pct_of_peak %, r2, iterations, seconds),
-               OUT/lint.parquet (findings of tirebase tir lint on every written file).
+               Fx Fy Mz Mx: oos_rmse N or N m (k-fold by sweep, [fit] kfold) beside rmse (in
+               sample), oos_flag, trend_dev_max N or N m (largest deviation from the data's
+               local trend between the fitted points), Jacobian rank and condition, n,
+               rmse_pct_of_peak %, r2, iterations, seconds), OUT/lint.parquet (findings of
+               tirebase tir lint on every written file; an error is also a fit_failures row).
   relaxation   relaxation length per load, slip rate and direction with the fitted model
                through a first-order lag: each row's own estimate (sigma_row_m, m) and its
                standard error, and sigma_m, partially pooled with the law fitted to the

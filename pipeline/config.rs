@@ -108,6 +108,14 @@ pub struct FitSettings {
     pub mx_form: MxFormSetting,
     /// QSY1 written as the rolling-resistance placeholder (TTC records no My), -.
     pub rolling_resistance_placeholder: f64,
+    /// Folds of the out-of-sample check (k-fold by sweep, every sweep predicted by a refit that did not see it); below 2 skips it.
+    pub kfold: usize,
+    /// Iteration budget of each fold's refit (warm-started from the full fit, one robust-loss round).
+    pub kfold_iterations: usize,
+    /// Collapsed points per sweep in each fold's refit (the held-out sweeps are predicted at all of theirs).
+    pub kfold_points_per_sweep: usize,
+    /// Flag a family whose out-of-sample RMSE exceeds this multiple of its in-sample RMSE (plus 0.1 % of the channel's peak), -.
+    pub oos_ratio_limit: f64,
     /// `[fit.spring_rate]`: vertical stiffness, unloaded radius, effective rolling radius.
     pub spring_rate: SpringRateConfig,
     /// `[fit.thermal]`: cold-to-warm peaks and the mu(T) curve.
@@ -140,6 +148,10 @@ impl Default for FitSettings {
                 MxForm::Auto => MxFormSetting::Auto,
             },
             rolling_resistance_placeholder: core.rolling_resistance_placeholder,
+            kfold: core.kfold,
+            kfold_iterations: core.kfold_iterations,
+            kfold_points_per_sweep: core.kfold_points_per_sweep,
+            oos_ratio_limit: core.oos_ratio_limit,
             spring_rate: SpringRateConfig::default(),
             thermal: ThermalConfig::default(),
             relaxation: RelaxationConfig::default(),
@@ -169,6 +181,10 @@ impl FitSettings {
                 MxFormSetting::Auto => MxForm::Auto,
             },
             rolling_resistance_placeholder: self.rolling_resistance_placeholder,
+            kfold: self.kfold,
+            kfold_iterations: self.kfold_iterations,
+            kfold_points_per_sweep: self.kfold_points_per_sweep,
+            oos_ratio_limit: self.oos_ratio_limit,
         }
     }
 
@@ -193,6 +209,15 @@ impl FitSettings {
         }
         if self.max_iterations == 0 {
             return bad("max_iterations", "must be positive");
+        }
+        if self.kfold >= 2 && self.kfold_iterations == 0 {
+            return bad("kfold_iterations", "must be positive when kfold >= 2");
+        }
+        if self.kfold >= 2 && self.kfold_points_per_sweep < 8 {
+            return bad("kfold_points_per_sweep", "must be at least 8");
+        }
+        if self.oos_ratio_limit.is_nan() || self.oos_ratio_limit < 1.0 {
+            return bad("oos_ratio_limit", "must be at least 1");
         }
         let ordered = |r: (f64, f64)| r.0.is_finite() && r.1.is_finite() && r.0 < r.1;
         if !ordered(self.spring_rate.breff_range) || self.spring_rate.breff_range.0 <= 0.0 {

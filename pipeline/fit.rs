@@ -598,7 +598,10 @@ pub fn fit_groups(
     let mut tables = BTreeMap::new();
     if opts.stages.pac2002 {
         tables.insert("coefficients".to_string(), tables::coefficients(&models)?);
-        tables.insert("fit_quality".to_string(), tables::fit_quality(&results)?);
+        tables.insert(
+            "fit_quality".to_string(),
+            tables::fit_quality(&results, cfg.pac2002.oos_ratio_limit)?,
+        );
         tables.insert("lint".to_string(), tables::lint(&models)?);
     }
     if opts.stages.spring_rate {

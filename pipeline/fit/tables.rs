@@ -20,6 +20,7 @@ use crate::schema;
 /// A column being built.
 enum Data {
     Str(Vec<String>),
+    OptStr(Vec<Option<String>>),
     F64(Vec<f64>),
     I64(Vec<i64>),
     Bool(Vec<bool>),
@@ -53,6 +54,13 @@ impl Frame {
     fn s(&mut self, col: &'static str, v: impl Into<String>) -> &mut Self {
         if let Data::Str(x) = self.slot(col, || Data::Str(Vec::new())) {
             x.push(v.into());
+        }
+        self
+    }
+
+    fn o(&mut self, col: &'static str, v: Option<String>) -> &mut Self {
+        if let Data::OptStr(x) = self.slot(col, || Data::OptStr(Vec::new())) {
+            x.push(v);
         }
         self
     }
@@ -95,6 +103,7 @@ impl Frame {
         for (name, data) in self.columns {
             let col = match data {
                 Data::Str(v) => Column::new(name.into(), v),
+                Data::OptStr(v) => Column::new(name.into(), v),
                 Data::I64(v) => Column::new(name.into(), v),
                 Data::Bool(v) => Column::new(name.into(), v),
                 Data::F64(v) if nullable(name) => Column::new(
@@ -148,17 +157,40 @@ pub fn lint(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, FitError> {
     f.finish()
 }
 
-/// `fit_quality`: one row per fitted family of every written model.
-pub fn fit_quality(results: &[GroupResult]) -> Result<DataFrame, FitError> {
+/// `fit_quality`: one row per fitted family of every written model; `oos_ratio_limit` decides
+/// `oos_flag` ([`tirebase_core::fit::pac2002::FitConfig::oos_ratio_limit`]).
+pub fn fit_quality(results: &[GroupResult], oos_ratio_limit: f64) -> Result<DataFrame, FitError> {
     let mut f = Frame::new("fit_quality");
     for r in results {
         let Some(fit) = &r.pac2002 else { continue };
         for fam in &fit.families {
             let Some(q) = &fam.quality else { continue };
+            let oos = q.out_of_sample.as_ref();
+            let trend = q.trend.as_ref();
+            let id = &q.identifiability;
             f.key(&r.key)
                 .s("channel", fam.family.as_str())
-                .i("n", q.n as i64)
+                .f("oos_rmse", oos.map_or(f64::NAN, |o| o.rmse))
                 .f("rmse", q.rmse)
+                .f("oos_ratio", q.oos_ratio())
+                .b("oos_flag", q.oos_flagged(oos_ratio_limit))
+                .f("trend_dev_max", trend.map_or(f64::NAN, |t| t.max))
+                .f(
+                    "trend_dev_pct_of_peak",
+                    trend.map_or(f64::NAN, |t| 100.0 * t.max / q.peak()),
+                )
+                .o("trend_dev_sweep", trend.map(|t| t.sweep.clone()))
+                .f("trend_dev_slip", trend.map_or(f64::NAN, |t| t.slip))
+                .i("oos_folds", oos.map_or(0, |o| o.folds as i64))
+                .i("oos_n", oos.map_or(0, |o| o.n as i64))
+                .i(
+                    "oos_deficient_folds",
+                    oos.map_or(0, |o| o.deficient_folds as i64),
+                )
+                .i("n_free", id.n_free as i64)
+                .i("jacobian_rank", id.rank as i64)
+                .f("condition_number", id.condition)
+                .i("n", q.n as i64)
                 .f("rmse_pct_of_peak", q.rmse_pct_of_peak)
                 .f("r2", q.r2)
                 .i("n_samples", q.n_samples as i64)

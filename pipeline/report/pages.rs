@@ -97,12 +97,22 @@ fn head(title: &str) -> String {
 }
 
 /// Row indices of the fit-quality table flagged as the worst of the round, worst first: the
-/// largest RMSE in percent of the channel's peak, or the lowest R² when no row has that column.
+/// largest out-of-sample RMSE in percent of the channel's peak (the in-sample one where a row
+/// has no out-of-sample figure), or the lowest R² when no row has either.
 fn worst_fit_rows(data: &ReportData) -> Vec<usize> {
     let Some(df) = data.tables.get("fit_quality") else {
         return Vec::new();
     };
-    let pct = f64_col(df, "rmse_pct_of_peak");
+    let in_sample = f64_col(df, "rmse_pct_of_peak");
+    let ratio = f64_col(df, "oos_ratio");
+    let pct: Vec<f64> = in_sample
+        .iter()
+        .enumerate()
+        .map(|(i, p)| match ratio.get(i) {
+            Some(r) if r.is_finite() => p * r,
+            _ => *p,
+        })
+        .collect();
     let badness: Vec<f64> = if pct.iter().any(|v| v.is_finite()) {
         pct
     } else {
@@ -207,15 +217,24 @@ fn table_section(
     out
 }
 
-/// Fit-quality columns shown (those present). `seconds` (wall time) is left out so the same
-/// results give the same report bytes.
-const FIT_QUALITY_COLUMNS: [&str; 12] = [
+/// Fit-quality columns shown (those present), the out-of-sample error and the deviation
+/// between the fitted points first. `seconds` (wall time) is left out so the same results give
+/// the same report bytes.
+const FIT_QUALITY_COLUMNS: [&str; 20] = [
     "tire",
     "rim_in",
     "pressure_kpa",
     "channel",
-    "n",
+    "oos_rmse",
     "rmse",
+    "oos_ratio",
+    "oos_flag",
+    "trend_dev_max",
+    "trend_dev_pct_of_peak",
+    "n_free",
+    "jacobian_rank",
+    "condition_number",
+    "n",
     "rmse_pct_of_peak",
     "r2",
     "sample_rmse",

@@ -82,6 +82,8 @@ impl CurvePoint {
 /// A sweep after cleaning and collapsing.
 #[derive(Clone, Debug)]
 pub struct CollapsedSweep {
+    /// The sweep's id ([`Sweep::id`]).
+    pub id: String,
     /// What was swept.
     pub kind: SweepKind,
     /// Nominal levels.
@@ -170,6 +172,7 @@ pub fn collapse(sweep: &Sweep, settings: &CollapseSettings<'_>) -> CollapsedSwee
     }
     let points = branch_average(sweep.kind, &samples, settings.bin);
     CollapsedSweep {
+        id: sweep.id.clone(),
         kind: sweep.kind,
         nominal: sweep.nominal,
         samples,

@@ -17,6 +17,7 @@ use super::collapse::{CollapseSettings, CollapsedSweep, Output, collapse};
 use super::family::{Family, Levels, count_levels, held_value, unidentifiable};
 use super::initial::{self, Setup};
 use super::problem::{DataPoint, FamilyProblem, Penalty, Quantity, channel_value};
+use super::quality;
 use super::{
     CoefficientOrigin, FamilyFit, FamilyStatus, FitConfig, FitError, FitInput, FitQuality,
     FittedCoefficient, MxForm, Pac2002Fit, SkippedSweep, SweepKind,
@@ -26,7 +27,7 @@ use crate::tire_model::{Coef, Coef::*, Coefs, Pac2002, SlipInput};
 
 /// The tested envelope: ranges of the data and the nominal load.
 #[derive(Copy, Clone, Debug)]
-struct Envelope {
+pub(super) struct Envelope {
     fz0: f64,
     fz: (f64, f64),
     kappa: (f64, f64),
@@ -156,6 +157,7 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
             }
         }
     }
+    evaluations += cross_validate(&mut families, &free_lists, &sweeps, &env, cfg, &c);
     let has = |f: Family| fitted.contains(&f);
     let use_mode = match (has(Family::Fx0), has(Family::Fy0)) {
         (true, true) if has(Family::Fx) && has(Family::Fy) => 4,
@@ -175,6 +177,38 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
         evaluations,
         seconds: started.elapsed().as_secs_f64(),
     })
+}
+
+/// Out-of-sample and trend-deviation quality of every fitted family, with the final
+/// coefficients (see `quality`); returns the refits' evaluations.
+fn cross_validate(
+    families: &mut [FamilyFit],
+    free_lists: &[(Family, Vec<Coef>)],
+    sweeps: &[CollapsedSweep],
+    env: &Envelope,
+    cfg: &FitConfig,
+    c: &Coefs<f64>,
+) -> usize {
+    let fitted: Vec<Family> = free_lists.iter().map(|(f, _)| *f).collect();
+    let mut evaluations = 0;
+    for fam in families.iter_mut() {
+        let (Some(q), Some((_, free))) = (
+            fam.quality.as_mut(),
+            free_lists.iter().find(|(f, _)| *f == fam.family),
+        ) else {
+            continue;
+        };
+        let Ok(data) = family_sweeps(fam.family, sweeps, &fitted) else {
+            continue;
+        };
+        q.trend = quality::trend_deviation(fam.family, &data, c);
+        if cfg.kfold >= 2 {
+            q.out_of_sample =
+                quality::out_of_sample(fam.family, free, &data, env, cfg, c, &q.identifiability);
+            evaluations += q.out_of_sample.as_ref().map_or(0, |o| o.evaluations);
+        }
+    }
+    evaluations
 }
 
 /// Sorts, checks and collapses the sweeps; returns the usable ones and the skipped ones.
@@ -427,7 +461,7 @@ fn family_sweeps<'a>(
     Ok(selected)
 }
 
-fn output_of(family: Family) -> Output {
+pub(super) fn output_of(family: Family) -> Output {
     match family {
         Family::Fy0 | Family::Fy => Output::Fy,
         Family::Fx0 | Family::Fx | Family::My => Output::Fx,
@@ -470,7 +504,11 @@ fn levels_of(sweeps: &[&CollapsedSweep]) -> Levels {
 ///
 /// A sweep with more than `max_per_sweep` points contributes that many, evenly spaced along the
 /// curve (a deterministic thinning: the collapsed curves are oversampled for fitting purposes).
-fn data_points(sweeps: &[&CollapsedSweep], output: Output, max_per_sweep: usize) -> Vec<DataPoint> {
+pub(super) fn data_points(
+    sweeps: &[&CollapsedSweep],
+    output: Output,
+    max_per_sweep: usize,
+) -> Vec<DataPoint> {
     let max_peak = sweeps.iter().map(|s| s.peak(output)).fold(0.0, f64::max);
     let mut out = Vec::new();
     for s in sweeps {
@@ -595,7 +633,7 @@ fn fit_family(
 
 /// Bounds of the free coefficients, some depending on the signs found by the starting values
 /// and on the envelope.
-fn bounds_of(free: &[Coef], c: &Coefs<f64>, env: &Envelope) -> Bounds {
+pub(super) fn bounds_of(free: &[Coef], c: &Coefs<f64>, env: &Envelope) -> Bounds {
     let inf = f64::INFINITY;
     let g = env.gamma_max_abs().max(1e-3);
     let signed = |v: f64, lo: f64, hi: f64| if v < 0.0 { (-hi, -lo) } else { (lo, hi) };
@@ -627,7 +665,12 @@ fn bounds_of(free: &[Coef], c: &Coefs<f64>, env: &Envelope) -> Bounds {
 }
 
 /// Physical-constraint penalties and asymmetry priors of a family.
-fn penalties_of(family: Family, free: &[Coef], env: &Envelope, cfg: &FitConfig) -> Vec<Penalty> {
+pub(super) fn penalties_of(
+    family: Family,
+    free: &[Coef],
+    env: &Envelope,
+    cfg: &FitConfig,
+) -> Vec<Penalty> {
     let w = cfg.constraint_weight;
     let at_most = |quantity, limit| Penalty::AtMost {
         quantity,
@@ -829,6 +872,9 @@ fn quality_of(
         termination: outcome.termination,
         evaluations: outcome.evaluations,
         seconds: 0.0,
+        identifiability: outcome.identifiability,
+        out_of_sample: None,
+        trend: None,
     }
 }
 
