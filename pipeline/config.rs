@@ -102,6 +102,8 @@ pub struct FitSettings {
     pub max_iterations: usize,
     /// Prior weight pulling the asymmetric combined terms RHX1, RBY3 to zero.
     pub asymmetry_weight: f64,
+    /// Prior weight pulling weakly identified terms (residual torque, trail curvature, camber, load-curvature and combined-slip shape terms) to neutral values.
+    pub regularisation_weight: f64,
     /// Weight of the physical-constraint penalties.
     pub constraint_weight: f64,
     /// Overturning moment form: core or auto.
@@ -142,6 +144,7 @@ impl Default for FitSettings {
             loss_k,
             max_iterations: core.max_iterations,
             asymmetry_weight: core.asymmetry_weight,
+            regularisation_weight: core.regularisation_weight,
             constraint_weight: core.constraint_weight,
             mx_form: match core.mx_form {
                 MxForm::Core => MxFormSetting::Core,
@@ -175,6 +178,7 @@ impl FitSettings {
             },
             max_iterations: self.max_iterations,
             asymmetry_weight: self.asymmetry_weight,
+            regularisation_weight: self.regularisation_weight,
             constraint_weight: self.constraint_weight,
             mx_form: match self.mx_form {
                 MxFormSetting::Core => MxForm::Core,
@@ -215,6 +219,9 @@ impl FitSettings {
         }
         if self.kfold >= 2 && self.kfold_points_per_sweep < 8 {
             return bad("kfold_points_per_sweep", "must be at least 8");
+        }
+        if self.regularisation_weight.is_nan() || self.regularisation_weight < 0.0 {
+            return bad("regularisation_weight", "must be >= 0");
         }
         if self.oos_ratio_limit.is_nan() || self.oos_ratio_limit < 1.0 {
             return bad("oos_ratio_limit", "must be at least 1");

@@ -136,7 +136,8 @@ pub fn coefficients(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, Fit
                 .f("value", c.value)
                 .f("std_error", c.std_error.unwrap_or(f64::NAN))
                 .b("at_bound", c.at_bound)
-                .s("origin", c.origin.clone());
+                .s("origin", c.origin.clone())
+                .o("note", c.note.clone());
         }
     }
     f.finish()
@@ -385,9 +386,11 @@ mod tests {
             .f("value", -2.5)
             .f("std_error", f64::NAN)
             .b("at_bound", false)
-            .s("origin", "fitted");
+            .s("origin", "fitted")
+            .o("note", None);
         let df = f.finish().unwrap();
         assert_eq!(df.column("std_error").unwrap().null_count(), 1);
+        assert_eq!(df.column("note").unwrap().null_count(), 1);
         assert_eq!(df.column("value").unwrap().null_count(), 0);
     }
 

@@ -279,6 +279,10 @@ pub struct FitConfig {
     /// Weight of the prior pulling `RHX1` and `RBY3` to zero: a shift of 0.01 rad costs as much
     /// as this relative RMS error of the fit.
     pub asymmetry_weight: f64,
+    /// Weight of the priors pulling weakly identified terms (residual torque, trail curvature,
+    /// camber, load-curvature and combined-slip shape terms) to their neutral values: one
+    /// typical departure costs as much as this relative RMS error of the fit.
+    pub regularisation_weight: f64,
     /// Weight of the physical-constraint penalties (per unit of violation, relative to a
     /// normalised residual of 1 = 100 % of a sweep's peak).
     pub constraint_weight: f64,
@@ -310,6 +314,7 @@ impl Default for FitConfig {
             loss: RobustLoss::Huber { k: 2.0 },
             max_iterations: 300,
             asymmetry_weight: 1e-3,
+            regularisation_weight: 1e-3,
             constraint_weight: 10.0,
             mx_form: MxForm::Auto,
             rolling_resistance_placeholder: 0.0165,
@@ -476,6 +481,9 @@ pub struct FittedCoefficient {
     pub at_bound: bool,
     /// Where the value comes from.
     pub origin: CoefficientOrigin,
+    /// Why it is held, or why it sits on a bound and what that bound means (`None` otherwise):
+    /// no coefficient is left on a bound without saying why.
+    pub note: Option<String>,
 }
 
 /// A sweep the stage did not use, and why.

@@ -166,7 +166,7 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
         (true, false) => 1,
         (false, false) => 0,
     };
-    let coefficients = coefficient_list(&c, &origins, &std_errors);
+    let coefficients = coefficient_list(&c, &origins, &std_errors, &env);
     Ok(Pac2002Fit {
         model: Pac2002::new(c),
         use_mode,
@@ -495,6 +495,11 @@ fn levels_of(sweeps: &[&CollapsedSweep]) -> Levels {
                 .map(|s| s.nominal.alpha_rad.abs()),
             tol_angle,
         ),
+        alpha_both_signs: {
+            let combined = || sweeps.iter().filter(|s| s.kind == SweepKind::Combined);
+            combined().any(|s| s.nominal.alpha_rad > tol_angle)
+                && combined().any(|s| s.nominal.alpha_rad < -tol_angle)
+        },
     }
 }
 
@@ -631,38 +636,84 @@ fn fit_family(
     Ok((outcome, free, quality, evals))
 }
 
-/// Bounds of the free coefficients, some depending on the signs found by the starting values
-/// and on the envelope.
-pub(super) fn bounds_of(free: &[Coef], c: &Coefs<f64>, env: &Envelope) -> Bounds {
+/// The box of one coefficient and what its edges mean: `(lower, upper, why)`; some bounds
+/// depend on the sign found by the starting values and on the envelope. `why` is what a value
+/// on the bound says about the data (the `note` of its coefficient row).
+pub(super) fn bound_of(coef: Coef, c: &Coefs<f64>, env: &Envelope) -> (f64, f64, &'static str) {
     let inf = f64::INFINITY;
     let g = env.gamma_max_abs().max(1e-3);
     let signed = |v: f64, lo: f64, hi: f64| if v < 0.0 { (-hi, -lo) } else { (lo, hi) };
+    let with = |(lo, hi): (f64, f64), why| (lo, hi, why);
+    match coef {
+        PCY1 | PCX1 => with(
+            (1.0, 2.5),
+            "shape factor C in [1, 2.5]; at 1 the sweeps do not reach the friction peak and D \
+             is the force's asymptote (below 1 mu would be unbounded); at 2.5 the force reverses \
+             after its peak",
+        ),
+        QCZ1 => with((0.3, 2.5), "trail shape factor Ct in [0.3, 2.5]"),
+        PDY1 | PDX1 => with(
+            signed(c[coef], 0.02, MU_MAX),
+            "peak friction |mu| at FNOMIN in [0.02, 4]: beyond 4 not physical (the lint's limit)",
+        ),
+        PKY1 | PKX1 => with(
+            signed(c[coef], 0.05, 2000.0),
+            "slip stiffness per load in [0.05, 2000]",
+        ),
+        PKY2 => with(
+            (0.05, 50.0),
+            "load of peak cornering stiffness in [0.05, 50] FNOMIN",
+        ),
+        PKY3 => with(
+            (-50.0, 0.9 / g),
+            "camber reduction of Ky below 90 % over the tested inclination",
+        ),
+        PDY3 | PDX3 => with(
+            (-50.0, 0.9 / (g * g)),
+            "camber reduction of mu below 90 % over the tested inclination",
+        ),
+        PKX3 => with((-10.0, 10.0), "exponent of Kx/Fz with load in [-10, 10]"),
+        QBZ1 => with((0.05, 200.0), "trail slope factor Bt in [0.05, 200]"),
+        QBZ9 => with((0.0, 200.0), "residual torque slope QBZ9 in [0, 200]"),
+        QBZ10 => with(
+            (-20.0, 20.0),
+            "residual torque slope QBZ10 By Cy within 20 By Cy: steeper makes Mzr a spike \
+             narrower than the sweeps' slip grid",
+        ),
+        QDZ6 | QDZ7 => with(
+            (-0.2, 0.2),
+            "residual torque peak within 0.2 Fz R0 (a real tire's is ~0.01)",
+        ),
+        QEZ1 => with((-20.0, 1.0), "trail curvature Et at FNOMIN in [-20, 1]"),
+        RBX1 | RBY1 => with(
+            (0.0, 100.0),
+            "combined-slip weighting slope within 100: steeper drops the force to zero within \
+             0.01 of the other slip",
+        ),
+        RBX2 | RBY2 | RVY4 | RVY6 => with((0.0, 500.0), "combined-slip shape term in [0, 500]"),
+        RCX1 | RCY1 => with((0.3, 2.0), "combined-slip weighting shape in [0.3, 2]"),
+        RHX1 | RBY3 => with((-0.1, 0.1), "combined-slip shift within 0.1 rad"),
+        RHY1 | RHY2 => with((-0.3, 0.3), "combined-slip shift within 0.3"),
+        RVY5 => with((0.0, 3.0), "kappa-induced side force shape in [0, 3]"),
+        QSX5 | QSX6 | QSX9 | QSX11 => with((0.0, 100.0), "Mx shape term in [0, 100]"),
+        _ => (-inf, inf, "unbounded"),
+    }
+}
+
+/// Bounds of the free coefficients ([`bound_of`]).
+pub(super) fn bounds_of(free: &[Coef], c: &Coefs<f64>, env: &Envelope) -> Bounds {
     let (lower, upper) = free
         .iter()
-        .map(|coef| match coef {
-            PCY1 | PCX1 | QCZ1 => (0.3, 2.5),
-            PDY1 => signed(c[PDY1], 0.02, 10.0),
-            PDX1 => signed(c[PDX1], 0.02, 10.0),
-            PKY1 => signed(c[PKY1], 0.05, 2000.0),
-            PKY2 => (0.05, 50.0),
-            PKY3 => (-50.0, 0.9 / g),
-            PDY3 | PDX3 => (-50.0, 0.9 / (g * g)),
-            PKX1 => signed(c[PKX1], 0.05, 2000.0),
-            PKX3 => (-10.0, 10.0),
-            QBZ1 => (0.05, 200.0),
-            QBZ9 => (0.0, 200.0),
-            RBX1 | RBY1 => (0.0, 500.0),
-            RBX2 | RBY2 | RVY4 | RVY6 => (0.0, 500.0),
-            RCX1 | RCY1 => (0.3, 2.0),
-            RHX1 | RBY3 => (-0.1, 0.1),
-            RHY1 | RHY2 => (-0.3, 0.3),
-            RVY5 => (0.0, 3.0),
-            QSX5 | QSX6 | QSX9 | QSX11 => (0.0, 100.0),
-            _ => (-inf, inf),
+        .map(|coef| {
+            let (lo, hi, _) = bound_of(*coef, c, env);
+            (lo, hi)
         })
         .unzip();
     Bounds { lower, upper }
 }
+
+/// Largest peak friction a fit may reach, `|mu|`.
+const MU_MAX: f64 = 4.0;
 
 /// Physical-constraint penalties and asymmetry priors of a family.
 pub(super) fn penalties_of(
@@ -736,7 +787,52 @@ pub(super) fn penalties_of(
         }
         Family::Mz0 | Family::Mz | Family::Mx | Family::My => {}
     }
+    if cfg.regularisation_weight > 0.0 {
+        for coef in free {
+            if let Some((centre, scale)) = neutral_prior(*coef) {
+                out.push(Penalty::Prior {
+                    coef: *coef,
+                    centre,
+                    weight: cfg.regularisation_weight / scale,
+                });
+            }
+        }
+    }
     out
+}
+
+/// The neutral value of a weakly identified coefficient and the scale of a typical departure
+/// from it: `(centre, scale)`. A prior `regularisation_weight (c - centre)/scale` settles what
+/// the data leave undetermined (a flat direction of the cost) at the neutral value and moves a
+/// well-determined coefficient by a negligible amount: one scale away costs as much as 0.1 % of
+/// relative RMS error at the default weight. Terms: residual torque, trail curvature, camber
+/// terms, load curvature terms and the combined-slip shape terms; the main peak, stiffness and
+/// shape factors have none.
+fn neutral_prior(coef: Coef) -> Option<(f64, f64)> {
+    Some(match coef {
+        // Residual torque.
+        QBZ10 => (0.0, 2.0),
+        QDZ6 | QDZ7 => (0.0, 0.05),
+        QDZ8 | QDZ9 => (0.0, 0.2),
+        // Trail curvature and its load and camber terms.
+        QEZ1 | QEZ2 | QEZ3 | QEZ4 | QEZ5 => (0.0, 2.0),
+        // Camber terms.
+        PDY3 | PDX3 => (0.0, 10.0),
+        PKY3 | PEY3 | PEY4 => (0.0, 1.0),
+        PHY3 | QHZ3 | QHZ4 => (0.0, 0.05),
+        PVY3 | PVY4 | SSZ3 | SSZ4 | RVY3 => (0.0, 1.0),
+        QBZ4 | QBZ5 | QDZ3 => (0.0, 5.0),
+        QDZ4 => (0.0, 50.0),
+        // Load curvature.
+        PEX3 | QBZ3 => (0.0, 2.0),
+        // Combined-slip shape.
+        RCX1 | RCY1 => (1.0, 0.5),
+        REX1 | REX2 | REY1 | REY2 => (0.0, 1.0),
+        RBX2 | RBY2 | RVY4 => (0.0, 20.0),
+        RHY1 | RHY2 => (0.0, 0.05),
+        RVY1 | RVY2 => (0.0, 0.1),
+        _ => return None,
+    })
 }
 
 /// Operating points spanning the envelope (for the weighting-function sign constraints).
@@ -956,6 +1052,7 @@ fn coefficient_list(
     c: &Coefs<f64>,
     origins: &[(Coef, Option<Family>, CoefficientOrigin)],
     std_errors: &[(Coef, Option<f64>, bool)],
+    env: &Envelope,
 ) -> Vec<FittedCoefficient> {
     Coef::ALL
         .iter()
@@ -969,6 +1066,23 @@ fn coefficient_list(
                     .map_or((None, false), |s| (s.1, s.2)),
                 _ => (None, false),
             };
+            let note = match origin {
+                CoefficientOrigin::Fixed { reason } => Some(format!("held: {reason}")),
+                _ if at_bound => {
+                    let (lo, hi, why) = bound_of(*coef, c, env);
+                    let v = c[*coef];
+                    let side = if (v - lo).abs() <= (hi - v).abs() {
+                        "lower"
+                    } else {
+                        "upper"
+                    };
+                    let bound = if side == "lower" { lo } else { hi };
+                    Some(format!(
+                        "on its {side} bound {bound} (the data pull it further): {why}"
+                    ))
+                }
+                _ => None,
+            };
             Some(FittedCoefficient {
                 coef: *coef,
                 family: *family,
@@ -976,6 +1090,7 @@ fn coefficient_list(
                 std_error,
                 at_bound,
                 origin: origin.clone(),
+                note,
             })
         })
         .collect()
