@@ -251,6 +251,18 @@ impl FitSettings {
                 "must be [low, high] with low < high",
             );
         }
+        let lag = self.relaxation.measurement_lag_range_s;
+        if !ordered(lag) || lag.0 < 0.0 {
+            return bad(
+                "relaxation.measurement_lag_range_s",
+                "must be [low, high] with 0 <= low < high, s",
+            );
+        }
+        if !(self.relaxation.measurement_lag_s.is_finite()
+            && self.relaxation.measurement_lag_s >= 0.0)
+        {
+            return bad("relaxation.measurement_lag_s", "must be >= 0, s");
+        }
         if !(self.relaxation.linear_fraction > 0.0 && self.relaxation.linear_fraction <= 1.0) {
             return bad("relaxation.linear_fraction", "must be in (0, 1]");
         }

@@ -264,6 +264,7 @@ fn delag_lengths(rx: &RelaxationOutput) -> Option<RelaxationLengths> {
     let lengths = RelaxationLengths {
         sigma_alpha: law(Direction::Lateral),
         sigma_kappa: law(Direction::Longitudinal),
+        measurement_lag_s: rx.measurement_lags.first().map_or(0.0, |m| m.lag.lag_s),
     };
     (!lengths.sigma_alpha.by_load.is_empty() || !lengths.sigma_kappa.by_load.is_empty())
         .then_some(lengths)

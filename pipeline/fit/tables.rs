@@ -334,7 +334,9 @@ pub fn relaxation(results: &[GroupResult]) -> Result<DataFrame, FitError> {
                 .f("model_scale", row.model_scale)
                 .f("model_offset_n", row.model_offset_n)
                 .b("converged", row.converged)
-                .b("at_bound", row.at_bound);
+                .b("at_bound", row.at_bound)
+                .f("measurement_lag_s", row.measurement_lag_s)
+                .b("lag_separated", row.lag_separated);
         }
     }
     f.finish()

@@ -180,6 +180,90 @@ pub struct RelaxationConfig {
     /// The law's prediction of a held-out row is never taken as better than this relative
     /// standard error.
     pub pool_prior_floor: f64,
+    /// Form of the rig's measurement lag (in time, after the tire's lag): `delay` (pure delay)
+    /// or `first_order` (a filter).
+    pub measurement_lag_form: LagForm,
+    /// Search interval of the measurement lag when rows at two or more speeds identify it, s.
+    pub measurement_lag_range_s: (f64, f64),
+    /// Measurement lag assumed when the data cannot separate it (one speed): 0 leaves every
+    /// lag in the relaxation length, s.
+    pub measurement_lag_s: f64,
+}
+
+/// How the rig's measurement chain lags the forces, in time.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LagForm {
+    /// A pure delay.
+    Delay,
+    /// A first-order filter.
+    FirstOrder,
+}
+
+/// The measurement chain applied after the tire's lag.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct MeasurementLag {
+    /// Form.
+    pub form: LagForm,
+    /// Delay or time constant, s (0: none).
+    pub lag_s: f64,
+}
+
+impl MeasurementLag {
+    /// No measurement lag.
+    pub const NONE: MeasurementLag = MeasurementLag {
+        form: LagForm::Delay,
+        lag_s: 0.0,
+    };
+
+    /// `y` through the chain, on the sample times `t_s` (a settled start).
+    pub fn apply(&self, t_s: &[f64], y: Vec<f64>) -> Vec<f64> {
+        if self.lag_s <= 0.0 || y.is_empty() {
+            return y;
+        }
+        match self.form {
+            LagForm::FirstOrder => {
+                let unit = vec![1.0; y.len()];
+                first_order_lag(t_s, &unit, &y, self.lag_s)
+            }
+            LagForm::Delay => {
+                let mut out = Vec::with_capacity(y.len());
+                let mut j = 0usize;
+                for &t in t_s {
+                    let target = t - self.lag_s;
+                    while j + 1 < t_s.len() && t_s[j + 1] <= target {
+                        j += 1;
+                    }
+                    out.push(if target <= t_s[0] {
+                        y[0]
+                    } else if j + 1 >= t_s.len() || t_s[j + 1] <= t_s[j] {
+                        y[j]
+                    } else {
+                        let f = (target - t_s[j]) / (t_s[j + 1] - t_s[j]);
+                        y[j] + f * (y[j + 1] - y[j])
+                    });
+                }
+                out
+            }
+        }
+    }
+}
+
+/// The rig's measurement lag of one tire/rim/pressure, and whether the data separated it from
+/// the relaxation length.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeasurementLagFit {
+    /// Tire, rim, nominal pressure.
+    pub key: TireKey,
+    /// The lag used for every row, s.
+    pub lag: MeasurementLag,
+    /// True when identified from rows at two or more road speeds (at one load); false when
+    /// the configured value was assumed (one speed: the lag is not separable from `sigma`).
+    pub identified: bool,
+    /// Road speeds of the rows it was identified from, km/h.
+    pub speeds_kph: Vec<f64>,
+    /// On a bound of its search interval.
+    pub at_bound: bool,
 }
 
 impl Default for RelaxationConfig {
@@ -198,6 +282,9 @@ impl Default for RelaxationConfig {
             ptx3_range: (-5.0, 5.0),
             pool_with_law: true,
             pool_prior_floor: 0.01,
+            measurement_lag_form: LagForm::Delay,
+            measurement_lag_range_s: (0.0, 0.1),
+            measurement_lag_s: 0.0,
         }
     }
 }
@@ -281,6 +368,12 @@ pub struct RelaxationRow {
     pub converged: bool,
     /// `sigma` sits on a bound of its search interval.
     pub at_bound: bool,
+    /// The rig's measurement lag removed before `sigma` was fitted, s (see `lag_separated`).
+    pub measurement_lag_s: f64,
+    /// True when that lag was identified from rows at two or more speeds, so `sigma` is the
+    /// tire's alone; false when it was assumed (one speed): `sigma` then carries any rig lag as
+    /// `V lag` of extra length.
+    pub lag_separated: bool,
 }
 
 /// PAC2002 relaxation coefficients of one tire/rim/pressure, fitted to its rows' `sigma(Fz)`.
@@ -324,6 +417,8 @@ pub struct RelaxationOutput {
     pub rows: Vec<RelaxationRow>,
     /// One per input with at least one row.
     pub laws: Vec<RelaxationLaw>,
+    /// The measurement lag of every input with at least one row.
+    pub measurement_lags: Vec<MeasurementLagFit>,
     /// Parts that could not run.
     pub failures: Vec<StageFailure>,
 }
@@ -344,6 +439,12 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
                     scope: format!("{} segment {}", direction.as_str(), seg.segment_id),
                     reason,
                 }),
+            }
+        }
+        let lag = identify_measurement_lag(&input.key, &groups, cfg);
+        for members in groups.values_mut() {
+            for m in members.iter_mut() {
+                m.problem.measurement = lag.lag;
             }
         }
         let mut rows = Vec::new();
@@ -375,6 +476,8 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
             pool_with_law(input, &mut rows, cfg);
         }
         for r in &mut rows {
+            r.measurement_lag_s = lag.lag.lag_s;
+            r.lag_separated = lag.identified;
             r.sigma_law_m = law.sigma_m(
                 input.model,
                 input.unloaded_radius_m,
@@ -383,6 +486,7 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
             );
         }
         out.laws.push(law);
+        out.measurement_lags.push(lag);
         out.rows.extend(rows);
     }
     out.rows.sort_by(|a, b| {
@@ -394,8 +498,9 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
     out
 }
 
-/// Segments pooled into one row: direction, method, nominal load, slip-rate bin.
-type GroupKey = (Direction, Method, i64, i64);
+/// Segments pooled into one row: direction, method, nominal load, slip-rate bin, speed bin
+/// (4 km/h: a rig lag in time makes the apparent length depend on speed).
+type GroupKey = (Direction, Method, i64, i64, i64);
 
 /// One segment ready to fit.
 struct Prepared {
@@ -423,7 +528,8 @@ impl Prepared {
         } else {
             bin
         };
-        (self.direction, self.method, self.fz_n_nom, bin)
+        let speed = (self.speed_kph / 4.0).round() as i64;
+        (self.direction, self.method, self.fz_n_nom, bin, speed)
     }
 }
 
@@ -472,6 +578,8 @@ pub struct LagProblem {
     pub counted: Vec<bool>,
     /// Nuisance parameters solved in closed form.
     pub nuisance: Nuisance,
+    /// The rig's measurement lag after the tire's.
+    pub measurement: MeasurementLag,
 }
 
 /// `sigma`'s fit on a [`LagProblem`].
@@ -523,7 +631,15 @@ pub fn first_order_lag(t_s: &[f64], v_mps: &[f64], u: &[f64], sigma_m: f64) -> V
 impl LagProblem {
     /// Residual sum of squares at `sigma`, with the nuisance parameters `(s, c)` solved.
     pub fn cost(&self, sigma_m: f64) -> (f64, f64, f64) {
-        let y = first_order_lag(&self.t_s, &self.v_mps, &self.f_ss, sigma_m);
+        self.cost_with(sigma_m, &self.measurement)
+    }
+
+    /// [`LagProblem::cost`] with another measurement lag.
+    pub fn cost_with(&self, sigma_m: f64, lag: &MeasurementLag) -> (f64, f64, f64) {
+        let y = lag.apply(
+            &self.t_s,
+            first_order_lag(&self.t_s, &self.v_mps, &self.f_ss, sigma_m),
+        );
         let pts = || {
             (0..y.len())
                 .filter(|&i| self.counted[i])
@@ -723,7 +839,97 @@ fn group_row(
         model_offset_n: offset / k,
         converged: best.converged,
         at_bound: best.at_bound,
+        measurement_lag_s: first.problem.measurement.lag_s,
+        lag_separated: false,
     })
+}
+
+/// The rig's measurement lag of one input: identified by a profile over the lag when some load
+/// has sweep segments at two or more road speeds, else the configured value. At every trial lag
+/// each such load gets one `sigma` shared by all its sweep segments, whatever their speed and
+/// slip rate (a relaxation length does not depend on speed; a lag in time adds `V lag` to the
+/// apparent length, so only the right lag lets one `sigma` fit every speed), and the summed
+/// cost of those loads is minimised over the lag by grid + Brent.
+fn identify_measurement_lag(
+    key: &TireKey,
+    groups: &BTreeMap<GroupKey, Vec<Prepared>>,
+    cfg: &RelaxationConfig,
+) -> MeasurementLagFit {
+    let assumed = MeasurementLagFit {
+        key: key.clone(),
+        lag: MeasurementLag {
+            form: cfg.measurement_lag_form,
+            lag_s: cfg.measurement_lag_s,
+        },
+        identified: false,
+        speeds_kph: Vec::new(),
+        at_bound: false,
+    };
+    // Sweep groups by (direction, nominal load): one shared sigma each.
+    let mut by_load: BTreeMap<(Direction, i64), Vec<&GroupKey>> = BTreeMap::new();
+    for k in groups.keys().filter(|k| k.1 == Method::Sweep && k.2 > 0) {
+        by_load.entry((k.0, k.2)).or_default().push(k);
+    }
+    let informative: Vec<Vec<&Prepared>> = by_load
+        .values()
+        .filter(|ks| {
+            let mut speeds: Vec<i64> = ks.iter().map(|k| k.4).collect();
+            speeds.sort_unstable();
+            speeds.dedup();
+            speeds.len() >= 2
+        })
+        .map(|ks| ks.iter().flat_map(|k| groups[*k].iter()).collect())
+        .collect();
+    if informative.is_empty() {
+        return assumed;
+    }
+    let (lo, hi) = cfg.sigma_range_m;
+    let profile = |lag_s: f64| -> f64 {
+        let lag = MeasurementLag {
+            form: cfg.measurement_lag_form,
+            lag_s,
+        };
+        informative
+            .iter()
+            .map(|members| {
+                let pooled = |sigma0: f64| -> f64 {
+                    members
+                        .iter()
+                        .map(|m| m.problem.cost_with(sigma0 * m.factor, &lag).0)
+                        .sum()
+                };
+                scalar::minimize(&pooled, lo, hi, &ScalarOptions::default())
+                    .map_or(f64::INFINITY, |b| b.cost)
+            })
+            .sum()
+    };
+    let (a, b) = cfg.measurement_lag_range_s;
+    let options = ScalarOptions {
+        grid: 21,
+        log_grid: false,
+        rel_tol: 1e-6,
+        abs_tol: 1e-5,
+        max_iters: 100,
+    };
+    let Ok(best) = scalar::minimize(&profile, a, b, &options) else {
+        return assumed;
+    };
+    let mut speeds_kph: Vec<f64> = informative
+        .iter()
+        .flat_map(|ms| ms.iter().map(|m| (m.speed_kph * 10.0).round() / 10.0))
+        .collect();
+    speeds_kph.sort_by(f64::total_cmp);
+    speeds_kph.dedup_by(|x, y| (*x - *y).abs() < 4.0);
+    MeasurementLagFit {
+        key: key.clone(),
+        lag: MeasurementLag {
+            form: cfg.measurement_lag_form,
+            lag_s: best.x,
+        },
+        identified: true,
+        speeds_kph,
+        at_bound: best.at_bound,
+    }
 }
 
 /// Build the lag problem of a segment from the model.
@@ -829,6 +1035,7 @@ pub fn lag_problem(
         f_meas,
         counted,
         nuisance: cfg.nuisance,
+        measurement: MeasurementLag::NONE,
     })
 }
 

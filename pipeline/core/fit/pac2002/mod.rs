@@ -217,6 +217,9 @@ pub struct RelaxationLengths {
     pub sigma_alpha: RelaxationLaw,
     /// Longitudinal relaxation length `sigma_kappa(Fz)`: de-lags `Fx`.
     pub sigma_kappa: RelaxationLaw,
+    /// The rig's measurement lag in time (every force and moment channel), s: de-lagging
+    /// removes `sigma/V + measurement_lag_s` of lag.
+    pub measurement_lag_s: f64,
 }
 
 /// What the other stages and the catalogue know about the tire and the test.
