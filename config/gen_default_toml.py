@@ -7,8 +7,8 @@ Usage (from the repository root):
 """
 import re, sys, tomllib
 files = ['pipeline/config.rs', 'pipeline/core/segment/config.rs', 'pipeline/core/synth/round.rs',
-         'pipeline/core/synth/schedule.rs', 'pipeline/core/fit/spring_rate.rs',
-         'pipeline/core/fit/thermal.rs', 'pipeline/core/fit/relaxation.rs']
+         'pipeline/core/synth/schedule.rs', 'pipeline/core/synth/quirks.rs',
+         'pipeline/core/fit/spring_rate.rs', 'pipeline/core/fit/thermal.rs', 'pipeline/core/fit/relaxation.rs']
 structs = {}
 for f in files:
     src = open(f).read()

@@ -10,7 +10,9 @@
 //! kind = "cornering"        # optional hint: cornering | drive_brake | warmup | transient
 //! ```
 //!
-//! In: a TOML file. Out: lookups by (project, run). `tirebase synth round` writes this format.
+//! In: a TOML file. Out: lookups by (project, run), checked: a non-empty tire name (trimmed), a
+//! positive whole-inch rim (rim widths are integers in every table; 7.5 is refused rather than
+//! rounded to 8), a known kind. `tirebase synth round` writes this format.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -70,6 +72,20 @@ pub enum CatalogError {
         /// Run.
         run: u32,
     },
+    /// A value out of range (names the entry and the key).
+    #[error("{path}: project {project} run {run}: {key} {message}")]
+    Invalid {
+        /// Catalog path.
+        path: String,
+        /// Project.
+        project: u32,
+        /// Run.
+        run: u32,
+        /// The key.
+        key: &'static str,
+        /// What is wrong.
+        message: String,
+    },
     /// A kind hint is not one of the known kinds.
     #[error(
         "{path}: project {project} run {run}: kind {kind:?} is not one of cornering, drive_brake, warmup, transient"
@@ -103,7 +119,39 @@ impl Catalog {
             message: e.to_string().replace('\n', " "),
         })?;
         let mut entries = BTreeMap::new();
-        for e in file.run {
+        for mut e in file.run {
+            let invalid = |key: &'static str, message: String| CatalogError::Invalid {
+                path: path.to_string(),
+                project: e.project,
+                run: e.run,
+                key,
+                message,
+            };
+            if e.tire.trim().is_empty() {
+                return Err(invalid("tire", "is empty: name the tire".to_string()));
+            }
+            e.tire = e.tire.trim().to_string();
+            if !(e.rim_in.is_finite() && e.rim_in > 0.0) {
+                return Err(invalid(
+                    "rim_in",
+                    format!(
+                        "= {}: a rim width must be a positive number of inches",
+                        e.rim_in
+                    ),
+                ));
+            }
+            if e.rim_in.fract() != 0.0 {
+                // Rim widths are stored, grouped and named in whole inches; rounding 7.5 to 8
+                // would silently put the run on another rim.
+                return Err(invalid(
+                    "rim_in",
+                    format!(
+                        "= {}: rim widths are whole inches in the store (every table and .tir \
+                         name); rounding would put the run on another rim, so it is refused",
+                        e.rim_in
+                    ),
+                ));
+            }
             if let Some(kind) = &e.kind
                 && !KINDS.contains(&kind.as_str())
             {
@@ -171,6 +219,41 @@ mod tests {
             ("Hoosier 20.5x7.0-13 R25B", 7.0)
         );
         assert!(c.get(1320, 55).is_none());
+    }
+
+    #[test]
+    fn issue20_rims_and_tires_are_checked() {
+        let entry = |tire: &str, rim: &str| {
+            Catalog::parse(
+                &format!("[[run]]\nproject = 1\nrun = 2\ntire = \"{tire}\"\nrim_in = {rim}\n"),
+                "c.toml",
+            )
+        };
+        for (tire, rim, wanted) in [
+            ("Hoosier", "0", "rim_in = 0: a rim width must be a positive"),
+            (
+                "Hoosier",
+                "-7",
+                "rim_in = -7: a rim width must be a positive",
+            ),
+            ("Hoosier", "nan", "rim_in = NaN"),
+            (
+                "Hoosier",
+                "7.5",
+                "rim_in = 7.5: rim widths are whole inches",
+            ),
+            ("", "7", "tire is empty"),
+            ("   ", "7", "tire is empty"),
+        ] {
+            let err = entry(tire, rim).unwrap_err().to_string();
+            assert!(
+                err.starts_with("c.toml: project 1 run 2: ") && err.contains(wanted),
+                "{tire:?} {rim}: {err}"
+            );
+        }
+        let ok = entry(" Hoosier R25B ", "7").unwrap();
+        assert_eq!(ok.get(1, 2).unwrap().tire, "Hoosier R25B");
+        assert_eq!(ok.get(1, 2).unwrap().rim_in, 7.0);
     }
 
     #[test]

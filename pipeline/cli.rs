@@ -34,6 +34,7 @@ pub enum Command {
     Fit(FitArgs),
     Query(QueryArgs),
     Report(ReportArgs),
+    Compare(CompareArgs),
     Inertia(InertiaArgs),
     /// Write synthetic data with known answers.
     Synth {
@@ -154,7 +155,8 @@ Read raw TTC run files (.dat ASCII and .mat MATLAB v5, any round, US customary o
 tire database. Every channel is converted to SI by its own unit string and to the ISO-W axis
 frame (Fz > 0 in compression, alpha = -SA, Fy and Mz negated); each run is split into classified
 segments (spring-rate holds, cold-to-warm, conditioning, cornering, drive/brake, combined, step
-steers, IA and speed sweeps) binned to nominal pressure, inclination, load, slip angle and speed.
+steers, IA and speed sweeps) with the nominal pressure, inclination, load, slip angle and speed
+levels each run holds, learned from its own data (no fixed list of levels).
 
 Incremental: a file whose path, size and modification time are unchanged since its last
 successful ingest is skipped without reading it (--rehash hashes it anyway); a file whose content
@@ -310,6 +312,75 @@ pub struct QueryArgs {
     pub sql: String,
 }
 
+/// The objective `compare` ranks by.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum RankBy {
+    /// Lateral capacity lateral_mu: sum of peak |Fy| over the car's corner loads / sum of loads.
+    Lateral,
+    /// Longitudinal capacity longitudinal_mu: the same for peak |Fx|.
+    Longitudinal,
+    /// Combined-slip capacity envelope_area_kn2 at the nominal load.
+    Envelope,
+}
+
+/// Compare every tire, rim and pressure of a round (or several) at the conditions of a car.
+#[derive(Debug, Args)]
+#[command(long_about = "\
+Compare every fitted tire, rim and tested pressure of a round at the conditions of the team's
+car, one row per round, tire, rim and pressure, ranked by a stated objective. Every figure is
+evaluated from the fitted .tir model of the published version (and the thermal tables) at the
+car of --car (default: config/car.toml, a typical FSAE car): its corner loads, nominal load,
+speed, static camber range and allowed pressures.
+
+Axes and units: ISO-W tire axes (x forward, y left, z up), SI; forces are magnitudes in N,
+friction coefficients |F|/Fz, stiffnesses in N/rad and N, lengths in m, temperatures in degC,
+camber in deg as the inclination of the loaded tire leaning into the turn. Per corner load
+(column suffix _fz<N>, the load in whole newtons): peak |Fy| (fy_peak_n) and mu_y, peak |Fx|
+(fx_peak_n) and mu_x, cornering stiffness |dFy/dalpha| at zero slip. Per row: design camber
+(camber_deg, maximising the peak |Fy| at the nominal load) and the gain from it
+(camber_gain_pct), lateral_mu and longitudinal_mu (sum of peaks / sum of loads), load
+sensitivity d mu/d Fz (1/kN), cornering and longitudinal stiffness at the nominal load,
+friction-envelope area (envelope_area_kn2, kN^2, combined-slip models only), relaxation lengths
+(m), vertical stiffness (N/m), thermal window where measured (t_opt_c, thermal_gain_pct,
+warmup_rate_c_per_s, warmup_time_s). Lateral and longitudinal figures are at the design camber;
+slip searches stay within the model's tested ranges; loads above its tested range are
+extrapolated by the model and listed in extrapolated_loads_n. Columns: schemas/compare.toml.
+
+Ranking (--rank): rank = 1 + the rows better by more than the uncertainty of the difference,
+sqrt(e1^2 + e2^2) with e = objective_error, the fit's own error (error_source says which);
+rows within it are listed in tied_with, never hidden. best_pressure flags each tire and rim's
+best tested pressure and those tied with it.
+
+Across rounds: give --store once per round (each store's latest version, or --version with one
+store). The same tire name in several rounds is the same tire; rounds_tested and
+objective_spread (largest minus smallest objective over the rounds) show how far rounds
+disagree, and that spread is added to the uncertainty of every cross-round pair.
+
+--format csv writes the same bytes for the same store and car file. Exit codes: 0 rows
+printed, 2 no version, no row, or an unreadable car file.")]
+pub struct CompareArgs {
+    /// Store root directory; repeat for several rounds (one store per round).
+    #[arg(long, value_name = "DIR", required = true)]
+    pub store: Vec<PathBuf>,
+    /// Published version to read (number, vNNNNNN or latest; default latest). Only with one
+    /// --store.
+    #[arg(long, value_name = "N")]
+    pub version: Option<String>,
+    /// Keep only tires matching a pattern (case-insensitive; with * or ? a glob of the whole
+    /// name, else a substring). Repeatable.
+    #[arg(long, value_name = "PATTERN")]
+    pub tire: Vec<String>,
+    /// Car file (format and defaults: config/car.toml).
+    #[arg(long, value_name = "FILE")]
+    pub car: Option<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
+    pub format: OutputFormat,
+    /// The objective to rank by.
+    #[arg(long, value_enum, default_value_t = RankBy::Lateral)]
+    pub rank: RankBy,
+}
+
 /// Write the HTML report (data vs model charts, fit quality, lint) of a result directory.
 #[derive(Debug, Args)]
 #[command(long_about = "\
@@ -334,7 +405,8 @@ segments' mean load and inclination over the swept range):
     the model's PTY/PTX law)
   - the tire's fit quality, coefficients at a bound, lint warnings and failures.
 All quantities SI and ISO-W (x forward, y left, z up; positive slip angle gives negative Fy). A
-chart whose table, column or model is missing shows a \"no data\" note instead.
+chart whose table or model is missing shows a \"no data\" note instead; a table without a column
+the report needs counts as missing, and the index lists it with the column's name.
 
 RESULTS is laid out as the fit stage writes it: <table>.parquet (coefficients, fit_quality,
 spring_rate, thermal, thermal_fit, relaxation, lint, fit_failures) and tir/*.tir, e.g. a
@@ -386,6 +458,18 @@ pub enum TirCommand {
     /// written so that reading the output gives back exactly the same values. Sections it
     /// does not know are kept at the end.
     Convert(TirConvertArgs),
+    /// Score a .tir model on a store's measured samples: RMSE of Fx, Fy, Mz per source file and
+    /// nominal pressure.
+    ///
+    /// Evaluates the model (combined slip, ISO-W, SI) at every selected sample's measured load,
+    /// slip ratio, slip angle, inclination and speed, and prints CSV to stdout: tire,
+    /// source_file, pressure_kpa_nom (kPa), n_samples, fx_rmse_n, fy_rmse_n (N), mz_rmse_nm
+    /// (N m), and the RMS of the measured values fx_rms_n, fy_rms_n, mz_rms_nm. Every sample of
+    /// the store counts (not only the sweeps a fit used), filtered by --max-alpha-deg,
+    /// --min-fz-n and --min-speed-kph, then every --every-th sample per source file in time
+    /// order. The defaults are the selection of the real-data check (|alpha| <= 12.5 deg,
+    /// Fz > 100 N, V > 5 km/h, every 5th sample).
+    Score(TirScoreArgs),
 }
 
 /// How inputs are limited when evaluating.
@@ -415,6 +499,11 @@ pub struct TirEvalArgs {
     /// Input limiting.
     #[arg(long, value_enum, default_value_t = EvalMode::Limits)]
     pub mode: EvalMode,
+    /// Evaluate even a file whose lint errors leave the model undefined (a family the
+    /// USE_MODE needs is missing, a non-positive FNOMIN, UNLOADED_RADIUS, LONGVL or
+    /// VERTICAL_STIFFNESS, an inverted range, NaN outputs); refused by default.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `tir lint`.
@@ -423,6 +512,43 @@ pub struct TirLintArgs {
     /// The .tir property file to check.
     #[arg(value_name = "FILE")]
     pub file: PathBuf,
+}
+
+/// Arguments of `tir score`.
+#[derive(Debug, Args)]
+pub struct TirScoreArgs {
+    /// The .tir property file (PAC2002 / MF 5.2).
+    #[arg(long, value_name = "FILE")]
+    pub tir: PathBuf,
+    /// Store root directory (written by `tirebase ingest`).
+    #[arg(long, value_name = "DIR")]
+    pub store: PathBuf,
+    /// Only this tire (its name as stored).
+    #[arg(long, value_name = "NAME")]
+    pub tire: Option<String>,
+    /// Only samples of this nominal pressure, kPa (the pressure_kpa_nom partition).
+    #[arg(long, value_name = "KPA")]
+    pub pressure_kpa: Option<i64>,
+    /// Largest |slip angle| scored, deg.
+    #[arg(long, value_name = "DEG", default_value_t = 12.5)]
+    pub max_alpha_deg: f64,
+    /// Smallest vertical load scored, N (compression positive).
+    #[arg(long, value_name = "N", default_value_t = 100.0)]
+    pub min_fz_n: f64,
+    /// Smallest road speed scored, km/h.
+    #[arg(long, value_name = "KPH", default_value_t = 5.0)]
+    pub min_speed_kph: f64,
+    /// Keep every n-th selected sample of each source file (1 = all).
+    #[arg(long, value_name = "N", default_value_t = 5)]
+    pub every: usize,
+    /// Input limiting.
+    #[arg(long, value_enum, default_value_t = EvalMode::Limits)]
+    pub mode: EvalMode,
+    /// Evaluate even a file whose lint errors leave the model undefined (a family the
+    /// USE_MODE needs is missing, a non-positive FNOMIN, UNLOADED_RADIUS, LONGVL or
+    /// VERTICAL_STIFFNESS, an inverted range, NaN outputs); refused by default.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `tir convert`.
@@ -434,6 +560,10 @@ pub struct TirConvertArgs {
     /// Where to write the normalised PAC2002 file.
     #[arg(long, value_name = "G")]
     pub output: PathBuf,
+    /// Convert even a file whose lint errors leave the model undefined (see `tir eval
+    /// --force`); refused by default, as the output would read as a complete model.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// The nightly run: ingest, segment, fit, inertia, report, publish a version (incremental).
@@ -445,16 +575,22 @@ spring rate, thermal, relaxation), process the inertia sessions, write the HTML 
 everything as the next immutable version STORE/versions/vNNNNNN/ (tables as <table>.parquet,
 tir/*.tir, report/index.html, manifest.toml).
 
-Incremental: a group whose segments, configuration and tool version are unchanged takes its rows
-and .tir file from the previous version. With nothing changed it publishes nothing and prints
-\"up to date\" (on stderr; logs go to stderr, stdout stays empty).
+Incremental, and a function of its inputs: what the store holds for a file follows its content,
+its catalog entry, the [segment] configuration and the tool version (a catalog edit relabels, a
+[segment] edit re-segments), a file gone from INPUT leaves the store, and a group whose segments,
+configuration and tool version are unchanged takes its rows and .tir file from the previous
+version. Failed files are retried every run. With nothing changed it publishes nothing and prints
+\"up to date\" (on stderr; logs go to stderr, stdout stays empty). Every problem (failed or
+partial files, warnings, skipped entries, failed fits, failed inertia runs) is listed on stderr
+and in the version's manifest.
 
 Without --input it runs on the embedded virtual round, generated with the fixed default seed into
 outputs/round/ on first use, into outputs/store (paths relative to the working directory).
 
-Exit codes: 0 published (or up to date) with no failure, 1 published but some files, fits,
-inertia runs or the report failed, 2 nothing could be done (no input, store locked with
---no-wait, nothing to fit).")]
+Exit codes: 0 published (or up to date) with no failure, 1 published but some files (failed or
+partial), fits, inertia runs or the report failed, or up to date while input files still fail,
+2 nothing could be done (no input, store locked with --no-wait, a store that cannot be written,
+nothing to fit).")]
 pub struct RunArgs {
     /// Input directory (raw files below it, rig sessions under inertia/). Default: the embedded
     /// virtual round in outputs/round/ (generated on first use).

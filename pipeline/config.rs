@@ -273,13 +273,126 @@ impl FitSettings {
     }
 }
 
+/// Numeric keys that may be negative (every other number must be >= 0): temperatures, a
+/// threshold whose negative value disables its check, a search interval that straddles zero,
+/// model coefficients.
+const MAY_BE_NEGATIVE: [&str; 6] = [
+    "synth.realism.ambient_c",
+    "synth.realism.road_c",
+    "segment.classify.cold_to_warm_min_temp_rise_c",
+    "fit.relaxation.ptx3_range",
+    "fit.relaxation.contact.q_a1",
+    "fit.relaxation.contact.q_a2",
+];
+
+/// Numeric keys that must be strictly positive (zero leaves a division or a window empty).
+const MUST_BE_POSITIVE: [&str; 9] = [
+    "segment.smoothing.window_s",
+    "segment.smoothing.rate_window_s",
+    "segment.smoothing.ia_rate_window_s",
+    "segment.gaps.gap_factor",
+    "segment.classify.main_speed_kph",
+    "fit.despike_sigmas",
+    "fit.thermal.peak_fit_half_s",
+    "fit.thermal.stiffness_half_window_rad",
+    "fit.thermal.ir_phase_revolutions",
+];
+
+/// A fraction (at most 1): keys named `frac`, `*_frac` or `*_fraction`.
+fn is_fraction(key: &str) -> bool {
+    let last = key.rsplit('.').next().unwrap_or(key);
+    last == "frac" || last.ends_with("_frac") || last.ends_with("_fraction")
+}
+
+/// Check every number of a resolved configuration: finite, non-negative unless in
+/// [`MAY_BE_NEGATIVE`], positive where [`MUST_BE_POSITIVE`], at most 1 for fractions. The
+/// error names the dotted key.
+fn check_numbers(table: &toml::Table, prefix: &str) -> Result<(), ConfigError> {
+    for (name, value) in table {
+        let key = if prefix.is_empty() {
+            name.clone()
+        } else {
+            format!("{prefix}.{name}")
+        };
+        let numbers: Vec<f64> = match value {
+            toml::Value::Table(t) => {
+                check_numbers(t, &key)?;
+                continue;
+            }
+            toml::Value::Float(v) => vec![*v],
+            toml::Value::Integer(v) => vec![*v as f64],
+            toml::Value::Array(items) => items
+                .iter()
+                .filter_map(|v| match v {
+                    toml::Value::Float(f) => Some(*f),
+                    toml::Value::Integer(i) => Some(*i as f64),
+                    _ => None,
+                })
+                .collect(),
+            _ => continue,
+        };
+        let bad = |reason: String| {
+            Err(ConfigError::Invalid {
+                key: key.clone(),
+                reason,
+            })
+        };
+        for v in numbers {
+            if !v.is_finite() {
+                return bad(format!("{v} is not a finite number"));
+            }
+            if v < 0.0 && !MAY_BE_NEGATIVE.contains(&key.as_str()) {
+                return bad(format!("{v} is negative; it must be 0 or more"));
+            }
+            if v <= 0.0 && MUST_BE_POSITIVE.contains(&key.as_str()) {
+                return bad(format!("{v} must be positive"));
+            }
+            if v > 1.0 && is_fraction(&key) {
+                return bad(format!("{v} is a fraction; it must be at most 1"));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Merge `over` into `base`: tables key by key (so a file may give any subset of any table, a
+/// tolerance's `abs` without its `frac`), every other value replaced.
+fn merge(base: &mut toml::Table, over: toml::Table) {
+    for (key, value) in over {
+        match (base.get_mut(&key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            (_, value) => {
+                base.insert(key, value);
+            }
+        }
+    }
+}
+
 impl Config {
-    /// Parse TOML text layered over the defaults; `path` names it in errors.
+    /// Parse TOML text layered over the defaults (any subset of any table, down to one field
+    /// of a tolerance); `path` names it in errors.
     pub fn parse(text: &str, path: &str) -> Result<Config, ConfigError> {
-        let cfg: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+        let parse_error = |e: toml::de::Error| ConfigError::Parse {
             path: path.to_string(),
             message: e.to_string().trim().replace('\n', " "),
-        })?;
+        };
+        let user: toml::Table = toml::from_str(text).map_err(parse_error)?;
+        let mut merged =
+            toml::Table::try_from(Config::default()).map_err(|e| ConfigError::Parse {
+                path: "built-in defaults".to_string(),
+                message: e.to_string(),
+            })?;
+        merge(&mut merged, user);
+        let cfg: Config = match merged.try_into() {
+            Ok(cfg) => cfg,
+            // The text's own error names the key and its line.
+            Err(merged_error) => {
+                return Err(match toml::from_str::<Config>(text) {
+                    Err(e) => parse_error(e),
+                    Ok(_) => parse_error(merged_error),
+                });
+            }
+        };
         cfg.validate()?;
         Ok(cfg)
     }
@@ -299,8 +412,14 @@ impl Config {
         }
     }
 
-    /// Check values serde cannot.
+    /// Check values serde cannot: every number (see [`check_numbers`]), then each stage's
+    /// own rules.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        let table = toml::Table::try_from(self).map_err(|e| ConfigError::Parse {
+            path: "resolved configuration".to_string(),
+            message: e.to_string(),
+        })?;
+        check_numbers(&table, "")?;
         self.segment.validate().map_err(|e| ConfigError::Invalid {
             key: "segment".into(),
             reason: e.to_string(),
@@ -364,6 +483,72 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("fit.relaxation.sigma_range_m"), "{err}");
+    }
+
+    #[test]
+    fn issue20_nonsense_numbers_are_refused_at_load_naming_the_key() {
+        for (text, key, why) in [
+            (
+                "[fit]\nasymmetry_weight = nan\n",
+                "fit.asymmetry_weight",
+                "not a finite",
+            ),
+            (
+                "[fit]\nconstraint_weight = -1.0\n",
+                "fit.constraint_weight",
+                "negative",
+            ),
+            ("[fit]\nloss_k = inf\n", "fit.loss_k", "not a finite"),
+            (
+                "[segment.activity]\nsa_active_deg = -0.5\n",
+                "segment.activity.sa_active_deg",
+                "negative",
+            ),
+            (
+                "[segment.plateau.fz_n]\nfrac = 1.5\n",
+                "segment.plateau.fz_n.frac",
+                "at most 1",
+            ),
+            (
+                "[segment.smoothing]\nwindow_s = 0.0\n",
+                "segment.smoothing.window_s",
+                "positive",
+            ),
+            (
+                "[fit.thermal]\ndelineation_n = -100.0\n",
+                "fit.thermal.delineation_n",
+                "negative",
+            ),
+            (
+                "[fit.spring_rate]\nbreff_range = [0.05, nan]\n",
+                "fit.spring_rate.breff_range",
+                "not a finite",
+            ),
+        ] {
+            let err = Config::parse(text, "x.toml").unwrap_err().to_string();
+            assert!(err.contains(key) && err.contains(why), "{text}: {err}");
+        }
+        // Negative where it means something.
+        let cfg = Config::parse(
+            "[segment.classify]\ncold_to_warm_min_temp_rise_c = -1.0\n[synth.realism]\nambient_c = -5.0\n",
+            "x.toml",
+        )
+        .unwrap();
+        assert_eq!(cfg.synth.realism.ambient_c, -5.0);
+    }
+
+    #[test]
+    fn issue20_a_tolerance_table_may_be_overridden_in_part() {
+        let cfg = Config::parse("[segment.plateau.fz_n]\nabs = 50.0\n", "x.toml").unwrap();
+        let default = SegmentConfig::default();
+        assert_eq!(cfg.segment.plateau.fz_n.abs, 50.0);
+        assert_eq!(cfg.segment.plateau.fz_n.frac, default.plateau.fz_n.frac);
+        assert_eq!(cfg.segment.plateau.ia_deg, default.plateau.ia_deg);
+        // Unknown keys are still refused, by name and line.
+        let err = Config::parse("[segment.plateau.fz_n]\nabz = 50.0\n", "x.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("abz") && err.contains("line 2"), "{err}");
     }
 
     #[test]

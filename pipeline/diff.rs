@@ -22,7 +22,7 @@ use tirebase_core::tire_model::{Coef, Evaluation, Mode, Pac2002, SlipInput};
 
 use crate::manifest::{Manifest, ManifestError};
 use crate::store::StoreError;
-use crate::store::files::read_parquet;
+use crate::store::results;
 
 /// Relative difference below which two values are the same.
 const SAME_REL: f64 = 1e-12;
@@ -163,8 +163,15 @@ fn read_tir(path: &Path) -> Result<Option<TirFile>, DiffError> {
 
 /// Model added/removed, coefficient changes and force deltas of one group.
 fn model_rows(a: &Path, b: &Path, key: &GroupKey, out: &mut Vec<DiffRow>) -> Result<(), DiffError> {
-    let name = tir_file_name(&key.0, key.1 as f64, key.2 as f64);
-    let old = read_tir(&a.join("tir").join(&name))?;
+    // Each version names its files among its own models (`naming::unique_tir_names`).
+    let name_in = |dir: &Path| {
+        results::tir_names(&results::model_groups(dir))
+            .0
+            .remove(&(key.0.clone(), key.1, key.2))
+            .unwrap_or_else(|| tir_file_name(&key.0, key.1 as f64, key.2 as f64))
+    };
+    let (name_a, name) = (name_in(a), name_in(b));
+    let old = read_tir(&a.join("tir").join(&name_a))?;
     let new = read_tir(&b.join("tir").join(&name))?;
     let (old, new) = match (old, new) {
         (None, None) => return Ok(()),
@@ -384,14 +391,8 @@ fn table_rows(
     tire: Option<&str>,
     out: &mut Vec<DiffRow>,
 ) -> Result<(), DiffError> {
-    let file = format!("{table}.parquet");
     let read = |dir: &Path| -> Result<Option<DataFrame>, DiffError> {
-        let p = dir.join(&file);
-        Ok(if p.is_file() {
-            Some(read_parquet(&p)?)
-        } else {
-            None
-        })
+        Ok(results::read_table(dir, table)?)
     };
     // A table only one version has is compared with an empty table of the same columns.
     let (da, db) = match (read(a)?, read(b)?) {

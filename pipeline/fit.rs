@@ -33,16 +33,17 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use rayon::prelude::*;
 use tirebase_core::fit::segment_data::TireKey;
-use tirebase_core::naming::sanitize_tire;
+use tirebase_core::naming::{sanitize_tire, unique_tir_names};
 use tirebase_core::tire_model::tir::lint::Severity;
 
+pub use crate::store::results::FitFailure;
 pub use group::StageConfigs;
 pub use load::{LoadedSegment, SegmentRow, judge_qc, live_segments, parse_qc_flag};
 
 use crate::config::Config;
 use crate::progress::Progress;
 use crate::store::StoreError;
-use crate::store::files::{ensure_dir, sha256_bytes, write_bytes_atomic, write_parquet_atomic};
+use crate::store::files::{ensure_dir, sha256_bytes, write_bytes_atomic};
 use crate::store::layout::SWEPT;
 
 /// Store-level errors of the fitting orchestration (per-group problems are data).
@@ -180,7 +181,8 @@ pub struct FitOptions {
 }
 
 /// One (tire, rim, nominal pressure) group and the hash of everything its fit depends on: the
-/// sorted (segment_id, source_sha256, qc_flags) of its usable segments, the resolved stage
+/// sorted (segment_id, source_sha256, store part, qc_flags) of its usable segments (the part
+/// names the segmentation settings and tool that computed them), the resolved stage
 /// configurations, the stage set and the tool version.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct GroupPlan {
@@ -191,25 +193,6 @@ pub struct GroupPlan {
     /// Live segments of kinds the enabled stages read (QC-flagged ones included: the stages
     /// decide what a flag excludes).
     pub n_segments: usize,
-}
-
-/// A stage that failed for a group, or a part of it.
-#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub struct FitFailure {
-    /// Tire name.
-    pub tire: String,
-    /// Rim width, in.
-    pub rim_in: i64,
-    /// Nominal pressure, kPa.
-    pub pressure_kpa: i64,
-    /// `load`, `spring_rate`, `pac2002`, `relaxation`, `thermal`.
-    pub stage: String,
-    /// The stage name for the whole stage, else the part (a family, a load, a segment).
-    pub scope: String,
-    /// The stage produced nothing for the group.
-    pub fatal: bool,
-    /// One-line reason.
-    pub reason: String,
 }
 
 impl FitFailure {
@@ -223,25 +206,6 @@ impl FitFailure {
             fatal,
             reason: reason.replace('\n', " "),
         }
-    }
-}
-
-impl fmt::Display for FitFailure {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{} on {} in rim at {} kPa: {}{}: {}",
-            self.tire,
-            self.rim_in,
-            self.pressure_kpa,
-            self.stage,
-            if self.scope == self.stage {
-                String::new()
-            } else {
-                format!(" ({})", self.scope)
-            },
-            self.reason
-        )
     }
 }
 
@@ -310,8 +274,13 @@ pub struct FitOutcome {
     /// (str), `rim_in` (i64), `pressure_kpa` (i64, nominal). Sorted deterministically;
     /// conformed to `schemas/<name>.toml`.
     pub tables: BTreeMap<String, DataFrame>,
-    /// `.tir` files: (file name from `tirebase_core::naming::tir_file_name`, text).
+    /// `.tir` files: (file name from `tirebase_core::naming::unique_tir_names` over the fitted
+    /// groups, text).
     pub tir_files: Vec<(String, String)>,
+    /// The group of each entry of `tir_files`.
+    pub tir_keys: Vec<TireKey>,
+    /// One line per `.tir` whose name was disambiguated (tires whose names sanitise alike).
+    pub tir_name_notes: Vec<String>,
     /// Failures, fatal and partial, in group order.
     pub failures: Vec<FitFailure>,
     /// Wall time per stage summed over groups (plus `load`), s.
@@ -399,7 +368,12 @@ pub fn plan_groups(
         .map(|(key, segs)| {
             let mut lines: Vec<String> = segs
                 .iter()
-                .map(|s| format!("{}\t{}\t{}\n", s.segment_id, s.source_sha256, s.qc_flags))
+                .map(|s| {
+                    format!(
+                        "{}\t{}\t{}\t{}\n",
+                        s.segment_id, s.source_sha256, s.part, s.qc_flags
+                    )
+                })
                 .collect();
             lines.sort();
             let text = format!("{key}\n{}{config_text}", lines.concat());
@@ -588,13 +562,26 @@ pub fn fit_groups(
         }
         outcome.failures.extend(result.failures.iter().cloned());
         if let Some(m) = model {
-            outcome
-                .tir_files
-                .push((m.file_name.clone(), m.text.clone()));
             models.push((result.key.clone(), m));
         }
         results.push(result);
     }
+    // File names unique over the groups (tires whose names differ only in case or punctuation
+    // would overwrite each other's `.tir`).
+    let keys: Vec<(&str, f64, f64)> = models
+        .iter()
+        .map(|(k, _)| (k.tire.as_str(), k.rim_in as f64, k.pressure_kpa_nom as f64))
+        .collect();
+    let names = unique_tir_names(&keys);
+    for ((_, m), (name, note)) in models.iter_mut().zip(names) {
+        m.file_name = name;
+        outcome.tir_name_notes.extend(note);
+    }
+    outcome.tir_files = models
+        .iter()
+        .map(|(_, m)| (m.file_name.clone(), m.text.clone()))
+        .collect();
+    outcome.tir_keys = models.iter().map(|(k, _)| k.clone()).collect();
     let mut tables = BTreeMap::new();
     if opts.stages.pac2002 {
         tables.insert("coefficients".to_string(), tables::coefficients(&models)?);
@@ -630,7 +617,7 @@ pub fn write_outcome(outcome: &FitOutcome, out: &Path) -> Result<(), FitError> {
     ensure_dir(out)?;
     for (name, df) in &outcome.tables {
         let mut df = df.clone();
-        write_parquet_atomic(&out.join(format!("{name}.parquet")), &mut df)?;
+        crate::store::results::write_table(out, name, &mut df)?;
     }
     if !outcome.tir_files.is_empty() {
         let dir = out.join("tir");

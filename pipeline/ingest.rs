@@ -2,21 +2,30 @@
 //!
 //! In: `.dat`/`.mat` paths (files or directories), an optional run catalog, the segmentation
 //! config. Out: for every file, its samples in hive partitions, its segments, and one row of the
-//! runs table; an [`IngestReport`]. Per file, in parallel: stat (same path, size and mtime as the
-//! runs table recorded after a successful ingest? unchanged, not even read; `rehash` turns this
-//! off) -> hash (same content as stored? unchanged) -> read (`tirebase_core::ttc`, SI and ISO-W)
+//! runs table; an [`IngestReport`]. Per file, in parallel, the pure decision of [`decide`] (what
+//! the store holds for a file is a function of its content, the catalog entry that applies, the
+//! resolved `[segment]` config and the tool version) says what to do: nothing (same path, size
+//! and mtime as recorded, or same content), hash and decide again, relabel the stored parts
+//! (only the catalog identity changed: no parse), or read (`tirebase_core::ttc`, SI and ISO-W)
 //! -> identify the tire -> segment (`tirebase_core::segment`) -> write that file's Parquet parts
-//! under content-addressed names. Then, once, the runs table is rewritten atomically: that rename
-//! is the commit (skipped when no row changed, so a no-change ingest writes nothing). Files of a
-//! crashed or superseded ingest are invisible to queries (they are filtered by the runs table) and
-//! are garbage-collected at the next ingest.
+//! under names keyed by everything they derive from (`store::tables::parts_sha256`). Then, once,
+//! the runs table is rewritten atomically: that rename is the commit (skipped when no row
+//! changed, so a no-change ingest writes nothing). Parts of a crashed or superseded ingest are
+//! invisible to readers (only parts the runs table names are live) and are garbage-collected at
+//! the next ingest. With `prune` (the nightly run, which sees the whole input), files no longer
+//! present leave the runs table and the store.
 //!
-//! A file that fails to read or segment is recorded as failed with a one-line reason; whatever the
-//! store held for it before stays (its row keeps `data_sha256`, `rows` and the tire of the stored
-//! version, with `status = failed`, the error and the failed content's `sha256`). One bad file
-//! never stops the others. Files holding the same run (project and run number: the `.dat`,
-//! `.mat`, US, SI, run and raw copies the consortium ships) are stored once
-//! (`mark_duplicate_runs`; the others get `status = duplicate`, no data).
+//! A file that fails to read or segment is recorded as failed with a one-line reason and tried
+//! again by every later ingest; whatever the store held for it before stays (its row keeps
+//! `data_sha256`, `rows` and the tire of the stored version, with `status = failed`, the error and
+//! the failed content's `sha256`). One bad file never stops the others; a store that cannot be
+//! written stops the ingest (a store error, not a failure of the input file). Files holding the
+//! same run (project and run number: the `.dat`, `.mat`, US, SI, run and raw copies the
+//! consortium ships) are stored once (`mark_duplicate_runs`; the others get
+//! `status = duplicate`, no data). Discovery never follows a directory symlink loop and skips
+//! non-regular files (FIFOs, sockets, devices) with a note.
+
+mod decide;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
@@ -26,26 +35,24 @@ use std::time::Instant;
 
 use polars::prelude::*;
 use polars_arrow::array::{BooleanArray, MutableBinaryViewArray, PrimitiveArray, Utf8ViewArray};
-use polars_arrow::record_batch::RecordBatchT;
 use rayon::prelude::*;
 
 use tirebase_core::segment::{self, RunSignals, Segment, SegmentConfig, TreadTemps};
 use tirebase_core::ttc::{self, RunTable, SourceFormat, TtcFileName, UnitSystem};
 
+pub use decide::{Decision, Now, decide};
+
 use crate::catalog::Catalog;
 use crate::progress::Progress;
-use crate::schema;
 use crate::store::StoreError;
-use crate::store::files::{
-    Durability, ensure_dir, parquet_files_below, parquet_files_in, read_parquet, sha256_bytes,
-    sync_filesystem, write_arrow_parquet_atomic_with, write_parquet_atomic,
-    write_parquet_atomic_with,
-};
-use crate::store::layout::{
-    PartitionKey, SAMPLES_DIR, SEGMENTS_DIR, SWEPT, TEMP_SUFFIX, partition_dir, runs_file,
-    segments_file, source_part_name,
-};
+use crate::store::files::{sha256_bytes, sync_filesystem};
+use crate::store::layout::{PartitionKey, SWEPT, source_part_name};
 use crate::store::lock::{LockWait, StoreLock};
+pub use crate::store::tables::RunRow;
+use crate::store::tables::{
+    STATUS_DUPLICATE, STATUS_FAILED, STATUS_OK, STATUS_PARTIAL, collect_garbage, parts_sha256,
+    read_runs, relabel_parts, write_runs, write_samples_part, write_segments_part,
+};
 
 /// Ingest errors that stop the whole ingest (per-file problems are recorded, not raised).
 #[derive(Debug, thiserror::Error)]
@@ -56,9 +63,6 @@ pub enum IngestError {
     /// The store could not be read or written.
     #[error(transparent)]
     Store(#[from] StoreError),
-    /// The runs table could not be built.
-    #[error("runs table: {0}")]
-    Polars(#[from] PolarsError),
 }
 
 /// What to ingest into where.
@@ -79,15 +83,22 @@ pub struct IngestOptions<'a> {
     /// Store every file even when another holds the same project and run (by default one copy
     /// of a run is stored, see `mark_duplicate_runs`).
     pub keep_duplicate_runs: bool,
+    /// The paths are the whole input: files of the runs table not found among them are removed
+    /// from the store (the nightly run). Without it, other files' rows are left alone.
+    pub prune: bool,
 }
 
 /// What happened to one file.
 #[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum FileStatus {
-    /// Same content as already stored: nothing done.
+    /// Same content, identity and segmentation as already stored: nothing done.
     Unchanged,
     /// Read, segmented and stored.
     Ingested,
+    /// Same content, new segmentation settings or tool: read and segmented again.
+    Resegmented,
+    /// Same content and segmentation, new catalog identity: the stored parts were relabelled.
+    Relabelled,
     /// Could not be read or segmented; the one-line reason.
     Failed(String),
     /// Another file holds the same run (project and run number) and is the one stored; the
@@ -100,6 +111,17 @@ pub enum FileStatus {
 pub struct IngestReport {
     /// Per file (sorted by file name): status.
     pub files: Vec<(String, FileStatus)>,
+    /// Files of the runs table no longer in the input, removed with their data (`prune`).
+    pub removed: Vec<String>,
+    /// Directory entries that were not ingested, with the reason (non-regular files, symlink
+    /// loops).
+    pub skipped: Vec<(PathBuf, String)>,
+    /// Files stored although their rows stop early (`status = partial`), with the reason; every
+    /// such file of the input, not only those read now.
+    pub partial: Vec<(String, String)>,
+    /// Warnings of the files read now (reader, segmentation, copies of one run that disagree),
+    /// one per entry: (file, warning).
+    pub warnings: Vec<(String, String)>,
     /// Segments written by this ingest, by kind.
     pub segments_by_kind: BTreeMap<String, usize>,
     /// Samples written by this ingest.
@@ -125,8 +147,22 @@ impl IngestReport {
     /// A one-line summary.
     pub fn summary(&self) -> String {
         let duplicates = self.count(|s| matches!(s, FileStatus::Duplicate(_)));
+        let mut extra = String::new();
+        for (n, what) in [
+            (
+                self.count(|s| *s == FileStatus::Resegmented),
+                "re-segmented",
+            ),
+            (self.count(|s| *s == FileStatus::Relabelled), "relabelled"),
+            (self.removed.len(), "removed"),
+            (self.skipped.len(), "skipped entries"),
+        ] {
+            if n > 0 {
+                extra.push_str(&format!(", {n} {what}"));
+            }
+        }
         format!(
-            "{} files: {} ingested, {} unchanged, {} failed{}; {} segments, {} samples in {:.1} s",
+            "{} files: {} ingested, {} unchanged, {} failed{}{extra}; {} segments, {} samples in {:.1} s",
             self.files.len(),
             self.count(|s| *s == FileStatus::Ingested),
             self.count(|s| *s == FileStatus::Unchanged),
@@ -139,60 +175,129 @@ impl IngestReport {
     }
 }
 
-/// One row of the runs table (see `schemas/runs.toml`).
+/// The input files found under some paths, and the entries passed over.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct RunRow {
-    pub source_file: String,
-    pub source_path: String,
-    pub sha256: String,
-    pub data_sha256: Option<String>,
-    pub status: String,
-    pub error: Option<String>,
-    pub project: Option<i64>,
-    pub run: Option<i64>,
-    pub format: Option<String>,
-    pub round_style: Option<String>,
-    pub units: Option<String>,
-    pub sample_rate_hz: Option<f64>,
-    pub rows: i64,
-    pub n_segments: i64,
-    pub tire: Option<String>,
-    pub rim_in: Option<i64>,
-    pub tire_source: Option<String>,
-    pub kind_hint: Option<String>,
-    pub warnings: Option<String>,
-    pub size_bytes: Option<i64>,
-    pub mtime_ns: Option<i64>,
+pub struct Discovery {
+    /// `.dat`/`.mat` files (and symlinks named so, dangling ones included: they fail as one
+    /// file), sorted.
+    pub files: Vec<PathBuf>,
+    /// Entries not ingested, with the reason (non-regular files, directory symlink loops).
+    pub skipped: Vec<(PathBuf, String)>,
 }
 
-/// Every `.dat`/`.mat` file under the given paths (files are taken as given), sorted.
-pub fn discover(paths: &[PathBuf]) -> Result<Vec<PathBuf>, IngestError> {
-    let mut out = Vec::new();
-    for p in paths {
-        if p.is_file() {
-            out.push(p.clone());
-        } else if p.is_dir() {
-            walk(p, &mut out).map_err(|e| StoreError::io(p, e))?;
-        } else {
-            return Err(IngestError::MissingInput(p.clone()));
+fn is_run_file(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("dat") || e.eq_ignore_ascii_case("mat"))
+}
+
+/// What a non-regular file is, for the note that skips it.
+fn file_kind(meta: &fs::Metadata) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let t = meta.file_type();
+        if t.is_fifo() {
+            return "a FIFO";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+        if t.is_block_device() || t.is_char_device() {
+            return "a device";
         }
     }
-    out.sort();
-    out.dedup();
+    let _ = meta;
+    "not a regular file"
+}
+
+/// The identity of a directory for loop detection.
+fn dir_id(path: &Path, meta: &fs::Metadata) -> (u64, u64, PathBuf) {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        let _ = path;
+        (meta.dev(), meta.ino(), PathBuf::new())
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = meta;
+        (
+            0,
+            0,
+            fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()),
+        )
+    }
+}
+
+/// Every `.dat`/`.mat` file under the given paths (files are taken as given), sorted. Symlinks
+/// are followed, directories once each (a symlink back up the tree is a skipped entry, not a
+/// loop); a FIFO, socket or device is a skipped entry (reading it could block forever); a
+/// dangling or looping file symlink is kept as a file (it fails with its reason).
+pub fn discover(paths: &[PathBuf]) -> Result<Discovery, IngestError> {
+    let mut out = Discovery::default();
+    let mut visited = BTreeSet::new();
+    for p in paths {
+        let Ok(link_meta) = fs::symlink_metadata(p) else {
+            return Err(IngestError::MissingInput(p.clone()));
+        };
+        match fs::metadata(p) {
+            Ok(meta) if meta.is_dir() => {
+                visited.insert(dir_id(p, &meta));
+                walk(p, &mut visited, &mut out).map_err(|e| StoreError::io(p, e))?;
+            }
+            Ok(meta) if meta.is_file() => out.files.push(p.clone()),
+            Ok(meta) => out.skipped.push((p.clone(), file_kind(&meta).to_string())),
+            // A dangling or looping symlink given by name: one failed file.
+            Err(_) if link_meta.file_type().is_symlink() => out.files.push(p.clone()),
+            Err(_) => return Err(IngestError::MissingInput(p.clone())),
+        }
+    }
+    out.files.sort();
+    out.files.dedup();
+    out.skipped.sort();
     Ok(out)
 }
 
-fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
-    for entry in fs::read_dir(dir)? {
-        let path = entry?.path();
-        if path.is_dir() {
-            walk(&path, out)?;
-        } else if path
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("dat") || e.eq_ignore_ascii_case("mat"))
-        {
-            out.push(path);
+fn walk(
+    dir: &Path,
+    visited: &mut BTreeSet<(u64, u64, PathBuf)>,
+    out: &mut Discovery,
+) -> std::io::Result<()> {
+    let mut entries: Vec<_> = fs::read_dir(dir)?.collect::<Result<_, _>>()?;
+    entries.sort_by_key(|e| e.path());
+    for entry in entries {
+        let path = entry.path();
+        let file_type = entry.file_type()?;
+        let meta = if file_type.is_symlink() {
+            match fs::metadata(&path) {
+                Ok(m) => m,
+                Err(_) => {
+                    if is_run_file(&path) {
+                        out.files.push(path);
+                    }
+                    continue;
+                }
+            }
+        } else {
+            entry.metadata()?
+        };
+        if meta.is_dir() {
+            if visited.insert(dir_id(&path, &meta)) {
+                walk(&path, visited, out)?;
+            } else if file_type.is_symlink() {
+                out.skipped.push((
+                    path,
+                    "directory symlink to a directory already searched (a loop?)".to_string(),
+                ));
+            }
+        } else if is_run_file(&path) {
+            if meta.is_file() {
+                out.files.push(path);
+            } else {
+                out.skipped
+                    .push((path, format!("{}, not a regular file", file_kind(&meta))));
+            }
         }
     }
     Ok(())
@@ -221,14 +326,6 @@ impl FileStamp {
             mtime_ns,
         })
     }
-
-    /// True when `row` is a successful ingest of this very file: same path, size and mtime.
-    fn matches(&self, path: &Path, row: &RunRow) -> bool {
-        (row.status == "ok" || row.status == DUPLICATE)
-            && row.source_path == path.display().to_string()
-            && row.size_bytes == Some(self.size_bytes)
-            && row.mtime_ns == Some(self.mtime_ns)
-    }
 }
 
 /// The identity key of a raw file in the store: its file name.
@@ -237,6 +334,18 @@ pub fn source_file_name(path: &Path) -> String {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| path.display().to_string())
 }
+
+/// SHA-256 of the resolved segmentation configuration (what the stored segments depend on).
+pub fn segment_config_sha256(segment: &SegmentConfig) -> String {
+    sha256_bytes(
+        toml::to_string(segment)
+            .unwrap_or_else(|e| format!("unrenderable: {e}"))
+            .as_bytes(),
+    )
+}
+
+/// This tool's version, as the runs table records what computed the stored parts.
+pub const TOOL_VERSION: &str = env!("CARGO_PKG_VERSION");
 
 /// Ingest `paths` into the store (takes the store lock for the duration).
 pub fn run(
@@ -251,6 +360,16 @@ pub fn run(
     run_locked(paths, opts, progress)
 }
 
+/// Settings every file's work shares.
+struct Shared<'a> {
+    opts: &'a IngestOptions<'a>,
+    segment_config_sha256: String,
+    writers: usize,
+}
+
+/// One file's result: its new runs row, status, the segments and samples it wrote.
+type FileOutcome = (RunRow, FileStatus, Vec<Segment>, usize);
+
 /// [`run`] for a caller that already holds the store lock (`tirebase run` holds it from ingest
 /// to publish); `opts.lock_wait` is not used.
 pub fn run_locked(
@@ -259,20 +378,30 @@ pub fn run_locked(
     progress: &dyn Progress,
 ) -> Result<IngestReport, IngestError> {
     let start = Instant::now();
-    let files = discover(paths)?;
+    let found = discover(paths)?;
+    let files = &found.files;
     let previous = read_runs(opts.store)?;
     collect_garbage(opts.store, &previous)?;
 
     let bar = progress.stage("ingest", "files", files.len() as u64);
     let mut seen: BTreeMap<String, PathBuf> = BTreeMap::new();
     let mut jobs: Vec<(PathBuf, String, Option<String>)> = Vec::new();
-    for path in &files {
+    for path in files {
         let name = source_file_name(path);
         let duplicate = seen
             .insert(name.clone(), path.clone())
             .map(|first| format!("{}: same file name as {}", path.display(), first.display()));
         jobs.push((path.clone(), name, duplicate));
     }
+    let present: BTreeSet<&str> = if opts.prune {
+        seen.keys().map(String::as_str).collect()
+    } else {
+        previous
+            .keys()
+            .map(String::as_str)
+            .chain(seen.keys().map(String::as_str))
+            .collect()
+    };
 
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs)
@@ -281,14 +410,22 @@ pub fn run_locked(
         .map_err(|e| StoreError::io(opts.store, std::io::Error::other(e)))?;
     // Threads left over when there are fewer files than workers write a file's partitions.
     let threads = pool.current_num_threads();
-    let writers = (threads / jobs.len().clamp(1, threads)).max(1);
-    let results: Vec<(RunRow, FileStatus, Vec<Segment>, usize)> = pool.install(|| {
+    let shared = Shared {
+        opts,
+        segment_config_sha256: segment_config_sha256(opts.segment),
+        writers: (threads / jobs.len().clamp(1, threads)).max(1),
+    };
+    let results: Vec<Result<FileOutcome, StoreError>> = pool.install(|| {
         jobs.par_iter()
             .map(|(path, name, duplicate)| {
                 let prev = previous.get(name);
                 let out = match duplicate {
-                    Some(msg) => failed_row(path, name, "", prev, msg.clone()),
-                    None => ingest_file(path, name, prev, opts, writers),
+                    Some(msg) => Ok(failed_row(path, name, "", prev, msg.clone())),
+                    None => {
+                        let canonical_present =
+                            prev.is_some_and(|p| canonical_present(p, &previous, &present));
+                        process_file(path, name, prev, canonical_present, &shared)
+                    }
                 };
                 bar.inc(1);
                 out
@@ -296,10 +433,24 @@ pub fn run_locked(
             .collect()
     });
 
-    let mut report = IngestReport::default();
+    let mut report = IngestReport {
+        skipped: found.skipped.clone(),
+        ..IngestReport::default()
+    };
     let mut rows: BTreeMap<String, RunRow> = previous.clone();
+    if opts.prune {
+        report.removed = previous
+            .keys()
+            .filter(|name| !seen.contains_key(*name))
+            .cloned()
+            .collect();
+        for name in &report.removed {
+            rows.remove(name);
+        }
+    }
     let mut written: BTreeMap<String, (Vec<Segment>, usize)> = BTreeMap::new();
-    for ((_, name, duplicate), (row, status, segments, n)) in jobs.iter().zip(results) {
+    for ((_, name, duplicate), result) in jobs.iter().zip(results) {
+        let (row, status, segments, n) = result?;
         written.insert(name.clone(), (segments, n));
         if duplicate.is_none() {
             rows.insert(name.clone(), row);
@@ -312,7 +463,7 @@ pub fn run_locked(
         mark_duplicate_runs(&mut rows)
     };
     for (name, status) in report.files.iter_mut() {
-        if let Some(row) = rows.get(name).filter(|r| r.status == DUPLICATE) {
+        if let Some(row) = rows.get(name).filter(|r| r.status == STATUS_DUPLICATE) {
             *status = FileStatus::Duplicate(row.error.clone().unwrap_or_default());
         }
     }
@@ -329,16 +480,38 @@ pub fn run_locked(
         report.rows += n;
     }
     report.files.sort();
+    for (name, _) in &report.files {
+        let Some(row) = rows.get(name) else { continue };
+        if row.status == STATUS_PARTIAL {
+            report
+                .partial
+                .push((name.clone(), row.error.clone().unwrap_or_default()));
+        }
+        // Parsed now, or newly found to be a copy of another file's run.
+        let read_now = written.get(name).is_some_and(|(_, n)| *n > 0) || marked.contains_key(name);
+        if read_now && let Some(w) = &row.warnings {
+            // The warning that makes a file partial is reported as such, not twice.
+            let partial_reason = row
+                .error
+                .as_deref()
+                .filter(|_| row.status == STATUS_PARTIAL);
+            report.warnings.extend(
+                w.split("; ")
+                    .filter(|w| !w.is_empty() && !partial_reason.is_some_and(|r| r.contains(w)))
+                    .map(|w| (name.clone(), w.to_string())),
+            );
+        }
+    }
     if rows != previous {
         // The runs table is the commit point: every sample and segment file it names is made
         // durable first (written with `Durability::Deferred`).
         sync_filesystem(opts.store)?;
         write_runs(opts.store, &rows)?;
-        // Garbage exists only if a stored version was replaced or dropped, or a file failed
+        // Garbage exists only if some file's parts were replaced or dropped, or a file failed
         // (possibly after writing some partitions); otherwise the walk of the store is skipped.
         let replaced = previous
             .iter()
-            .any(|(name, p)| rows.get(name).map(|r| &r.data_sha256) != Some(&p.data_sha256));
+            .any(|(name, p)| rows.get(name).map(RunRow::part_name) != Some(p.part_name()));
         let failed = report
             .files
             .iter()
@@ -353,6 +526,23 @@ pub fn run_locked(
     Ok(report)
 }
 
+/// For a duplicate's row: another file of its run holds data and is still present.
+fn canonical_present(
+    dup: &RunRow,
+    rows: &BTreeMap<String, RunRow>,
+    present: &BTreeSet<&str>,
+) -> bool {
+    dup.status == STATUS_DUPLICATE
+        && dup.project.is_some()
+        && dup.run.is_some()
+        && rows.values().any(|r| {
+            r.source_file != dup.source_file
+                && (r.project, r.run) == (dup.project, dup.run)
+                && r.has_live_data()
+                && present.contains(r.source_file.as_str())
+        })
+}
+
 /// A failed row: the reason, and whatever data the store held before.
 fn failed_row(
     path: &Path,
@@ -360,12 +550,12 @@ fn failed_row(
     sha: &str,
     prev: Option<&RunRow>,
     error: String,
-) -> (RunRow, FileStatus, Vec<Segment>, usize) {
+) -> FileOutcome {
     let mut row = prev.cloned().unwrap_or_default();
     row.source_file = name.to_string();
     row.source_path = path.display().to_string();
     row.sha256 = sha.to_string();
-    row.status = "failed".into();
+    row.status = STATUS_FAILED.into();
     row.error = Some(error.clone());
     let stamp = FileStamp::of(path).ok();
     row.size_bytes = stamp.map(|s| s.size_bytes);
@@ -377,83 +567,226 @@ fn failed_row(
     (row, FileStatus::Failed(error), Vec::new(), 0)
 }
 
-/// Read, segment and store one file.
-fn ingest_file(
+/// The catalog's identity for a run (project, run), if it has an entry.
+pub fn catalog_identity(
+    catalog: Option<&Catalog>,
+    project: Option<i64>,
+    run: Option<i64>,
+) -> Option<Identity> {
+    let (c, p, r) = (catalog?, project?, run?);
+    let e = c.get(u32::try_from(p).ok()?, u32::try_from(r).ok()?)?;
+    Some(Identity {
+        tire: e.tire.clone(),
+        rim_in: Some(e.rim_in.round() as i64),
+        source: "catalog",
+        kind_hint: e.kind.clone(),
+    })
+}
+
+/// Decide and act for one file; `Err` only when the store cannot be read or written.
+fn process_file(
     path: &Path,
     name: &str,
     prev: Option<&RunRow>,
-    opts: &IngestOptions,
-    writers: usize,
-) -> (RunRow, FileStatus, Vec<Segment>, usize) {
+    canonical_present: bool,
+    shared: &Shared,
+) -> Result<FileOutcome, StoreError> {
+    let opts = shared.opts;
     let io_failure = |e: std::io::Error| format!("{}: {e}", path.display());
+    let meta = match fs::metadata(path) {
+        Ok(m) => m,
+        Err(e) => return Ok(failed_row(path, name, "", prev, io_failure(e))),
+    };
+    if !meta.is_file() {
+        let reason = format!(
+            "{}: {}, not a regular file",
+            path.display(),
+            file_kind(&meta)
+        );
+        return Ok(failed_row(path, name, "", prev, reason));
+    }
     let stamp = match FileStamp::of(path) {
         Ok(s) => s,
-        Err(e) => return failed_row(path, name, "", prev, io_failure(e)),
+        Err(e) => return Ok(failed_row(path, name, "", prev, io_failure(e))),
     };
-    if let Some(p) = prev
-        && !opts.rehash
-        && stamp.matches(path, p)
-    {
-        return (p.clone(), FileStatus::Unchanged, Vec::new(), 0);
-    }
-    let bytes = match fs::read(path) {
-        Ok(b) => b,
-        Err(e) => return failed_row(path, name, "", prev, io_failure(e)),
+    let catalog = prev.and_then(|p| catalog_identity(opts.catalog, p.project, p.run));
+    let path_text = path.display().to_string();
+    let mut now = Now {
+        path: &path_text,
+        stamp,
+        sha256: None,
+        catalog: catalog.as_ref(),
+        segment_config_sha256: &shared.segment_config_sha256,
+        tool_version: TOOL_VERSION,
+        rehash: opts.rehash,
+        canonical_present,
     };
-    let source_name = path.display().to_string();
-    let stored = prev.filter(|p| p.status == "ok" && p.data_sha256.is_some());
-    // A file the store holds is hashed first: unchanged content needs no parse. A new file is
-    // hashed and parsed at the same time (a round is gigabytes; each takes about as long).
-    let (sha, parsed) = if let Some(p) = stored {
+    let mut decision = decide(prev, &now);
+    let mut content: Option<(Vec<u8>, String)> = None;
+    if decision == Decision::Hash {
+        let bytes = match fs::read(path) {
+            Ok(b) => b,
+            Err(e) => return Ok(failed_row(path, name, "", prev, io_failure(e))),
+        };
         let sha = sha256_bytes(&bytes);
-        if p.data_sha256.as_deref() == Some(sha.as_str()) {
-            let mut row = p.clone();
-            row.source_path = path.display().to_string();
-            row.size_bytes = Some(stamp.size_bytes);
-            row.mtime_ns = Some(stamp.mtime_ns);
-            return (row, FileStatus::Unchanged, Vec::new(), 0);
+        content = Some((bytes, sha));
+        now.sha256 = content.as_ref().map(|(_, s)| s.as_str());
+        decision = decide(prev, &now);
+    }
+    let unchanged = |prev: &RunRow| {
+        let mut row = prev.clone();
+        row.source_path = path_text.clone();
+        row.size_bytes = Some(stamp.size_bytes);
+        row.mtime_ns = Some(stamp.mtime_ns);
+        (row, FileStatus::Unchanged, Vec::new(), 0)
+    };
+    match (&decision, prev) {
+        (Decision::UpToDate, Some(p)) => return Ok(unchanged(p)),
+        (Decision::Relabel(identity), Some(p)) => {
+            if let Some(mut row) = relabel(opts.store, p, identity)? {
+                row.source_path = path_text.clone();
+                row.size_bytes = Some(stamp.size_bytes);
+                row.mtime_ns = Some(stamp.mtime_ns);
+                return Ok((row, FileStatus::Relabelled, Vec::new(), 0));
+            }
+            // The stored parts are gone (a damaged store): derive them again.
         }
-        (sha, ttc::read_run(&bytes, &source_name))
-    } else {
-        // A scoped thread, not `rayon::join`: a rayon worker waiting in `join` steals other
-        // files' jobs and nests them on its stack (observed: 1.9 GB and a stack overflow).
-        std::thread::scope(|s| {
+        _ => {}
+    }
+    let resegment = matches!(decision, Decision::Resegment | Decision::Relabel(_));
+    let (bytes, sha) = match content {
+        Some((bytes, sha)) => (bytes, Some(sha)),
+        None => match fs::read(path) {
+            Ok(b) => (b, None),
+            Err(e) => return Ok(failed_row(path, name, "", prev, io_failure(e))),
+        },
+    };
+    let mut out = parse_and_store(path, name, prev, stamp, bytes, sha, shared)?;
+    if resegment && out.1 == FileStatus::Ingested {
+        out.1 = FileStatus::Resegmented;
+    }
+    Ok(out)
+}
+
+/// Relabel a file's stored parts with a new identity, without a parse: the segments table is
+/// rewritten with the new tire and rim, the samples files (whose content does not name the
+/// tire) are linked into the new partitions. Returns the new row, or `None` when the stored
+/// parts are missing.
+fn relabel(store: &Path, prev: &RunRow, identity: &Identity) -> Result<Option<RunRow>, StoreError> {
+    let (Some(data), Some(old_part)) = (prev.data_sha256.as_deref(), prev.part_name()) else {
+        return Ok(None);
+    };
+    let mut row = prev.clone();
+    row.tire = Some(identity.tire.clone());
+    row.rim_in = identity.rim_in;
+    row.tire_source = Some(identity.source.to_string());
+    row.kind_hint = identity
+        .kind_hint
+        .clone()
+        .or_else(|| prev.run_class.clone());
+    row.parts_sha256 = Some(parts_sha256(
+        data,
+        &identity.tire,
+        identity.rim_in,
+        prev.segment_config_sha256.as_deref().unwrap_or_default(),
+        prev.tool_version.as_deref().unwrap_or_default(),
+    ));
+    let new_part = row.part_name().expect("a row with data has parts");
+    if new_part == old_part {
+        return Ok(Some(row));
+    }
+    let relabelled = relabel_parts(
+        store,
+        &old_part,
+        &new_part,
+        &identity.tire,
+        identity.rim_in.unwrap_or(0),
+    )?;
+    if !relabelled {
+        return Ok(None);
+    }
+    Ok(Some(row))
+}
+
+/// Read, segment and store one file's content (`sha` when already hashed).
+fn parse_and_store(
+    path: &Path,
+    name: &str,
+    prev: Option<&RunRow>,
+    stamp: FileStamp,
+    bytes: Vec<u8>,
+    sha: Option<String>,
+    shared: &Shared,
+) -> Result<FileOutcome, StoreError> {
+    let opts = shared.opts;
+    let source_name = path.display().to_string();
+    // A scoped thread, not `rayon::join`: a rayon worker waiting in `join` steals other files'
+    // jobs and nests them on its stack (observed: 1.9 GB and a stack overflow). A file not yet
+    // hashed is hashed while it is parsed (a round is gigabytes; each takes about as long).
+    let (sha, parsed) = match sha {
+        Some(sha) => {
+            let parsed = ttc::read_run(&bytes, &source_name);
+            (sha, parsed)
+        }
+        None => std::thread::scope(|s| {
             let hash = s.spawn(|| sha256_bytes(&bytes));
             let parsed = ttc::read_run(&bytes, &source_name);
             let sha = hash
                 .join()
                 .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
             (sha, parsed)
-        })
+        }),
     };
     let run = match parsed {
         Ok(r) => r,
-        Err(e) => return failed_row(path, name, &sha, prev, e.to_string()),
+        Err(e) => return Ok(failed_row(path, name, &sha, prev, e.to_string())),
     };
     drop(bytes);
     let identity = identify(&run, opts.catalog);
     let (segments, seg_report) = match segment::run(&signals(&run), opts.segment) {
         Ok(s) => s,
-        Err(e) => return failed_row(path, name, &sha, prev, format!("{source_name}: {e}")),
+        Err(e) => {
+            return Ok(failed_row(
+                path,
+                name,
+                &sha,
+                prev,
+                format!("{source_name}: {e}"),
+            ));
+        }
     };
+    let parts = parts_sha256(
+        &sha,
+        &identity.tire,
+        identity.rim_in,
+        &shared.segment_config_sha256,
+        TOOL_VERSION,
+    );
+    let part = source_part_name(name, &parts);
     let ctx = FileContext {
         name,
         sha: &sha,
+        part: &part,
         identity: &identity,
         run: &run,
     };
-    if let Err(e) = write_file_parts(opts.store, &ctx, &segments, writers) {
-        return failed_row(path, name, &sha, prev, e.to_string());
-    }
+    write_file_parts(opts.store, &ctx, &segments, shared.writers)?;
     let mut warnings = run.meta.warnings.clone();
     warnings.extend(seg_report.warnings.iter().cloned());
+    let run_class = seg_report.run_class.as_str().to_string();
+    let stops_early = stops_early(&run);
     let row = RunRow {
         source_file: name.to_string(),
         source_path: path.display().to_string(),
         sha256: sha.clone(),
         data_sha256: Some(sha.clone()),
-        status: "ok".into(),
-        error: None,
+        status: if stops_early.is_some() {
+            STATUS_PARTIAL
+        } else {
+            STATUS_OK
+        }
+        .into(),
+        error: stops_early,
         project: run.meta.project.map(i64::from),
         run: run.meta.run.map(i64::from),
         format: Some(
@@ -482,14 +815,31 @@ fn ingest_file(
             identity
                 .kind_hint
                 .clone()
-                .unwrap_or_else(|| seg_report.run_class.as_str().to_string()),
+                .unwrap_or_else(|| run_class.clone()),
         ),
         warnings: (!warnings.is_empty()).then(|| warnings.join("; ")),
         size_bytes: Some(stamp.size_bytes),
         mtime_ns: Some(stamp.mtime_ns),
+        run_class: Some(run_class),
+        et_start_s: run.et_s.first().copied(),
+        et_end_s: run.et_s.last().copied(),
+        segment_config_sha256: Some(shared.segment_config_sha256.clone()),
+        tool_version: Some(TOOL_VERSION.to_string()),
+        parts_sha256: Some(parts),
     };
     let n = run.len();
-    (row, FileStatus::Ingested, segments, n)
+    Ok((row, FileStatus::Ingested, segments, n))
+}
+
+/// Why a run's rows stop early (a transfer cut the file), if the reader saw it: the `.dat`
+/// reader drops a truncated last line with a warning that says so. A file cut exactly at a line
+/// end cannot be told from a short run.
+fn stops_early(run: &RunTable) -> Option<String> {
+    run.meta
+        .warnings
+        .iter()
+        .find(|w| w.contains("truncated last line"))
+        .map(|w| format!("rows stop early (file cut in transfer?): {w}"))
 }
 
 /// Which tire and rim a run is, and where that came from.
@@ -499,14 +849,17 @@ pub struct Identity {
     pub tire: String,
     /// Rim width, whole inches.
     pub rim_in: Option<i64>,
-    /// `catalog`, `tireid`, `tire_name` or `fallback`.
+    /// `catalog`, `tireid`, `tire_name` or `unknown` (named after the file, see [`identify`]).
     pub source: &'static str,
     /// Run kind from the catalog.
     pub kind_hint: Option<String>,
 }
 
 /// Tire identity: the catalog entry, else the file's own tire fields (`.mat` `tireid`, `.dat`
-/// `Tire_Name=`/`Rim_Width=`), else `project<p>-run<n>` with the rim unknown.
+/// `Tire_Name=`/`Rim_Width=`), else the tire is unknown and the run is named from what it has:
+/// `unknown (<file stem>)`, plus `project <p> run <n>` when the header states them and the file
+/// name does not (`unknown (drivebrake)`, `unknown (B1965run51)`), rim unknown, source
+/// `unknown`. A later catalog entry for the run's project and run re-labels it.
 pub fn identify(run: &RunTable, catalog: Option<&Catalog>) -> Identity {
     let meta = &run.meta;
     if let (Some(c), Some(p), Some(r)) = (catalog, meta.project, meta.run)
@@ -531,14 +884,21 @@ pub fn identify(run: &RunTable, catalog: Option<&Catalog>) -> Identity {
             kind_hint: None,
         };
     }
-    let project = meta
-        .project
-        .map_or("unknown".to_string(), |p| p.to_string());
-    let run_no = meta.run.map_or("unknown".to_string(), |r| r.to_string());
+    let base = meta
+        .source_name
+        .rsplit(['/', '\\'])
+        .next()
+        .unwrap_or(&meta.source_name);
+    let stem = base.rsplit_once('.').map_or(base, |(stem, _)| stem);
+    let mut name = format!("unknown ({stem}");
+    if let (None, Some(p), Some(r)) = (&meta.file_name, meta.project, meta.run) {
+        name.push_str(&format!(", project {p} run {r}"));
+    }
+    name.push(')');
     Identity {
-        tire: format!("project{project}-run{run_no}"),
+        tire: name,
         rim_in: None,
-        source: "fallback",
+        source: "unknown",
         kind_hint: None,
     }
 }
@@ -560,7 +920,7 @@ fn signals(run: &RunTable) -> RunSignals<'_> {
     static EMPTY: Vec<f64> = Vec::new();
     let rl = run.loaded_radius_m.as_deref().unwrap_or(&EMPTY);
     let mut s = RunSignals::from_iso_w(&run.tire, &run.et_s, &run.speed_kph, &run.pressure_kpa, rl);
-    s.has_kappa = run.meta.kappa_source.is_measured();
+    s.has_kappa = run.meta.kappa_source.is_available();
     if let (Some(inner_c), Some(centre_c), Some(outer_c)) = (
         run.tread_inner_temp_c.as_deref(),
         run.tread_centre_temp_c.as_deref(),
@@ -579,6 +939,8 @@ fn signals(run: &RunTable) -> RunSignals<'_> {
 struct FileContext<'a> {
     name: &'a str,
     sha: &'a str,
+    /// File name of every part written (see `store::tables::RunRow::part_name`).
+    part: &'a str,
     identity: &'a Identity,
     run: &'a RunTable,
 }
@@ -619,25 +981,15 @@ fn write_file_parts(
             .or_default()
             .push(s);
     }
-    let part_name = source_part_name(ctx.name, ctx.sha);
+    let part_name = ctx.part;
     let write = |(key, segs): (&PartitionKey, &Vec<&Segment>)| -> Result<(), StoreError> {
         let arrays = samples_arrays(ctx, segs);
         let rows = arrays.first().map_or(0, |(_, a)| a.len());
-        let (schema, arrays) = schema::table("samples").conform_arrays(arrays)?;
-        let batch = RecordBatchT::try_new(rows, Arc::new(schema.clone()), arrays)
-            .map_err(|e| StoreError::polars(store, e))?;
-        let dir = store.join(partition_dir(key));
-        ensure_dir(&dir)?;
-        write_arrow_parquet_atomic_with(&dir.join(&part_name), Durability::Deferred, schema, batch)
+        write_samples_part(store, key, part_name, rows, arrays)
     };
     let segments_table = || -> Result<(), StoreError> {
         let df = segments_frame(ctx, segments).map_err(|e| StoreError::polars(store, e))?;
-        let mut df = schema::table("segments").conform(df)?;
-        write_parquet_atomic_with(
-            &store.join(segments_file(ctx.name, ctx.sha)),
-            Durability::Deferred,
-            &mut df,
-        )
+        write_segments_part(store, ctx.part, df)
     };
     // Partitions are independent files (a run has ~30): the calling thread and `writers - 1`
     // scoped threads (which block while they work; rayon workers would steal and nest other
@@ -725,6 +1077,7 @@ fn samples_arrays(ctx: &FileContext, segs: &[&Segment]) -> Vec<(&'static str, Ar
     };
     let f = |c: &Vec<f64>| float_array(Some(c), &idx);
     let kappa_measured = run.meta.kappa_source.is_measured();
+    let kappa_derived = run.meta.kappa_source == ttc::KappaSource::Derived;
     vec![
         ("segment_id", string_runs(&seg_ids)),
         ("source_file", string_runs(&[(ctx.name, n)])),
@@ -752,6 +1105,10 @@ fn samples_arrays(ctx: &FileContext, segs: &[&Segment]) -> Vec<(&'static str, Ar
         (
             "kappa_measured",
             BooleanArray::from_slice(vec![kappa_measured; n]).boxed(),
+        ),
+        (
+            "kappa_derived",
+            BooleanArray::from_slice(vec![kappa_derived; n]).boxed(),
         ),
         ("sr", float_array(run.sr.as_ref(), &idx)),
         ("pressure_kpa", f(&run.pressure_kpa)),
@@ -851,119 +1208,6 @@ fn segments_frame(ctx: &FileContext, segments: &[Segment]) -> PolarsResult<DataF
         "qc_ok" => segments.iter().map(|s| s.qc.is_empty()).collect::<Vec<_>>(),
     )
 }
-
-/// The runs table by source file (empty for a new store).
-pub fn read_runs(store: &Path) -> Result<BTreeMap<String, RunRow>, IngestError> {
-    let path = store.join(runs_file());
-    if !path.exists() {
-        return Ok(BTreeMap::new());
-    }
-    let df = read_parquet(&path)?;
-    let s = |name: &str| -> PolarsResult<Vec<Option<String>>> {
-        Ok(df
-            .column(name)?
-            .str()?
-            .iter()
-            .map(|v| v.map(str::to_string))
-            .collect())
-    };
-    let i = |name: &str| -> PolarsResult<Vec<Option<i64>>> {
-        Ok(df.column(name)?.i64()?.iter().collect())
-    };
-    let (source_file, source_path, sha256, data_sha256, status, error) = (
-        s("source_file")?,
-        s("source_path")?,
-        s("sha256")?,
-        s("data_sha256")?,
-        s("status")?,
-        s("error")?,
-    );
-    let (project, run, rows, n_segments, rim_in) = (
-        i("project")?,
-        i("run")?,
-        i("rows")?,
-        i("n_segments")?,
-        i("rim_in")?,
-    );
-    let (format, round_style, units, tire, tire_source, kind_hint, warnings) = (
-        s("format")?,
-        s("round_style")?,
-        s("units")?,
-        s("tire")?,
-        s("tire_source")?,
-        s("kind_hint")?,
-        s("warnings")?,
-    );
-    let rate: Vec<Option<f64>> = df.column("sample_rate_hz")?.f64()?.iter().collect();
-    // Stores written before these columns existed have none: every file is then hashed once.
-    let optional_i = |name: &str| -> PolarsResult<Vec<Option<i64>>> {
-        match df.column(name) {
-            Ok(c) => Ok(c.i64()?.iter().collect()),
-            Err(_) => Ok(vec![None; df.height()]),
-        }
-    };
-    let (size_bytes, mtime_ns) = (optional_i("size_bytes")?, optional_i("mtime_ns")?);
-    let mut out = BTreeMap::new();
-    for k in 0..df.height() {
-        let row = RunRow {
-            source_file: source_file[k].clone().unwrap_or_default(),
-            source_path: source_path[k].clone().unwrap_or_default(),
-            sha256: sha256[k].clone().unwrap_or_default(),
-            data_sha256: data_sha256[k].clone(),
-            status: status[k].clone().unwrap_or_default(),
-            error: error[k].clone(),
-            project: project[k],
-            run: run[k],
-            format: format[k].clone(),
-            round_style: round_style[k].clone(),
-            units: units[k].clone(),
-            sample_rate_hz: rate[k],
-            rows: rows[k].unwrap_or(0),
-            n_segments: n_segments[k].unwrap_or(0),
-            tire: tire[k].clone(),
-            rim_in: rim_in[k],
-            tire_source: tire_source[k].clone(),
-            kind_hint: kind_hint[k].clone(),
-            warnings: warnings[k].clone(),
-            size_bytes: size_bytes[k],
-            mtime_ns: mtime_ns[k],
-        };
-        out.insert(row.source_file.clone(), row);
-    }
-    Ok(out)
-}
-
-/// Rewrite the runs table atomically (the ingest's commit point).
-fn write_runs(store: &Path, rows: &BTreeMap<String, RunRow>) -> Result<(), IngestError> {
-    let r: Vec<&RunRow> = rows.values().collect();
-    let df = df!(
-        "source_file" => r.iter().map(|x| x.source_file.as_str()).collect::<Vec<_>>(),
-        "source_path" => r.iter().map(|x| x.source_path.as_str()).collect::<Vec<_>>(),
-        "sha256" => r.iter().map(|x| x.sha256.as_str()).collect::<Vec<_>>(),
-        "data_sha256" => r.iter().map(|x| x.data_sha256.clone()).collect::<Vec<_>>(),
-        "status" => r.iter().map(|x| x.status.as_str()).collect::<Vec<_>>(),
-        "error" => r.iter().map(|x| x.error.clone()).collect::<Vec<_>>(),
-        "project" => r.iter().map(|x| x.project).collect::<Vec<_>>(),
-        "run" => r.iter().map(|x| x.run).collect::<Vec<_>>(),
-        "format" => r.iter().map(|x| x.format.clone()).collect::<Vec<_>>(),
-        "round_style" => r.iter().map(|x| x.round_style.clone()).collect::<Vec<_>>(),
-        "units" => r.iter().map(|x| x.units.clone()).collect::<Vec<_>>(),
-        "sample_rate_hz" => r.iter().map(|x| x.sample_rate_hz).collect::<Vec<_>>(),
-        "rows" => r.iter().map(|x| x.rows).collect::<Vec<_>>(),
-        "n_segments" => r.iter().map(|x| x.n_segments).collect::<Vec<_>>(),
-        "tire" => r.iter().map(|x| x.tire.clone()).collect::<Vec<_>>(),
-        "rim_in" => r.iter().map(|x| x.rim_in).collect::<Vec<_>>(),
-        "tire_source" => r.iter().map(|x| x.tire_source.clone()).collect::<Vec<_>>(),
-        "kind_hint" => r.iter().map(|x| x.kind_hint.clone()).collect::<Vec<_>>(),
-        "warnings" => r.iter().map(|x| x.warnings.clone()).collect::<Vec<_>>(),
-        "size_bytes" => r.iter().map(|x| x.size_bytes).collect::<Vec<_>>(),
-        "mtime_ns" => r.iter().map(|x| x.mtime_ns).collect::<Vec<_>>(),
-    )?;
-    let mut df = schema::table("runs").conform(df)?;
-    write_parquet_atomic(&store.join(runs_file()), &mut df)?;
-    Ok(())
-}
-
 /// `", N duplicate runs (stored once)"` for the summary lines, empty when there is none.
 pub fn duplicate_runs_note(duplicates: usize) -> String {
     if duplicates > 0 {
@@ -974,7 +1218,7 @@ pub fn duplicate_runs_note(duplicates: usize) -> String {
 }
 
 /// `runs.status` of a file whose run another file holds (see [`mark_duplicate_runs`]).
-pub const DUPLICATE: &str = "duplicate";
+pub const DUPLICATE: &str = STATUS_DUPLICATE;
 
 /// One run enters the store once. The consortium ships every run as `.dat` and `.mat`, in US
 /// customary (`A` prefix) and SI (`B`), and from Round 6 as "run" and "raw" files: a whole round
@@ -988,13 +1232,14 @@ fn mark_duplicate_runs(rows: &mut BTreeMap<String, RunRow>) -> BTreeMap<String, 
     let mut runs: BTreeMap<(i64, i64), Vec<&RunRow>> = BTreeMap::new();
     for r in rows.values() {
         if let (Some(project), Some(run), Some(_)) = (r.project, r.run, &r.data_sha256)
-            && r.status == "ok"
+            && (r.status == STATUS_OK || r.status == STATUS_PARTIAL)
         {
             runs.entry((project, run)).or_default().push(r);
         }
     }
     let preference = |r: &RunRow| {
         (
+            r.status == STATUS_PARTIAL,
             r.units.as_deref() != Some("SI"),
             !TtcFileName::parse(&r.source_file).is_some_and(|n| n.raw),
             r.format.as_deref() != Some("mat"),
@@ -1009,78 +1254,133 @@ fn mark_duplicate_runs(rows: &mut BTreeMap<String, RunRow>) -> BTreeMap<String, 
         copies.sort_by_key(|r| preference(r));
         let canonical = copies[0].source_file.clone();
         for r in &copies[1..] {
+            let disagreement = copies_disagree(copies[0], r);
             marked.insert(
                 r.source_file.clone(),
-                (canonical.clone(), format!("project {project}, run {run}")),
+                (
+                    canonical.clone(),
+                    format!("project {project}, run {run}"),
+                    disagreement,
+                ),
             );
         }
     }
     marked
         .into_iter()
-        .map(|(name, (canonical, which))| {
+        .map(|(name, (canonical, which, disagreement))| {
             let row = rows.get_mut(&name).expect("marked rows exist");
             row.status = DUPLICATE.to_string();
             row.error = Some(format!(
                 "same run as {canonical} ({which}), which is the copy stored"
             ));
+            // The copy's own reader warnings concern data that is not stored; what matters is
+            // whether it agrees with the copy that is.
+            row.warnings = disagreement.map(|d| {
+                format!("copies of {which} disagree: {d} ({canonical} is the copy stored)")
+            });
             row.data_sha256 = None;
+            row.parts_sha256 = None;
             row.n_segments = 0;
             (name, canonical)
         })
         .collect()
 }
 
-/// Delete parts that are not the committed data of some file (superseded versions, leftovers of
-/// a crashed ingest), stale temporary files, and empty partition directories. Call with the
-/// store lock held.
-fn collect_garbage(store: &Path, rows: &BTreeMap<String, RunRow>) -> Result<(), StoreError> {
-    let live: BTreeSet<String> = rows
-        .values()
-        .filter_map(|r| {
-            r.data_sha256
-                .as_deref()
-                .map(|sha| source_part_name(&r.source_file, sha))
-        })
-        .collect();
-    let mut candidates = parquet_files_in(&store.join(SEGMENTS_DIR))?;
-    candidates.extend(parquet_files_below(&store.join(SAMPLES_DIR))?);
-    for path in candidates {
-        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
-        if !live.contains(name) {
-            fs::remove_file(&path).map_err(|e| StoreError::io(&path, e))?;
-        }
-    }
-    remove_temp_and_empty(&store.join(SAMPLES_DIR))?;
-    remove_temp_and_empty(&store.join(SEGMENTS_DIR))?;
-    Ok(())
-}
-
-/// Remove `*.tmp` files and empty directories below `dir` (keeps `dir` itself).
-fn remove_temp_and_empty(dir: &Path) -> Result<bool, StoreError> {
-    let Ok(entries) = fs::read_dir(dir) else {
-        return Ok(false);
+/// How two copies of one run disagree, if they do: copies of the same kind (both "run", both
+/// "raw") hold the same rows over the same elapsed-time range; a "run" copy (dwells cut) holds
+/// at most the rows of a "raw" copy, within its time range. Tolerance: half a sample period.
+fn copies_disagree(kept: &RunRow, copy: &RunRow) -> Option<String> {
+    let (Some(k0), Some(k1), Some(c0), Some(c1)) = (
+        kept.et_start_s,
+        kept.et_end_s,
+        copy.et_start_s,
+        copy.et_end_s,
+    ) else {
+        return None;
     };
-    let mut empty = true;
-    for entry in entries.flatten() {
-        let path = entry.path();
-        if path.is_dir() {
-            if remove_temp_and_empty(&path)? {
-                fs::remove_dir(&path).map_err(|e| StoreError::io(&path, e))?;
-            } else {
-                empty = false;
-            }
-        } else if path.to_string_lossy().ends_with(TEMP_SUFFIX) {
-            fs::remove_file(&path).map_err(|e| StoreError::io(&path, e))?;
+    let raw = |r: &RunRow| TtcFileName::parse(&r.source_file).is_some_and(|n| n.raw);
+    let rate = kept.sample_rate_hz.filter(|r| *r > 0.0).unwrap_or(100.0);
+    let tol = 0.5 / rate;
+    let describe = || {
+        format!(
+            "{} has {} rows over ET {k0:.3}..{k1:.3} s, {} has {} rows over ET {c0:.3}..{c1:.3} s",
+            kept.source_file, kept.rows, copy.source_file, copy.rows
+        )
+    };
+    let agree = if raw(kept) == raw(copy) {
+        kept.rows == copy.rows && (k0 - c0).abs() <= tol && (k1 - c1).abs() <= tol
+    } else {
+        // The raw copy holds the run copy.
+        let (big, small) = if raw(kept) {
+            ((kept.rows, k0, k1), (copy.rows, c0, c1))
         } else {
-            empty = false;
-        }
-    }
-    Ok(empty)
+            ((copy.rows, c0, c1), (kept.rows, k0, k1))
+        };
+        small.0 <= big.0 && small.1 >= big.1 - tol && small.2 <= big.2 + tol
+    };
+    (!agree).then(describe)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn copies_of_one_run_must_hold_the_same_rows_and_time_range() {
+        let copy = |name: &str, rows: i64, et: (f64, f64)| RunRow {
+            source_file: name.into(),
+            rows,
+            et_start_s: Some(et.0),
+            et_end_s: Some(et.1),
+            sample_rate_hz: Some(100.0),
+            ..RunRow::default()
+        };
+        let kept = copy("B1965run51.mat", 1000, (0.0, 9.99));
+        assert_eq!(
+            copies_disagree(&kept, &copy("A1965run51.dat", 1000, (0.0, 9.99))),
+            None
+        );
+        assert_eq!(
+            copies_disagree(&kept, &copy("A1965run51.dat", 1000, (0.001, 9.992))),
+            None
+        );
+        let other = copies_disagree(&kept, &copy("A1965run51.dat", 800, (0.0, 7.99))).unwrap();
+        assert!(other.contains("B1965run51.mat has 1000 rows"), "{other}");
+        assert!(
+            other.contains("A1965run51.dat has 800 rows over ET 0.000..7.990 s"),
+            "{other}"
+        );
+        assert!(copies_disagree(&kept, &copy("A1965run51.dat", 1000, (20.0, 29.99))).is_some());
+        // A raw copy keeps the dwells a run copy cuts: more rows, a wider time range.
+        let raw = copy("B1965raw51.mat", 1500, (0.0, 14.99));
+        assert_eq!(copies_disagree(&raw, &kept), None);
+        assert_eq!(copies_disagree(&kept, &raw), None);
+        assert!(copies_disagree(&raw, &copy("B1965run51.dat", 1600, (0.0, 15.99))).is_some());
+        // Rows stored before the time range was recorded are not compared.
+        let mut legacy = copy("A1965run51.dat", 5, (0.0, 1.0));
+        legacy.et_start_s = None;
+        assert_eq!(copies_disagree(&kept, &legacy), None);
+    }
+
+    /// Issue 17: without a catalog entry or a tire field, the tire is unknown and named after
+    /// the file (and the header's project and run when the name does not carry them).
+    #[test]
+    fn a_tire_without_catalog_or_tireid_is_unknown_and_named_after_the_file() {
+        use tirebase_core::ttc::example::{RoundStyle, example_dat, example_mat};
+        use tirebase_core::ttc::mat::Compression;
+        let dat = ttc::read_run(
+            &example_dat(RoundStyle::R4Uscs, 20, false),
+            "in/drivebrake.dat",
+        )
+        .unwrap();
+        let id = identify(&dat, None);
+        assert_eq!(id.tire, "unknown (drivebrake, project 1320 run 125)");
+        assert_eq!((id.rim_in, id.source), (None, "unknown"));
+        let mut mat =
+            ttc::read_run(&example_mat(20, Compression::None), "x/B1320run15.mat").unwrap();
+        mat.meta.tire_name = None;
+        assert_eq!(identify(&mat, None).tire, "unknown (B1320run15)");
+    }
 
     fn row(name: &str, run: Option<i64>, units: &str, format: &str) -> RunRow {
         RunRow {

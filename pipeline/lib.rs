@@ -8,7 +8,7 @@
 //!        │                 PAC2002 .tir   spring rate   thermal     relaxation
 //!        │                      └────────────┴──────┬─────┴─────────────┘
 //! inertia sessions ──inertia──────────────────────▶ publish ──▶ versions/vNNNNNN (immutable)
-//!                                                           └──▶ query (SQL) · diff · report
+//!                                                           └──▶ query (SQL) · diff · compare · report
 //! ```
 //!
 //! The pure numerics (model, formats, fitting math, inertia math, virtual test machine) live in
@@ -20,6 +20,7 @@ pub use tirebase_core as core;
 pub mod catalog;
 pub mod cli;
 pub mod commands;
+pub mod compare;
 pub mod config;
 pub mod diff;
 pub mod fit;
@@ -27,10 +28,12 @@ pub mod inertia;
 pub mod ingest;
 pub mod manifest;
 pub mod progress;
+pub mod publish;
 pub mod query;
 pub mod report;
 pub mod run;
 pub mod schema;
+pub mod score;
 pub mod store;
 
 /// Stack of every worker thread that may run polars (ingest, fit, report pools). A rayon worker

@@ -61,6 +61,10 @@ pub struct Manifest {
     pub inertia_files: Vec<HashedFile>,
     /// Fit groups (tire, rim, nominal pressure) and where their results come from.
     pub groups: Vec<GroupRecord>,
+    /// Everything that failed or needs attention in this version, with its reason: failed and
+    /// partial input files, file warnings, skipped directory entries, failed and skipped fit
+    /// stages, failed inertia runs, a failed report (sorted by kind, then subject).
+    pub problems: Vec<Problem>,
     /// The resolved configuration.
     pub config: toml::Table,
 }
@@ -89,10 +93,24 @@ pub struct Counts {
     pub files: u64,
     /// Of those, stored without error.
     pub files_ok: u64,
-    /// Of those, failed (listed in the runs table with the reason).
+    /// Of those, stored although their rows stop early (`runs.status = partial`).
+    pub files_partial: u64,
+    /// Of those, failed (listed in the runs table and in `problems` with the reason).
     pub files_failed: u64,
-    /// Of those, read and segmented by this run (the others were unchanged).
+    /// Of those, copies of a run another file holds (stored once).
+    pub files_duplicate: u64,
+    /// Of those, read and segmented by this run because their content was new or changed.
     pub files_ingested: u64,
+    /// Of those, read and segmented again for new segmentation settings or a new tool.
+    pub files_resegmented: u64,
+    /// Of those, relabelled without a parse for a new catalog identity.
+    pub files_relabelled: u64,
+    /// Files of the previous version no longer in the input (removed from the store).
+    pub files_removed: u64,
+    /// Warnings of the input files (reader, segmentation, disagreeing copies).
+    pub file_warnings: u64,
+    /// Directory entries of the input that were not ingested (FIFOs, symlink loops).
+    pub entries_skipped: u64,
     /// Live segments in the store, by kind.
     pub segments_by_kind: BTreeMap<String, u64>,
     /// Fit groups.
@@ -159,6 +177,139 @@ pub struct GroupRecord {
     pub n_segments: u64,
     /// The version whose run computed these results (this version when fitted now).
     pub from_version: u32,
+}
+
+/// What kind of problem a [`Problem`] is.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ProblemKind {
+    /// An input file that could not be read, parsed or segmented (`runs.status = failed`).
+    FailedFile,
+    /// An input file stored although its rows stop early (`runs.status = partial`).
+    PartialFile,
+    /// A fit stage that produced nothing for a group (`fit_failures.fatal`).
+    FitFailure,
+    /// An inertia run that failed.
+    InertiaRun,
+    /// The report could not be written.
+    Report,
+    /// A reader or segmentation warning of an input file, or copies of one run that disagree.
+    FileWarning,
+    /// A directory entry of the input that was not ingested (a FIFO, a symlink loop).
+    SkippedEntry,
+    /// A skipped part of a fit stage whose result was still written.
+    FitSkipped,
+    /// A `.tir` written under a disambiguated name (tires whose names sanitise alike).
+    TirName,
+}
+
+impl ProblemKind {
+    /// Every kind, in report order.
+    pub const ALL: [ProblemKind; 9] = [
+        ProblemKind::FailedFile,
+        ProblemKind::PartialFile,
+        ProblemKind::FitFailure,
+        ProblemKind::InertiaRun,
+        ProblemKind::Report,
+        ProblemKind::FileWarning,
+        ProblemKind::SkippedEntry,
+        ProblemKind::FitSkipped,
+        ProblemKind::TirName,
+    ];
+
+    /// A failure (the run exits 1), rather than a warning.
+    pub fn is_failure(self) -> bool {
+        matches!(
+            self,
+            ProblemKind::FailedFile
+                | ProblemKind::PartialFile
+                | ProblemKind::FitFailure
+                | ProblemKind::InertiaRun
+                | ProblemKind::Report
+        )
+    }
+
+    /// The prefix of its stderr lines.
+    pub fn label(self) -> &'static str {
+        match self {
+            ProblemKind::FailedFile => "failed file",
+            ProblemKind::PartialFile => "partial file",
+            ProblemKind::FitFailure => "failed fit",
+            ProblemKind::InertiaRun => "failed inertia run",
+            ProblemKind::Report => "report failed",
+            ProblemKind::FileWarning => "warning",
+            ProblemKind::SkippedEntry => "skipped entry",
+            ProblemKind::FitSkipped => "warning: skipped",
+            ProblemKind::TirName => "renamed .tir",
+        }
+    }
+
+    /// What a group of them is called (after its count).
+    pub fn plural(self) -> &'static str {
+        match self {
+            ProblemKind::FailedFile => "input files failed",
+            ProblemKind::PartialFile => "input files stored with rows missing",
+            ProblemKind::FitFailure => "fit stages produced nothing",
+            ProblemKind::InertiaRun => "inertia runs failed",
+            ProblemKind::Report => "report failures",
+            ProblemKind::FileWarning => "input file warnings",
+            ProblemKind::SkippedEntry => "input entries skipped",
+            ProblemKind::FitSkipped => "parts of fit stages skipped",
+            ProblemKind::TirName => ".tir file names disambiguated",
+        }
+    }
+}
+
+/// One thing that failed or needs attention.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct Problem {
+    /// Its kind.
+    pub kind: ProblemKind,
+    /// What it concerns: a file, a directory entry, a fit group, an inertia session.
+    pub subject: String,
+    /// One-line reason.
+    pub reason: String,
+}
+
+impl Problem {
+    /// A problem of `kind` about `subject`.
+    pub fn new(kind: ProblemKind, subject: impl Into<String>, reason: impl Into<String>) -> Self {
+        Problem {
+            kind,
+            subject: subject.into(),
+            reason: reason.into().replace('\n', " "),
+        }
+    }
+}
+
+impl std::fmt::Display for Problem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.subject.is_empty() {
+            write!(f, "{}: {}", self.kind.label(), self.reason)
+        } else {
+            write!(
+                f,
+                "{}: {}: {}",
+                self.kind.label(),
+                self.subject,
+                self.reason
+            )
+        }
+    }
+}
+
+/// Problems grouped by kind in report order: (kind, its problems), empty kinds left out.
+pub fn group_problems(problems: &[Problem]) -> Vec<(ProblemKind, Vec<&Problem>)> {
+    ProblemKind::ALL
+        .into_iter()
+        .map(|k| {
+            (
+                k,
+                problems.iter().filter(|p| p.kind == k).collect::<Vec<_>>(),
+            )
+        })
+        .filter(|(_, v)| !v.is_empty())
+        .collect()
 }
 
 impl GroupRecord {
@@ -265,6 +416,16 @@ mod tests {
             n_segments: 4,
             from_version: 1,
         });
+        m.problems.push(Problem::new(
+            ProblemKind::FailedFile,
+            "b.dat",
+            "b.dat: line 8, column 11 (FZ): non-finite value \"NaN\"",
+        ));
+        m.problems.push(Problem::new(
+            ProblemKind::InertiaRun,
+            "yaw/run3",
+            "too short",
+        ));
         m.config = toml::from_str("[fit]\nkappa_bin = 0.01\n").unwrap();
         let dir = tempfile::tempdir().unwrap();
         m.write(dir.path()).unwrap();

@@ -2,9 +2,9 @@
 //!
 //! In: a store root and a SQL string. Out: a DataFrame (printed as an aligned table or CSV by
 //! the command layer). Tables:
-//! - `runs`, `segments`, `samples`: the tire database. `segments` and `samples` are filtered to
-//!   the data the runs table has committed (rows of a crashed or superseded ingest are never
-//!   visible here, even before their files are garbage-collected).
+//! - `runs`, `segments`, `samples`: the tire database. `segments` and `samples` are the part
+//!   files the runs table names (`store::tables`' live rule: parts of a crashed or superseded
+//!   ingest are never visible here, even before they are garbage-collected).
 //! - every published result table (`coefficients`, `fit_quality`, `spring_rate`, `thermal`,
 //!   `thermal_fit`, `relaxation`, `inertia`, ...) across all versions with a `version` column,
 //!   plus `<table>_latest`, the newest version only; and `versions` (one row per version with
@@ -20,9 +20,8 @@ use polars::sql::SQLContext;
 
 use crate::manifest::Manifest;
 use crate::schema::{self, TableSchema};
-use crate::store::files::{parquet_files_below, parquet_files_in, read_parquet};
-use crate::store::layout::{SAMPLES_DIR, SEGMENTS_DIR, runs_file};
-use crate::store::{StoreError, versions};
+use crate::store::layout::{SAMPLES_DIR, runs_file};
+use crate::store::{StoreError, results, tables, versions};
 
 /// Query errors.
 #[derive(Debug, thiserror::Error)]
@@ -61,12 +60,6 @@ fn scan_files(files: &[std::path::PathBuf], hive: bool) -> PolarsResult<LazyFram
     LazyFrame::scan_parquet_files(paths.into_iter().collect(), args)
 }
 
-/// The source versions whose data the runs table has committed.
-fn live_shas(runs: &DataFrame) -> PolarsResult<Series> {
-    let shas = runs.column("data_sha256")?.drop_nulls();
-    Ok(shas.as_materialized_series().clone())
-}
-
 /// Build a SQL context with every table of the store registered.
 pub fn context(root: &Path) -> Result<SQLContext, QueryError> {
     let runs_path = root.join(runs_file());
@@ -76,29 +69,22 @@ pub fn context(root: &Path) -> Result<SQLContext, QueryError> {
     }
     let mut ctx = SQLContext::new();
 
-    let runs = if runs_path.exists() {
-        read_parquet(&runs_path)?
-    } else {
-        DataFrame::empty_with_schema(&schema::table("runs").file_schema())
-    };
-    let live = live_shas(&runs)?;
-    ctx.register("runs", runs.lazy());
+    ctx.register("runs", tables::runs_frame(root)?.lazy());
 
-    let seg_files = parquet_files_in(&root.join(SEGMENTS_DIR))?;
+    // Only the part files the runs table names are scanned (`store::tables`' live rule).
+    let seg_files = tables::live_segment_files(root)?;
     let segments = if seg_files.is_empty() {
         empty_frame(schema::table("segments"))
     } else {
         scan_files(&seg_files, false)?
-            .filter(col("source_sha256").is_in(lit(live.clone()).implode(false), false))
     };
     ctx.register("segments", segments);
 
-    let sample_files = parquet_files_below(&root.join(SAMPLES_DIR))?;
+    let sample_files = tables::live_sample_files(root)?;
     let samples = if sample_files.is_empty() {
         empty_frame(schema::table("samples"))
     } else {
         scan_files(&sample_files, true)?
-            .filter(col("source_sha256").is_in(lit(live).implode(false), false))
     };
     ctx.register("samples", samples);
 
@@ -114,15 +100,14 @@ fn register_versions(ctx: &mut SQLContext, root: &Path) -> Result<(), QueryError
     let newest = all.last().map_or(0, |(n, _)| *n as i64);
     let mut tables: std::collections::BTreeMap<String, Vec<DataFrame>> = Default::default();
     for (n, dir) in &all {
-        for file in parquet_files_in(dir)? {
-            let Some(name) = file.file_stem().and_then(|s| s.to_str()) else {
-                continue;
-            };
+        for name in results::table_names(dir)? {
             // Read eagerly: result tables are small, and polars 0.55 fails `count(*)` over a
             // union of lazy Parquet scans ("casting from UInt32 to UInt128").
-            let mut df = read_parquet(&file)?;
+            let Some(mut df) = results::read_table(dir, &name)? else {
+                continue;
+            };
             df.with_column(Column::new("version".into(), vec![*n as i64; df.height()]))?;
-            tables.entry(name.to_string()).or_default().push(df);
+            tables.entry(name).or_default().push(df);
         }
     }
     for (name, frames) in tables {
@@ -256,18 +241,32 @@ pub fn format_table(df: &DataFrame) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::BTreeMap;
+
     use crate::store::files::write_parquet_atomic;
     use crate::store::layout::{PartitionKey, partition_dir};
+    use crate::store::tables::RunRow;
 
     /// A two-file store where one file's data is live and the other's was superseded.
     fn tiny_store(root: &Path) {
-        let mut runs = df!(
-            "source_file" => ["a.dat", "b.dat"],
-            "data_sha256" => [Some("aaa"), None],
-            "status" => ["ok", "failed"],
-        )
-        .unwrap();
-        write_parquet_atomic(&root.join(runs_file()), &mut runs).unwrap();
+        let rows: BTreeMap<String, RunRow> = [
+            RunRow {
+                source_file: "a.dat".into(),
+                data_sha256: Some("aaa".into()),
+                parts_sha256: Some("111111111111".into()),
+                status: "ok".into(),
+                ..RunRow::default()
+            },
+            RunRow {
+                source_file: "b.dat".into(),
+                status: "failed".into(),
+                ..RunRow::default()
+            },
+        ]
+        .into_iter()
+        .map(|r| (r.source_file.clone(), r))
+        .collect();
+        tables::write_runs(root, &rows).unwrap();
         let key = PartitionKey {
             test: "cornering".into(),
             tire: "Hoosier 20.5x7.0-13 R25B".into(),
@@ -276,11 +275,12 @@ mod tests {
             ia_deg_nom: 0,
             fz_n_nom: 1112,
         };
-        for (sha, fz) in [("aaa", 1100.0), ("old", 9999.0)] {
-            let mut df = df!("source_sha256" => [sha, sha], "fz_n" => [fz, fz + 20.0]).unwrap();
+        // The live part, and a superseded derivation of the same content.
+        for (part, fz) in [("111111111111", 1100.0), ("222222222222", 9999.0)] {
+            let mut df = df!("source_sha256" => ["aaa", "aaa"], "fz_n" => [fz, fz + 20.0]).unwrap();
             let path = root
                 .join(partition_dir(&key))
-                .join(format!("a-{sha}.parquet"));
+                .join(format!("a_dat-{part}.parquet"));
             write_parquet_atomic(&path, &mut df).unwrap();
         }
     }

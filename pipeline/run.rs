@@ -2,58 +2,53 @@
 //!
 //! In: an input directory (raw `.dat`/`.mat` files anywhere below it, optional rig sessions under
 //! `inertia/`), a store, an optional catalog and the resolved configuration. Out: either nothing
-//! ("up to date") or one new immutable version `STORE/versions/vNNNNNN/` with every result
-//! table, every `.tir`, the HTML report and `manifest.toml`, plus a [`RunReport`].
+//! ("up to date") or one new immutable version `STORE/versions/vNNNNNN/` (built by
+//! [`crate::publish`]), plus a [`RunReport`].
 //!
 //! ```text
-//! lock ─▶ up to date? ─yes─▶ done (nothing loaded but stats, hashes of small files, segments)
+//! lock ─▶ up to date? ─yes─▶ done (nothing read but stats, the runs table, small inputs)
 //!            │ no
 //!            ▼
-//!         ingest ─▶ plan groups ─▶ fit changed groups ─┐
-//!                      │                              ├─▶ staging dir ─▶ report ─▶ manifest ─▶ rename
-//!                      └─ unchanged: rows + .tir of ──┘
-//!                         the previous version        inertia sessions ─┘
+//!         ingest (ingest::decide per file) ─▶ plan groups ─▶ same as the latest? ─yes─▶ done
+//!                                                 │ no
+//!                                                 ▼
+//!                                   fit changed groups ─▶ publish (merge with the reused
+//!                                                         groups, inertia, report, manifest)
 //! ```
 //!
-//! The whole run holds the store lock, so a second run waits (or refuses) and then sees the first
-//! one's version. A version is built in a hidden staging directory and appears by one rename
-//! ([`VersionBuilder`]); a crash at any point leaves earlier versions untouched and the next run
-//! removes the staging leftovers. Deliberately not here: the stages themselves (ingest, fit,
-//! inertia, report) and printing (the command layer prints the [`RunReport`]).
+//! A version is a function of the inputs: what the store holds for a file follows its content,
+//! catalog entry, `[segment]` configuration and the tool version (`ingest::decide`), files gone
+//! from the input leave the store, and a group is refit when anything its fit reads changed. The
+//! whole run holds the store lock, so a second run waits (or refuses) and then sees the first
+//! one's version; a crash at any point leaves earlier versions untouched. Deliberately not here:
+//! the stages themselves (ingest, fit, inertia, report), building the version (publish) and
+//! printing (the command layer prints the [`RunReport`]).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::time::{Instant, UNIX_EPOCH};
-
-use polars::prelude::*;
-use tirebase_core::naming::tir_file_name;
+use std::time::Instant;
 
 use crate::catalog::{Catalog, CatalogError};
 use crate::config::Config;
 use crate::fit::{self, FitError, FitOptions, FitOutcome, GroupPlan};
-use crate::inertia::{InertiaRun, find_sessions, process_sessions};
+use crate::inertia::find_sessions;
 use crate::ingest::{self, IngestError, IngestOptions, IngestReport, source_file_name};
 use crate::manifest::{
-    Counts, GroupRecord, HashedFile, InputFile, InputInfo, Manifest, ManifestError, now_utc,
+    GroupRecord, HashedFile, InputFile, Manifest, ManifestError, Problem, ProblemKind,
 };
 use crate::progress::Progress;
-use crate::report;
+pub use crate::publish::RunReport;
+use crate::publish::{self, GroupKey, Publication};
 use crate::store::StoreError;
-use crate::store::files::{read_parquet, sha256_bytes, sha256_file, write_parquet_atomic};
+use crate::store::files::{sha256_bytes, sha256_file};
 use crate::store::layout::runs_file;
 use crate::store::lock::{LockWait, StoreLock};
-use crate::store::versions::{self, VersionBuilder};
+use crate::store::tables::{RunRow, STATUS_DUPLICATE, STATUS_FAILED, STATUS_PARTIAL, read_runs};
+use crate::store::versions;
 
 /// Folder of the input holding rig-inertia sessions.
 pub const INERTIA_DIR: &str = "inertia";
-/// Tables published from the inertia stage (never merged per tire group).
-const INERTIA_TABLE: &str = "inertia";
-/// A fit group: (tire, rim_in, pressure_kpa).
-type GroupKey = (String, i64, i64);
-
-/// The columns every fit result table has, identifying its group.
-const GROUP_COLUMNS: [&str; 3] = ["tire", "rim_in", "pressure_kpa"];
 
 /// Errors that stop a run (per-file, per-fit and per-session problems are recorded instead).
 #[derive(Debug, thiserror::Error)]
@@ -82,7 +77,7 @@ pub enum RunError {
         /// Table name.
         table: String,
         /// polars' error.
-        source: PolarsError,
+        source: polars::error::PolarsError,
     },
 }
 
@@ -111,6 +106,8 @@ pub enum RunOutcome {
         version: u32,
         /// Wall time, s.
         seconds: f64,
+        /// Failed (retried now, failing again) and partial input files of the latest version.
+        problems: Vec<Problem>,
     },
     /// A version was published.
     Published(Box<RunReport>),
@@ -118,47 +115,21 @@ pub enum RunOutcome {
     Nothing(Box<RunReport>),
 }
 
-/// What a publishing run did.
-#[derive(Debug, Default)]
-pub struct RunReport {
-    /// The manifest written (or that would have been written).
-    pub manifest: Manifest,
-    /// The published version's directory.
-    pub version_dir: Option<PathBuf>,
-    /// Input files that failed to ingest: (file, reason).
-    pub failed_files: Vec<(String, String)>,
-    /// Stages that produced nothing for a group in this version (fitted now or reused), one
-    /// line each.
-    pub fit_failures: Vec<String>,
-    /// Parts of stages that were skipped (one load, one sweep) while the stage's result was
-    /// written, one line each.
-    pub fit_skipped: Vec<String>,
-    /// Failed inertia runs, one line each.
-    pub inertia_errors: Vec<String>,
-    /// The report could not be written.
-    pub report_error: Option<String>,
-    /// The worst fit by quality, one line.
-    pub worst_fit: Option<String>,
-}
-
-impl RunReport {
-    /// True when something failed but a version was still published.
-    pub fn partial(&self) -> bool {
-        !self.failed_files.is_empty()
-            || !self.fit_failures.is_empty()
-            || !self.inertia_errors.is_empty()
-            || self.report_error.is_some()
-    }
-}
-
 /// The hashes that decide, with the file stats and the group plan, whether anything changed.
 #[derive(Debug, Default)]
-struct Fingerprint {
-    files: Vec<InputFile>,
-    catalog_sha256: String,
-    config_sha256: String,
-    inertia_sessions: Vec<PathBuf>,
-    inertia_files: Vec<HashedFile>,
+pub struct Fingerprint {
+    /// Input files with their stats (hash and status filled in after ingest).
+    pub files: Vec<InputFile>,
+    /// Directory entries discovery passed over, with the reason.
+    pub skipped: Vec<(PathBuf, String)>,
+    /// SHA-256 of the catalog file ("" without one).
+    pub catalog_sha256: String,
+    /// SHA-256 of the resolved configuration's TOML.
+    pub config_sha256: String,
+    /// Rig session directories.
+    pub inertia_sessions: Vec<PathBuf>,
+    /// Every file of the rig sessions, hashed.
+    pub inertia_files: Vec<HashedFile>,
 }
 
 /// Run the nightly pipeline once.
@@ -184,32 +155,36 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     };
     let mut timings = BTreeMap::new();
 
+    // The fast path reads no samples and no segments: what the store holds is a function of
+    // the files (same paths, sizes and mtimes as recorded), the catalog, the configuration and
+    // the tool version, and the group plan a function of the store. A file that failed last
+    // time is tried again, so a version with failed files never takes it.
     let files_unchanged = previous
         .as_ref()
         .is_some_and(|(_, _, m)| same_files(&m.files, &fingerprint.files));
-    // The fast path reads no samples and no segments: the group plan is a function of the live
-    // segments (named by the content hashes the runs table commits), the configuration and the
-    // tool version, so an unchanged runs table, config and tool mean unchanged group hashes.
+    let previous_clean = previous
+        .as_ref()
+        .is_some_and(|(_, _, m)| m.files.iter().all(|f| f.status != STATUS_FAILED));
     if let Some((n, _, prev)) = &previous
         && files_unchanged
+        && previous_clean
         && same_settings(prev, &fingerprint, opts.store)?
     {
         return Ok(RunOutcome::UpToDate {
             version: *n,
             seconds: started.elapsed().as_secs_f64(),
+            problems: failures_of_files(&prev.problems),
         });
     }
 
-    // Ingest (skipped when every input file has the size and mtime recorded last time).
+    // Ingest: unchanged files cost a stat; new content, a new catalog entry, new segmentation
+    // settings or a retry cost what they need (see `ingest::decide`).
     let t = Instant::now();
-    let ingest_report = if files_unchanged {
-        progress.note("ingest: input files unchanged since the latest version (size, mtime)");
-        None
-    } else {
-        Some(ingest_inputs(opts, progress)?)
-    };
+    let ingest_report = ingest_inputs(opts, progress)?;
     timings.insert("ingest".to_string(), t.elapsed().as_secs_f64());
-    let files = input_records(opts.store, &fingerprint.files, previous.as_ref())?;
+    let runs = read_runs(opts.store)?;
+    let files = input_records(&runs, &fingerprint.files);
+    let file_problems = file_problems(&runs, &files, &fingerprint.skipped);
 
     // Plan and reuse.
     let t = Instant::now();
@@ -219,21 +194,20 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
         && same_settings_but_runs(prev, &fingerprint)
         && same_groups(&prev.groups, &plan)
     {
-        // Files were touched (new mtime) but hold the same bytes.
+        // Files were touched (new mtime) but hold the same bytes, or failed files failed again.
         return Ok(RunOutcome::UpToDate {
             version: *n,
             seconds: started.elapsed().as_secs_f64(),
+            problems: failures_of_files(&file_problems),
         });
     }
     let (to_fit, reused) = split_reuse(&plan, previous.as_ref().map(|(_, _, m)| m));
     timings.insert("plan".to_string(), t.elapsed().as_secs_f64());
     if plan.is_empty() && fingerprint.inertia_sessions.is_empty() {
-        let mut report = RunReport {
-            failed_files: failed_files(&files, ingest_report.as_ref()),
-            ..Default::default()
-        };
+        let mut report = RunReport::default();
         report.manifest.counts.files = files.len() as u64;
-        report.manifest.counts.files_failed = report.failed_files.len() as u64;
+        report.manifest.counts.files_failed = count_status(&files, STATUS_FAILED);
+        report.manifest.problems = file_problems;
         return Ok(RunOutcome::Nothing(Box::new(report)));
     }
 
@@ -246,97 +220,37 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     };
     timings.insert("fit".to_string(), t.elapsed().as_secs_f64());
 
-    // Build the version in its staging directory.
-    let builder = VersionBuilder::begin(opts.store)?;
-    let number = builder.number();
-    let staging = builder.dir().to_path_buf();
-    let reused_keys: BTreeSet<GroupKey> = reused.keys().cloned().collect();
-    let prev_dir = previous.as_ref().map(|(_, d, _)| d.as_path());
-    let t = Instant::now();
-    let mut tables = merge_tables(&outcome, prev_dir, &reused_keys, &staging, progress)?;
-    let tir_files = publish_tir(&outcome, prev_dir, &reused_keys, &staging)?;
-    timings.insert("merge".to_string(), t.elapsed().as_secs_f64());
-
-    let t = Instant::now();
-    let mut report = RunReport::default();
-    let inertia = inertia_stage(&fingerprint.inertia_sessions, opts.jobs, &staging, progress)?;
-    if let Some((done, rows)) = &inertia {
-        tables.insert(INERTIA_TABLE.to_string(), *rows);
-        report.inertia_errors = done.errors().map(|e| e.to_string()).collect();
-    }
-    timings.insert("inertia".to_string(), t.elapsed().as_secs_f64());
-
-    let t = Instant::now();
-    report.report_error = report_stage(opts.store, &staging, opts.jobs, progress);
-    timings.insert("report".to_string(), t.elapsed().as_secs_f64());
-
-    report.failed_files = failed_files(&files, ingest_report.as_ref());
-    (report.fit_failures, report.fit_skipped) = failure_lines(&staging)?;
-    report.worst_fit = worst_fit(&staging);
-    let groups: Vec<GroupRecord> = plan
-        .iter()
-        .map(|g| GroupRecord {
-            tire: g.key.tire.clone(),
-            rim_in: g.key.rim_in,
-            pressure_kpa: g.key.pressure_kpa_nom,
-            input_sha256: g.input_sha256.clone(),
-            n_segments: g.n_segments as u64,
-            from_version: reused.get(&plan_key(g)).copied().unwrap_or(number),
-        })
-        .collect();
-    let counts = Counts {
-        files: files.len() as u64,
-        files_ok: files.iter().filter(|f| f.status == "ok").count() as u64,
-        files_failed: report.failed_files.len() as u64,
-        files_ingested: ingest_report.as_ref().map_or(0, |r| {
-            r.count(|s| *s == ingest::FileStatus::Ingested) as u64
-        }),
-        segments_by_kind: segments_by_kind(opts.store),
-        groups: plan.len() as u64,
-        groups_fitted: to_fit.len() as u64,
-        groups_reused: reused.len() as u64,
-        fit_failures: report.fit_failures.len() as u64,
-        fit_skipped: report.fit_skipped.len() as u64,
-        tir_files: tir_files as u64,
-        inertia_sessions: fingerprint.inertia_sessions.len() as u64,
-        inertia_results: inertia.as_ref().map_or(0, |(d, _)| d.results.len() as u64),
-        inertia_failed_runs: report.inertia_errors.len() as u64,
-    };
-    let mut manifest = Manifest {
-        version: number,
-        created_utc: now_utc(),
-        tool_version: env!("CARGO_PKG_VERSION").to_string(),
-        previous: previous.as_ref().map_or(0, |(n, _, _)| *n),
-        summary: String::new(),
-        input: InputInfo {
-            root: opts.input.display().to_string(),
-            catalog: opts
-                .catalog
-                .map(|p| p.display().to_string())
-                .unwrap_or_default(),
-            catalog_sha256: fingerprint.catalog_sha256.clone(),
-            config_sha256: fingerprint.config_sha256.clone(),
-            runs_table_sha256: runs_table_sha(opts.store)?,
+    let report = publish::publish(
+        Publication {
+            opts,
+            started,
+            previous: previous.as_ref(),
+            fingerprint: &fingerprint,
+            files,
+            file_problems,
+            ingest: &ingest_report,
+            plan: &plan,
+            groups_fitted: to_fit.len(),
+            reused: &reused,
+            outcome,
+            timings,
         },
-        counts,
-        timings_s: timings,
-        tables,
-        files,
-        inertia_files: fingerprint.inertia_files.clone(),
-        groups,
-        config: toml::from_str(&opts.config.to_toml()).unwrap_or_default(),
-    };
-    manifest.summary = describe_changes(previous.as_ref().map(|(_, _, m)| m), &manifest);
-
-    // Publish: the manifest records the time up to its own writing; the rename is instant.
-    manifest
-        .timings_s
-        .insert("total".to_string(), started.elapsed().as_secs_f64());
-    manifest.write(&staging)?;
-    let dir = builder.commit()?;
-    report.manifest = manifest;
-    report.version_dir = Some(dir);
+        progress,
+    )?;
     Ok(RunOutcome::Published(Box::new(report)))
+}
+
+/// The failed and partial files among `problems`.
+fn failures_of_files(problems: &[Problem]) -> Vec<Problem> {
+    problems
+        .iter()
+        .filter(|p| matches!(p.kind, ProblemKind::FailedFile | ProblemKind::PartialFile))
+        .cloned()
+        .collect()
+}
+
+fn count_status(files: &[InputFile], status: &str) -> u64 {
+    files.iter().filter(|f| f.status == status).count() as u64
 }
 
 /// Split the plan into groups to fit and groups whose results the previous version holds for
@@ -356,7 +270,7 @@ fn split_reuse(
     let mut to_fit = Vec::new();
     let mut reused = BTreeMap::new();
     for g in plan {
-        let key = plan_key(g);
+        let key = publish::plan_key(g);
         match prev.get(&key) {
             Some(p) if p.input_sha256 == g.input_sha256 => {
                 reused.insert(key, p.from_version);
@@ -367,97 +281,51 @@ fn split_reuse(
     (to_fit, reused)
 }
 
-/// Process the rig sessions (if any) into `staging/inertia.parquet`; the outcome and its rows.
-fn inertia_stage(
-    sessions: &[PathBuf],
-    jobs: usize,
-    staging: &Path,
-    progress: &dyn Progress,
-) -> Result<Option<(InertiaRun, u64)>, RunError> {
-    if sessions.is_empty() {
-        return Ok(None);
-    }
-    let stage = progress.stage("inertia", "sessions", sessions.len() as u64);
-    let done = with_pool(jobs, || process_sessions(sessions));
-    let mut df = done.table()?;
-    write_parquet_atomic(&staging.join(format!("{INERTIA_TABLE}.parquet")), &mut df)?;
-    stage.inc(sessions.len() as u64);
-    stage.finish(&format!(
-        "{} results, {} failed runs",
-        done.results.len(),
-        done.errors().count()
-    ));
-    let rows = df.height() as u64;
-    Ok(Some((done, rows)))
-}
-
-/// Write the HTML report into `staging/report/`; the one-line error if it failed (a failed
-/// report does not stop the publish).
-fn report_stage(
-    store: &Path,
-    staging: &Path,
-    jobs: usize,
-    progress: &dyn Progress,
-) -> Option<String> {
-    let stage = progress.stage("report", "reports", 1);
-    let write = || report::write_report(store, staging, &staging.join("report"));
-    let written = match rayon::ThreadPoolBuilder::new()
-        .num_threads(jobs)
-        .stack_size(crate::WORKER_STACK_BYTES)
-        .build()
-    {
-        Ok(pool) => pool.install(write),
-        Err(_) => write(),
-    };
-    match written {
-        Ok(_) => {
-            stage.inc(1);
-            stage.finish("written");
-            None
+/// Per-file problems of the version: failed and partial files, file warnings (every present
+/// file's, not only those read now) and skipped directory entries.
+fn file_problems(
+    runs: &BTreeMap<String, RunRow>,
+    files: &[InputFile],
+    skipped: &[(PathBuf, String)],
+) -> Vec<Problem> {
+    let mut out = Vec::new();
+    for f in files {
+        let Some(row) = runs.get(&f.name) else {
+            continue;
+        };
+        let reason = row.error.clone().unwrap_or_default();
+        match row.status.as_str() {
+            STATUS_FAILED => out.push(Problem::new(ProblemKind::FailedFile, &f.name, &reason)),
+            STATUS_PARTIAL => out.push(Problem::new(ProblemKind::PartialFile, &f.name, &reason)),
+            _ => {}
         }
-        Err(e) => {
-            stage.finish("failed");
-            Some(e.to_string().replace('\n', " "))
+        if row.status != STATUS_FAILED
+            && let Some(w) = &row.warnings
+        {
+            let partial_reason = (row.status == STATUS_PARTIAL).then_some(reason.as_str());
+            out.extend(
+                w.split("; ")
+                    .filter(|w| !w.is_empty() && !partial_reason.is_some_and(|r| r.contains(w)))
+                    .map(|w| Problem::new(ProblemKind::FileWarning, &f.name, w)),
+            );
         }
     }
-}
-
-/// Input files that failed to ingest, with the reason.
-fn failed_files(files: &[InputFile], ingest: Option<&IngestReport>) -> Vec<(String, String)> {
-    files
-        .iter()
-        .filter(|f| f.status == "failed")
-        .map(|f| (f.name.clone(), failure_reason(ingest, &f.name)))
-        .collect()
-}
-
-fn plan_key(g: &GroupPlan) -> GroupKey {
-    (g.key.tire.clone(), g.key.rim_in, g.key.pressure_kpa_nom)
-}
-
-/// Run `f` on a rayon pool of `jobs` threads (0 = one per core).
-fn with_pool<T: Send>(jobs: usize, f: impl FnOnce() -> T + Send) -> T {
-    match rayon::ThreadPoolBuilder::new()
-        .num_threads(jobs)
-        .stack_size(crate::WORKER_STACK_BYTES)
-        .build()
-    {
-        Ok(pool) => pool.install(f),
-        Err(_) => f(),
-    }
+    out.extend(
+        skipped
+            .iter()
+            .map(|(p, why)| Problem::new(ProblemKind::SkippedEntry, p.display().to_string(), why)),
+    );
+    out
 }
 
 /// Stats of the raw input files, hashes of the small inputs.
 fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
-    let raw = ingest::discover(&[opts.input.to_path_buf()])?;
-    let mut files = Vec::with_capacity(raw.len());
-    for path in &raw {
-        let meta = fs::metadata(path).map_err(|e| StoreError::io(path, e))?;
-        let mtime_ns = meta
-            .modified()
-            .ok()
-            .and_then(|t| t.duration_since(UNIX_EPOCH).ok())
-            .map_or(0, |d| d.as_nanos() as i64);
+    let found = ingest::discover(&[opts.input.to_path_buf()])?;
+    let mut files = Vec::with_capacity(found.files.len());
+    for path in &found.files {
+        // A file that cannot be stat'ed (a dangling symlink) is listed with no size; ingest
+        // records it as one failed file.
+        let stamp = ingest::FileStamp::of(path).unwrap_or_default();
         files.push(InputFile {
             name: source_file_name(path),
             path: path
@@ -465,8 +333,8 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
                 .unwrap_or(path)
                 .display()
                 .to_string(),
-            size: meta.len(),
-            mtime_ns,
+            size: u64::try_from(stamp.size_bytes).unwrap_or(0),
+            mtime_ns: stamp.mtime_ns,
             sha256: String::new(),
             status: String::new(),
         });
@@ -483,6 +351,7 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
     inertia_files.sort();
     Ok(Fingerprint {
         files,
+        skipped: found.skipped,
         catalog_sha256,
         config_sha256: sha256_bytes(opts.config.to_toml().as_bytes()),
         inertia_sessions: sessions,
@@ -556,14 +425,15 @@ fn same_groups(prev: &[GroupRecord], plan: &[GroupPlan]) -> bool {
     let b: BTreeSet<_> = plan
         .iter()
         .map(|g| {
-            let (t, r, p) = plan_key(g);
+            let (t, r, p) = publish::plan_key(g);
             (t, r, p, g.input_sha256.clone())
         })
         .collect();
     a == b
 }
 
-fn runs_table_sha(store: &Path) -> Result<String, StoreError> {
+/// SHA-256 of the store's runs table ("" without one).
+pub(crate) fn runs_table_sha(store: &Path) -> Result<String, StoreError> {
     let path = store.join(runs_file());
     if path.exists() {
         sha256_file(&path)
@@ -583,6 +453,8 @@ fn ingest_inputs(opts: &RunOptions, progress: &dyn Progress) -> Result<IngestRep
         // The nightly run trusts the ingest fast path (unchanged size, mtime and path).
         rehash: false,
         keep_duplicate_runs: false,
+        // The input directory is the whole input: files gone from it leave the store.
+        prune: true,
     };
     Ok(ingest::run_locked(
         &[opts.input.to_path_buf()],
@@ -591,365 +463,29 @@ fn ingest_inputs(opts: &RunOptions, progress: &dyn Progress) -> Result<IngestRep
     )?)
 }
 
-/// The input files with their content hash and status from the runs table (or, when ingest was
-/// skipped, from the previous manifest).
-fn input_records(
-    store: &Path,
-    stats: &[InputFile],
-    previous: Option<&(u32, PathBuf, Manifest)>,
-) -> Result<Vec<InputFile>, RunError> {
-    let runs = ingest::read_runs(store)?;
-    let prev: BTreeMap<&str, &InputFile> = previous
-        .map(|(_, _, m)| m.files.iter().map(|f| (f.path.as_str(), f)).collect())
-        .unwrap_or_default();
-    Ok(stats
+/// The input files with their content hash and status from the runs table.
+fn input_records(runs: &BTreeMap<String, RunRow>, stats: &[InputFile]) -> Vec<InputFile> {
+    stats
         .iter()
         .map(|f| {
             let mut f = f.clone();
-            match runs.get(&f.name) {
-                Some(row) => {
-                    f.sha256 = row.sha256.clone();
-                    f.status = row.status.clone();
-                }
-                None => {
-                    if let Some(p) = prev.get(f.path.as_str()) {
-                        f.sha256 = p.sha256.clone();
-                        f.status = p.status.clone();
-                    }
-                }
+            if let Some(row) = runs.get(&f.name) {
+                f.sha256 = row.sha256.clone();
+                f.status = row.status.clone();
             }
             f
         })
-        .collect())
-}
-
-fn failure_reason(report: Option<&IngestReport>, name: &str) -> String {
-    report
-        .and_then(|r| {
-            r.failures()
-                .find(|(f, _)| *f == name)
-                .map(|(_, e)| e.to_string())
-        })
-        .unwrap_or_else(|| "failed in an earlier ingest (see the runs table)".to_string())
-}
-
-/// Merge this run's tables with the reused groups' rows of the previous version and write them
-/// into the staging directory. Returns rows per table.
-fn merge_tables(
-    outcome: &FitOutcome,
-    prev_dir: Option<&Path>,
-    reused: &BTreeSet<GroupKey>,
-    staging: &Path,
-    progress: &dyn Progress,
-) -> Result<BTreeMap<String, u64>, RunError> {
-    let mut names: BTreeSet<String> = outcome.tables.keys().cloned().collect();
-    if let Some(dir) = prev_dir {
-        for file in crate::store::files::parquet_files_in(dir)? {
-            if let Some(stem) = file.file_stem().and_then(|s| s.to_str())
-                && stem != INERTIA_TABLE
-            {
-                names.insert(stem.to_string());
-            }
-        }
-    }
-    let mut rows = BTreeMap::new();
-    for name in names {
-        let table_err = |source| RunError::Table {
-            table: name.clone(),
-            source,
-        };
-        let fresh = outcome.tables.get(&name);
-        let old = match prev_dir.map(|d| d.join(format!("{name}.parquet"))) {
-            Some(path) if path.exists() && !reused.is_empty() => {
-                let df = read_parquet(&path)?;
-                if has_group_columns(&df) {
-                    Some(rows_of_groups(&df, reused).map_err(table_err)?)
-                } else {
-                    progress.note(&format!(
-                        "warning: {name}: previous table has no tire/rim_in/pressure_kpa columns; its rows are not carried over"
-                    ));
-                    None
-                }
-            }
-            _ => None,
-        };
-        let merged = match (fresh, old) {
-            (Some(f), Some(o)) => f.vstack(&o).map_err(table_err)?,
-            (Some(f), None) => f.clone(),
-            (None, Some(o)) => o,
-            (None, None) => continue,
-        };
-        let mut merged = if has_group_columns(&merged) {
-            merged
-                .sort(
-                    GROUP_COLUMNS,
-                    SortMultipleOptions::default().with_maintain_order(true),
-                )
-                .map_err(table_err)?
-        } else {
-            merged
-        };
-        rows.insert(name.clone(), merged.height() as u64);
-        write_parquet_atomic(&staging.join(format!("{name}.parquet")), &mut merged)?;
-    }
-    Ok(rows)
-}
-
-fn has_group_columns(df: &DataFrame) -> bool {
-    GROUP_COLUMNS.iter().all(|c| df.column(c).is_ok())
-}
-
-/// The rows of `df` whose (tire, rim_in, pressure_kpa) is in `keys`.
-fn rows_of_groups(df: &DataFrame, keys: &BTreeSet<GroupKey>) -> PolarsResult<DataFrame> {
-    let tire = df.column("tire")?.str()?;
-    let rim = df.column("rim_in")?.i64()?;
-    let p = df.column("pressure_kpa")?.i64()?;
-    let mask: BooleanChunked = (0..df.height())
-        .map(|i| match (tire.get(i), rim.get(i), p.get(i)) {
-            (Some(t), Some(r), Some(p)) => keys.contains(&(t.to_string(), r, p)),
-            _ => false,
-        })
-        .collect();
-    df.filter(&mask)
-}
-
-/// Write this run's `.tir` files and link the reused groups' files from the previous version.
-fn publish_tir(
-    outcome: &FitOutcome,
-    prev_dir: Option<&Path>,
-    reused: &BTreeSet<GroupKey>,
-    staging: &Path,
-) -> Result<usize, StoreError> {
-    let dir = staging.join("tir");
-    crate::store::files::ensure_dir(&dir)?;
-    let mut n = 0;
-    for (name, text) in &outcome.tir_files {
-        crate::store::files::write_bytes_atomic(&dir.join(name), text.as_bytes())?;
-        n += 1;
-    }
-    if let Some(prev) = prev_dir {
-        for (tire, rim, p) in reused {
-            let name = tir_file_name(tire, *rim as f64, *p as f64);
-            let from = prev.join("tir").join(&name);
-            let to = dir.join(&name);
-            if from.is_file() && !to.exists() {
-                if fs::hard_link(&from, &to).is_err() {
-                    fs::copy(&from, &to).map_err(|e| StoreError::io(&to, e))?;
-                }
-                n += 1;
-            }
-        }
-    }
-    Ok(n)
-}
-
-/// One line per row of the version's `fit_failures` table: (fatal, skipped parts). A row is
-/// fatal when the stage produced nothing for the group (`fatal` column; every row when the
-/// table has no such column).
-fn failure_lines(staging: &Path) -> Result<(Vec<String>, Vec<String>), StoreError> {
-    let path = staging.join("fit_failures.parquet");
-    if !path.exists() {
-        return Ok((Vec::new(), Vec::new()));
-    }
-    let df = read_parquet(&path)?;
-    let text = |name: &str, i: usize| -> String {
-        df.column(name)
-            .ok()
-            .and_then(|c| c.get(i).ok())
-            .map(|v| match v {
-                AnyValue::String(s) => s.to_string(),
-                AnyValue::Null => String::new(),
-                v => v.to_string(),
-            })
-            .unwrap_or_default()
-    };
-    let fatal = |i: usize| {
-        df.column("fatal")
-            .ok()
-            .and_then(|c| c.get(i).ok())
-            .is_none_or(|v| !matches!(v, AnyValue::Boolean(false)))
-    };
-    let (mut fatal_lines, mut skipped) = (Vec::new(), Vec::new());
-    for i in 0..df.height() {
-        let (stage, scope) = (text("stage", i), text("scope", i));
-        let part = if scope.is_empty() || scope == stage {
-            stage
-        } else {
-            format!("{stage} ({scope})")
-        };
-        let line = format!(
-            "{} on {} in rim at {} kPa: {part}: {}",
-            text("tire", i),
-            text("rim_in", i),
-            text("pressure_kpa", i),
-            text("reason", i)
-        );
-        if fatal(i) {
-            fatal_lines.push(line);
-        } else {
-            skipped.push(line);
-        }
-    }
-    Ok((fatal_lines, skipped))
-}
-
-/// The worst row of `fit_quality` by its normalised error (the first column found of
-/// `rmse_pct_of_peak`, `nrmse`, `r2`), as one line naming the group and channel.
-fn worst_fit(staging: &Path) -> Option<String> {
-    let df = read_parquet(&staging.join("fit_quality.parquet")).ok()?;
-    let (column, higher_is_worse) = [("rmse_pct_of_peak", true), ("nrmse", true), ("r2", false)]
-        .into_iter()
-        .find(|(c, _)| df.column(c).is_ok_and(|c| c.dtype() == &DataType::Float64))?;
-    let values = df.column(column).ok()?.f64().ok()?.clone();
-    let (i, v) = values
-        .iter()
-        .enumerate()
-        .filter_map(|(i, v)| v.filter(|v| v.is_finite()).map(|v| (i, v)))
-        .max_by(|a, b| {
-            if higher_is_worse {
-                a.1.total_cmp(&b.1)
-            } else {
-                b.1.total_cmp(&a.1)
-            }
-        })?;
-    let label: Vec<String> = df
-        .columns()
-        .iter()
-        .filter(|c| GROUP_COLUMNS.contains(&c.name().as_str()) || c.name() == "channel")
-        .filter_map(|c| {
-            c.get(i)
-                .ok()
-                .map(|v| format!("{}={}", c.name(), v.to_string().trim_matches('"')))
-        })
-        .collect();
-    Some(format!("{column} = {v:.4} ({})", label.join(", ")))
-}
-
-/// Live segments by kind (empty when the store has none).
-fn segments_by_kind(store: &Path) -> BTreeMap<String, u64> {
-    let Ok(df) = crate::query::run(
-        store,
-        "SELECT kind, count(*) AS n FROM segments GROUP BY kind ORDER BY kind",
-    ) else {
-        return BTreeMap::new();
-    };
-    let (Ok(kind), Ok(n)) = (df.column("kind"), df.column("n")) else {
-        return BTreeMap::new();
-    };
-    let Ok(n) = n.cast(&DataType::UInt64) else {
-        return BTreeMap::new();
-    };
-    let (Ok(kind), Ok(n)) = (kind.str(), n.u64()) else {
-        return BTreeMap::new();
-    };
-    kind.iter()
-        .zip(n.iter())
-        .filter_map(|(k, n)| Some((k?.to_string(), n?)))
         .collect()
 }
 
-/// One line: what `now` changed against `prev`.
-pub fn describe_changes(prev: Option<&Manifest>, now: &Manifest) -> String {
-    let Some(prev) = prev else {
-        return format!(
-            "first version: {} files, {} groups fitted",
-            now.files.len(),
-            now.counts.groups_fitted
-        );
-    };
-    let mut parts = Vec::new();
-    let files_prev: BTreeMap<&str, &str> = prev
-        .files
-        .iter()
-        .map(|f| (f.name.as_str(), f.sha256.as_str()))
-        .collect();
-    let files_now: BTreeMap<&str, &str> = now
-        .files
-        .iter()
-        .map(|f| (f.name.as_str(), f.sha256.as_str()))
-        .collect();
-    let added = files_now
-        .keys()
-        .filter(|k| !files_prev.contains_key(*k))
-        .count();
-    let removed = files_prev
-        .keys()
-        .filter(|k| !files_now.contains_key(*k))
-        .count();
-    let changed = files_now
-        .iter()
-        .filter(|(k, v)| files_prev.get(*k).is_some_and(|p| p != *v))
-        .count();
-    for (n, what) in [
-        (added, "files added"),
-        (changed, "files changed"),
-        (removed, "files removed"),
-    ] {
-        if n > 0 {
-            parts.push(format!("{n} {what}"));
-        }
-    }
-    if prev.tool_version != now.tool_version {
-        parts.push(format!(
-            "tool {} -> {}",
-            prev.tool_version, now.tool_version
-        ));
-    }
-    if prev.input.config_sha256 != now.input.config_sha256 {
-        parts.push("config changed".to_string());
-    }
-    if prev.input.catalog_sha256 != now.input.catalog_sha256 {
-        parts.push("catalog changed".to_string());
-    }
-    if prev.inertia_files != now.inertia_files {
-        parts.push("inertia sessions changed".to_string());
-    }
-    let keys_prev: BTreeMap<_, _> = prev.groups.iter().map(|g| (g.key(), g)).collect();
-    let keys_now: BTreeMap<_, _> = now.groups.iter().map(|g| (g.key(), g)).collect();
-    let g_added = keys_now
-        .keys()
-        .filter(|k| !keys_prev.contains_key(*k))
-        .count();
-    let g_removed = keys_prev
-        .keys()
-        .filter(|k| !keys_now.contains_key(*k))
-        .count();
-    let g_refit = keys_now
-        .iter()
-        .filter(|(k, g)| {
-            keys_prev
-                .get(*k)
-                .is_some_and(|p| p.input_sha256 != g.input_sha256)
-        })
-        .count();
-    for (n, what) in [
-        (g_added, "groups added"),
-        (g_refit, "groups refit"),
-        (g_removed, "groups removed"),
-    ] {
-        if n > 0 {
-            parts.push(format!("{n} {what}"));
-        }
-    }
-    let reused = now.groups.len() - g_added - g_refit;
-    parts.push(format!("{reused} groups reused"));
-    parts.join(", ")
+/// Files of the version that hold no data of their own (a duplicate copy of another's run).
+pub(crate) fn count_duplicates(files: &[InputFile]) -> u64 {
+    count_status(files, STATUS_DUPLICATE)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn group(tire: &str, p: i64, sha: &str) -> GroupRecord {
-        GroupRecord {
-            tire: tire.into(),
-            rim_in: 7,
-            pressure_kpa: p,
-            input_sha256: sha.into(),
-            n_segments: 3,
-            from_version: 1,
-        }
-    }
 
     fn file(name: &str, sha: &str) -> InputFile {
         InputFile {
@@ -960,29 +496,6 @@ mod tests {
             sha256: sha.into(),
             status: "ok".into(),
         }
-    }
-
-    #[test]
-    fn change_summary_names_files_config_and_groups() {
-        let prev = Manifest {
-            tool_version: "0.1.0".into(),
-            files: vec![file("a.dat", "1"), file("b.dat", "2")],
-            groups: vec![group("T", 69, "x"), group("T", 83, "y")],
-            ..Default::default()
-        };
-        let mut now = prev.clone();
-        now.files = vec![file("a.dat", "1"), file("b.dat", "3"), file("c.dat", "4")];
-        now.groups = vec![
-            group("T", 69, "x"),
-            group("T", 83, "z"),
-            group("U", 69, "w"),
-        ];
-        now.input.config_sha256 = "other".into();
-        assert_eq!(
-            describe_changes(Some(&prev), &now),
-            "1 files added, 1 files changed, config changed, 1 groups added, 1 groups refit, 1 groups reused"
-        );
-        assert!(describe_changes(None, &now).starts_with("first version: 3 files"));
     }
 
     #[test]
@@ -1002,24 +515,43 @@ mod tests {
     }
 
     #[test]
-    fn rows_of_reused_groups_are_selected_by_key() {
-        let df = df!(
-            "tire" => ["T", "T", "U"],
-            "rim_in" => [7i64, 7, 7],
-            "pressure_kpa" => [69i64, 83, 69],
-            "value" => [1.0, 2.0, 3.0],
-        )
-        .unwrap();
-        let keys = BTreeSet::from([("T".to_string(), 7, 83), ("U".to_string(), 7, 69)]);
-        let out = rows_of_groups(&df, &keys).unwrap();
-        let v: Vec<f64> = out
-            .column("value")
-            .unwrap()
-            .f64()
-            .unwrap()
-            .into_no_null_iter()
-            .collect();
-        assert_eq!(v, vec![2.0, 3.0]);
-        assert!(has_group_columns(&df));
+    fn file_problems_list_failed_partial_warnings_and_skipped_entries() {
+        let row = |name: &str, status: &str, error: Option<&str>, warnings: Option<&str>| RunRow {
+            source_file: name.into(),
+            status: status.into(),
+            error: error.map(String::from),
+            warnings: warnings.map(String::from),
+            ..RunRow::default()
+        };
+        let runs: BTreeMap<String, RunRow> = [
+            row("a.dat", "ok", None, Some("w1; w2")),
+            row("b.dat", "failed", Some("b.dat: line 3: bad"), Some("old")),
+            row(
+                "c.dat",
+                "partial",
+                Some("rows stop early: line 9: truncated last line"),
+                Some("line 9: truncated last line; other"),
+            ),
+            row("gone.dat", "failed", Some("x"), None),
+        ]
+        .into_iter()
+        .map(|r| (r.source_file.clone(), r))
+        .collect();
+        let files = vec![file("a.dat", "1"), file("b.dat", "2"), file("c.dat", "3")];
+        let skipped = vec![(PathBuf::from("raw/pipe.dat"), "a FIFO".to_string())];
+        let p = file_problems(&runs, &files, &skipped);
+        let lines: Vec<String> = p.iter().map(|p| p.to_string()).collect();
+        assert_eq!(
+            lines,
+            vec![
+                "warning: a.dat: w1",
+                "warning: a.dat: w2",
+                "failed file: b.dat: b.dat: line 3: bad",
+                "partial file: c.dat: rows stop early: line 9: truncated last line",
+                "warning: c.dat: other",
+                "skipped entry: raw/pipe.dat: a FIFO",
+            ]
+        );
+        assert_eq!(failures_of_files(&p).len(), 2);
     }
 }

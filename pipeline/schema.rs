@@ -45,6 +45,7 @@ const SOURCES: &[(&str, &str)] = &[
         "fit_failures.toml",
         include_str!("../schemas/fit_failures.toml"),
     ),
+    ("compare.toml", include_str!("../schemas/compare.toml")),
 ];
 
 /// Column data types used by tirebase tables.
@@ -89,6 +90,10 @@ pub struct Column {
     /// Hive partition key (lives in directory names, not inside the files).
     #[serde(default)]
     pub partition: bool,
+    /// One column per load of a load list: the name holds `{fz}`, replaced by each load in whole
+    /// newtons ([`TableSchema::for_loads`]).
+    #[serde(default)]
+    pub per_load: bool,
     /// What the column means.
     pub description: String,
 }
@@ -190,6 +195,38 @@ impl TableSchema {
         Ok((schema, ordered))
     }
 
+    /// The schema with every per-load column repeated once per load of `loads_n` (whole
+    /// newtons), `{fz}` in its name replaced by the load, in load order.
+    ///
+    /// ```
+    /// let t = tirebase::schema::table("compare").for_loads(&[350, 700]);
+    /// let names: Vec<&str> = t.columns.iter().map(|c| c.name.as_str()).collect();
+    /// assert!(names.contains(&"mu_y_peak_fz350") && names.contains(&"mu_y_peak_fz700"));
+    /// assert!(t.columns.iter().all(|c| !c.per_load));
+    /// ```
+    pub fn for_loads(&self, loads_n: &[i64]) -> TableSchema {
+        let mut columns = Vec::with_capacity(self.columns.len());
+        for c in &self.columns {
+            if !c.per_load {
+                columns.push(c.clone());
+                continue;
+            }
+            for fz in loads_n {
+                columns.push(Column {
+                    name: c.name.replace("{fz}", &fz.to_string()),
+                    per_load: false,
+                    description: format!("{} (at Fz = {fz} N)", c.description),
+                    ..c.clone()
+                });
+            }
+        }
+        TableSchema {
+            name: self.name.clone(),
+            description: self.description.clone(),
+            columns,
+        }
+    }
+
     /// The polars schema of the columns stored inside the files.
     pub fn file_schema(&self) -> Schema {
         self.file_columns()
@@ -252,6 +289,9 @@ pub fn render_snapshot() -> String {
             if c.partition {
                 flags.push("partition");
             }
+            if c.per_load {
+                flags.push("per_load");
+            }
             let line = format!(
                 "{:<24} {:<5} {:<6} {}",
                 c.name,
@@ -300,6 +340,35 @@ mod tests {
                 t.name
             );
         }
+    }
+
+    #[test]
+    fn per_load_columns_and_only_they_name_the_load() {
+        for t in all() {
+            for c in &t.columns {
+                assert_eq!(
+                    c.per_load,
+                    c.name.contains("{fz}"),
+                    "{}.{}: per_load and {{fz}} go together",
+                    t.name,
+                    c.name
+                );
+            }
+        }
+        let t = table("compare").for_loads(&[350, 700, 1050]);
+        let per_load = table("compare")
+            .columns
+            .iter()
+            .filter(|c| c.per_load)
+            .count();
+        assert_eq!(
+            t.columns.len(),
+            table("compare").columns.len() + 2 * per_load
+        );
+        let mut names: Vec<_> = t.columns.iter().map(|c| c.name.clone()).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), t.columns.len());
     }
 
     #[test]

@@ -4,7 +4,9 @@
 mod fit;
 mod inertia;
 mod ingest;
+mod real;
 mod report;
 mod run;
+mod run_inputs;
 mod synth;
 mod tir;

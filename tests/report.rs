@@ -4,8 +4,8 @@
 //! Fixture: a demo virtual round (`synth round`) ingested into a store; the result directory holds
 //! the round's truth `.tir` files (named like fitted ones) and small result tables built here from
 //! the truth laws (spring rate, relaxation, mu(T)) plus a few fit-quality, lint, failure and
-//! coefficient rows. Until `tirebase fit` exists this stands in for its output; the report reads
-//! both the same way.
+//! coefficient rows (every column of each table's schema, the ones not set here null). Until
+//! `tirebase fit` exists this stands in for its output; the report reads both the same way.
 //!
 //! The browser check: each page is copied with a probe script appended (the report itself has
 //! no script), loaded with `chromium --headless --dump-dom`, and the probe reports per
@@ -214,7 +214,20 @@ const KINDS: [&str; 9] = [
     "relaxation",
 ];
 
+/// Write a fixture table with every column of its schema: the columns the fixture does not set
+/// are null (the report reads typed rows, and a table without a column counts as missing).
 fn write_table(dir: &Path, name: &str, mut df: DataFrame) {
+    let n = df.height();
+    for c in tirebase::schema::table(name).file_columns() {
+        if df.column(&c.name).is_err() {
+            df.with_column(Column::full_null(
+                c.name.as_str().into(),
+                n,
+                &c.dtype.polars(),
+            ))
+            .unwrap();
+        }
+    }
     let file = std::fs::File::create(dir.join(format!("{name}.parquet"))).unwrap();
     ParquetWriter::new(file).finish(&mut df).unwrap();
 }

@@ -384,3 +384,114 @@ fn help_states_units_and_axes() {
         assert!(help.contains(needle), "eval --help lacks {needle}");
     }
 }
+
+/// A variant of the FSAE reference file written into `dir`: `edit` maps its text.
+fn fsae_variant(dir: &Path, name: &str, edit: impl Fn(&str) -> String) -> PathBuf {
+    let text =
+        std::fs::read_to_string(fixture("reference/fsae-demo/fsae_demo_pac2002.tir")).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, edit(&text)).unwrap();
+    path
+}
+
+/// Issue 20 item 8: `tir eval` and `tir convert` refuse a file whose lint errors leave the model
+/// undefined (here cut before `[LATERAL_COEFFICIENTS]`: Fy, Mx, Mz were NaN on every row, and
+/// convert wrote a "complete" file with PDY1 = 0) unless `--force`; NaN or inf in the input CSV
+/// is refused naming the cell; a non-positive VERTICAL_STIFFNESS is a lint error.
+#[test]
+fn issue20_undefined_models_and_non_finite_inputs_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let truncated = fsae_variant(dir.path(), "cut.tir", |t| {
+        t[..t.find("[LATERAL_COEFFICIENTS]").unwrap()].to_string()
+    });
+    let points = fixture("reference/fsae-demo/fsae_demo_pac2002_combined_mode111.csv");
+    let out = dir.path().join("out.csv");
+    let (tir, input, output) = (
+        truncated.to_str().unwrap(),
+        points.to_str().unwrap(),
+        out.to_str().unwrap(),
+    );
+    let eval = |extra: &[&str]| {
+        let mut args = vec![
+            "tir", "eval", "--tir", tir, "--input", input, "--output", output,
+        ];
+        args.extend_from_slice(extra);
+        tirebase(&args)
+    };
+    let refused = eval(&[]);
+    let err = text(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("refused") && err.contains("missing-family"),
+        "{err}"
+    );
+    assert!(err.contains("cut.tir"), "{err}");
+    assert!(!out.exists(), "nothing written when refused");
+    let forced = eval(&["--force"]);
+    assert_eq!(forced.status.code(), Some(0), "{}", text(&forced.stderr));
+    assert!(
+        text(&forced.stderr).contains("--force"),
+        "{}",
+        text(&forced.stderr)
+    );
+
+    let converted = dir.path().join("converted.tir");
+    let convert = |extra: &[&str]| {
+        let mut args = vec![
+            "tir",
+            "convert",
+            "--input",
+            tir,
+            "--output",
+            converted.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        tirebase(&args)
+    };
+    let refused = convert(&[]);
+    assert_eq!(refused.status.code(), Some(2), "{}", text(&refused.stderr));
+    assert!(!converted.exists());
+    assert_eq!(convert(&["--force"]).status.code(), Some(0));
+
+    // Non-finite cells in the operating points.
+    let good = fixture("reference/fsae-demo/fsae_demo_pac2002.tir");
+    for bad in ["NaN", "inf", "-inf"] {
+        let csv = dir.path().join("points.csv");
+        std::fs::write(
+            &csv,
+            format!("Fz_N,kappa,alpha_rad,gamma_rad,Vx_mps\n1000,0,0.01,0,16\n1000,0,{bad},0,16\n"),
+        )
+        .unwrap();
+        let o = tirebase(&[
+            "tir",
+            "eval",
+            "--tir",
+            good.to_str().unwrap(),
+            "--input",
+            csv.to_str().unwrap(),
+            "--output",
+            output,
+        ]);
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {err}");
+        assert!(
+            err.contains("line 3: column alpha_rad") && err.contains("not a finite number"),
+            "{bad}: {err}"
+        );
+    }
+
+    // Negative vertical stiffness: a lint error.
+    let negative = fsae_variant(dir.path(), "kz.tir", |t| {
+        t.replace(
+            "VERTICAL_STIFFNESS       =  100000.0",
+            "VERTICAL_STIFFNESS       =  -1e5",
+        )
+    });
+    let o = tirebase(&["tir", "lint", negative.to_str().unwrap()]);
+    let all = format!("{}{}", text(&o.stdout), text(&o.stderr));
+    assert_eq!(o.status.code(), Some(1), "{all}");
+    assert!(
+        all.contains("VERTICAL_STIFFNESS = -100000 N/m must be positive"),
+        "{all}"
+    );
+}

@@ -38,7 +38,7 @@ pub fn run(args: &DiffArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// A version argument (`3`, `v000003`, `latest`) -> its directory.
-fn resolve(store: &Path, arg: &str) -> anyhow::Result<PathBuf> {
+pub(crate) fn resolve(store: &Path, arg: &str) -> anyhow::Result<PathBuf> {
     let all = versions::list(store)?;
     let wanted = if arg == "latest" {
         all.last().map(|(n, _)| *n)

@@ -70,6 +70,9 @@ pub fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
     for f in &outcome.failures {
         eprintln!("{}: {f}", if f.fatal { "failed" } else { "skipped" });
     }
+    for note in &outcome.tir_name_notes {
+        eprintln!("renamed .tir: {note}");
+    }
     let seconds: Vec<String> = outcome
         .stage_seconds
         .iter()

@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use crate::cli::{Cli, Command};
 
+pub mod compare;
 pub mod diff;
 pub mod fit;
 pub mod inertia;
@@ -27,6 +28,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Fit(args) => fit::run(&args),
         Command::Query(args) => query::run(&args),
         Command::Report(args) => report::run(&args),
+        Command::Compare(args) => compare::run(&args),
         Command::Inertia(args) => inertia::run(&args),
         Command::Synth { what } => synth::run(&what),
     }

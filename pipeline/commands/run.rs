@@ -14,6 +14,8 @@ use tirebase_core::synth::round::SynthConfig;
 use crate::cli::RunArgs;
 use crate::commands::synth::write_round;
 use crate::config::Config;
+use crate::ingest::IngestError;
+use crate::manifest::{Problem, group_problems};
 use crate::progress;
 use crate::run::{self, RunError, RunOptions, RunOutcome, RunReport};
 use crate::store::StoreError;
@@ -47,12 +49,27 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
     };
     let progress = progress::for_stderr();
     match run::run(&opts, progress.as_ref()) {
-        Ok(RunOutcome::UpToDate { version, seconds }) => {
+        Ok(RunOutcome::UpToDate {
+            version,
+            seconds,
+            problems,
+        }) => {
+            print_problems(&problems);
+            let failing = problems.iter().filter(|p| p.kind.is_failure()).count();
             eprintln!(
-                "up to date: v{version:06} already holds these inputs ({}; {seconds:.2} s)",
-                args.store.display()
+                "up to date: v{version:06} already holds these inputs ({}; {seconds:.2} s){}",
+                args.store.display(),
+                if failing == 0 {
+                    String::new()
+                } else {
+                    format!("; {failing} input files still failed or partial (retried)")
+                }
             );
-            Ok(ExitCode::SUCCESS)
+            Ok(if failing == 0 {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            })
         }
         Ok(RunOutcome::Published(report)) => {
             print_summary(&report);
@@ -63,7 +80,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
             })
         }
         Ok(RunOutcome::Nothing(report)) => {
-            print_failures(&report);
+            print_problems(&report.manifest.problems);
             eprintln!(
                 "nothing to publish: no fit group and no inertia session found under {} ({} raw files, {} failed)",
                 input.display(),
@@ -74,6 +91,11 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
         }
         Err(e @ (RunError::Store(StoreError::Locked { .. }) | RunError::MissingInput(_))) => {
             eprintln!("error: {e}");
+            Ok(ExitCode::from(2))
+        }
+        Err(e @ (RunError::Store(_) | RunError::Ingest(IngestError::Store(_)))) => {
+            // Nothing was published and no input file is blamed; the next run starts over.
+            eprintln!("error: store error, nothing published: {e}");
             Ok(ExitCode::from(2))
         }
         Err(e) => Err(e.into()),
@@ -115,51 +137,20 @@ fn embedded_round(dir: &Path, jobs: usize) -> anyhow::Result<PathBuf> {
     Ok(dir.to_path_buf())
 }
 
-fn print_failures(report: &RunReport) {
-    const SHOWN: usize = 10;
-    let lines = report
-        .failed_files
-        .iter()
-        .map(|(f, e)| format!("failed file: {f}: {e}"))
-        .chain(
-            report
-                .fit_failures
-                .iter()
-                .map(|l| format!("failed fit: {l}")),
-        )
-        .chain(
-            report
-                .fit_skipped
-                .iter()
-                .map(|l| format!("warning: skipped: {l}")),
-        )
-        .chain(
-            report
-                .inertia_errors
-                .iter()
-                .map(|l| format!("failed inertia run: {l}")),
-        )
-        .chain(
-            report
-                .report_error
-                .iter()
-                .map(|l| format!("report failed: {l}")),
-        );
-    let all: Vec<String> = lines.collect();
-    for line in all.iter().take(SHOWN) {
-        eprintln!("{line}");
-    }
-    if all.len() > SHOWN {
-        eprintln!(
-            "... and {} more (see the manifest and the fit_failures table)",
-            all.len() - SHOWN
-        );
+/// Every problem, grouped by kind under a line that counts them, one line each (nothing is
+/// left out: the manifest holds the same list).
+fn print_problems(problems: &[Problem]) {
+    for (kind, list) in group_problems(problems) {
+        eprintln!("{} {}:", list.len(), kind.plural());
+        for p in list {
+            eprintln!("{p}");
+        }
     }
 }
 
 /// The one-screen summary.
 fn print_summary(report: &RunReport) {
-    print_failures(report);
+    print_problems(&report.manifest.problems);
     let m = &report.manifest;
     let c = &m.counts;
     let dir = report
@@ -169,15 +160,33 @@ fn print_summary(report: &RunReport) {
         .unwrap_or_default();
     eprintln!("published v{:06} -> {dir}", m.version);
     eprintln!("  changes   {}", m.summary);
-    // Neither ok nor failed: a duplicate copy of a run another file holds.
-    let duplicates = c.files.saturating_sub(c.files_ok + c.files_failed);
+    let mut work = vec![format!("{} ingested now", c.files_ingested)];
+    for (n, what) in [
+        (c.files_resegmented, "re-segmented"),
+        (c.files_relabelled, "relabelled"),
+    ] {
+        if n > 0 {
+            work.push(format!("{n} {what}"));
+        }
+    }
+    let mut notes = String::new();
+    for (n, what) in [
+        (c.files_removed, "removed from the store"),
+        (c.file_warnings, "warnings"),
+        (c.entries_skipped, "entries skipped"),
+    ] {
+        if n > 0 {
+            notes.push_str(&format!("; {n} {what}"));
+        }
+    }
     eprintln!(
-        "  files     {}: {} ok ({} ingested now), {} failed{}",
+        "  files     {}: {} ok ({}), {} partial, {} failed{}{notes}",
         c.files,
         c.files_ok,
-        c.files_ingested,
+        work.join(", "),
+        c.files_partial,
         c.files_failed,
-        crate::ingest::duplicate_runs_note(duplicates as usize)
+        crate::ingest::duplicate_runs_note(c.files_duplicate as usize),
     );
     let kinds: Vec<String> = c
         .segments_by_kind
@@ -204,7 +213,7 @@ fn print_summary(report: &RunReport) {
     }
     eprintln!(
         "  report    {}",
-        match &report.report_error {
+        match report.report_error() {
             Some(e) => format!("FAILED: {e}"),
             None => "report/index.html".to_string(),
         }

@@ -1,4 +1,4 @@
-//! `tirebase tir eval | lint | convert`: the `.tir` file commands.
+//! `tirebase tir eval | lint | convert | score`: the `.tir` file commands.
 //!
 //! In: paths from the command line. Out: files (`eval`: a CSV of forces and moments, `convert`:
 //! a normalised `.tir`), findings on stdout (`lint`), reader warnings on stderr, and the exit
@@ -14,7 +14,7 @@ use anyhow::{Context, bail};
 use tirebase_core::tire_model::tir::{ReadWarning, TirFile, format_f64, lint};
 use tirebase_core::tire_model::{Coef, Evaluation, Mode, SlipInput};
 
-use crate::cli::{EvalMode, TirCommand, TirConvertArgs, TirEvalArgs, TirLintArgs};
+use crate::cli::{EvalMode, TirCommand, TirConvertArgs, TirEvalArgs, TirLintArgs, TirScoreArgs};
 
 /// Run one `tir` subcommand.
 pub fn run(cmd: TirCommand) -> anyhow::Result<ExitCode> {
@@ -22,6 +22,7 @@ pub fn run(cmd: TirCommand) -> anyhow::Result<ExitCode> {
         TirCommand::Eval(args) => eval(&args),
         TirCommand::Lint(args) => lint_file(&args),
         TirCommand::Convert(args) => convert(&args),
+        TirCommand::Score(args) => score(&args),
     }
 }
 
@@ -29,6 +30,36 @@ pub fn run(cmd: TirCommand) -> anyhow::Result<ExitCode> {
 fn read_tir(path: &Path) -> anyhow::Result<(TirFile, Vec<ReadWarning>)> {
     let bytes = fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
     TirFile::parse_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
+
+/// Refuse a file whose lint errors leave the model undefined (unless `force`, which prints
+/// them as warnings); each finding is one stderr line naming the file.
+fn refuse_undefined(path: &Path, file: &TirFile, force: bool) -> anyhow::Result<()> {
+    let report = lint::lint(file);
+    let fatal: Vec<_> = report
+        .findings
+        .iter()
+        .filter(|f| f.leaves_model_undefined())
+        .collect();
+    if fatal.is_empty() {
+        return Ok(());
+    }
+    for f in &fatal {
+        eprintln!("{}: {f}", path.display());
+    }
+    if force {
+        eprintln!(
+            "{}: warning: --force: using a model that is undefined ({} lint errors above)",
+            path.display(),
+            fatal.len()
+        );
+        return Ok(());
+    }
+    bail!(
+        "{}: refused: {} lint errors leave the model undefined (listed above; `tirebase tir lint` for all findings, --force to use it anyway)",
+        path.display(),
+        fatal.len()
+    )
 }
 
 fn print_read_warnings(path: &Path, warnings: &[ReadWarning]) {
@@ -45,6 +76,7 @@ const OUTPUT_COLUMNS: [&str; 5] = ["Fx_N", "Fy_N", "Mx_Nm", "My_Nm", "Mz_Nm"];
 fn eval(args: &TirEvalArgs) -> anyhow::Result<ExitCode> {
     let (file, warnings) = read_tir(&args.tir)?;
     print_read_warnings(&args.tir, &warnings);
+    refuse_undefined(&args.tir, &file, args.force)?;
     let fnomin = file.coefs[Coef::FNOMIN];
     if fnomin.is_nan() || fnomin <= 0.0 {
         bail!(
@@ -53,10 +85,7 @@ fn eval(args: &TirEvalArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let table = read_points(&args.input)?;
-    let mode = match args.mode {
-        EvalMode::Limits => Mode::Limits,
-        EvalMode::Raw => Mode::Raw,
-    };
+    let mode = eval_mode(args.mode);
     let mut results = vec![Evaluation::default(); table.points.len()];
     file.model().eval_batch(&table.points, mode, &mut results);
     write_results(&args.output, &table, &results)?;
@@ -103,6 +132,9 @@ fn read_points(path: &Path) -> anyhow::Result<PointTable> {
             *x = text.parse().map_err(|_| {
                 anyhow::anyhow!("{shown}: line {line}: column {name}: '{text}' is not a number")
             })?;
+            if !f64::is_finite(*x) {
+                bail!("{shown}: line {line}: column {name}: '{text}' is not a finite number");
+            }
         }
         points.push(SlipInput {
             fz_n: v[0],
@@ -189,10 +221,68 @@ fn lint_file(args: &TirLintArgs) -> anyhow::Result<ExitCode> {
 fn convert(args: &TirConvertArgs) -> anyhow::Result<ExitCode> {
     let (file, warnings) = read_tir(&args.input)?;
     print_read_warnings(&args.input, &warnings);
+    refuse_undefined(&args.input, &file, args.force)?;
     let text = file
         .render()
         .map_err(|e| anyhow::anyhow!("{}: cannot write as PAC2002: {e}", args.input.display()))?;
     fs::write(&args.output, text)
         .with_context(|| format!("{}: cannot write", args.output.display()))?;
+    Ok(ExitCode::SUCCESS)
+}
+
+fn eval_mode(mode: EvalMode) -> Mode {
+    match mode {
+        EvalMode::Limits => Mode::Limits,
+        EvalMode::Raw => Mode::Raw,
+    }
+}
+
+fn score(args: &TirScoreArgs) -> anyhow::Result<ExitCode> {
+    let (file, warnings) = read_tir(&args.tir)?;
+    print_read_warnings(&args.tir, &warnings);
+    let selection = crate::score::Selection {
+        tire: args.tire.clone(),
+        pressure_kpa_nom: args.pressure_kpa,
+        max_abs_alpha_deg: args.max_alpha_deg,
+        min_fz_n: args.min_fz_n,
+        min_speed_kph: args.min_speed_kph,
+        every: args.every,
+    };
+    let rows = crate::score::score(&args.store, &file, &selection, eval_mode(args.mode))?;
+    if rows.is_empty() {
+        bail!(
+            "{}: no sample matches the selection (tire, pressure, |alpha|, Fz, V)",
+            args.store.display()
+        );
+    }
+    let mut out = csv::Writer::from_writer(std::io::stdout().lock());
+    out.write_record([
+        "tire",
+        "source_file",
+        "pressure_kpa_nom",
+        "n_samples",
+        "fx_rmse_n",
+        "fy_rmse_n",
+        "mz_rmse_nm",
+        "fx_rms_n",
+        "fy_rms_n",
+        "mz_rms_nm",
+    ])?;
+    for r in rows {
+        let f = |v: f64| format!("{v:.3}");
+        out.write_record([
+            r.tire,
+            r.source_file,
+            r.pressure_kpa_nom.to_string(),
+            r.n_samples.to_string(),
+            f(r.fx_rmse_n),
+            f(r.fy_rmse_n),
+            f(r.mz_rmse_nm),
+            f(r.fx_rms_n),
+            f(r.fy_rms_n),
+            f(r.mz_rms_nm),
+        ])?;
+    }
+    out.flush()?;
     Ok(ExitCode::SUCCESS)
 }

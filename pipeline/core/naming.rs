@@ -83,9 +83,106 @@ pub fn tir_file_name(tire: &str, rim_in: f64, pressure_kpa: f64) -> String {
     )
 }
 
+/// A short stable hash of an exact tire name (FNV-1a 64, 8 hex digits): what tells apart two
+/// tires whose names sanitise alike.
+fn name_hash(tire: &str) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in tire.as_bytes() {
+        h ^= u64::from(*b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{:08x}", (h >> 32) ^ (h & 0xffff_ffff))
+}
+
+/// The `.tir` file names of a set of groups (tire, rim in inches, nominal pressure in kPa), one
+/// per group and all different: [`tir_file_name`], except that groups whose names coincide
+/// (tires differing only in case or punctuation at the same rim and pressure) each get the
+/// hash of their exact tire name after the tire part (`hoosier_r25b-1a2b3c4d__7in__83kPa.tir`).
+/// Returns, per group in the order given, the name and, when it was disambiguated, a note
+/// saying so. A function of the set of groups only (any reader of a version can recompute it
+/// from the version's groups).
+///
+/// ```
+/// use tirebase_core::naming::unique_tir_names;
+/// let names = unique_tir_names(&[
+///     ("Hoosier R25B", 7.0, 83.0),
+///     ("Hoosier-R25B", 7.0, 69.0),
+///     ("hoosier r25b", 7.0, 83.0),
+/// ]);
+/// assert_eq!(names[1].0, "hoosier-r25b__7in__69kPa.tir");
+/// assert!(names[1].1.is_none());
+/// assert_ne!(names[0].0, names[2].0);
+/// assert!(names[0].0.starts_with("hoosier_r25b-") && names[0].0.ends_with("__7in__83kPa.tir"));
+/// assert!(names[2].1.as_deref().unwrap().contains("Hoosier R25B"));
+/// ```
+pub fn unique_tir_names(groups: &[(&str, f64, f64)]) -> Vec<(String, Option<String>)> {
+    let plain: Vec<String> = groups
+        .iter()
+        .map(|(t, r, p)| tir_file_name(t, *r, *p))
+        .collect();
+    let mut tires_of: std::collections::BTreeMap<String, Vec<&str>> = Default::default();
+    for (name, (tire, _, _)) in plain.iter().zip(groups) {
+        let tires = tires_of.entry(name.to_lowercase()).or_default();
+        if !tires.contains(tire) {
+            tires.push(tire);
+        }
+    }
+    plain
+        .iter()
+        .zip(groups)
+        .map(|(name, (tire, rim, p))| {
+            let sharing = &tires_of[&name.to_lowercase()];
+            if sharing.len() < 2 {
+                return (name.clone(), None);
+            }
+            let unique = format!(
+                "{}-{}__{}in__{}kPa.tir",
+                sanitize_tire(tire),
+                name_hash(tire),
+                rim_label(*rim),
+                p.round() as i64
+            );
+            let others: Vec<String> = sharing
+                .iter()
+                .filter(|t| *t != tire)
+                .map(|t| format!("{t:?}"))
+                .collect();
+            let note = format!(
+                "tire {tire:?} shares the file name {name} with {}: written as {unique}",
+                others.join(", ")
+            );
+            (unique, Some(note))
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn colliding_names_become_distinct_and_stable() {
+        let groups = [
+            ("Hoosier R25B", 7.0, 83.0),
+            ("HOOSIER R25B", 7.0, 83.0),
+            ("Hoosier_R25B", 7.0, 83.0),
+            ("Hoosier R25B", 8.0, 83.0),
+        ];
+        let names = unique_tir_names(&groups);
+        let set: std::collections::BTreeSet<&String> = names.iter().map(|(n, _)| n).collect();
+        assert_eq!(set.len(), 4, "{names:?}");
+        assert!(names[..3].iter().all(|(_, note)| note.is_some()));
+        assert_eq!(names[3].0, "hoosier_r25b__8in__83kPa.tir");
+        // The same group keeps its name whatever else collides with it.
+        let again = unique_tir_names(&groups[..2]);
+        assert_eq!(again[0].0, names[0].0);
+        // One tire at one rim and pressure twice (not a collision).
+        let same = unique_tir_names(&[("A", 7.0, 83.0), ("A", 7.0, 83.0)]);
+        assert!(
+            same.iter()
+                .all(|(n, note)| n == "a__7in__83kPa.tir" && note.is_none())
+        );
+    }
 
     #[test]
     fn sanitised_names_use_only_the_allowed_alphabet() {

@@ -222,8 +222,9 @@ fn pac2002_input(
     let sweeps: Vec<Sweep> = segments
         .iter()
         .filter(|s| pac2002_segment(s))
-        // a drive/brake or combined sweep without a measured slip ratio has nothing to fit
-        .filter(|s| s.segment.kind == SegmentKind::Cornering || s.kappa_measured)
+        // a drive/brake or combined sweep without a measured or derived slip ratio has nothing
+        // to fit
+        .filter(|s| s.segment.kind == SegmentKind::Cornering || has_kappa(s))
         .filter_map(|s| sweep_of(s))
         .collect();
     let speed_kph = median(
@@ -245,6 +246,11 @@ fn pac2002_input(
         },
         sweeps,
     })
+}
+
+/// The segment's kappa is a slip (measured SL, or derived from N and V), not an assumed zero.
+fn has_kappa(s: &LoadedSegment) -> bool {
+    s.kappa_measured || s.kappa_derived
 }
 
 fn sweep_of(s: &LoadedSegment) -> Option<Sweep> {
@@ -545,8 +551,8 @@ fn run_pac2002_and_relaxation(
 fn record_unusable_sweeps(out: &mut GroupResult, all: &[&LoadedSegment]) {
     let mut by_reason: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
     for s in all.iter().filter(|s| pac2002_segment(s)) {
-        let reason = if s.segment.kind != SegmentKind::Cornering && !s.kappa_measured {
-            "no measured longitudinal slip (SL) channel"
+        let reason = if s.segment.kind != SegmentKind::Cornering && !has_kappa(s) {
+            "no longitudinal slip (no SL channel, none derivable from N and V)"
         } else if sweep_of(s).is_none() {
             "no nominal load or inclination (off-nominal level)"
         } else {

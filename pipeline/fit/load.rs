@@ -4,14 +4,14 @@
 //! In: a store root (`runs/runs.parquet`, `segments/*.parquet`, hive-partitioned `samples/`).
 //! Out: [`SegmentRow`]s (one per live segment: identity, kind, nominal levels, QC) and
 //! [`LoadedSegment`]s (a [`MeasuredSegment`] with its samples in time order, plus `Mx`, which
-//! the stage data type does not carry). "Live" is what the runs table has committed: rows of a
-//! crashed or superseded ingest are never read (the same rule as `query`). A segment's samples
-//! are read from the one partition file its (kind, tire, rim, nominal levels, source) names, so
-//! a group reads only its own files.
+//! the stage data type does not carry). "Live" is what the runs table has committed
+//! (`store::tables`, the same rule as `query` and the report): rows of a crashed or superseded
+//! ingest are never read. A segment's samples are read from the one partition file its (kind,
+//! tire, rim, nominal levels, part) names, so a group reads only its own files.
 //!
 //! Deliberately not here: choosing which segments a stage uses (`fit::group`), any fitting.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
@@ -22,14 +22,17 @@ use tirebase_core::segment::{Level, QcFlag};
 
 use super::FitError;
 use crate::store::StoreError;
-use crate::store::files::{parquet_files_in, read_parquet};
-use crate::store::layout::{
-    PartitionKey, SEGMENTS_DIR, SWEPT, partition_dir, runs_file, source_part_name,
-};
+use crate::store::layout::runs_file;
+use crate::store::tables;
 
 /// One live row of the segments table (`schemas/segments.toml`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SegmentRow {
+    /// Name of the store part the row was read from (it names everything the segment was
+    /// derived from: content, tire, rim, segmentation settings, tool).
+    pub part: String,
+    /// The samples file holding the segment's rows, relative to the store root.
+    pub samples_file: PathBuf,
     /// `segment_id`.
     pub segment_id: String,
     /// Raw file name.
@@ -61,8 +64,11 @@ pub struct LoadedSegment {
     pub segment: MeasuredSegment,
     /// Overturning moment, N m (ISO-W), one per sample.
     pub mx_nm: Vec<f64>,
-    /// The run recorded a longitudinal slip channel (else `kappa` is 0 throughout).
+    /// The run recorded a longitudinal slip channel.
     pub kappa_measured: bool,
+    /// The run had no SL channel but swept its slip ratio: `kappa` was derived from N and V.
+    /// (Neither flag: `kappa` is 0 throughout.)
+    pub kappa_derived: bool,
     /// The segments-table row it was loaded for.
     pub row: SegmentRow,
 }
@@ -155,78 +161,43 @@ fn bool_column(df: &DataFrame, name: &str, path: &Path) -> Result<Vec<Option<boo
     Ok(c.bool().map_err(polars_err(path))?.iter().collect())
 }
 
-/// Source hashes whose data the runs table has committed.
-fn live_sources(store: &Path) -> Result<BTreeSet<String>, FitError> {
-    let path = store.join(runs_file());
-    if !path.exists() {
+/// Every live segment of the store (`store::tables` says what is live), sorted by (tire, rim,
+/// pressure, source file, index). Rows of a kind this build does not know are skipped.
+pub fn live_segments(store: &Path) -> Result<Vec<SegmentRow>, FitError> {
+    if !store.join(runs_file()).exists() {
         return Err(FitError::NotAStore(store.display().to_string()));
     }
-    let df = read_parquet(&path)?;
-    Ok(str_column(&df, "data_sha256", &path)?
+    let mut rows: Vec<SegmentRow> = tables::live_segments(store)?
         .into_iter()
-        .flatten()
-        .collect())
-}
-
-/// Every live segment of the store, sorted by (tire, rim, pressure, source file, index).
-pub fn live_segments(store: &Path) -> Result<Vec<SegmentRow>, FitError> {
-    let live = live_sources(store)?;
-    let mut rows = Vec::new();
-    for path in parquet_files_in(&store.join(SEGMENTS_DIR))? {
-        let df = read_parquet(&path)?;
-        let s = |n: &str| str_column(&df, n, &path);
-        let i = |n: &str| i64_column(&df, n, &path);
-        let (id, file, sha, kind, tire, flags) = (
-            s("segment_id")?,
-            s("source_file")?,
-            s("source_sha256")?,
-            s("kind")?,
-            s("tire")?,
-            s("qc_flags")?,
-        );
-        let (index, rim, p_nom, ia_nom, fz_nom, alpha_nom, v_nom) = (
-            i("segment_index")?,
-            i("rim_in")?,
-            i("pressure_kpa_nom")?,
-            i("ia_deg_nom")?,
-            i("fz_n_nom")?,
-            i("alpha_deg_nom")?,
-            i("speed_kph_nom")?,
-        );
-        let speed = f64_column(&df, "speed_kph_mean", &path)?;
-        for k in 0..df.height() {
-            let Some(sha_k) = sha[k].clone().filter(|h| live.contains(h)) else {
-                continue;
-            };
-            let Some(kind_k) = kind[k].as_deref().and_then(SegmentKind::parse) else {
-                continue;
-            };
-            let qc = flags[k].clone().unwrap_or_default();
-            let (forces_ok, temperatures_ok) = judge_qc(&qc);
-            rows.push(SegmentRow {
-                segment_id: id[k].clone().unwrap_or_default(),
-                source_file: file[k].clone().unwrap_or_default(),
-                source_sha256: sha_k,
-                segment_index: index[k].unwrap_or(0),
-                kind: kind_k,
+        .filter_map(|r| {
+            let kind = SegmentKind::parse(&r.kind)?;
+            let (forces_ok, temperatures_ok) = judge_qc(&r.qc_flags);
+            Some(SegmentRow {
+                samples_file: r.samples_file(),
+                part: r.part,
+                segment_id: r.segment_id,
+                source_file: r.source_file,
+                source_sha256: r.source_sha256,
+                segment_index: r.segment_index,
+                kind,
                 key: TireKey {
-                    tire: tire[k].clone().unwrap_or_default(),
-                    rim_in: rim[k].unwrap_or(0),
-                    pressure_kpa_nom: p_nom[k].unwrap_or(SWEPT),
+                    tire: r.tire,
+                    rim_in: r.rim_in,
+                    pressure_kpa_nom: r.pressure_kpa_nom,
                 },
                 nominal: NominalLevels {
-                    ia_deg: ia_nom[k],
-                    fz_n: fz_nom[k],
-                    alpha_deg: alpha_nom[k],
-                    speed_kph: v_nom[k],
+                    ia_deg: r.ia_deg_nom,
+                    fz_n: r.fz_n_nom,
+                    alpha_deg: r.alpha_deg_nom,
+                    speed_kph: r.speed_kph_nom,
                 },
-                speed_kph_mean: speed[k].unwrap_or(f64::NAN),
-                qc_flags: qc,
+                speed_kph_mean: r.speed_kph_mean,
+                qc_flags: r.qc_flags,
                 forces_ok,
                 temperatures_ok,
-            });
-        }
-    }
+            })
+        })
+        .collect();
     rows.sort_by(|a, b| {
         (&a.key, &a.source_file, a.segment_index).cmp(&(&b.key, &b.source_file, b.segment_index))
     });
@@ -235,17 +206,7 @@ pub fn live_segments(store: &Path) -> Result<Vec<SegmentRow>, FitError> {
 
 /// The samples file holding a segment's rows.
 fn samples_file(store: &Path, row: &SegmentRow) -> PathBuf {
-    let key = PartitionKey {
-        test: row.kind.as_str().to_string(),
-        tire: row.key.tire.clone(),
-        rim_in: row.key.rim_in,
-        pressure_kpa_nom: row.key.pressure_kpa_nom,
-        ia_deg_nom: row.nominal.ia_deg.unwrap_or(SWEPT),
-        fz_n_nom: row.nominal.fz_n.unwrap_or(SWEPT),
-    };
-    store
-        .join(partition_dir(&key))
-        .join(source_part_name(&row.source_file, &row.source_sha256))
+    store.join(&row.samples_file)
 }
 
 /// Load the samples of `rows` (any order); the result follows the order of `rows`.
@@ -273,17 +234,18 @@ pub fn load_segments(store: &Path, rows: &[&SegmentRow]) -> Result<Vec<LoadedSeg
 
 /// Read the columns the stages use from one samples file.
 fn read_sample_columns(path: &Path) -> Result<DataFrame, FitError> {
-    let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
-    let columns: Vec<String> = ["segment_id", "sample_index", "kappa_measured"]
+    let columns: Vec<&str> = ["segment_id", "sample_index", "kappa_measured"]
         .into_iter()
         .chain(REQUIRED)
         .chain(OPTIONAL)
-        .map(str::to_string)
         .collect();
-    ParquetReader::new(file)
-        .with_columns(Some(columns))
-        .finish()
-        .map_err(polars_err(path))
+    // Stores written before `kappa_derived` existed lack the column (read as false).
+    Ok(tables::read_sample_columns(
+        path,
+        &columns,
+        &["kappa_derived"],
+        true,
+    )?)
 }
 
 /// The columns of one samples file.
@@ -292,6 +254,7 @@ struct SampleColumns {
     rows_of: BTreeMap<String, Vec<usize>>,
     sample_index: Vec<Option<i64>>,
     kappa_measured: Vec<Option<bool>>,
+    kappa_derived: Vec<Option<bool>>,
     required: BTreeMap<&'static str, Vec<Option<f64>>>,
     optional: BTreeMap<&'static str, Vec<Option<f64>>>,
 }
@@ -337,6 +300,11 @@ impl SampleColumns {
             rows_of,
             sample_index: i64_column(df, "sample_index", path)?,
             kappa_measured: bool_column(df, "kappa_measured", path)?,
+            kappa_derived: if df.column("kappa_derived").is_ok() {
+                bool_column(df, "kappa_derived", path)?
+            } else {
+                vec![None; df.height()]
+            },
             required,
             optional,
         })
@@ -397,6 +365,7 @@ impl SampleColumns {
             },
             mx_nm: req("mx_nm"),
             kappa_measured: idx.iter().all(|&i| self.kappa_measured[i].unwrap_or(false)),
+            kappa_derived: idx.iter().all(|&i| self.kappa_derived[i].unwrap_or(false)),
             row: row.clone(),
         })
     }
@@ -423,7 +392,8 @@ mod tests {
         assert_eq!(judge_qc(""), (true, true));
         assert_eq!(judge_qc("off_nominal:ia"), (true, true));
         assert_eq!(judge_qc("saturated_channel:tread_outer_c"), (true, false));
-        assert_eq!(judge_qc("off_nominal:fz,load_drift"), (false, false));
+        assert_eq!(judge_qc("off_nominal:fz,load_drift"), (true, true));
+        assert_eq!(judge_qc("too_short,zero_pressure"), (false, false));
         assert_eq!(judge_qc("something_new"), (false, false));
     }
 }

@@ -1,35 +1,25 @@
 //! Everything the report reads, loaded once and forgivingly.
 //!
 //! In: a store root (live `segments` and the `samples` of the slip tests: cornering, drive/brake,
-//! combined) and a result directory (`<table>.parquet`, `tir/*.tir`). Out: [`ReportData`]: result
-//! tables by name, parsed models by `.tir` file name, QC-clean segments with their samples
-//! decimated for plotting, and [`ReportData::notes`], one line per thing that could not be read.
-//! A missing or unreadable table, model or column is a note, never an error: the pages show
-//! "no data" where it was needed.
+//! combined, read through `store::tables`), the typed result tables (`store::results::Results`:
+//! read from a result directory, or handed over in memory by publishing) and a `tir/`
+//! directory. Out: [`ReportData`]: typed result rows, parsed models by `.tir` file name, QC-clean
+//! segments with their samples decimated for plotting, and [`ReportData::notes`], one line per
+//! thing that could not be read. A missing or unreadable table (one without a column the report
+//! needs included) or model is a note, never an error: the pages show "no data" where it was
+//! needed.
 //!
 //! Deliberately not here: what is plotted (pages.rs) and any fitting.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
-use polars::prelude::*;
 use tirebase_core::tire_model::Pac2002;
 use tirebase_core::tire_model::tir::TirFile;
 
-use crate::query;
-use crate::store::layout::{PartitionKey, SWEPT, partition_dir, source_part_name};
-
-/// Result tables the report looks for (others in the directory are ignored).
-pub const TABLES: [&str; 8] = [
-    "coefficients",
-    "fit_quality",
-    "spring_rate",
-    "thermal",
-    "thermal_fit",
-    "relaxation",
-    "lint",
-    "fit_failures",
-];
+use crate::store::columns::{req_f64, req_i64};
+use crate::store::results::{Results, tir_names};
+use crate::store::tables::{self, SegmentRecord};
 
 /// Segment kinds whose samples are plotted.
 pub const SLIP_KINDS: [&str; 3] = ["cornering", "drive_brake", "combined"];
@@ -103,10 +93,13 @@ pub struct Segment {
 /// Everything loaded for one report.
 #[derive(Default)]
 pub struct ReportData {
-    /// Result tables present and readable, by name.
-    pub tables: BTreeMap<String, DataFrame>,
+    /// The result tables, typed (`None` for one not present or unreadable: a note says which).
+    pub results: Results,
     /// Models by `.tir` file name.
     pub models: BTreeMap<String, Pac2002>,
+    /// The `.tir` file name of each (tire, rim, nominal pressure) with a model (names are unique
+    /// per result set, see `naming::unique_tir_names`).
+    pub tir_names: BTreeMap<(String, i64, i64), String>,
     /// Slip-test segments, sorted by (tire, rim, pressure, kind, id).
     pub segments: Vec<Segment>,
     /// Tires seen anywhere (segments, tables), sorted.
@@ -117,53 +110,32 @@ pub struct ReportData {
     pub notes: Vec<String>,
 }
 
-/// Load the result directory and the store; see the module doc for what becomes a note.
-pub fn load(store: &Path, results: &Path) -> Result<ReportData, super::ReportError> {
-    let mut data = ReportData::default();
-    load_tables(results, &mut data);
-    load_models(results, &mut data);
-    load_segments(store, &mut data)?;
-    for df in data.tables.values() {
-        let tires = str_col(df, "tire");
-        let rims = i64_col(df, "rim_in");
-        let ps = i64_col(df, "pressure_kpa");
-        for i in 0..df.height() {
-            if let Some(t) = &tires[i] {
-                let groups = data.result_groups.entry(t.clone()).or_default();
-                if let (Some(r), Some(p)) = (rims[i], ps[i]) {
-                    groups.insert((r, p));
-                }
-            }
-        }
+/// Load the results, the models of `tir_dir` and the store; see the module doc for what
+/// becomes a note.
+pub fn load(
+    store: &Path,
+    results: &Results,
+    tir_dir: &Path,
+) -> Result<ReportData, super::ReportError> {
+    let mut data = ReportData {
+        notes: results.notes.clone(),
+        ..ReportData::default()
+    };
+    data.tir_names = tir_names(&results.model_groups()).0;
+    for (tire, rim, p) in results.groups() {
+        data.result_groups.entry(tire).or_default().insert((rim, p));
     }
+    data.results = results.clone();
+    load_models(tir_dir, &mut data);
+    load_segments(store, &mut data)?;
     let mut tires: BTreeSet<String> = data.segments.iter().map(|s| s.tire.clone()).collect();
     tires.extend(data.result_groups.keys().cloned());
     data.tires = tires.into_iter().collect();
     Ok(data)
 }
 
-fn load_tables(results: &Path, data: &mut ReportData) {
-    for name in TABLES {
-        let path = results.join(format!("{name}.parquet"));
-        if !path.exists() {
-            data.notes.push(format!("{name}.parquet: not present"));
-            continue;
-        }
-        let read = std::fs::File::open(&path)
-            .map_err(|e| e.to_string())
-            .and_then(|f| ParquetReader::new(f).finish().map_err(|e| e.to_string()));
-        match read {
-            Ok(df) => {
-                data.tables.insert(name.to_string(), df);
-            }
-            Err(e) => data.notes.push(format!("{name}.parquet: unreadable: {e}")),
-        }
-    }
-}
-
-fn load_models(results: &Path, data: &mut ReportData) {
-    let dir = results.join("tir");
-    let Ok(entries) = std::fs::read_dir(&dir) else {
+fn load_models(dir: &Path, data: &mut ReportData) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
         data.notes.push("tir/: no .tir directory".to_string());
         return;
     };
@@ -193,24 +165,22 @@ fn load_models(results: &Path, data: &mut ReportData) {
 /// Live, QC-clean slip-test segments with their samples.
 ///
 /// Samples are read straight from the partition file each segment lives in (its kind, tire,
-/// rim and nominal levels name the directory, its source file and hash the file) with only the
+/// rim and nominal levels name the directory, its store part the file) with only the
 /// numeric columns plotted, and split by the segment's sample-index range: far cheaper than a
 /// hive scan with string columns, which matters because the report runs after every fit.
 fn load_segments(store: &Path, data: &mut ReportData) -> Result<(), super::ReportError> {
-    let mut ctx = query::context(store).map_err(|source| super::ReportError::Store {
-        path: store.to_path_buf(),
-        source,
-    })?;
-    let kinds = SLIP_KINDS.map(|k| format!("'{k}'")).join(", ");
-    let seg_sql = format!("SELECT * FROM segments WHERE kind IN ({kinds}) AND qc_ok");
-    let segs = match ctx.execute(&seg_sql).and_then(|lf| lf.collect()) {
-        Ok(df) => df,
+    let records = match tables::live_segments(store) {
+        Ok(r) => r,
         Err(e) => {
             data.notes.push(format!("store segments unreadable: {e}"));
             return Ok(());
         }
     };
-    let mut segments = build_segments(&segs);
+    let mut segments = build_segments(
+        records
+            .into_iter()
+            .filter(|r| r.qc_ok && SLIP_KINDS.contains(&r.kind.as_str())),
+    );
 
     let mut by_file: BTreeMap<PathBuf, Vec<usize>> = BTreeMap::new();
     for (i, (_, src)) in segments.iter().enumerate() {
@@ -320,7 +290,6 @@ impl FileSamples {
 }
 
 fn read_samples(path: &Path) -> Result<FileSamples, String> {
-    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
     let columns = [
         "sample_index",
         "alpha_rad",
@@ -330,17 +299,27 @@ fn read_samples(path: &Path) -> Result<FileSamples, String> {
         "fz_n",
         "mz_nm",
     ];
-    let df = ParquetReader::new(file)
-        .with_columns(Some(columns.iter().map(|c| c.to_string()).collect()))
-        .read_parallel(ParallelStrategy::None)
-        .finish()
-        .map_err(|e| e.to_string())?;
-    let sample_index: Vec<i64> = i64_col(&df, "sample_index")
+    let df = tables::read_sample_columns(path, &columns, &[], false).map_err(|e| e.to_string())?;
+    let sample_index: Vec<i64> = req_i64(&df, "sample_index", path)
+        .map_err(|e| e.to_string())?
         .into_iter()
         .map(|v| v.unwrap_or(-1))
         .collect();
-    let [alpha, kappa, fx, fy, fz, mz] =
-        ["alpha_rad", "kappa", "fx_n", "fy_n", "fz_n", "mz_nm"].map(|c| f64_col(&df, c));
+    let f = |c: &str| -> Result<Vec<f64>, String> {
+        Ok(req_f64(&df, c, path)
+            .map_err(|e| e.to_string())?
+            .into_iter()
+            .map(|v| v.unwrap_or(f64::NAN))
+            .collect())
+    };
+    let (alpha, kappa, fx, fy, fz, mz) = (
+        f("alpha_rad")?,
+        f("kappa")?,
+        f("fx_n")?,
+        f("fy_n")?,
+        f("fz_n")?,
+        f("mz_nm")?,
+    );
     let samples = (0..df.height())
         .map(|i| Sample {
             alpha_rad: alpha[i],
@@ -359,74 +338,37 @@ fn read_samples(path: &Path) -> Result<FileSamples, String> {
 
 /// Segments (without samples yet) and where their samples are, sorted by
 /// (tire, rim, pressure, kind, id).
-fn build_segments(segs: &DataFrame) -> Vec<(Segment, SampleSource)> {
-    let ids = str_col(segs, "segment_id");
-    let kinds = str_col(segs, "kind");
-    let tires = str_col(segs, "tire");
-    let sources = str_col(segs, "source_file");
-    let shas = str_col(segs, "source_sha256");
-    let starts = i64_col(segs, "sample_start");
-    let ends = i64_col(segs, "sample_end");
-    let rims = i64_col(segs, "rim_in");
-    let p_nom = i64_col(segs, "pressure_kpa_nom");
-    let ia_nom = i64_col(segs, "ia_deg_nom");
-    let fz_nom = i64_col(segs, "fz_n_nom");
-    let alpha_nom = i64_col(segs, "alpha_deg_nom");
-    let fz_mean = f64_col(segs, "fz_n_mean");
-    let ia_mean = f64_col(segs, "ia_deg_mean");
-    let v_mean = f64_col(segs, "speed_kph_mean");
-    let a_mean = f64_col(segs, "alpha_deg_mean");
-    let a_min = f64_col(segs, "alpha_deg_min");
-    let a_max = f64_col(segs, "alpha_deg_max");
-    let k_min = f64_col(segs, "kappa_min");
-    let k_max = f64_col(segs, "kappa_max");
-    let mut out = Vec::new();
-    for i in 0..segs.height() {
-        let (Some(id), Some(kind), Some(tire), Some(p), Some(source), Some(sha)) = (
-            &ids[i],
-            &kinds[i],
-            &tires[i],
-            p_nom[i],
-            &sources[i],
-            &shas[i],
-        ) else {
-            continue;
-        };
-        let key = PartitionKey {
-            test: kind.clone(),
-            tire: tire.clone(),
-            rim_in: rims[i].unwrap_or(0),
-            pressure_kpa_nom: p,
-            ia_deg_nom: ia_nom[i].unwrap_or(SWEPT),
-            fz_n_nom: fz_nom[i].unwrap_or(SWEPT),
-        };
-        let src = SampleSource {
-            file: partition_dir(&key).join(source_part_name(source, sha)),
-            sample_range: (starts[i].unwrap_or(0), ends[i].unwrap_or(i64::MAX)),
-        };
-        let seg = Segment {
-            id: id.clone(),
-            kind: kind.clone(),
-            tire: tire.clone(),
-            rim_in: rims[i].unwrap_or(0),
-            pressure_kpa_nom: p,
-            ia_deg_nom: ia_nom[i],
-            fz_n_nom: fz_nom[i],
-            alpha_deg_nom: alpha_nom[i],
-            fz_n_mean: fz_mean[i],
-            ia_deg_mean: ia_mean[i],
-            speed_kph_mean: v_mean[i],
-            alpha_deg_mean: a_mean[i],
-            alpha_deg_range: (a_min[i], a_max[i]),
-            kappa_range: (k_min[i], k_max[i]),
-            samples: Vec::new(),
-            stats: SegmentStats {
-                mu_y_peak: f64::NAN,
-                cornering_stiffness_n_per_rad: f64::NAN,
-            },
-        };
-        out.push((seg, src));
-    }
+fn build_segments(records: impl Iterator<Item = SegmentRecord>) -> Vec<(Segment, SampleSource)> {
+    let mut out: Vec<(Segment, SampleSource)> = records
+        .map(|r| {
+            let src = SampleSource {
+                file: r.samples_file(),
+                sample_range: (r.sample_start, r.sample_end),
+            };
+            let seg = Segment {
+                id: r.segment_id,
+                kind: r.kind,
+                tire: r.tire,
+                rim_in: r.rim_in,
+                pressure_kpa_nom: r.pressure_kpa_nom,
+                ia_deg_nom: r.ia_deg_nom,
+                fz_n_nom: r.fz_n_nom,
+                alpha_deg_nom: r.alpha_deg_nom,
+                fz_n_mean: r.fz_n_mean,
+                ia_deg_mean: r.ia_deg_mean,
+                speed_kph_mean: r.speed_kph_mean,
+                alpha_deg_mean: r.alpha_deg_mean,
+                alpha_deg_range: (r.alpha_deg_min, r.alpha_deg_max),
+                kappa_range: (r.kappa_min, r.kappa_max),
+                samples: Vec::new(),
+                stats: SegmentStats {
+                    mu_y_peak: f64::NAN,
+                    cornering_stiffness_n_per_rad: f64::NAN,
+                },
+            };
+            (seg, src)
+        })
+        .collect();
     out.sort_by(|(a, _), (b, _)| {
         (&a.tire, a.rim_in, a.pressure_kpa_nom, &a.kind, &a.id).cmp(&(
             &b.tire,
@@ -490,49 +432,6 @@ fn slope(points: &[(f64, f64)]) -> f64 {
     if sxx <= 1e-12 { f64::NAN } else { sxy / sxx }
 }
 
-/// A column as f64 values (null -> NaN); all NaN when absent or not numeric.
-pub fn f64_col(df: &DataFrame, name: &str) -> Vec<f64> {
-    df.column(name)
-        .ok()
-        .and_then(|c| c.cast(&DataType::Float64).ok())
-        .and_then(|c| {
-            c.f64()
-                .ok()
-                .map(|ca| ca.iter().map(|v| v.unwrap_or(f64::NAN)).collect())
-        })
-        .unwrap_or_else(|| vec![f64::NAN; df.height()])
-}
-
-/// A column as i64 values (null -> None); all None when absent or not numeric.
-pub fn i64_col(df: &DataFrame, name: &str) -> Vec<Option<i64>> {
-    df.column(name)
-        .ok()
-        .and_then(|c| c.cast(&DataType::Int64).ok())
-        .and_then(|c| c.i64().ok().map(|ca| ca.iter().collect()))
-        .unwrap_or_else(|| vec![None; df.height()])
-}
-
-/// A column as strings (null -> None); all None when absent. Non-string columns are cast.
-pub fn str_col(df: &DataFrame, name: &str) -> Vec<Option<String>> {
-    df.column(name)
-        .ok()
-        .and_then(|c| c.cast(&DataType::String).ok())
-        .and_then(|c| {
-            c.str()
-                .ok()
-                .map(|ca| ca.iter().map(|v| v.map(str::to_string)).collect())
-        })
-        .unwrap_or_else(|| vec![None; df.height()])
-}
-
-/// A column as booleans (null -> None); all None when absent.
-pub fn bool_col(df: &DataFrame, name: &str) -> Vec<Option<bool>> {
-    df.column(name)
-        .ok()
-        .and_then(|c| c.bool().ok().map(|ca| ca.iter().collect()))
-        .unwrap_or_else(|| vec![None; df.height()])
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -544,15 +443,6 @@ mod tests {
         assert!(d.len() <= 160 && d.len() >= 140, "{}", d.len());
         assert_eq!(d[0], 0);
         assert_eq!(decimate(&v[..10], 160).len(), 10);
-    }
-
-    #[test]
-    fn missing_columns_read_as_nan_or_none() {
-        let df = df!("a" => [1i64, 2]).unwrap();
-        assert!(f64_col(&df, "b").iter().all(|v| v.is_nan()));
-        assert_eq!(i64_col(&df, "a"), vec![Some(1), Some(2)]);
-        assert_eq!(str_col(&df, "a"), vec![Some("1".into()), Some("2".into())]);
-        assert_eq!(bool_col(&df, "a"), vec![None, None]);
     }
 
     #[test]

@@ -2,8 +2,9 @@
 //! (inline CSS and SVG, no script, nothing fetched from a network or another file except the
 //! links between the pages).
 //!
-//! In: a store (the measured samples and segments) and a result directory as
-//! `fit::write_outcome` writes it (`<table>.parquet`, `tir/*.tir`). Out: the pages in `out_dir`
+//! In: a store (the measured samples and segments) and the results: a result directory as
+//! `fit::write_outcome` writes it (`<table>.parquet`, `tir/*.tir`), or the typed tables a run
+//! has just merged (`store::results::Results`) and its `tir/` directory. Out: the pages in `out_dir`
 //! and a [`ReportSummary`]. Each tire page shows data against model for Fy-SA, Mz-SA and Fx-SL
 //! per load and inclination (the seed's figures 18-19), the friction envelope (figure 22), peak
 //! mu and cornering stiffness against load per pressure (figures 23-24), vertical stiffness
@@ -21,6 +22,8 @@ pub mod svg;
 use std::path::{Path, PathBuf};
 
 pub use data::ReportData;
+
+use crate::store::results::Results;
 
 /// Report errors: only the inputs as a whole being unusable or the output being unwritable.
 #[derive(Debug, thiserror::Error)]
@@ -79,7 +82,22 @@ pub fn write_report(
             path: results.to_path_buf(),
         });
     }
-    let data = data::load(store, results)?;
+    write_report_from(
+        store,
+        &Results::read(results),
+        &results.join("tir"),
+        out_dir,
+    )
+}
+
+/// [`write_report`] from typed result tables and the `.tir` files of `tir_dir`.
+pub fn write_report_from(
+    store: &Path,
+    results: &Results,
+    tir_dir: &Path,
+    out_dir: &Path,
+) -> Result<ReportSummary, ReportError> {
+    let data = data::load(store, results, tir_dir)?;
     let built = pages::build(&data);
     crate::store::files::ensure_dir(out_dir).map_err(|source| ReportError::Write {
         path: out_dir.to_path_buf(),

@@ -10,12 +10,12 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 
-use polars::prelude::{AnyValue, DataFrame};
 use tirebase_core::naming::sanitize_tire;
 
-use super::data::{ReportData, f64_col};
+use super::data::ReportData;
 use super::plots;
 use super::svg::{Plot, escape};
+use crate::store::results::{CoefficientRow, FitFailure, LintRow, QualityRow};
 
 /// Rows of fit quality highlighted as the worst of the round.
 const WORST_FITS: usize = 3;
@@ -100,25 +100,19 @@ fn head(title: &str) -> String {
 /// largest out-of-sample RMSE in percent of the channel's peak (the in-sample one where a row
 /// has no out-of-sample figure), or the lowest R² when no row has either.
 fn worst_fit_rows(data: &ReportData) -> Vec<usize> {
-    let Some(df) = data.tables.get("fit_quality") else {
+    let Some(rows) = &data.results.fit_quality else {
         return Vec::new();
     };
-    let in_sample = f64_col(df, "rmse_pct_of_peak");
-    let ratio = f64_col(df, "oos_ratio");
-    let pct: Vec<f64> = in_sample
-        .iter()
-        .enumerate()
-        .map(|(i, p)| match ratio.get(i) {
-            Some(r) if r.is_finite() => p * r,
-            _ => *p,
-        })
-        .collect();
-    let badness: Vec<f64> = if pct.iter().any(|v| v.is_finite()) {
-        pct
+    let badness: Vec<f64> = if rows.iter().any(|q| q.headline_pct_of_peak().is_some()) {
+        rows.iter()
+            .map(|q| q.headline_pct_of_peak().unwrap_or(f64::NAN))
+            .collect()
     } else {
-        f64_col(df, "r2").iter().map(|r| 1.0 - r).collect()
+        rows.iter()
+            .map(|q| 1.0 - q.r2.unwrap_or(f64::NAN))
+            .collect()
     };
-    let mut order: Vec<usize> = (0..df.height())
+    let mut order: Vec<usize> = (0..rows.len())
         .filter(|&i| badness[i].is_finite())
         .collect();
     order.sort_by(|&a, &b| badness[b].total_cmp(&badness[a]).then(a.cmp(&b)));
@@ -126,40 +120,192 @@ fn worst_fit_rows(data: &ReportData) -> Vec<usize> {
     order
 }
 
-/// A result table (selected rows and columns present) as HTML; `worst` rows highlighted.
-fn table_html(df: &DataFrame, rows: &[usize], columns: &[&str], worst: &BTreeSet<usize>) -> String {
-    let cols: Vec<&str> = if columns.is_empty() {
-        df.get_column_names().iter().map(|s| s.as_str()).collect()
-    } else {
-        columns
-            .iter()
-            .copied()
-            .filter(|c| df.column(c).is_ok())
-            .collect()
-    };
+/// One cell of a result table as shown.
+enum Cell {
+    Text(String),
+    Int(i64),
+    Float(f64),
+    Bool(bool),
+    Empty,
+}
+
+/// A typed result row shown as an HTML table row: its columns and its cells.
+trait Tabular {
+    /// Column headers, in order.
+    const COLUMNS: &'static [&'static str];
+    /// The row's tire.
+    fn tire(&self) -> &str;
+    /// One cell per column.
+    fn cells(&self) -> Vec<Cell>;
+}
+
+fn text(s: &str) -> Cell {
+    Cell::Text(s.to_string())
+}
+
+fn float(v: Option<f64>) -> Cell {
+    v.map_or(Cell::Empty, Cell::Float)
+}
+
+fn int(v: Option<i64>) -> Cell {
+    v.map_or(Cell::Empty, Cell::Int)
+}
+
+/// Fit-quality columns shown, the out-of-sample error and the deviation between the fitted
+/// points first. `seconds` (wall time) is left out so the same results give the same report
+/// bytes.
+impl Tabular for QualityRow {
+    const COLUMNS: &'static [&'static str] = &[
+        "tire",
+        "rim_in",
+        "pressure_kpa",
+        "channel",
+        "oos_rmse",
+        "rmse",
+        "oos_ratio",
+        "oos_flag",
+        "trend_dev_max",
+        "trend_dev_pct_of_peak",
+        "n_free",
+        "jacobian_rank",
+        "condition_number",
+        "n",
+        "rmse_pct_of_peak",
+        "r2",
+        "sample_rmse",
+        "initial_rmse",
+        "iterations",
+        "termination",
+    ];
+    fn tire(&self) -> &str {
+        &self.tire
+    }
+    fn cells(&self) -> Vec<Cell> {
+        vec![
+            text(&self.tire),
+            Cell::Int(self.rim_in),
+            Cell::Int(self.pressure_kpa),
+            text(&self.channel),
+            float(self.oos_rmse),
+            float(self.rmse),
+            float(self.oos_ratio),
+            self.oos_flag.map_or(Cell::Empty, Cell::Bool),
+            float(self.trend_dev_max),
+            float(self.trend_dev_pct_of_peak),
+            int(self.n_free),
+            int(self.jacobian_rank),
+            float(self.condition_number),
+            int(self.n),
+            float(self.rmse_pct_of_peak),
+            float(self.r2),
+            float(self.sample_rmse),
+            float(self.initial_rmse),
+            int(self.iterations),
+            self.termination.as_deref().map_or(Cell::Empty, text),
+        ]
+    }
+}
+
+impl Tabular for LintRow {
+    const COLUMNS: &'static [&'static str] = &[
+        "tire",
+        "rim_in",
+        "pressure_kpa",
+        "file",
+        "severity",
+        "code",
+        "message",
+    ];
+    fn tire(&self) -> &str {
+        &self.tire
+    }
+    fn cells(&self) -> Vec<Cell> {
+        vec![
+            text(&self.tire),
+            Cell::Int(self.rim_in),
+            Cell::Int(self.pressure_kpa),
+            text(&self.file),
+            text(&self.severity),
+            text(&self.code),
+            text(&self.message),
+        ]
+    }
+}
+
+impl Tabular for FitFailure {
+    const COLUMNS: &'static [&'static str] = &[
+        "tire",
+        "rim_in",
+        "pressure_kpa",
+        "stage",
+        "scope",
+        "fatal",
+        "reason",
+    ];
+    fn tire(&self) -> &str {
+        &self.tire
+    }
+    fn cells(&self) -> Vec<Cell> {
+        vec![
+            text(&self.tire),
+            Cell::Int(self.rim_in),
+            Cell::Int(self.pressure_kpa),
+            text(&self.stage),
+            text(&self.scope),
+            Cell::Bool(self.fatal),
+            text(&self.reason),
+        ]
+    }
+}
+
+/// A coefficient at a bound, shown on its tire's page (the tire is the page's).
+impl Tabular for CoefficientRow {
+    const COLUMNS: &'static [&'static str] = &[
+        "rim_in",
+        "pressure_kpa",
+        "model",
+        "family",
+        "name",
+        "value",
+        "std_error",
+    ];
+    fn tire(&self) -> &str {
+        &self.tire
+    }
+    fn cells(&self) -> Vec<Cell> {
+        vec![
+            Cell::Int(self.rim_in),
+            Cell::Int(self.pressure_kpa),
+            text(&self.model),
+            text(&self.family),
+            text(&self.name),
+            Cell::Float(self.value),
+            float(self.std_error),
+        ]
+    }
+}
+
+/// Rows of a result table (by index) as HTML; `worst` rows highlighted.
+fn table_html<T: Tabular>(rows: &[T], show: &[usize], worst: &BTreeSet<usize>) -> String {
     let mut out = String::from("<table>\n<tr>");
-    for c in &cols {
+    for c in T::COLUMNS {
         let _ = write!(out, "<th>{}</th>", escape(c));
     }
     out.push_str("</tr>\n");
-    for &i in rows {
+    for &i in show {
         let class = if worst.contains(&i) {
             " class=\"worst\""
         } else {
             ""
         };
         let _ = write!(out, "<tr{class}>");
-        for c in &cols {
-            let v = df.column(c).ok().and_then(|col| col.get(i).ok());
-            let (text, num) = match v {
-                Some(AnyValue::Float64(x)) => (format_sig(x), true),
-                Some(AnyValue::Float32(x)) => (format_sig(x as f64), true),
-                Some(AnyValue::Int64(x)) => (x.to_string(), true),
-                Some(AnyValue::Int32(x)) => (x.to_string(), true),
-                Some(AnyValue::Null) | None => (String::new(), false),
-                Some(AnyValue::String(s)) => (s.to_string(), false),
-                Some(AnyValue::StringOwned(s)) => (s.to_string(), false),
-                Some(other) => (other.to_string(), false),
+        for cell in rows[i].cells() {
+            let (text, num) = match cell {
+                Cell::Float(x) => (format_sig(x), true),
+                Cell::Int(x) => (x.to_string(), true),
+                Cell::Empty => (String::new(), false),
+                Cell::Text(s) => (s, false),
+                Cell::Bool(b) => (b.to_string(), false),
             };
             let class = if num { " class=\"num\"" } else { "" };
             let _ = write!(out, "<td{class}>{}</td>", escape(&text));
@@ -189,59 +335,31 @@ fn format_sig(x: f64) -> String {
 }
 
 /// A section showing a result table's rows for one tire (or all rows when `tire` is None).
-fn table_section(
-    data: &ReportData,
+fn table_section<T: Tabular>(
+    rows: Option<&[T]>,
     table: &str,
     title: &str,
     tire: Option<&str>,
-    columns: &[&str],
     worst: &BTreeSet<usize>,
 ) -> String {
     let mut out = format!("<h2 id=\"{}\">{}</h2>\n", escape(table), escape(title));
-    let Some(df) = data.tables.get(table) else {
+    let Some(rows) = rows else {
         let _ = writeln!(
             out,
             "<p class=\"note\">no data: {table}.parquet not present</p>"
         );
         return out;
     };
-    let rows: Vec<usize> = match tire {
-        Some(t) => plots::rows_of(df, t),
-        None => (0..df.height()).collect(),
-    };
-    if rows.is_empty() {
+    let show: Vec<usize> = (0..rows.len())
+        .filter(|&i| tire.is_none_or(|t| rows[i].tire() == t))
+        .collect();
+    if show.is_empty() {
         let _ = writeln!(out, "<p class=\"note\">none</p>");
         return out;
     }
-    out.push_str(&table_html(df, &rows, columns, worst));
+    out.push_str(&table_html(rows, &show, worst));
     out
 }
-
-/// Fit-quality columns shown (those present), the out-of-sample error and the deviation
-/// between the fitted points first. `seconds` (wall time) is left out so the same results give
-/// the same report bytes.
-const FIT_QUALITY_COLUMNS: [&str; 20] = [
-    "tire",
-    "rim_in",
-    "pressure_kpa",
-    "channel",
-    "oos_rmse",
-    "rmse",
-    "oos_ratio",
-    "oos_flag",
-    "trend_dev_max",
-    "trend_dev_pct_of_peak",
-    "n_free",
-    "jacobian_rank",
-    "condition_number",
-    "n",
-    "rmse_pct_of_peak",
-    "r2",
-    "sample_rmse",
-    "initial_rmse",
-    "iterations",
-    "termination",
-];
 
 /// One tire's page and its (drawn, missing) chart counts.
 fn tire_page(data: &ReportData, tire: &str, worst: &BTreeSet<usize>) -> (String, usize, usize) {
@@ -315,29 +433,27 @@ fn tire_page(data: &ReportData, tire: &str, worst: &BTreeSet<usize>) -> (String,
         }
         out.push_str("</div>\n");
     }
+    let r = &data.results;
     out.push_str(&table_section(
-        data,
+        r.fit_quality.as_deref(),
         "fit_quality",
         "Fit quality",
         Some(tire),
-        &FIT_QUALITY_COLUMNS,
         worst,
     ));
     out.push_str(&at_bound_section(data, tire));
     out.push_str(&table_section(
-        data,
+        r.lint.as_deref(),
         "lint",
         "Lint warnings",
         Some(tire),
-        &[],
         &BTreeSet::new(),
     ));
     out.push_str(&table_section(
-        data,
+        r.fit_failures.as_deref(),
         "fit_failures",
         "Failures",
         Some(tire),
-        &[],
         &BTreeSet::new(),
     ));
     out.push_str("</body>\n</html>\n");
@@ -386,33 +502,18 @@ fn group_summary(data: &ReportData, tire: &str) -> String {
 /// Coefficients that ended on a bound of their search interval.
 fn at_bound_section(data: &ReportData, tire: &str) -> String {
     let mut out = String::from("<h2 id=\"at-bound\">Coefficients at a bound</h2>\n");
-    let Some(df) = data.tables.get("coefficients") else {
+    let Some(rows) = &data.results.coefficients else {
         out.push_str("<p class=\"note\">no data: coefficients.parquet not present</p>\n");
         return out;
     };
-    let flags = super::data::bool_col(df, "at_bound");
-    let rows: Vec<usize> = plots::rows_of(df, tire)
-        .into_iter()
-        .filter(|&i| flags[i] == Some(true))
+    let show: Vec<usize> = (0..rows.len())
+        .filter(|&i| rows[i].tire == tire && rows[i].at_bound)
         .collect();
-    if rows.is_empty() {
+    if show.is_empty() {
         out.push_str("<p class=\"note\">none</p>\n");
         return out;
     }
-    out.push_str(&table_html(
-        df,
-        &rows,
-        &[
-            "rim_in",
-            "pressure_kpa",
-            "model",
-            "family",
-            "name",
-            "value",
-            "std_error",
-        ],
-        &BTreeSet::new(),
-    ));
+    out.push_str(&table_html(rows, &show, &BTreeSet::new()));
     out
 }
 
@@ -441,9 +542,9 @@ fn index_page(
             let (rims, pressures) = tire_levels(data, tire);
             let segs = data.segments.iter().filter(|s| &s.tire == tire).count();
             let models = data
-                .models
-                .keys()
-                .filter(|m| m.starts_with(&format!("{}__", sanitize_tire(tire))))
+                .tir_names
+                .iter()
+                .filter(|((t, _, _), file)| t == tire && data.models.contains_key(*file))
                 .count();
             let _ = writeln!(
                 out,
@@ -457,34 +558,32 @@ fn index_page(
         out.push_str("</table>\n");
     }
     let worst_set: BTreeSet<usize> = worst.iter().copied().collect();
-    if let Some(df) = data.tables.get("fit_quality")
+    let r = &data.results;
+    if let Some(rows) = &r.fit_quality
         && !worst.is_empty()
     {
         out.push_str("<h2 id=\"worst-fits\">Worst fits</h2>\n");
-        out.push_str(&table_html(df, worst, &FIT_QUALITY_COLUMNS, &worst_set));
+        out.push_str(&table_html(rows, worst, &worst_set));
     }
     out.push_str(&table_section(
-        data,
+        r.fit_quality.as_deref(),
         "fit_quality",
         "Fit quality (worst highlighted)",
         None,
-        &FIT_QUALITY_COLUMNS,
         &worst_set,
     ));
     out.push_str(&table_section(
-        data,
+        r.lint.as_deref(),
         "lint",
         "Lint warnings",
         None,
-        &[],
         &BTreeSet::new(),
     ));
     out.push_str(&table_section(
-        data,
+        r.fit_failures.as_deref(),
         "fit_failures",
         "Failures",
         None,
-        &[],
         &BTreeSet::new(),
     ));
     out.push_str("<h2 id=\"inputs\">Inputs not available</h2>\n");

@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 use tirebase_core::naming::tir_file_name;
 use tirebase_core::tire_model::{Coef, Mode, Pac2002, SlipInput, pac2002::relaxation_lengths};
 
-use super::data::{ReportData, Sample, Segment, bool_col, decimate, f64_col, i64_col, str_col};
+use super::data::{ReportData, Sample, Segment, decimate};
 use super::svg::{Axis, Plot, Series, Style};
 
 /// Points along a model curve.
@@ -90,8 +90,12 @@ pub fn model_for<'a>(
     rim_in: i64,
     p_kpa: i64,
 ) -> Option<&'a Pac2002> {
-    data.models
-        .get(&tir_file_name(tire, rim_in as f64, p_kpa as f64))
+    let name = data
+        .tir_names
+        .get(&(tire.to_string(), rim_in, p_kpa))
+        .cloned()
+        .unwrap_or_else(|| tir_file_name(tire, rim_in as f64, p_kpa as f64));
+    data.models.get(&name)
 }
 
 /// Label of a nominal load (or its rounded mean when not held).
@@ -554,16 +558,6 @@ pub fn peak_mu_and_stiffness(data: &ReportData, tire: &str) -> Vec<Plot> {
     vec![mu, ky]
 }
 
-/// Row indices of a result table that belong to `tire`.
-pub fn rows_of(df: &polars::prelude::DataFrame, tire: &str) -> Vec<usize> {
-    str_col(df, "tire")
-        .iter()
-        .enumerate()
-        .filter(|(_, t)| t.as_deref() == Some(tire))
-        .map(|(i, _)| i)
-        .collect()
-}
-
 /// Vertical stiffness against pressure: one series per (rim, condition, inclination).
 pub fn spring_rate(data: &ReportData, tire: &str) -> Vec<Plot> {
     let mut plot = Plot::new(
@@ -573,23 +567,17 @@ pub fn spring_rate(data: &ReportData, tire: &str) -> Vec<Plot> {
         Axis::new("inflation pressure (kPa, nominal)"),
         Axis::from_zero("vertical stiffness Cz (kN/m)"),
     );
-    let Some(df) = data.tables.get("spring_rate") else {
+    let Some(rows) = &data.results.spring_rate else {
         plot.missing_reason = "spring_rate table not present".to_string();
         return vec![plot];
     };
-    let rims = i64_col(df, "rim_in");
-    let ps = f64_col(df, "pressure_kpa");
-    let ias = i64_col(df, "ia_deg_nom");
-    let conds = str_col(df, "condition");
-    let cz = f64_col(df, "stiffness_n_per_m");
     let mut series: BTreeMap<(i64, String, i64), Vec<(f64, f64)>> = BTreeMap::new();
-    for i in rows_of(df, tire) {
-        let key = (
-            rims[i].unwrap_or(0),
-            conds[i].clone().unwrap_or_default(),
-            ias[i].unwrap_or(-1),
-        );
-        series.entry(key).or_default().push((ps[i], cz[i] / 1000.0));
+    for r in rows.iter().filter(|r| r.tire == tire) {
+        let key = (r.rim_in, r.condition.clone(), r.ia_deg_nom.unwrap_or(-1));
+        series
+            .entry(key)
+            .or_default()
+            .push((r.pressure_kpa as f64, r.stiffness_n_per_m / 1000.0));
     }
     for (color, ((rim, cond, ia), mut pts)) in series.into_iter().enumerate() {
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -627,26 +615,23 @@ pub fn mu_temperature(data: &ReportData, tire: &str) -> Vec<Plot> {
         plot
     };
     let mut ranges: BTreeMap<(i64, i64), (f64, f64)> = BTreeMap::new();
-    if let Some(df) = data.tables.get("thermal") {
-        let rims = i64_col(df, "rim_in");
-        let ps = i64_col(df, "pressure_kpa");
-        let quads = str_col(df, "quadrant");
-        let t = f64_col(df, "t_centre_peak_c");
-        let mu = f64_col(df, "mu_peak");
+    let results = &data.results;
+    if let Some(rows) = &results.thermal {
         let mut by_quad: PointsByGroup = BTreeMap::new();
-        for i in rows_of(df, tire) {
-            let key = (rims[i].unwrap_or(0), ps[i].unwrap_or(0));
+        for row in rows.iter().filter(|r| r.tire == tire) {
+            let key = (row.rim_in, row.pressure_kpa);
+            let t = row.t_centre_peak_c;
             by_quad
                 .entry(key)
                 .or_default()
-                .entry(quads[i].clone().unwrap_or_default())
+                .entry(row.quadrant.clone())
                 .or_default()
-                .push((t[i], mu[i]));
-            if t[i].is_finite() {
+                .push((t, row.mu_peak));
+            if t.is_finite() {
                 let r = ranges
                     .entry(key)
                     .or_insert((f64::INFINITY, f64::NEG_INFINITY));
-                *r = (r.0.min(t[i]), r.1.max(t[i]));
+                *r = (r.0.min(t), r.1.max(t));
             }
         }
         for (key, quads) in by_quad {
@@ -657,25 +642,20 @@ pub fn mu_temperature(data: &ReportData, tire: &str) -> Vec<Plot> {
             }
         }
     }
-    if let Some(df) = data.tables.get("thermal_fit") {
-        let rims = i64_col(df, "rim_in");
-        let ps = i64_col(df, "pressure_kpa");
-        let t_peak = f64_col(df, "t_peak_c");
-        let t_cold = f64_col(df, "t_cold_c");
-        let k = f64_col(df, "k_cold_per_c2");
-        let hot = f64_col(df, "hot_falloff");
-        let m = f64_col(df, "mu_peak_mean");
-        for i in rows_of(df, tire) {
-            let key = (rims[i].unwrap_or(0), ps[i].unwrap_or(0));
+    if let Some(rows) = &results.thermal_fit {
+        for row in rows.iter().filter(|r| r.tire == tire) {
+            let key = (row.rim_in, row.pressure_kpa);
+            let (t_peak, k) = (row.t_peak_c, row.k_cold_per_c2);
             let (lo, hi) = match ranges.get(&key) {
                 Some(&(lo, hi)) if hi > lo => (lo, hi),
-                _ => (t_cold[i], t_peak[i] + 20.0),
+                _ => (row.t_cold_c, t_peak + 20.0),
             };
-            let hot_k = if hot[i].is_finite() { hot[i] } else { 1.0 } * k[i];
+            let hot = row.hot_falloff;
+            let hot_k = if hot.is_finite() { hot } else { 1.0 } * k;
             let curve: Vec<(f64, f64)> = linspace(lo, hi, CURVE_POINTS)
                 .map(|t| {
-                    let kk = if t > t_peak[i] { hot_k } else { k[i] };
-                    (t, m[i] * (1.0 - kk * (t - t_peak[i]).powi(2)))
+                    let kk = if t > t_peak { hot_k } else { k };
+                    (t, row.mu_peak_mean * (1.0 - kk * (t - t_peak).powi(2)))
                 })
                 .collect();
             let plot = groups.entry(key).or_insert_with(|| new_plot(key.0, key.1));
@@ -686,10 +666,7 @@ pub fn mu_temperature(data: &ReportData, tire: &str) -> Vec<Plot> {
     if groups.is_empty() {
         let mut plot = new_plot(0, 0);
         plot.title = "Peak μy vs centre tread temperature".to_string();
-        plot.missing_reason = match (
-            data.tables.contains_key("thermal"),
-            data.tables.contains_key("thermal_fit"),
-        ) {
+        plot.missing_reason = match (results.thermal.is_some(), results.thermal_fit.is_some()) {
             (false, false) => "thermal and thermal_fit tables not present".to_string(),
             _ => "no thermal rows for this tire".to_string(),
         };
@@ -718,29 +695,22 @@ pub fn relaxation(data: &ReportData, tire: &str) -> Vec<Plot> {
             Axis::from_zero("vertical load Fz (N)"),
             Axis::from_zero(format!("relaxation length {symbol} (mm)")),
         );
-        let Some(df) = data.tables.get("relaxation") else {
+        let Some(rows) = &data.results.relaxation else {
             plot.missing_reason = "relaxation table not present".to_string();
             plots.push(plot);
             continue;
         };
-        let rims = i64_col(df, "rim_in");
-        let ps = i64_col(df, "pressure_kpa");
-        let dirs = str_col(df, "direction");
-        let methods = str_col(df, "method");
-        let fz = f64_col(df, "fz_n_mean");
-        let sigma = f64_col(df, "sigma_m");
-        let ok = bool_col(df, "converged");
         let mut series: PointsByGroup = BTreeMap::new();
-        for i in rows_of(df, tire) {
-            if dirs[i].as_deref() != Some(direction) || ok[i] == Some(false) {
-                continue;
-            }
+        for r in rows
+            .iter()
+            .filter(|r| r.tire == tire && r.direction == direction && r.converged)
+        {
             series
-                .entry((rims[i].unwrap_or(0), ps[i].unwrap_or(0)))
+                .entry((r.rim_in, r.pressure_kpa))
                 .or_default()
-                .entry(methods[i].clone().unwrap_or_default())
+                .entry(r.method.clone())
                 .or_default()
-                .push((fz[i], sigma[i] * 1000.0));
+                .push((r.fz_n_mean, r.sigma_m * 1000.0));
         }
         for (color, ((rim, p), by_method)) in series.into_iter().enumerate() {
             let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -799,13 +769,27 @@ mod tests {
 
     #[test]
     fn tables_with_unexpected_columns_give_notes_not_panics() {
-        let mut data = ReportData::default();
-        for name in super::super::data::TABLES {
+        use crate::store::results::{RESULT_TABLES, Results};
+        let mut frames = BTreeMap::new();
+        for name in RESULT_TABLES {
             let df = polars::prelude::df!("tire" => ["X", "X"], "something" => [1.0, 2.0]).unwrap();
-            data.tables.insert(name.to_string(), df);
+            frames.insert(name.to_string(), df);
         }
         let empty = polars::prelude::df!("tire" => Vec::<String>::new()).unwrap();
-        data.tables.insert("relaxation".to_string(), empty);
+        frames.insert("relaxation".to_string(), empty);
+        let data = ReportData {
+            results: Results::from_frames(&frames),
+            ..ReportData::default()
+        };
+        assert_eq!(data.results.notes.len(), RESULT_TABLES.len());
+        assert!(
+            data.results
+                .notes
+                .iter()
+                .all(|n| n.contains("unreadable") && n.contains("required column rim_in")),
+            "{:?}",
+            data.results.notes
+        );
         for plots in [
             spring_rate(&data, "X"),
             mu_temperature(&data, "X"),

@@ -353,6 +353,24 @@ pub fn read_parquet(path: &Path) -> Result<DataFrame, StoreError> {
         .map_err(|e| StoreError::polars(path, e))
 }
 
+/// Every regular file directly in `dir` (sorted; empty if `dir` does not exist).
+pub fn files_in(dir: &Path) -> Result<Vec<PathBuf>, StoreError> {
+    let mut out = Vec::new();
+    let entries = match fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(out),
+        Err(e) => return Err(StoreError::io(dir, e)),
+    };
+    for entry in entries {
+        let path = entry.map_err(|e| StoreError::io(dir, e))?.path();
+        if path.is_file() {
+            out.push(path);
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
 /// Every `*.parquet` file directly in `dir` (sorted; empty if `dir` does not exist).
 pub fn parquet_files_in(dir: &Path) -> Result<Vec<PathBuf>, StoreError> {
     let mut out = Vec::new();

@@ -4,9 +4,10 @@
 //! ```text
 //! STORE/
 //!   runs/runs.parquet                        one row per ingested file (the ingest commit point)
-//!   segments/<source>-<sha12>.parquet        one file per ingested source file
+//!   segments/<source>-<key12>.parquet        one file per ingested source file
 //!   samples/test=<kind>/tire=<tire>/rim_in=<in>/pressure_kpa_nom=<kPa>/ia_deg_nom=<deg>/fz_n_nom=<N>/
-//!           <source>-<sha12>.parquet         the samples of one source file in that partition
+//!           <source>-<key12>.parquet         the samples of one source file in that partition
+//!                                            (<key12>: runs.parts_sha256, see store::tables)
 //!   versions/v000001/ ...                    immutable published versions
 //!   store.lock                               held while a command writes
 //! ```
@@ -105,7 +106,7 @@ pub fn partition_dir(key: &PartitionKey) -> PathBuf {
 }
 
 /// File name used for everything one ingested source file contributes: the source's stem
-/// (sanitised) plus the first 12 hex digits of its content hash.
+/// (sanitised) plus the first 12 hex digits of its parts key (`store::tables::parts_sha256`).
 ///
 /// ```
 /// use tirebase::store::layout::source_part_name;

@@ -1,13 +1,17 @@
 //! The only code that touches the store's disk layout: paths, atomic Parquet files, the lock,
-//! and (in later modules) versions.
+//! the store's tables and what of them is live (`tables`), versions, and the result tables of a
+//! version (`results`, typed for the readers that use their values).
 //!
 //! In: DataFrames and keys. Out: files under a store root that polars, pandas, DuckDB and Spark
 //! read directly (hive-partitioned Parquet). Deliberately not here: what a table contains (the
 //! schemas and the stages decide) and any computation on the data.
 
+pub mod columns;
 pub mod files;
 pub mod layout;
 pub mod lock;
+pub mod results;
+pub mod tables;
 pub mod versions;
 
 use std::path::{Path, PathBuf};
@@ -15,21 +19,22 @@ use std::path::{Path, PathBuf};
 /// Store errors; each names the file it concerns.
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
-    /// Operating-system error on a path.
-    #[error("{path}: {source}")]
+    /// Operating-system error on a path. (The OS error is part of the message, not a separate
+    /// `source`, so a printed error chain names it once.)
+    #[error("{path}: {error}")]
     Io {
         /// The file or directory.
         path: PathBuf,
         /// The OS error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// polars failed to read or write a table.
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     Polars {
         /// The table file.
         path: PathBuf,
         /// The polars error.
-        source: polars::error::PolarsError,
+        error: polars::error::PolarsError,
     },
     /// Another process holds the store lock.
     #[error(
@@ -56,7 +61,7 @@ impl StoreError {
     pub fn io(path: &Path, source: std::io::Error) -> Self {
         StoreError::Io {
             path: path.to_path_buf(),
-            source,
+            error: source,
         }
     }
 
@@ -64,7 +69,7 @@ impl StoreError {
     pub fn polars(path: &Path, source: polars::error::PolarsError) -> Self {
         StoreError::Polars {
             path: path.to_path_buf(),
-            source,
+            error: source,
         }
     }
 }

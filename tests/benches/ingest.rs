@@ -64,6 +64,7 @@ fn ingest_batch(files: &[PathBuf], scratch: &Path, segment: &SegmentConfig) -> f
         lock_wait: LockWait::Refuse,
         rehash: false,
         keep_duplicate_runs: false,
+        prune: false,
     };
     let start = Instant::now();
     let report = ingest::run(files, &opts, &Silent).expect("ingest");

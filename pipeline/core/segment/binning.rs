@@ -1,15 +1,15 @@
-//! Pass 5, binning: a sample range -> measured means/spreads of the set-point channels, and the
-//! nominal (commanded) level each mean is nearest to, within a tolerance.
+//! Pass 5b, binning: a sample range -> measured means/spreads of the set-point channels, and
+//! which of the run's learned levels ([`super::levels`]) a segment of a kind keeps.
 //!
-//! In: the raw [`RunSignals`], the dropout stretches found by preparation, [`LevelConfig`].
-//! Out: [`MeasuredLevels`] (dropout samples excluded) and [`NominalLevels`]; which levels a
-//! segment keeps depends on its kind ([`nominal_for`]): a swept level is `None`. Classification
-//! (pass 4) uses the bins as set-point keys, so binning is computed for candidates first.
-//! Deliberately not here: choosing tolerances per round (they come from the config).
+//! In: the raw [`RunSignals`], the dropout stretches found by preparation; the levels of every
+//! channel binned by [`super::levels::RunLevels::bin_all`]. Out: [`MeasuredLevels`] (dropout
+//! samples excluded) and [`NominalLevels`]; which levels a segment keeps depends on its kind
+//! ([`nominal_for`]): a swept level is `None`. Classification (pass 4) uses the bins as
+//! set-point keys, so binning is computed for candidates first. Deliberately not here: learning
+//! the levels (`levels.rs`).
 
 use std::ops::Range;
 
-use super::config::{LevelConfig, Tolerance};
 use super::output::{
     ChannelStats, Level, MeasuredLevels, NominalLevels, SegmentKind, SweepVariable,
 };
@@ -81,26 +81,6 @@ fn channel_stats(x: &[f64], range: Range<usize>, skip: &[Range<usize>]) -> Chann
     }
 }
 
-/// The nominal level nearest to `value`, if within `tol` of it (ties go to the first listed).
-pub(crate) fn nearest(value: f64, levels: &[f64], tol: Tolerance) -> Option<i32> {
-    let best = levels
-        .iter()
-        .copied()
-        .min_by(|a, b| (a - value).abs().total_cmp(&(b - value).abs()))?;
-    ((best - value).abs() <= tol.at(best)).then(|| best.round() as i32)
-}
-
-/// Every level binned, whether or not the kind will keep it.
-pub(crate) fn bin_all(m: &MeasuredLevels, cfg: &LevelConfig) -> NominalLevels {
-    NominalLevels {
-        pressure_kpa: nearest(m.pressure_kpa.mean, &cfg.pressure_kpa, cfg.pressure_tol),
-        ia_deg: nearest(m.ia_deg.mean, &cfg.ia_deg, cfg.ia_tol),
-        fz_n: nearest(m.fz_n.mean, &cfg.fz_n, cfg.fz_tol),
-        alpha_deg: nearest(m.alpha_deg.mean, &cfg.alpha_deg, cfg.alpha_tol),
-        speed_kph: nearest(m.speed_kph.mean, &cfg.speed_kph, cfg.speed_tol),
-    }
-}
-
 /// Which levels apply to a kind: (pressure, ia, fz, alpha, speed).
 fn applicable(kind: SegmentKind, sweep: Option<SweepVariable>) -> [bool; 5] {
     let sl = sweep == Some(SweepVariable::LongitudinalSlip);
@@ -155,20 +135,6 @@ pub(crate) fn nominal_for(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn nearest_level_within_tolerance_or_none() {
-        let cfg = LevelConfig::default();
-        assert_eq!(nearest(1101.0, &cfg.fz_n, cfg.fz_tol), Some(1112));
-        assert_eq!(
-            nearest(1334.0, &cfg.fz_n, cfg.fz_tol),
-            None,
-            "300 lb is no nominal"
-        );
-        assert_eq!(nearest(85.9, &cfg.pressure_kpa, cfg.pressure_tol), Some(83));
-        assert_eq!(nearest(-2.96, &cfg.alpha_deg, cfg.alpha_tol), Some(-3));
-        assert_eq!(nearest(40.2, &cfg.speed_kph, cfg.speed_tol), Some(40));
-    }
 
     #[test]
     fn stats_skip_dropouts() {

@@ -138,6 +138,7 @@ pub(crate) fn classify(
     bins: &[NominalLevels],
     speed_means_kph: &[f64],
     centre_temp_c: Option<&[f64]>,
+    main_speed_label: Option<i32>,
     cfg: &SegmentConfig,
 ) -> (Vec<Classified>, Option<i32>) {
     let c = &cfg.classify;
@@ -237,7 +238,7 @@ pub(crate) fn classify(
         }
     }
 
-    let main_speed = main_speed(&out, bins, cfg);
+    let main_speed = main_speed(&out, bins, main_speed_label);
     for (o, b) in out.iter_mut().zip(bins) {
         if o.kind.is_matrix() && b.speed_kph != main_speed {
             o.kind = SegmentKind::SpeedSweep;
@@ -247,20 +248,27 @@ pub(crate) fn classify(
 }
 
 /// Cold-to-warm and conditioning cycles of one train that follow each other without a gap
+/// (adjacent samples, no ET gap between them: a "run" file's cut dwell separates procedures)
 /// become one segment: a warm-up block is one procedure (the thesis keeps it as one structure,
 /// the virtual machine's truth as one segment); the thermal stage splits it by zero crossings.
+/// Each merged segment keeps the levels (`bins`) of its first cycle (one train, one key).
 pub(crate) fn merge_warm_up_blocks(
     dets: Vec<Detection>,
     classes: Vec<Classified>,
-) -> (Vec<Detection>, Vec<Classified>) {
+    bins: Vec<NominalLevels>,
+    blocks: &[std::ops::Range<usize>],
+) -> (Vec<Detection>, Vec<Classified>, Vec<NominalLevels>) {
+    let block_of = |i: usize| blocks.partition_point(|b| b.end <= i);
     let mut out_d: Vec<Detection> = Vec::with_capacity(dets.len());
     let mut out_c: Vec<Classified> = Vec::with_capacity(classes.len());
+    let mut out_b: Vec<NominalLevels> = Vec::with_capacity(bins.len());
     let mut members = 1usize;
-    for (d, c) in dets.into_iter().zip(classes) {
+    for ((d, c), b) in dets.into_iter().zip(classes).zip(bins) {
         if let (Some(last_d), Some(last_c)) = (out_d.last_mut(), out_c.last())
             && c.train.is_some()
             && last_c.train == c.train
             && last_d.samples.end == d.samples.start
+            && block_of(last_d.samples.start) == block_of(d.samples.start)
         {
             let (a, b) = (members as f64, 1.0);
             last_d.rate = match (last_d.rate, d.rate) {
@@ -276,8 +284,9 @@ pub(crate) fn merge_warm_up_blocks(
         members = 1;
         out_d.push(d);
         out_c.push(c);
+        out_b.push(b);
     }
-    (out_d, out_c)
+    (out_d, out_c, out_b)
 }
 
 /// Most common train length among `rest` (ties to the shortest), 1 with fewer than 3 trains.
@@ -295,13 +304,9 @@ fn matrix_train_length(trains: &[Train], rest: &[usize]) -> usize {
         .map_or(1, |(len, _)| *len)
 }
 
-/// The configured main speed if any data cycle runs at it, else the most common data speed.
-fn main_speed(out: &[Classified], bins: &[NominalLevels], cfg: &SegmentConfig) -> Option<i32> {
-    let main = super::binning::nearest(
-        cfg.classify.main_speed_kph,
-        &cfg.levels.speed_kph,
-        cfg.levels.speed_tol,
-    );
+/// The configured main speed (`main`: its label among the run's speed levels) if any data cycle
+/// runs at it, else the most common data speed.
+fn main_speed(out: &[Classified], bins: &[NominalLevels], main: Option<i32>) -> Option<i32> {
     let mut counts: BTreeMap<Option<i32>, usize> = BTreeMap::new();
     for (o, b) in out.iter().zip(bins) {
         if o.kind.is_matrix() {
@@ -370,7 +375,14 @@ mod tests {
     fn kinds(plan: Vec<(Detection, NominalLevels)>) -> Vec<SegmentKind> {
         let (dets, bins): (Vec<_>, Vec<_>) = plan.into_iter().unzip();
         let speeds = vec![40.0; dets.len()];
-        let (out, _) = classify(&dets, &bins, &speeds, None, &SegmentConfig::default());
+        let (out, _) = classify(
+            &dets,
+            &bins,
+            &speeds,
+            None,
+            Some(40),
+            &SegmentConfig::default(),
+        );
         out.into_iter().map(|c| c.kind).collect()
     }
 

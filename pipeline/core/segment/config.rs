@@ -46,7 +46,7 @@ pub struct SegmentConfig {
     pub smoothing: SmoothingConfig,
     /// Pass 3a: what counts as slip activity (SA or SL away from zero).
     pub activity: ActivityConfig,
-    /// Pass 2: set-point plateaus of P, IA, FZ, V inside slip activity.
+    /// Pass 2: set-point plateaus of P, IA, V inside slip activity (FZ for IA sweeps).
     pub plateau: PlateauConfig,
     /// Pass 3b: slip sweeps and their cycles.
     pub sweep: SweepConfig,
@@ -58,7 +58,7 @@ pub struct SegmentConfig {
     pub ia_sweep: IaSweepConfig,
     /// Pass 4: cold-to-warm / conditioning / matrix rules.
     pub classify: ClassifyConfig,
-    /// Pass 5: nominal levels and binning tolerances.
+    /// Pass 5: tolerances of the levels each run learns (clustering and labels).
     pub levels: LevelConfig,
     /// Pass 6: QC flag thresholds.
     pub qc: QcConfig,
@@ -115,10 +115,15 @@ pub struct PlateauConfig {
     pub pressure_kpa: Tolerance,
     /// Inclination half-band, deg.
     pub ia_deg: Tolerance,
-    /// Load half-band, N (generous: load control wanders with lateral force).
+    /// Load half-band of an IA sweep, N (sweeps are not cut where FZ moves: load control wanders
+    /// with the tire force, and a load set-point changes only between sweeps).
     pub fz_n: Tolerance,
     /// Road speed half-band, km/h.
     pub speed_kph: Tolerance,
+    /// Adjacent sweep cycles whose mean loads agree within this are read as one load level
+    /// (their pooled mean): loose load control swings FZ by about +-20 % within and between the
+    /// cycles of one set-point, N.
+    pub fz_swing: Tolerance,
     /// A plateau must last at least this long, s.
     pub hold_min_s: f64,
     /// Excursions shorter than this between two plateaus at the same level are absorbed, s.
@@ -222,31 +227,34 @@ pub struct ClassifyConfig {
     pub main_speed_kph: f64,
 }
 
-/// Nominal levels (commanded set-points) and the tolerance for binning a measured mean to them.
-/// A mean farther than the tolerance from every level bins to `None` and flags the segment.
+/// Set-point levels: each run learns its own nominal levels by clustering the measured means of
+/// its held stretches (`levels.rs`); these are the clustering and labelling tolerances. The means
+/// of one level span at most twice the tolerance, with no gap wider than it; a level whose centre
+/// is within the label tolerance of a consortium standard level (8-16 psi; 50-350 lb;
+/// 0/15/25/45 mph) is labelled with it, else with its rounded centre.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LevelConfig {
-    /// Inflation pressures, kPa (8/10/12/14 psi).
-    pub pressure_kpa: Vec<f64>,
-    /// Pressure binning tolerance, kPa.
+    /// Pressure clustering tolerance, kPa.
     pub pressure_tol: Tolerance,
-    /// Normal loads, N (50/100/150/200/250/350 lb).
-    pub fz_n: Vec<f64>,
-    /// Load binning tolerance, N.
+    /// A pressure level within this of a standard pressure takes its label, kPa.
+    pub pressure_label_tol: Tolerance,
+    /// Load clustering tolerance, N.
     pub fz_tol: Tolerance,
-    /// Inclination angles, deg.
-    pub ia_deg: Vec<f64>,
-    /// Inclination binning tolerance, deg.
+    /// A load level within this of a standard load takes its label, N.
+    pub fz_label_tol: Tolerance,
+    /// Inclination clustering tolerance, deg (labels are whole degrees).
     pub ia_tol: Tolerance,
-    /// Road speeds, km/h (0 and 15/25/45 mph).
-    pub speed_kph: Vec<f64>,
-    /// Speed binning tolerance, km/h.
+    /// Inclination label tolerance, deg (no standard list: labels are the rounded centres).
+    pub ia_label_tol: Tolerance,
+    /// Road speed clustering tolerance, km/h.
     pub speed_tol: Tolerance,
-    /// Held slip angles (combined sweeps, step steers), ISO-W sign, deg.
-    pub alpha_deg: Vec<f64>,
-    /// Slip-angle binning tolerance, deg.
+    /// A speed level within this of a standard speed takes its label, km/h.
+    pub speed_label_tol: Tolerance,
+    /// Held slip angle clustering tolerance (combined sweeps, step steers), deg.
     pub alpha_tol: Tolerance,
+    /// Held slip angle label tolerance, deg (no standard list: labels are the rounded centres).
+    pub alpha_label_tol: Tolerance,
 }
 
 /// QC flag thresholds.
@@ -267,7 +275,9 @@ pub struct QcConfig {
     pub too_short_frac: f64,
     /// Any classified segment shorter than this is too short, s.
     pub too_short_min_s: f64,
-    /// Load drift: FZ trend over a held-load segment beyond this tolerance, N.
+    /// Load drift: FZ trend over a held-load segment beyond this tolerance, N. Loose load control
+    /// of older rounds swings FZ by about +-20 % within a sweep, and over part of a swing period
+    /// the least-squares change reaches 2.6 times the swing amplitude: that is not a drift.
     pub load_drift: Tolerance,
 }
 
@@ -314,6 +324,10 @@ impl Default for PlateauConfig {
                 frac: 0.10,
             },
             speed_kph: Tolerance::fixed(2.5),
+            fz_swing: Tolerance {
+                abs: 100.0,
+                frac: 0.3,
+            },
             hold_min_s: 0.5,
             blip_max_s: 1.0,
         }
@@ -390,38 +404,25 @@ impl Default for ClassifyConfig {
     }
 }
 
-/// 1 psi in kPa.
-const KPA_PER_PSI: f64 = 6.894_757;
-/// 1 lbf in N.
-const N_PER_LBF: f64 = 4.448_222;
-/// 1 mph in km/h.
-const KPH_PER_MPH: f64 = 1.609_344;
-
 impl Default for LevelConfig {
     fn default() -> Self {
         LevelConfig {
-            pressure_kpa: [8.0, 10.0, 12.0, 14.0]
-                .iter()
-                .map(|psi| (psi * KPA_PER_PSI).round())
-                .collect(),
-            pressure_tol: Tolerance::fixed(6.0),
-            fz_n: [50.0, 100.0, 150.0, 200.0, 250.0, 350.0]
-                .iter()
-                .map(|lb| (lb * N_PER_LBF).round())
-                .collect(),
+            pressure_tol: Tolerance::fixed(3.0),
+            pressure_label_tol: Tolerance::fixed(3.0),
             fz_tol: Tolerance {
-                abs: 60.0,
-                frac: 0.10,
+                abs: 40.0,
+                frac: 0.05,
             },
-            ia_deg: (-4..=4).map(f64::from).collect(),
+            fz_label_tol: Tolerance {
+                abs: 30.0,
+                frac: 0.03,
+            },
             ia_tol: Tolerance::fixed(0.5),
-            speed_kph: [0.0, 15.0, 25.0, 45.0]
-                .iter()
-                .map(|mph| (mph * KPH_PER_MPH).round())
-                .collect(),
+            ia_label_tol: Tolerance::fixed(0.25),
             speed_tol: Tolerance::fixed(4.0),
-            alpha_deg: vec![-6.0, -3.0, -1.0, 0.0, 1.0, 3.0, 6.0],
+            speed_label_tol: Tolerance::fixed(2.0),
             alpha_tol: Tolerance::fixed(0.5),
+            alpha_label_tol: Tolerance::fixed(0.25),
         }
     }
 }
@@ -436,8 +437,8 @@ impl Default for QcConfig {
             too_short_frac: 0.5,
             too_short_min_s: 1.0,
             load_drift: Tolerance {
-                abs: 30.0,
-                frac: 0.05,
+                abs: 100.0,
+                frac: 0.6,
             },
         }
     }
@@ -489,12 +490,18 @@ impl SegmentConfig {
             ("plateau.ia_deg", self.plateau.ia_deg),
             ("plateau.fz_n", self.plateau.fz_n),
             ("plateau.speed_kph", self.plateau.speed_kph),
+            ("plateau.fz_swing", self.plateau.fz_swing),
             ("spring_rate.fz_n", self.spring_rate.fz_n),
             ("levels.pressure_tol", self.levels.pressure_tol),
+            ("levels.pressure_label_tol", self.levels.pressure_label_tol),
             ("levels.fz_tol", self.levels.fz_tol),
+            ("levels.fz_label_tol", self.levels.fz_label_tol),
             ("levels.ia_tol", self.levels.ia_tol),
+            ("levels.ia_label_tol", self.levels.ia_label_tol),
             ("levels.speed_tol", self.levels.speed_tol),
+            ("levels.speed_label_tol", self.levels.speed_label_tol),
             ("levels.alpha_tol", self.levels.alpha_tol),
+            ("levels.alpha_label_tol", self.levels.alpha_label_tol),
             ("qc.load_drift", self.qc.load_drift),
         ];
         for (key, tol) in tolerances {
@@ -502,21 +509,6 @@ impl SegmentConfig {
                 return Err(SegmentError::Config {
                     key,
                     reason: format!("needs abs > 0 and frac >= 0, got {tol:?}"),
-                });
-            }
-        }
-        let lists = [
-            ("levels.pressure_kpa", &self.levels.pressure_kpa),
-            ("levels.fz_n", &self.levels.fz_n),
-            ("levels.ia_deg", &self.levels.ia_deg),
-            ("levels.speed_kph", &self.levels.speed_kph),
-            ("levels.alpha_deg", &self.levels.alpha_deg),
-        ];
-        for (key, list) in lists {
-            if list.is_empty() || list.iter().any(|v| !v.is_finite()) {
-                return Err(SegmentError::Config {
-                    key,
-                    reason: "must be a non-empty list of finite numbers".to_string(),
                 });
             }
         }
@@ -544,15 +536,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn default_levels_are_the_ttc_nominals() {
-        let levels = LevelConfig::default();
-        assert_eq!(levels.pressure_kpa, vec![55.0, 69.0, 83.0, 97.0]);
-        assert_eq!(
-            levels.fz_n,
-            vec![222.0, 445.0, 667.0, 890.0, 1112.0, 1557.0]
-        );
-        assert_eq!(levels.speed_kph, vec![0.0, 24.0, 40.0, 72.0]);
+    fn defaults_validate_and_old_level_lists_are_refused_by_name() {
         assert!(SegmentConfig::default().validate().is_ok());
+        let err = toml::from_str::<SegmentConfig>("[levels]\nfz_n = [222.0]\n").unwrap_err();
+        assert!(err.to_string().contains("fz_n"), "{err}");
     }
 
     #[test]

@@ -15,7 +15,8 @@
 //! plateau   (used by sweep) held levels of P, IA, FZ, V
 //! sweep     slip activity -> set-point pieces -> SA/SL sweep cycles, step steers;
 //!           quiet stretches -> spring-rate staircases, IA ramps
-//! binning   measured means/std and nominal bins of every candidate
+//! levels    the run's own set-point levels, clustered from the candidates' measured means
+//! binning   measured means/std and learned nominal levels of every candidate
 //! classify  whole-run rules: cold-to-warm, conditioning, matrix kinds, speed sweeps
 //! qc        flags per segment
 //! ```
@@ -25,6 +26,7 @@ mod binning;
 mod classify;
 mod config;
 mod gaps;
+mod levels;
 mod output;
 mod plateau;
 mod prepare;
@@ -41,6 +43,8 @@ mod truth_eval;
 
 use std::collections::BTreeMap;
 use std::ops::Range;
+
+use levels::{HeldValues, RunLevels};
 
 pub use config::{
     ActivityConfig, ClassifyConfig, GapConfig, IaSweepConfig, LevelConfig, PlateauConfig, QcConfig,
@@ -86,39 +90,46 @@ pub fn run(
         .iter()
         .map(|d| source.measure(d.samples.clone()))
         .collect();
-    let bins: Vec<NominalLevels> = measured
-        .iter()
-        .map(|m| binning::bin_all(m, &cfg.levels))
-        .collect();
+    let inputs = level_inputs(&detections, &measured, &timeline.blocks, cfg);
+    let levels = RunLevels::learn(&held_values(&detections, &inputs), &cfg.levels);
+    let bins: Vec<NominalLevels> = inputs.iter().map(|m| levels.bin_all(m)).collect();
     let speeds: Vec<f64> = measured.iter().map(|m| m.speed_kph.mean).collect();
     let centre = signals.tread_temps.map(|t| t.centre_c);
-    let (classes, main_speed) = classify::classify(&detections, &bins, &speeds, centre, cfg);
-    let (detections, classes) = classify::merge_warm_up_blocks(detections, classes);
+    let main_label = levels.speed_kph.label_of(cfg.classify.main_speed_kph);
+    let (classes, main_speed) =
+        classify::classify(&detections, &bins, &speeds, centre, main_label, cfg);
+    let (detections, classes, bins) =
+        classify::merge_warm_up_blocks(detections, classes, bins, &timeline.blocks);
     let measured: Vec<MeasuredLevels> = detections
         .iter()
         .map(|d| source.measure(d.samples.clone()))
         .collect();
 
     let mut segments = Vec::new();
-    let mut extras: Vec<(usize, Option<f64>, Option<f64>)> = Vec::new();
+    let mut extras: Vec<Extra> = Vec::new();
     let mut cursor = 0;
     let push_other = |segments: &mut Vec<Segment>, extras: &mut Vec<_>, range: Range<usize>| {
         for block in &timeline.blocks {
             let r = range.start.max(block.start)..range.end.min(block.end);
             if r.start < r.end {
                 segments.push(draft(r, SegmentKind::Other, None));
-                extras.push((0, None, None));
+                extras.push(Extra::default());
             }
         }
     };
-    for ((d, c), m) in detections.iter().zip(&classes).zip(&measured) {
+    for (((d, c), m), b) in detections.iter().zip(&classes).zip(&measured).zip(&bins) {
         if d.samples.start > cursor {
             push_other(&mut segments, &mut extras, cursor..d.samples.start);
         }
         let mut s = draft(d.samples.clone(), c.kind, c.sweep);
         s.measured = *m;
         segments.push(s);
-        extras.push((d.parts, d.rate, d.held_sa_deg));
+        extras.push(Extra {
+            parts: d.parts,
+            rate: d.rate,
+            held_sa_deg: d.held_sa_deg,
+            bins: Some(*b),
+        });
         cursor = d.samples.end;
     }
     if cursor < signals.len() {
@@ -131,12 +142,12 @@ pub fn run(
         .map(|(s, e)| qc::Draft {
             samples: s.samples.clone(),
             kind: s.kind,
-            parts: e.0,
+            parts: e.parts,
         })
         .collect();
     let flags = qc::flag(signals, &timeline, &prep.dropouts.p, &drafts, cfg);
     for (index, ((s, e), f)) in segments.iter_mut().zip(&extras).zip(flags).enumerate() {
-        finish(s, index, e.1, e.2, f, signals, &source, cfg);
+        finish(s, index, e, f, signals, &source, &levels);
     }
 
     let mut counts: BTreeMap<SegmentKind, usize> =
@@ -150,9 +161,92 @@ pub fn run(
         sample_period_s: timeline.period_s,
         n_blocks: timeline.blocks.len(),
         main_speed_kph: main_speed,
-        warnings: warnings(signals, &timeline, &segments),
+        warnings: warnings(signals, &timeline, &segments)
+            .into_iter()
+            .chain(levels.warnings())
+            .collect(),
     };
     Ok((segments, report))
+}
+
+/// The means a detection's levels are read from: its measured means, except the load of a sweep
+/// cycle, which is the pooled mean load of the run of adjacent cycles (same motion, no gap, no
+/// ET gap between them: a "run" file's cut dwell separates set-points) whose
+/// own means agree within `plateau.fz_swing` of it: under loose load control the load swings
+/// within and between the cycles of one set-point (a cycle of a slow swing can sit 10 % off),
+/// while the block of cycles averages it out.
+fn level_inputs(
+    detections: &[sweep::Detection],
+    measured: &[MeasuredLevels],
+    blocks: &[Range<usize>],
+    cfg: &SegmentConfig,
+) -> Vec<MeasuredLevels> {
+    use sweep::Motion;
+    let block_of = |i: usize| blocks.partition_point(|b| b.end <= i);
+    let mut out = measured.to_vec();
+    let sweep = |d: &sweep::Detection| matches!(d.motion, Motion::SaSweep | Motion::SlSweep);
+    let mut k = 0;
+    while k < detections.len() {
+        if !sweep(&detections[k]) {
+            k += 1;
+            continue;
+        }
+        let (mut sum, mut n) = (0.0, 0.0);
+        let mut end = k;
+        while end < detections.len() {
+            let d = &detections[end];
+            let fits = end == k
+                || (sweep(d)
+                    && d.motion == detections[end - 1].motion
+                    && detections[end - 1].samples.end == d.samples.start
+                    && block_of(d.samples.start) == block_of(detections[k].samples.start)
+                    && (measured[end].fz_n.mean - sum / n).abs()
+                        <= cfg.plateau.fz_swing.at(sum / n));
+            if !fits {
+                break;
+            }
+            let w = d.samples.len() as f64;
+            sum += measured[end].fz_n.mean * w;
+            n += w;
+            end += 1;
+        }
+        for m in &mut out[k..end] {
+            m.fz_n.mean = sum / n;
+        }
+        k = end;
+    }
+    out
+}
+
+/// What each detection tells about the run's set-points: the measured mean of every channel
+/// its motion holds (a sweep holds P, IA, FZ and V; a load staircase P, IA, V and SA = 0; an IA
+/// ramp P, FZ, V and SA = 0; an SL sweep and a step steer also a slip angle), weighted by its
+/// sample count.
+fn held_values(detections: &[sweep::Detection], measured: &[MeasuredLevels]) -> HeldValues {
+    use sweep::Motion;
+    let mut held = HeldValues::default();
+    for (d, m) in detections.iter().zip(measured) {
+        let w = d.samples.len() as f64;
+        let (ia, fz, alpha) = match d.motion {
+            Motion::SaSweep => (true, true, None),
+            Motion::SlSweep => (true, true, Some(m.alpha_deg.mean)),
+            Motion::StepSteer => (true, true, d.held_sa_deg),
+            Motion::LoadSteps => (true, false, Some(m.alpha_deg.mean)),
+            Motion::IaRamp => (false, true, Some(m.alpha_deg.mean)),
+        };
+        held.pressure_kpa.push((m.pressure_kpa.mean, w));
+        held.speed_kph.push((m.speed_kph.mean, w));
+        if ia {
+            held.ia_deg.push((m.ia_deg.mean, w));
+        }
+        if fz {
+            held.fz_n.push((m.fz_n.mean, w));
+        }
+        if let Some(a) = alpha {
+            held.alpha_deg.push((a, w));
+        }
+    }
+    held
 }
 
 /// A segment with its range and kind; levels, ET and flags are filled by [`finish`].
@@ -172,17 +266,28 @@ fn draft(samples: Range<usize>, kind: SegmentKind, sweep: Option<SweepVariable>)
     }
 }
 
+/// What a detected segment carries from detection to [`finish`].
+#[derive(Clone, Debug, Default)]
+struct Extra {
+    /// Big excursions of a sweep cycle, steps of a staircase.
+    parts: usize,
+    /// Median sweep rate.
+    rate: Option<f64>,
+    /// Held slip angle of a step steer, deg.
+    held_sa_deg: Option<f64>,
+    /// The detection's levels (from its level inputs); `None` for `other` stretches.
+    bins: Option<NominalLevels>,
+}
+
 /// Fill ET range, levels and flags of a drafted segment.
-#[allow(clippy::too_many_arguments)]
 fn finish(
     s: &mut Segment,
     index: usize,
-    rate: Option<f64>,
-    held_sa_deg: Option<f64>,
+    extra: &Extra,
     mut flags: Vec<QcFlag>,
     signals: &RunSignals,
     source: &binning::StatsSource,
-    cfg: &SegmentConfig,
+    levels: &RunLevels,
 ) {
     s.index = index;
     s.et_start_s = signals.et_s[s.samples.start];
@@ -190,9 +295,9 @@ fn finish(
     if s.kind == SegmentKind::Other {
         s.measured = source.measure(s.samples.clone());
     }
-    let bins = binning::bin_all(&s.measured, &cfg.levels);
-    let held =
-        held_sa_deg.map(|a| binning::nearest(a, &cfg.levels.alpha_deg, cfg.levels.alpha_tol));
+    let bins = extra.bins.unwrap_or_else(|| levels.bin_all(&s.measured));
+    let rate = extra.rate;
+    let held = extra.held_sa_deg.map(|a| levels.alpha_deg.label_of(a));
     let (nominal, off) = binning::nominal_for(s.kind, s.sweep, &bins, held);
     s.nominal = nominal;
     s.sweep_rate = rate;

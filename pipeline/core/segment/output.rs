@@ -197,7 +197,8 @@ pub enum QcFlag {
     DuplicatedEt,
     /// Shorter than its kind should be (incomplete sweep, truncated file).
     TooShort,
-    /// FZ trends by more than the drift tolerance over a held-load segment.
+    /// FZ changes persistently by more than the drift tolerance over a held-load segment
+    /// (beyond the swing of loose load control).
     LoadDrift,
     /// A channel sat at its run extreme over a stretch (sensor or range clipping).
     SaturatedChannel(String),
@@ -207,16 +208,15 @@ pub enum QcFlag {
 
 impl QcFlag {
     /// True when the flag says the segment's force/slip data cannot be trusted for fitting.
-    /// (Off-nominal levels and saturated temperature channels leave the forces usable.)
+    /// Broken data spoil them (zero pressure, zeroed or clipped channels, ET out of order);
+    /// a short or incomplete sweep, a load that moves within a sweep (every sample carries its
+    /// own measured load) and an off-nominal level leave them usable: the stages judge whether
+    /// such a segment is enough for them. Saturated temperature channels leave the forces usable.
     pub fn spoils_forces(&self) -> bool {
         match self {
-            QcFlag::ZeroPressure
-            | QcFlag::NonMonotonicEt
-            | QcFlag::DuplicatedEt
-            | QcFlag::TooShort
-            | QcFlag::LoadDrift => true,
+            QcFlag::ZeroPressure | QcFlag::NonMonotonicEt | QcFlag::DuplicatedEt => true,
             QcFlag::ZeroedChannel(c) | QcFlag::SaturatedChannel(c) => !c.starts_with("tread"),
-            QcFlag::OffNominal(_) => false,
+            QcFlag::TooShort | QcFlag::LoadDrift | QcFlag::OffNominal(_) => false,
         }
     }
 }

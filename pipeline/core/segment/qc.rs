@@ -13,7 +13,8 @@
 //! steps back / repeats; `too_short` for a classified segment under `qc.too_short_min_s`, a sweep
 //! cycle with only one big excursion, or a sweep under `qc.too_short_frac` of its kind's median
 //! length in the run; `load_drift` when the least-squares FZ trend across a held-load segment
-//! (read at low tire force, where load control is not disturbed) exceeds `qc.load_drift`;
+//! (read at low tire force, where load control is not disturbed) exceeds `qc.load_drift` (a
+//! persistent change, beyond the swing of loose load control);
 //! `saturated_channel:<name>` when a live (noisy) force, temperature or extra channel sits
 //! exactly at its run extreme for `qc.saturation_min_s`. Off-nominal flags come from binning.
 //! Deliberately not here: deciding what to do with flagged data (the fitting stages do).

@@ -10,7 +10,9 @@
 //!    quiet gaps
 //!    shorter than `activity.quiet_min_s` are bridged (a sweep crossing zero), so an episode is
 //!    one sweep, one block of back-to-back sweeps, or one step-steer sequence. Dwells are quiet.
-//! 2. Each episode is cut into pieces where P, IA, FZ and V all hold a level (pass 2).
+//! 2. Each episode is cut into pieces where P, IA and V all hold a level (pass 2). Not FZ: under
+//!    loose load control FZ swings by +-20 % within a sweep (every sample carries its measured
+//!    load), and a load set-point changes between sweeps, where the cycles are cut anyway.
 //! 3. Each piece is: an SL sweep (SL spans `sweep.sl_min_span`; cut further where the held SA
 //!    changes, one set-point per sweep), else a step-steer sequence (SA mostly held at levels
 //!    reached in under `step_steer.max_rise_s`), else an SA sweep (SA spans `sweep.sa_min_span_deg`),
@@ -165,7 +167,6 @@ fn detect_in_episode(
     let runs: Vec<Vec<LevelRun>> = [
         (&prep.p_kpa, p.pressure_kpa),
         (&prep.ia_deg, p.ia_deg),
-        (&prep.fz_n, p.fz_n),
         (&prep.v_kph, p.speed_kph),
     ]
     .into_iter()

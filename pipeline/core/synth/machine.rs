@@ -42,6 +42,22 @@ pub struct Realism {
     pub measurement_delay_s: f64,
     /// First-order filter of the load cell's channels after the delay, s.
     pub measurement_filter_s: f64,
+    /// Loose load control of older rounds (`None`: the servo holds the load).
+    pub load_swing: Option<LoadSwing>,
+}
+
+/// Loose load control: while the tire slips, FZ swings around its set-point,
+/// `FZ = FZ_set (1 + frac s sin(2 pi t / period + phase))`, `s = min(1, |alpha| / 2 deg +
+/// |kappa| / 0.02)` of the commanded slip: the full swing in a sweep, none at zero slip (a
+/// spring-rate hold stays clean whatever the camber thrust).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct LoadSwing {
+    /// Amplitude as a fraction of the set-point, -.
+    pub frac: f64,
+    /// Period, s.
+    pub period_s: f64,
+    /// Phase at t = 0, rad.
+    pub phase_rad: f64,
 }
 
 impl Default for Realism {
@@ -55,6 +71,7 @@ impl Default for Realism {
             road_c: 27.0,
             measurement_delay_s: 0.0,
             measurement_filter_s: 0.0,
+            load_swing: None,
         }
     }
 }
@@ -177,7 +194,11 @@ pub fn simulate(
     for k in 0..n {
         let t = k as f64 * dt;
         let (cmd, piece) = program.command_at(t, &mut hint);
-        let fz = cmd.fz_n * (1.0 + ns * load_wander.step(rng)) + ns * load_offset.step(rng);
+        let swing = realism.load_swing.map_or(0.0, |w| {
+            let share = (cmd.alpha_rad.abs() / 2f64.to_radians() + cmd.kappa.abs() / 0.02).min(1.0);
+            w.frac * share * (std::f64::consts::TAU * t / w.period_s + w.phase_rad).sin()
+        });
+        let fz = cmd.fz_n * (1.0 + ns * load_wander.step(rng) + swing) + ns * load_offset.step(rng);
         let v = cmd.v_mps;
         let (grip_x, grip_y) = if realism.heat {
             thermal.grip_scale(tread.surface_c)

@@ -12,6 +12,7 @@ pub mod inertia;
 pub mod machine;
 pub mod noise;
 pub mod physics;
+pub mod quirks;
 pub mod round;
 pub mod schedule;
 pub mod tires;

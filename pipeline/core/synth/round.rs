@@ -9,7 +9,8 @@
 //! directory). Deliberately not here: the file system (the `synth round` command writes).
 //!
 //! Layout of a round directory: `raw/<files>`, `catalog.toml`, `truth/segments.csv`,
-//! `truth/defects.csv`, `truth/round.toml`, `truth/<tire>__<rim>in.toml`,
+//! `truth/defects.csv`, `truth/round.toml`, `truth/<tire>__<rim>in.toml`, `truth/unit_errors.csv`
+//! (only with the older-round quirk, [`super::quirks`]),
 //! `truth/tir/<tire>__<rim>in__<P>kPa.tir` (names from [`crate::naming`]).
 
 use std::collections::BTreeMap;
@@ -28,9 +29,10 @@ use super::dat::{
     header_line, render_dat,
 };
 use super::defects::{DefectKind, DefectRecord, apply_to_table, apply_to_text};
-use super::machine::{Realism, simulate};
+use super::machine::{LoadSwing, Realism, simulate};
 use super::noise::Rng;
 use super::physics::ThermalParams;
+use super::quirks::{self, QuirksConfig, UnitErrorRow};
 use super::schedule::{
     Program, RunKind, ScheduleConfig, SegmentKind, cornering_program, drive_brake_program,
     nominal_n,
@@ -91,6 +93,8 @@ pub struct SynthConfig {
     pub realism: RealismConfig,
     /// Schedule knobs.
     pub schedule: ScheduleSettings,
+    /// Quirks of real rounds (all off: the clean demo round).
+    pub quirks: QuirksConfig,
 }
 
 impl Default for SynthConfig {
@@ -102,6 +106,7 @@ impl Default for SynthConfig {
             defects: false,
             realism: RealismConfig::default(),
             schedule: ScheduleSettings::default(),
+            quirks: QuirksConfig::default(),
         }
     }
 }
@@ -163,6 +168,7 @@ impl RealismConfig {
             road_c: self.road_c,
             measurement_delay_s: self.measurement_delay_s,
             measurement_filter_s: self.measurement_filter_s,
+            load_swing: None,
         }
     }
 }
@@ -256,6 +262,9 @@ impl SynthConfig {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
                 return bad(key, v, "out of range (see config/default.toml)");
             }
+        }
+        if let Some((key, value, message)) = self.quirks.invalid() {
+            return bad(key, value, message);
         }
         if !(1..=99_999).contains(&self.project) {
             return bad(
@@ -357,7 +366,9 @@ pub fn plan_round(config: &SynthConfig) -> Result<RoundPlan, RoundError> {
     let mut thermal = Vec::new();
     for (ci, combo) in combos.iter().enumerate() {
         let tire = &CATALOGUE[combo.tire_index];
-        let pressures = &tire.pressures_psi[..n_pressures.unwrap_or(tire.pressures_psi.len())];
+        let pressures = &config
+            .quirks
+            .pressures_psi(&tire.pressures_psi[..n_pressures.unwrap_or(tire.pressures_psi.len())]);
         let mut distinct: Vec<f64> = pressures.to_vec();
         distinct.sort_by(f64::total_cmp);
         distinct.dedup();
@@ -425,10 +436,11 @@ fn calibrate_thermal(plan: &RoundPlan, ci: usize) -> ThermalTruth {
     };
     let mut lateral = Vec::new();
     let mut longitudinal = Vec::new();
-    for program in [
+    for mut program in [
         cornering_program(tire, pressure, &plan.schedule),
         drive_brake_program(tire, pressure, &plan.schedule),
     ] {
+        quirks::apply_to_program(&mut program, &plan.config.quirks);
         let mut rng = Rng::for_stream(0, &[]);
         let s = simulate(&program, truth, &plan.thermal[ci], &realism, 50.0, &mut rng);
         for seg in program.segments.iter().filter(|g| {
@@ -471,10 +483,12 @@ impl RoundPlan {
     /// The commanded program of a run.
     pub fn program(&self, spec: &RunSpec) -> Program {
         let tire = &CATALOGUE[self.combos[spec.combo].tire_index];
-        match spec.kind {
+        let mut program = match spec.kind {
             RunKind::Cornering => cornering_program(tire, spec.pressure_psi, &self.schedule),
             RunKind::DriveBrake => drive_brake_program(tire, spec.pressure_psi, &self.schedule),
-        }
+        };
+        quirks::apply_to_program(&mut program, &self.config.quirks);
+        program
     }
 
     /// The resolved machine realism.
@@ -518,6 +532,8 @@ pub struct RunSummary {
     pub rows: usize,
     pub segments: Vec<SegmentRow>,
     pub defects: Vec<DefectRecord>,
+    /// Radius channels written in a wrong unit (older-round quirk).
+    pub unit_errors: Vec<UnitErrorRow>,
 }
 
 /// One rendered run file.
@@ -540,14 +556,26 @@ pub fn render_run(plan: &RoundPlan, index: usize) -> Result<RunOutput, RoundErro
         u64::from(spec.run),
     ];
     let mut rng = Rng::for_stream(plan.config.seed, &key);
-    let rate = spec.style.rate_hz();
-    let samples = simulate(&program, truth, thermal, &plan.realism, rate, &mut rng);
+    let q = &plan.config.quirks;
+    let rate = q.rate_hz(&spec.style);
+    let mut realism = plan.realism;
+    if q.older_round && q.load_swing_frac > 0.0 {
+        let mut swing_rng = Rng::for_stream(plan.config.seed, &[key[0], key[1], key[2], 0x5157]);
+        realism.load_swing = Some(LoadSwing {
+            frac: q.load_swing_frac,
+            period_s: 0.5 + 1.5 * swing_rng.uniform(),
+            phase_rad: std::f64::consts::TAU * swing_rng.uniform(),
+        });
+    }
+    let samples = simulate(&program, truth, thermal, &realism, rate, &mut rng);
 
     let keep: Vec<usize> = (0..samples.et_s.len())
         .filter(|&i| spec.style.raw || !samples.dwell[i])
         .collect();
-    let with_sl = spec.style.container == Container::Mat || spec.kind == RunKind::DriveBrake;
+    let with_sl = !q.older_round
+        && (spec.style.container == Container::Mat || spec.kind == RunKind::DriveBrake);
     let mut table = channel_table(&samples, &keep, &spec.style, with_sl);
+    let unit_errors = quirks::apply_to_table(&mut table, &spec.style, &spec.file, q);
     round_to_decimals(&mut table);
     let segments = segment_rows(plan, spec, &program, &samples.piece, &keep, &table);
 
@@ -595,6 +623,7 @@ pub fn render_run(plan: &RoundPlan, index: usize) -> Result<RunOutput, RoundErro
             rows: table.rows(),
             segments,
             defects,
+            unit_errors,
         },
     })
 }
@@ -707,12 +736,15 @@ fn render_mat(
         .map_err(err)?;
     let names: Vec<&str> = table.columns.iter().map(|c| c.name).collect();
     let units: Vec<&str> = table.columns.iter().map(|c| c.unit).collect();
-    w.push_struct_of_text_cells(
-        "channel",
-        &[("name", &names), ("units", &units)],
-        compression,
-    )
-    .map_err(err)?;
+    // Older rounds' .mat files carry no unit metadata at all.
+    if !plan.config.quirks.older_round {
+        w.push_struct_of_text_cells(
+            "channel",
+            &[("name", &names), ("units", &units)],
+            compression,
+        )
+        .map_err(err)?;
+    }
     let source = spec.file.replace(".mat", ".dat");
     w.push_text("source", &source, compression).map_err(err)?;
     w.push_text("testid", spec.kind.test_id(), compression)
@@ -860,6 +892,16 @@ pub fn render_truth(plan: &RoundPlan, runs: &[RunSummary]) -> Result<Vec<OutFile
         path: "truth/defects.csv".to_string(),
         bytes: defects_csv(runs).into_bytes(),
     });
+    let unit_errors: Vec<UnitErrorRow> = runs
+        .iter()
+        .flat_map(|r| r.unit_errors.iter().cloned())
+        .collect();
+    if !unit_errors.is_empty() {
+        out.push(OutFile {
+            path: "truth/unit_errors.csv".to_string(),
+            bytes: quirks::unit_errors_csv(&unit_errors).into_bytes(),
+        });
+    }
     let round = toml::to_string(&RoundToml {
         synth: plan.config.clone(),
     })

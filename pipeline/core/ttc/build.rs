@@ -1,4 +1,5 @@
-//! Source columns (any reader) -> [`RunTable`]: unit conversion, frame change, kappa, metadata.
+//! Source columns (any reader) -> [`RunTable`]: unit conversion, frame change, kappa, metadata,
+//! then the unit cross-checks (`check.rs`) and, without SL, the derived kappa (`slip.rs`).
 //!
 //! In: the columns a reader decoded, each with its [`ColumnInfo`] (unit already parsed and
 //! checked against the channel), plus the partly filled [`RunMeta`]. Out: the typed run. This is
@@ -89,7 +90,7 @@ pub(crate) fn build(
         meta.warnings.push(warning);
     }
 
-    Ok(RunTable {
+    let mut table = RunTable {
         meta,
         et_s,
         speed_kph,
@@ -108,7 +109,16 @@ pub(crate) fn build(
         sr: take(Channel::Sr),
         sl,
         extras,
-    })
+    };
+    table.meta.unit_notes = super::check::cross_check(&mut table);
+    if !table.meta.kappa_source.is_measured()
+        && let Some((kappa, note)) = super::slip::derive_kappa(&table)
+    {
+        table.tire.kappa = kappa;
+        table.meta.kappa_source = KappaSource::Derived;
+        table.meta.warnings.push(note);
+    }
+    Ok(table)
 }
 
 /// kappa = SL when SL was recorded (some value not exactly zero), else zeros and a flag.

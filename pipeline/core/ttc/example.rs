@@ -159,7 +159,8 @@ pub fn example_value(channel: Channel, i: usize, rate_hz: f64) -> f64 {
     match channel {
         Channel::Et => 26.84 + t,
         Channel::V => 40.2336 + 0.2 * (t * 2.0).sin(),
-        Channel::N => 370.0 + (t * 2.0).sin(),
+        // Consistent with V and RE (= 0.21 m): N = V / RE * 60 / (2 pi).
+        Channel::N => (40.2336 + 0.2 * (t * 2.0).sin()) / 3.6 / 0.21 * 60.0 / std::f64::consts::TAU,
         Channel::Sa => sa_deg.to_radians(),
         Channel::Ia => (f64::from((i / 500 % 5) as u32)).to_radians(),
         Channel::Rl => 0.2 + 0.001 * (t * 3.0).sin(),

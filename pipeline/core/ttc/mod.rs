@@ -22,10 +22,17 @@
 //!   and does not flip them. `.mat` files carry no flag and are read as SAE. The only sign flip is
 //!   [`TireChannels::into_iso_w`].
 //! - **kappa.** `kappa` is SL (RE-based, the fitting slip) when the file has an SL column that is
-//!   not all zero ([`KappaSource::Sl`]); otherwise it is all zeros and [`RunMeta::kappa_source`]
-//!   says no longitudinal slip was measured ([`KappaSource::SlAllZero`] or
-//!   [`KappaSource::NoSl`]). SR (Calspan's RL-based control slip, SR = 0 does not give FX = 0) is
-//!   never used as kappa; it is kept as measured in [`RunTable::sr`].
+//!   not all zero ([`KappaSource::Sl`]). Without it, a run that sweeps its slip ratio gets kappa
+//!   derived as SL is defined, from N, V and the effective rolling radius where FX crosses zero
+//!   ([`KappaSource::Derived`], not measured); any other run has kappa all zero and
+//!   [`RunMeta::kappa_source`] says no longitudinal slip was measured
+//!   ([`KappaSource::SlAllZero`] or [`KappaSource::NoSl`]). SR (Calspan's RL-based control
+//!   slip, SR = 0 does not give FX = 0) is never used as kappa; it is kept as measured in
+//!   [`RunTable::sr`].
+//! - **Units are cross-checked** after conversion (`check.rs`): N against V, the radii against
+//!   `V / (2 pi N / 60)`, ranges of pressure, load, speed and temperatures; a radius in a wrong
+//!   length unit is rescaled, a channel without a consistent reading withheld (`None`), each with
+//!   a [`RunMeta::unit_notes`] entry and a warning line.
 //! - **Required channels.** ET, V, P, SA, IA, FX, FY, FZ, MX, MZ (what a stored sample needs);
 //!   the others are `Option`s.
 //! - **Extra channels** (unknown names, and `RUN` in `.mat`) are kept with their unit string and
@@ -35,11 +42,14 @@
 
 mod build;
 pub mod channel;
+pub mod check;
 pub mod dat;
 pub mod error;
 pub mod example;
 pub mod float;
 pub mod mat;
+mod slip;
+pub mod text;
 pub mod units;
 
 #[cfg(test)]
@@ -71,12 +81,21 @@ pub enum KappaSource {
     SlAllZero,
     /// The file has no SL column: kappa is 0, not measured.
     NoSl,
+    /// No SL recorded (no column, or all zero), but the run sweeps its slip ratio: kappa derived
+    /// from N and V as SL is defined (`slip.rs`); not measured.
+    Derived,
 }
 
 impl KappaSource {
-    /// Whether kappa holds a measured longitudinal slip (as opposed to an assumed zero).
+    /// Whether kappa holds a measured longitudinal slip (as opposed to a derived or an assumed
+    /// zero).
     pub fn is_measured(self) -> bool {
         self == KappaSource::Sl
+    }
+
+    /// Whether kappa holds a longitudinal slip at all (measured or derived).
+    pub fn is_available(self) -> bool {
+        matches!(self, KappaSource::Sl | KappaSource::Derived)
     }
 }
 
@@ -138,8 +157,11 @@ pub struct RunMeta {
     /// Where `kappa` comes from.
     pub kappa_source: KappaSource,
     /// Recoverable oddities, one line each (truncated last line dropped, ignored variables,
-    /// assumed units, suspicious FZ sign, ...).
+    /// assumed units, suspicious FZ sign, unit cross-check findings, derived kappa, ...).
     pub warnings: Vec<String>,
+    /// What the unit cross-checks found and did (rescaled or withheld channels, values out of
+    /// range); each is also a line of `warnings`.
+    pub unit_notes: Vec<check::UnitNote>,
 }
 
 impl RunMeta {
@@ -165,6 +187,7 @@ impl RunMeta {
             sample_rate_hz: None,
             kappa_source: KappaSource::NoSl,
             warnings: Vec::new(),
+            unit_notes: Vec::new(),
         }
     }
 

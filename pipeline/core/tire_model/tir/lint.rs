@@ -16,7 +16,8 @@
 //!   supplier's `PDX1 < 0` with `PKX1 > 0`, which evaluates correctly, passes), non-finite
 //!   outputs. Errors.
 //! - coefficient rules on a coarse grid:
-//!   - errors: `FNOMIN`, `UNLOADED_RADIUS`, `LFZO` <= 0; inverted ranges; a missing (absent or
+//!   - errors: `FNOMIN`, `UNLOADED_RADIUS`, `LFZO`, `LONGVL`, a given `VERTICAL_STIFFNESS`
+//!     <= 0; inverted ranges; a missing (absent or
 //!     zero) defining coefficient of a used family; a shape factor `C <= 0`; a peak factor
 //!     `mu_x` or `mu_y` changing sign or vanishing over the envelope (its sign is free), or
 //!     `|mu| > 4`; `Kx_kappa <= 0`; `Ky_alpha` changing sign or vanishing; `Ky_alpha > 0` (an
@@ -25,8 +26,11 @@
 //!   - warnings: oscillation along a combined-slip sweep (at half the slip limits of the other
 //!     slip, where fitted data rarely reach); `E > 1` before the clamp (limits and raw mode then
 //!     disagree); `C >= 2` (force reverses at large slip); `|RHX1| > 0.05` rad; `Gxa` or `Gyk`
-//!     above 1.05 (combined slip raises the force); `FZMAX < FNOMIN`; `LONGVL <= 0`; an
-//!     inflation pressure below 10 kPa (not in Pa?).
+//!     above 1.05 (combined slip raises the force); `FZMAX < FNOMIN`; an inflation pressure
+//!     below 10 kPa (not in Pa?).
+//!
+//! [`UNDEFINED_MODEL_CODES`] marks the errors that leave the model undefined rather than
+//! doubtful.
 //!
 //! Deliberately not here: reading (see `read.rs`; its warnings are the caller's to print),
 //! comparing with measurements (a fitting stage's job).
@@ -60,6 +64,19 @@ impl std::fmt::Display for Severity {
     }
 }
 
+/// Codes of the errors that leave the model undefined (as opposed to physically doubtful): a
+/// family the `USE_MODE` needs is missing, a quantity the equations divide by is not positive,
+/// a range is inverted, or evaluation gives NaN. `tir eval` and `tir convert` refuse such a
+/// file unless forced.
+pub const UNDEFINED_MODEL_CODES: [&str; 6] = [
+    "missing-family",
+    "fnomin-not-positive",
+    "not-positive",
+    "range-inverted",
+    "longvl-not-positive",
+    "non-finite",
+];
+
 /// One problem.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Finding {
@@ -69,6 +86,13 @@ pub struct Finding {
     pub code: &'static str,
     /// One line: what, the worst value, where.
     pub message: String,
+}
+
+impl Finding {
+    /// An error that leaves the model undefined ([`UNDEFINED_MODEL_CODES`]).
+    pub fn leaves_model_undefined(&self) -> bool {
+        self.severity == Severity::Error && UNDEFINED_MODEL_CODES.contains(&self.code)
+    }
 }
 
 impl std::fmt::Display for Finding {
@@ -354,11 +378,26 @@ impl Linter {
                 format!("FZMAX = {} N is below FNOMIN = {} N", c[FZMAX], c[FNOMIN]),
             );
         }
-        if c[LONGVL] <= 0.0 && fam.fx {
+        if c[LONGVL].is_nan() || c[LONGVL] <= 0.0 {
             self.push(
-                Severity::Warning,
+                Severity::Error,
                 "longvl-not-positive",
-                format!("LONGVL = {} m/s: My divides by it", c[LONGVL]),
+                format!(
+                    "LONGVL = {} m/s (reference speed) must be positive: the speed terms divide by it",
+                    c[LONGVL]
+                ),
+            );
+        }
+        if file.present[VERTICAL_STIFFNESS]
+            && (c[VERTICAL_STIFFNESS].is_nan() || c[VERTICAL_STIFFNESS] <= 0.0)
+        {
+            self.push(
+                Severity::Error,
+                "not-positive",
+                format!(
+                    "VERTICAL_STIFFNESS = {} N/m must be positive",
+                    c[VERTICAL_STIFFNESS]
+                ),
             );
         }
         for (name, p) in [

@@ -106,7 +106,12 @@ impl<'a> HeaderLines<'a> {
 
 /// Line 1: `TIRF Data File: Project 2356; Run 004; Date ...; Tire_Name=...; ISO False; ID ...`.
 fn parse_line1(line: &[u8], meta: &mut RunMeta) -> Result<(), TtcError> {
-    let text = String::from_utf8_lossy(line).replace('\t', " ");
+    let (text, legacy) = crate::ttc::text::decode_text(line);
+    if legacy {
+        meta.warnings
+            .push("line 1: not UTF-8; read as Windows-1252 (Latin-1)".to_string());
+    }
+    let text = text.replace('\t', " ");
     let text = text.trim();
     let header_error = |message: String| TtcError::Header {
         source_name: meta.source_name.clone(),

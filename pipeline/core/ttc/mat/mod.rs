@@ -312,7 +312,13 @@ fn run_from_variables(
             values: data.to_vec(),
         });
     }
-    if !assumed.is_empty() {
+    if units.is_empty() {
+        meta.warnings.push(
+            "no unit metadata (no channel struct): every channel read in the SI .mat units \
+             (s, km/h, rpm, deg, cm, kPa, N, N m, degC) and cross-checked"
+                .to_string(),
+        );
+    } else if !assumed.is_empty() {
         meta.warnings.push(format!(
             "no unit in the channel struct for {}: assumed the SI .mat spellings",
             assumed.join(" ")

@@ -179,8 +179,7 @@ fn decode_top_level(
     let variable = match data_type {
         MI_MATRIX => matrix(data, big_endian, 0, name)?,
         MI_COMPRESSED => {
-            let (inflated, status) = inflate(data);
-            status?;
+            let inflated = inflate_element(data, big_endian)?;
             let mut inner = Cursor::new(&inflated, big_endian);
             let (inner_type, inner_data) = inner.element("compressed element")?;
             if inner_type != MI_MATRIX {
@@ -215,7 +214,7 @@ fn peek_name(rest: &[u8], big_endian: bool) -> Option<String> {
         MI_MATRIX => available.to_vec(),
         MI_COMPRESSED => {
             let declared = head.u32_at(4) as usize;
-            let (inflated, _) = inflate(&available[..declared.min(available.len())]);
+            let (inflated, _) = inflate(&available[..declared.min(available.len())], PEEK_BYTES);
             inflated.get(8..)?.to_vec()
         }
         _ => return None,
@@ -228,35 +227,162 @@ fn peek_name(rest: &[u8], big_endian: bool) -> Option<String> {
         .then(|| String::from_utf8_lossy(name).into_owned())
 }
 
-/// Inflate a zlib stream, insisting on its end marker. Returns what was inflated even on
-/// failure (used to recover a variable name for the message).
-fn inflate(data: &[u8]) -> (Vec<u8>, Result<(), String>) {
+/// Bytes inflated to read an element's array header (flags, dimensions, name).
+const PEEK_BYTES: usize = 4096;
+/// A compressed element may inflate to this many bytes whatever its compressed size...
+const INFLATE_FLOOR_BYTES: usize = 64 << 20;
+/// ...and beyond that to this many times its compressed size. zlib reaches ~1000:1 on constant
+/// data; a TTC channel that long and that constant (over 8 million samples, a day at 100 Hz) is
+/// not a measurement, and refusing it keeps a decompression bomb from allocating gigabytes.
+const INFLATE_RATIO: usize = 64;
+
+/// Inflate one `miCOMPRESSED` element with a bound derived from what it declares: the inner
+/// element's tag gives its length, which must fit the array's declared dimensions (numeric and
+/// char arrays) and [`INFLATE_FLOOR_BYTES`] or [`INFLATE_RATIO`] times the compressed size; the
+/// stream must then end exactly there. Nothing larger than the declared length is allocated.
+fn inflate_element(data: &[u8], big_endian: bool) -> Result<Vec<u8>, String> {
+    let (head, status) = inflate(data, PEEK_BYTES);
+    if head.len() < 8 {
+        status?;
+        return Err(format!(
+            "compressed element inflates to {} bytes, less than a tag",
+            head.len()
+        ));
+    }
+    let tag = Cursor::new(&head, big_endian);
+    let (inner_type, declared) = (tag.u32_at(0), tag.u32_at(4) as usize);
+    if inner_type != MI_MATRIX {
+        return Err(format!(
+            "compressed element holds data type {inner_type} ({}), expected miMATRIX",
+            type_name(inner_type)
+        ));
+    }
+    let total = declared.saturating_add(8);
+    let cap = INFLATE_FLOOR_BYTES.max(data.len().saturating_mul(INFLATE_RATIO));
+    if total > cap {
+        return Err(format!(
+            "compressed element of {} bytes declares {declared} bytes inflated, more than the {cap} accepted (a decompression bomb?)",
+            data.len()
+        ));
+    }
+    if let Some(limit) = header_bound(&head[8..], big_endian)
+        && declared > limit
+    {
+        return Err(format!(
+            "compressed element declares {declared} bytes, but its dimensions and class need at most {limit}"
+        ));
+    }
+    let (inflated, status) = inflate(data, total);
+    if status? == Inflated::Beyond {
+        return Err(format!(
+            "zlib stream inflates beyond the {total} bytes its element declares"
+        ));
+    }
+    // A shorter stream leaves the inner element short of its tag's length: the element reader
+    // names that.
+    Ok(inflated)
+}
+
+/// Most bytes an `miMATRIX` body can hold given its array header (the start of the body): the
+/// header itself plus the tags and data of the real and imaginary parts at the class's width.
+/// `None` when the header cannot be read from `body` or the class has no fixed width (cells,
+/// structs, objects).
+fn header_bound(body: &[u8], big_endian: bool) -> Option<usize> {
+    let mut cursor = Cursor::new(body, big_endian);
+    let (_, flags) = cursor.element("array flags").ok()?;
+    if flags.len() != 8 {
+        return None;
+    }
+    let flags_word = Cursor::new(flags, big_endian).u32_at(0);
+    let width = match (flags_word & 0xFF) as u8 {
+        MX_CHAR => 4,
+        6 | 14 | 15 => 8,
+        7 | 12 | 13 => 4,
+        10 | 11 => 2,
+        8 | 9 => 1,
+        _ => return None,
+    };
+    let dims = dimensions(&mut cursor).ok()?;
+    cursor.element("array name").ok()?;
+    let parts = if flags_word & FLAG_COMPLEX != 0 { 2 } else { 1 };
+    let data = element_count(&dims)
+        .ok()?
+        .checked_mul(width)?
+        .next_multiple_of(8);
+    cursor.pos.checked_add(parts * (8 + data))
+}
+
+/// How an inflation within a limit ended.
+#[derive(Debug, PartialEq)]
+enum Inflated {
+    /// The stream's end marker was reached.
+    Ended,
+    /// The limit was reached and the stream goes on.
+    Beyond,
+}
+
+/// Inflate at most `limit` bytes of a zlib stream. Returns what was inflated even on failure
+/// (used to recover a variable name for the message), and whether the stream ended or goes on
+/// beyond the limit; an error for a corrupt stream or one that stops before its end marker.
+fn inflate(data: &[u8], limit: usize) -> (Vec<u8>, Result<Inflated, String>) {
     let mut decoder = Decompress::new(true);
-    let mut out: Vec<u8> = Vec::with_capacity(data.len().saturating_mul(4).max(64));
+    let mut out: Vec<u8> = Vec::new();
+    let mut filled = 0;
+    let truncated = |decoder: &Decompress| {
+        format!(
+            "zlib stream ends before its end marker after {} of {} bytes (truncated?)",
+            decoder.total_in(),
+            data.len()
+        )
+    };
     loop {
-        if out.len() == out.capacity() {
-            out.reserve(out.capacity());
-        }
-        let (in_before, out_before) = (decoder.total_in(), decoder.total_out());
-        let consumed = usize::try_from(in_before)
+        let consumed = usize::try_from(decoder.total_in())
             .unwrap_or(usize::MAX)
             .min(data.len());
-        let status =
-            match decoder.decompress_vec(&data[consumed..], &mut out, FlushDecompress::None) {
-                Ok(status) => status,
+        let (in_before, out_before) = (decoder.total_in(), decoder.total_out());
+        if filled == limit {
+            // Full: does the stream end here or go on?
+            let mut probe = [0u8; 1];
+            let status = decoder.decompress(&data[consumed..], &mut probe, FlushDecompress::None);
+            out.truncate(filled);
+            match status {
                 Err(e) => return (out, Err(format!("zlib stream is corrupt: {e}"))),
-            };
+                _ if decoder.total_out() > out_before => return (out, Ok(Inflated::Beyond)),
+                Ok(Status::StreamEnd) => return (out, Ok(Inflated::Ended)),
+                _ if decoder.total_in() == in_before => return (out, Err(truncated(&decoder))),
+                _ => continue,
+            }
+        }
+        if filled == out.len() {
+            let grow = out
+                .len()
+                .max(data.len().saturating_mul(4))
+                .max(64)
+                .min(limit - out.len());
+            out.resize(out.len() + grow, 0);
+        }
+        let status = match decoder.decompress(
+            &data[consumed..],
+            &mut out[filled..],
+            FlushDecompress::None,
+        ) {
+            Ok(status) => status,
+            Err(e) => {
+                // Keep what was inflated before the damage (it may name the variable).
+                filled += usize::try_from(decoder.total_out() - out_before).unwrap_or(0);
+                out.truncate(filled);
+                return (out, Err(format!("zlib stream is corrupt: {e}")));
+            }
+        };
+        filled += usize::try_from(decoder.total_out() - out_before).unwrap_or(0);
         if status == Status::StreamEnd {
-            return (out, Ok(()));
+            out.truncate(filled);
+            return (out, Ok(Inflated::Ended));
         }
         let progressed = decoder.total_in() != in_before || decoder.total_out() != out_before;
-        if !progressed && out.len() < out.capacity() {
-            let message = format!(
-                "zlib stream ends before its end marker after {} of {} bytes (truncated?)",
-                decoder.total_in(),
-                data.len()
-            );
-            return (out, Err(message));
+        if !progressed && filled < out.len() {
+            out.truncate(filled);
+            return (out, Err(truncated(&decoder)));
         }
     }
 }
@@ -519,7 +645,10 @@ fn char_array(cursor: &mut Cursor, dims: Vec<usize>, count: usize) -> Result<Mat
             })
             .collect(),
         MI_UINT8 | MI_INT8 => data.iter().map(|b| u16::from(*b)).collect(),
-        MI_UTF8 => String::from_utf8_lossy(data).encode_utf16().collect(),
+        MI_UTF8 => crate::ttc::text::decode_text(data)
+            .0
+            .encode_utf16()
+            .collect(),
         MI_UTF32 => even_chunks::<4>(data, "char data")?
             .map(|c| {
                 if big_endian {
@@ -657,5 +786,114 @@ fn type_name(data_type: u32) -> &'static str {
         MI_UTF16 => "miUTF16",
         MI_UTF32 => "miUTF32",
         _ => "unknown",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::Write;
+
+    use flate2::Compression;
+    use flate2::write::ZlibEncoder;
+
+    use super::*;
+
+    /// A level 5 header (little-endian).
+    fn header() -> Vec<u8> {
+        let mut h = vec![b' '; HEADER_LEN];
+        h[..6].copy_from_slice(b"MATLAB");
+        h[124..126].copy_from_slice(&0x0100u16.to_le_bytes());
+        h[126..128].copy_from_slice(b"IM");
+        h
+    }
+
+    fn tag(data_type: u32, len: u32) -> Vec<u8> {
+        [data_type.to_le_bytes(), len.to_le_bytes()].concat()
+    }
+
+    /// The body of a double column vector `name` of `values`.
+    fn column_body(name: &str, values: &[f64]) -> Vec<u8> {
+        let mut b = tag(MI_UINT32, 8);
+        b.extend_from_slice(&[6, 0, 0, 0, 0, 0, 0, 0]);
+        b.extend(tag(MI_INT32, 8));
+        b.extend_from_slice(&(values.len() as u32).to_le_bytes());
+        b.extend_from_slice(&1u32.to_le_bytes());
+        b.extend(tag(MI_INT8, name.len() as u32));
+        b.extend_from_slice(name.as_bytes());
+        b.resize(b.len().next_multiple_of(8), 0);
+        b.extend(tag(MI_DOUBLE, 8 * values.len() as u32));
+        for v in values {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b
+    }
+
+    /// A file of one compressed element: zlib of `inner_tag ++ body ++ trailing zeros`.
+    fn compressed_file(inner_len: u32, body: &[u8], trailing_zeros: usize) -> Vec<u8> {
+        let mut z = ZlibEncoder::new(Vec::new(), Compression::best());
+        z.write_all(&tag(MI_MATRIX, inner_len)).unwrap();
+        z.write_all(body).unwrap();
+        let chunk = vec![0u8; 1 << 20];
+        let mut left = trailing_zeros;
+        while left > 0 {
+            let n = left.min(chunk.len());
+            z.write_all(&chunk[..n]).unwrap();
+            left -= n;
+        }
+        let stream = z.finish().unwrap();
+        let mut file = header();
+        file.extend(tag(MI_COMPRESSED, stream.len() as u32));
+        file.extend(stream);
+        file
+    }
+
+    #[test]
+    fn an_honest_compressed_element_reads() {
+        let body = column_body("ET", &[0.0, 0.01, 0.02]);
+        let file = compressed_file(body.len() as u32, &body, 0);
+        let mat = parse_mat(&file, "ok.mat").unwrap();
+        assert_eq!(mat.variables[0].name, "ET");
+    }
+
+    #[test]
+    fn a_stream_longer_than_its_element_declares_stops_there() {
+        // A 3-value column followed by 32 MiB of zeros in the same stream.
+        let body = column_body("ET", &[0.0, 0.01, 0.02]);
+        let file = compressed_file(body.len() as u32, &body, 32 << 20);
+        assert!(file.len() < 400_000, "{}", file.len());
+        let err = parse_mat(&file, "bomb.mat").unwrap_err().to_string();
+        assert!(
+            err.contains("element ET at byte 128")
+                && err.contains("inflates beyond the 88 bytes its element declares"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_declared_size_the_dimensions_do_not_need_is_refused_before_inflating() {
+        let body = column_body("ET", &[0.0, 0.01, 0.02]);
+        let file = compressed_file(50 << 20, &body, 1 << 20);
+        let err = parse_mat(&file, "bomb.mat").unwrap_err().to_string();
+        assert!(
+            err.contains("declares 52428800 bytes, but its dimensions and class need at most 80"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_gigabyte_element_from_kilobytes_is_refused_before_inflating() {
+        // 256 MiB of zeros declared honestly (a 33554432 x 1 double "channel") from ~250 kB:
+        // refused by the ratio bound without allocating it.
+        let n = 32 << 20;
+        let mut body = column_body("V", &[]);
+        let dims_at = 16 + 8;
+        body[dims_at..dims_at + 4].copy_from_slice(&(n as u32).to_le_bytes());
+        let data_tag = body.len() - 8;
+        body[data_tag + 4..].copy_from_slice(&((8 * n) as u32).to_le_bytes());
+        let file = compressed_file((body.len() + 8 * n) as u32, &body, 8 * n);
+        assert!(file.len() < 2_000_000, "{}", file.len());
+        let err = parse_mat(&file, "bomb.mat").unwrap_err().to_string();
+        assert!(err.contains("(a decompression bomb?)"), "{err}");
+        assert!(err.contains("element V"), "{err}");
     }
 }

@@ -1,0 +1,306 @@
+//! How well a `.tir` model reproduces a store's measured samples: RMS errors of Fx, Fy and Mz
+//! per source file and nominal pressure.
+//!
+//! In: a store root (the live `samples` table, as `query` sees it), a parsed `.tir` file and a
+//! [`Selection`] of samples (by default the one of the real-data README: `|alpha| <= 12.5 deg`,
+//! `Fz > 100 N`, `V > 5 km/h`, every 5th sample in time order of each source file). Out: one
+//! [`ScoreRow`] per (source file, nominal pressure): sample count, RMSE of the model against the
+//! measured Fx, Fy, Mz and the RMS of the measured values (for scale). The model is evaluated at
+//! each sample's measured load, slip, inclination and speed (ISO-W, SI), combined slip, in the
+//! chosen [`Mode`].
+//!
+//! Every sample of a run counts, whatever its segment (sweeps, transitions, warm-up): the score
+//! says how well the model predicts the measurement, not how well it fits the sweeps it was
+//! fitted on. Deliberately not here: fitting, and any MF 6.x evaluation (the reader refuses MF
+//! 6.x files; [`evaluate`] is the one place a version-aware evaluator plugs in).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use polars::prelude::*;
+use tirebase_core::tire_model::tir::TirFile;
+use tirebase_core::tire_model::{Evaluation, Mode, SlipInput};
+
+use crate::query::{self, QueryError};
+
+/// Which samples are scored.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Selection {
+    /// Only this tire (name as stored); every tire when `None`.
+    pub tire: Option<String>,
+    /// Only samples of this nominal pressure partition, kPa; every pressure when `None`.
+    pub pressure_kpa_nom: Option<i64>,
+    /// Largest |slip angle| scored, deg.
+    pub max_abs_alpha_deg: f64,
+    /// Smallest load scored (ISO-W, compression positive), N.
+    pub min_fz_n: f64,
+    /// Smallest road speed scored, km/h.
+    pub min_speed_kph: f64,
+    /// Keep every n-th selected sample of each source file (1 = all), counted over the file's
+    /// selected samples at every pressure: asking for one pressure keeps the same samples.
+    pub every: usize,
+}
+
+impl Default for Selection {
+    /// The selection of `shared/real/README.md`.
+    fn default() -> Self {
+        Selection {
+            tire: None,
+            pressure_kpa_nom: None,
+            max_abs_alpha_deg: 12.5,
+            min_fz_n: 100.0,
+            min_speed_kph: 5.0,
+            every: 5,
+        }
+    }
+}
+
+/// The score of one model on one source file's samples at one nominal pressure.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScoreRow {
+    /// Tire name as stored.
+    pub tire: String,
+    /// Source file name.
+    pub source_file: String,
+    /// Nominal pressure partition, kPa (-1 when not held).
+    pub pressure_kpa_nom: i64,
+    /// Samples scored.
+    pub n_samples: usize,
+    /// RMS of (model - measured) Fx, N.
+    pub fx_rmse_n: f64,
+    /// RMS of (model - measured) Fy, N.
+    pub fy_rmse_n: f64,
+    /// RMS of (model - measured) Mz, N m.
+    pub mz_rmse_nm: f64,
+    /// RMS of the measured Fx, N.
+    pub fx_rms_n: f64,
+    /// RMS of the measured Fy, N.
+    pub fy_rms_n: f64,
+    /// RMS of the measured Mz, N m.
+    pub mz_rms_nm: f64,
+}
+
+/// Errors of [`score`].
+#[derive(Debug, thiserror::Error)]
+pub enum ScoreError {
+    /// The store could not be read.
+    #[error(transparent)]
+    Query(#[from] QueryError),
+    /// A column was missing or of the wrong type.
+    #[error("{store}: samples: {source}")]
+    Polars {
+        store: String,
+        #[source]
+        source: PolarsError,
+    },
+    /// The selection is empty or invalid.
+    #[error("selection: {0}")]
+    Selection(String),
+}
+
+/// Columns read from the samples table.
+const COLUMNS: [&str; 13] = [
+    "tire",
+    "source_file",
+    "sample_index",
+    "pressure_kpa_nom",
+    "fz_n",
+    "kappa",
+    "alpha_rad",
+    "gamma_rad",
+    "speed_kph",
+    "pressure_kpa",
+    "fx_n",
+    "fy_n",
+    "mz_nm",
+];
+
+/// One measured sample and where it belongs.
+#[derive(Clone, Debug)]
+struct Measured {
+    point: SlipInput,
+    pressure_kpa: f64,
+    fx_n: f64,
+    fy_n: f64,
+    mz_nm: f64,
+}
+
+/// Score `tir` on the store's samples chosen by `selection`; rows sorted by (tire, source file,
+/// pressure).
+pub fn score(
+    store: &Path,
+    tir: &TirFile,
+    selection: &Selection,
+    mode: Mode,
+) -> Result<Vec<ScoreRow>, ScoreError> {
+    if selection.every == 0 {
+        return Err(ScoreError::Selection("every must be >= 1".into()));
+    }
+    let groups = selected_samples(store, selection)?;
+    let mut rows = Vec::with_capacity(groups.len());
+    for ((tire, source_file, pressure_kpa_nom), samples) in groups {
+        let points: Vec<SlipInput> = samples.iter().map(|s| s.point).collect();
+        let pressures: Vec<f64> = samples.iter().map(|s| s.pressure_kpa).collect();
+        let model = evaluate(tir, &points, &pressures, mode);
+        let rmse = |f: fn(&Evaluation<f64>) -> f64, m: fn(&Measured) -> f64| {
+            rms(model.iter().zip(&samples).map(|(e, s)| f(e) - m(s)))
+        };
+        rows.push(ScoreRow {
+            tire,
+            source_file,
+            pressure_kpa_nom,
+            n_samples: samples.len(),
+            fx_rmse_n: rmse(|e| e.fx_n, |s| s.fx_n),
+            fy_rmse_n: rmse(|e| e.fy_n, |s| s.fy_n),
+            mz_rmse_nm: rmse(|e| e.mz_nm, |s| s.mz_nm),
+            fx_rms_n: rms(samples.iter().map(|s| s.fx_n)),
+            fy_rms_n: rms(samples.iter().map(|s| s.fy_n)),
+            mz_rms_nm: rms(samples.iter().map(|s| s.mz_nm)),
+        });
+    }
+    Ok(rows)
+}
+
+/// The model's forces and moments at `points` (measured inflation pressure beside, kPa, for
+/// models with pressure terms). PAC2002 / MF 5.2 has none, so `pressures_kpa` is unused until
+/// an MF 6.x evaluator exists.
+fn evaluate(
+    tir: &TirFile,
+    points: &[SlipInput],
+    _pressures_kpa: &[f64],
+    mode: Mode,
+) -> Vec<Evaluation<f64>> {
+    let mut out = vec![Evaluation::default(); points.len()];
+    tir.model().eval_batch(points, mode, &mut out);
+    out
+}
+
+/// Root mean square of the finite values (NaN when none).
+fn rms(values: impl Iterator<Item = f64>) -> f64 {
+    let (sum, n) = values
+        .filter(|v| v.is_finite())
+        .fold((0.0, 0usize), |(s, n), v| (s + v * v, n + 1));
+    if n == 0 {
+        f64::NAN
+    } else {
+        (sum / n as f64).sqrt()
+    }
+}
+
+type GroupKey = (String, String, i64);
+
+/// The selected samples, grouped by (tire, source file, nominal pressure), each group in time
+/// order of its file.
+fn selected_samples(
+    store: &Path,
+    selection: &Selection,
+) -> Result<BTreeMap<GroupKey, Vec<Measured>>, ScoreError> {
+    let polars_err = |source: PolarsError| ScoreError::Polars {
+        store: store.display().to_string(),
+        source,
+    };
+    let mut ctx = query::context(store)?;
+    let mut frame = ctx
+        .execute("SELECT * FROM samples")
+        .map_err(polars_err)?
+        .select(COLUMNS.iter().map(|c| col(*c)).collect::<Vec<_>>());
+    if let Some(tire) = &selection.tire {
+        frame = frame.filter(col("tire").eq(lit(tire.clone())));
+    }
+    let df = frame
+        .sort(
+            ["source_file", "sample_index"],
+            SortMultipleOptions::default(),
+        )
+        .collect()
+        .map_err(polars_err)?;
+    let text = |name: &str| -> Result<Vec<String>, ScoreError> {
+        let c = df
+            .column(name)
+            .and_then(|c| c.cast(&DataType::String))
+            .map_err(polars_err)?;
+        let values = c.str().map_err(polars_err)?;
+        Ok(values
+            .iter()
+            .map(|v| v.unwrap_or_default().to_string())
+            .collect())
+    };
+    let number = |name: &str| -> Result<Vec<f64>, ScoreError> {
+        let c = df
+            .column(name)
+            .and_then(|c| c.cast(&DataType::Float64))
+            .map_err(polars_err)?;
+        let values = c.f64().map_err(polars_err)?;
+        Ok(values.iter().map(|v| v.unwrap_or(f64::NAN)).collect())
+    };
+    let (tire, file) = (text("tire")?, text("source_file")?);
+    let p_nom = number("pressure_kpa_nom")?;
+    let [fz, kappa, alpha, gamma, v, p, fx, fy, mz] = [
+        "fz_n",
+        "kappa",
+        "alpha_rad",
+        "gamma_rad",
+        "speed_kph",
+        "pressure_kpa",
+        "fx_n",
+        "fy_n",
+        "mz_nm",
+    ]
+    .map(number);
+    let (fz, kappa, alpha, gamma, v, p, fx, fy, mz) =
+        (fz?, kappa?, alpha?, gamma?, v?, p?, fx?, fy?, mz?);
+    let max_alpha = selection.max_abs_alpha_deg.to_radians();
+    let mut seen: BTreeMap<(String, String), usize> = BTreeMap::new();
+    let mut groups: BTreeMap<GroupKey, Vec<Measured>> = BTreeMap::new();
+    for i in 0..df.height() {
+        let keep = alpha[i].abs() <= max_alpha
+            && fz[i] > selection.min_fz_n
+            && v[i] > selection.min_speed_kph;
+        if !keep {
+            continue;
+        }
+        let count = seen.entry((tire[i].clone(), file[i].clone())).or_default();
+        let take = (*count).is_multiple_of(selection.every);
+        *count += 1;
+        if !take {
+            continue;
+        }
+        let nominal = if p_nom[i].is_finite() {
+            p_nom[i] as i64
+        } else {
+            -1
+        };
+        // After the decimation: the chosen samples do not depend on the pressure asked for.
+        if selection.pressure_kpa_nom.is_some_and(|p| p != nominal) {
+            continue;
+        }
+        groups
+            .entry((tire[i].clone(), file[i].clone(), nominal))
+            .or_default()
+            .push(Measured {
+                point: SlipInput {
+                    fz_n: fz[i],
+                    kappa: if kappa[i].is_finite() { kappa[i] } else { 0.0 },
+                    alpha_rad: alpha[i],
+                    gamma_rad: gamma[i],
+                    vx_mps: v[i] / 3.6,
+                },
+                pressure_kpa: p[i],
+                fx_n: fx[i],
+                fy_n: fy[i],
+                mz_nm: mz[i],
+            });
+    }
+    Ok(groups)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rms_skips_non_finite() {
+        assert!((rms([3.0, 4.0, f64::NAN].into_iter()) - (12.5f64).sqrt()).abs() < 1e-12);
+        assert!(rms(std::iter::empty()).is_nan());
+    }
+}

@@ -1,0 +1,685 @@
+//! A version's result tables: the one place that reads and writes `versions/vNNNNNN/<table>.parquet`
+//! (and a `tirebase fit --out` directory laid out the same way), generically for merging,
+//! querying and diffing, and as typed rows for the readers that use their values (the report,
+//! publishing's problems and worst fit).
+//!
+//! In: a result directory, or the tables a run has just built in memory. Out: DataFrames by
+//! table name ([`read_table`], [`table_names`], [`write_table`]), [`Results`] (typed rows of the
+//! tables the report shows, each checked for the columns it needs: a table without one is a
+//! note naming the file and column, never a chart of NaN), the fit failures of some groups
+//! ([`read_fit_failures`]), the groups with a model ([`model_groups`]) and the `.tir` file name
+//! of each ([`tir_names`]). Deliberately not here: computing the tables (fit) and what is done
+//! with the rows.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use polars::prelude::*;
+use tirebase_core::naming::unique_tir_names;
+
+use super::StoreError;
+use super::columns::{opt_bool, opt_f64, opt_i64, opt_str, req_bool, req_f64, req_i64, req_str};
+use super::files::{parquet_files_in, read_parquet, write_parquet_atomic};
+
+/// A fit group: (tire, rim_in, pressure_kpa nominal).
+pub type GroupKey = (String, i64, i64);
+
+/// The columns every fit result table starts with, identifying its group.
+pub const GROUP_COLUMNS: [&str; 3] = ["tire", "rim_in", "pressure_kpa"];
+
+/// The file of table `name` in a result directory.
+pub fn table_path(dir: &Path, name: &str) -> PathBuf {
+    dir.join(format!("{name}.parquet"))
+}
+
+/// Names of the tables a result directory holds, sorted.
+pub fn table_names(dir: &Path) -> Result<Vec<String>, StoreError> {
+    Ok(parquet_files_in(dir)?
+        .iter()
+        .filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(String::from))
+        .collect())
+}
+
+/// Table `name` of a result directory; `None` when the directory has no such table.
+pub fn read_table(dir: &Path, name: &str) -> Result<Option<DataFrame>, StoreError> {
+    let path = table_path(dir, name);
+    if !path.is_file() {
+        return Ok(None);
+    }
+    read_parquet(&path).map(Some)
+}
+
+/// Write table `name` into a result directory atomically.
+pub fn write_table(dir: &Path, name: &str, df: &mut DataFrame) -> Result<(), StoreError> {
+    write_parquet_atomic(&table_path(dir, name), df)
+}
+
+/// The table has the group columns (every fit result table does; `inertia` does not).
+pub fn has_group_columns(df: &DataFrame) -> bool {
+    GROUP_COLUMNS.iter().all(|c| df.column(c).is_ok())
+}
+
+/// The rows of `df` whose (tire, rim_in, pressure_kpa) is in `keys`.
+pub fn rows_of_groups(df: &DataFrame, keys: &BTreeSet<GroupKey>) -> PolarsResult<DataFrame> {
+    let tire = df.column("tire")?.str()?;
+    let rim = df.column("rim_in")?.i64()?;
+    let p = df.column("pressure_kpa")?.i64()?;
+    let mask: BooleanChunked = (0..df.height())
+        .map(|i| match (tire.get(i), rim.get(i), p.get(i)) {
+            (Some(t), Some(r), Some(p)) => keys.contains(&(t.to_string(), r, p)),
+            _ => false,
+        })
+        .collect();
+    df.filter(&mask)
+}
+
+/// A stage that failed for a group, or a part of it (a row of `fit_failures`).
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct FitFailure {
+    /// Tire name.
+    pub tire: String,
+    /// Rim width, in.
+    pub rim_in: i64,
+    /// Nominal pressure, kPa.
+    pub pressure_kpa: i64,
+    /// `load`, `spring_rate`, `pac2002`, `relaxation`, `thermal`.
+    pub stage: String,
+    /// The stage name for the whole stage, else the part (a family, a load, a segment).
+    pub scope: String,
+    /// The stage produced nothing for the group.
+    pub fatal: bool,
+    /// One-line reason.
+    pub reason: String,
+}
+
+impl fmt::Display for FitFailure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} on {} in rim at {} kPa: {}{}: {}",
+            self.tire,
+            self.rim_in,
+            self.pressure_kpa,
+            self.stage,
+            if self.scope == self.stage {
+                String::new()
+            } else {
+                format!(" ({})", self.scope)
+            },
+            self.reason
+        )
+    }
+}
+
+/// A row of `coefficients` as the report uses it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CoefficientRow {
+    pub tire: String,
+    pub rim_in: i64,
+    pub pressure_kpa: i64,
+    pub model: String,
+    pub family: String,
+    pub name: String,
+    pub value: f64,
+    /// None when not estimated.
+    pub std_error: Option<f64>,
+    pub at_bound: bool,
+}
+
+/// A row of `fit_quality` as the report uses it. The measures are `None` where the table holds
+/// null or (a table written before the column existed) does not have the column.
+#[derive(Clone, Debug, PartialEq)]
+pub struct QualityRow {
+    pub tire: String,
+    pub rim_in: i64,
+    pub pressure_kpa: i64,
+    pub channel: String,
+    /// Out-of-sample (k-fold by sweep) RMSE, and its ratio to the in-sample one.
+    pub oos_rmse: Option<f64>,
+    pub oos_ratio: Option<f64>,
+    pub oos_flag: Option<bool>,
+    pub trend_dev_max: Option<f64>,
+    pub trend_dev_pct_of_peak: Option<f64>,
+    pub n_free: Option<i64>,
+    pub jacobian_rank: Option<i64>,
+    pub condition_number: Option<f64>,
+    pub n: Option<i64>,
+    pub rmse: Option<f64>,
+    pub rmse_pct_of_peak: Option<f64>,
+    pub r2: Option<f64>,
+    pub sample_rmse: Option<f64>,
+    pub initial_rmse: Option<f64>,
+    pub iterations: Option<i64>,
+    pub termination: Option<String>,
+}
+
+impl QualityRow {
+    /// The error a reader should judge the fit by, in percent of the channel's peak: the
+    /// out-of-sample RMSE where the row has one (`rmse_pct_of_peak x oos_ratio`), else the
+    /// in-sample `rmse_pct_of_peak`; `None` without either.
+    pub fn headline_pct_of_peak(&self) -> Option<f64> {
+        let pct = self.rmse_pct_of_peak.filter(|v| v.is_finite())?;
+        Some(match self.oos_ratio.filter(|r| r.is_finite()) {
+            Some(r) => pct * r,
+            None => pct,
+        })
+    }
+}
+
+/// A row of `spring_rate` as the report uses it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpringRateRow {
+    pub tire: String,
+    pub rim_in: i64,
+    pub pressure_kpa: i64,
+    /// None when the inclination was swept.
+    pub ia_deg_nom: Option<i64>,
+    pub condition: String,
+    pub stiffness_n_per_m: f64,
+}
+
+/// A row of `thermal` as the report uses it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ThermalRow {
+    pub tire: String,
+    pub rim_in: i64,
+    pub pressure_kpa: i64,
+    pub quadrant: String,
+    pub t_centre_peak_c: f64,
+    pub mu_peak: f64,
+}
+
+/// A row of `thermal_fit` as the report uses it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ThermalFitRow {
+    pub tire: String,
+    pub rim_in: i64,
+    pub pressure_kpa: i64,
+    pub t_peak_c: f64,
+    pub t_cold_c: f64,
+    pub k_cold_per_c2: f64,
+    /// NaN when the hot side was not resolved.
+    pub hot_falloff: f64,
+    pub mu_peak_mean: f64,
+}
+
+/// A row of `relaxation` as the report uses it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RelaxationRow {
+    pub tire: String,
+    pub rim_in: i64,
+    pub pressure_kpa: i64,
+    pub direction: String,
+    pub method: String,
+    pub fz_n_mean: f64,
+    pub sigma_m: f64,
+    pub converged: bool,
+}
+
+/// A row of `lint`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LintRow {
+    pub tire: String,
+    pub rim_in: i64,
+    pub pressure_kpa: i64,
+    pub file: String,
+    pub severity: String,
+    pub code: String,
+    pub message: String,
+}
+
+/// The result tables the report shows, typed; `None` for a table the results do not have (or
+/// that could not be read: [`Results::notes`] says why).
+#[derive(Clone, Debug, Default)]
+pub struct Results {
+    pub coefficients: Option<Vec<CoefficientRow>>,
+    pub fit_quality: Option<Vec<QualityRow>>,
+    pub spring_rate: Option<Vec<SpringRateRow>>,
+    pub thermal: Option<Vec<ThermalRow>>,
+    pub thermal_fit: Option<Vec<ThermalFitRow>>,
+    pub relaxation: Option<Vec<RelaxationRow>>,
+    pub lint: Option<Vec<LintRow>>,
+    pub fit_failures: Option<Vec<FitFailure>>,
+    /// One line per table that is not present or could not be read.
+    pub notes: Vec<String>,
+}
+
+/// The tables [`Results`] holds.
+pub const RESULT_TABLES: [&str; 8] = [
+    "coefficients",
+    "fit_quality",
+    "spring_rate",
+    "thermal",
+    "thermal_fit",
+    "relaxation",
+    "lint",
+    "fit_failures",
+];
+
+impl Results {
+    /// Read the tables of a result directory (a missing or unreadable one is a note).
+    pub fn read(dir: &Path) -> Results {
+        let mut frames = BTreeMap::new();
+        let mut unreadable = BTreeMap::new();
+        for name in RESULT_TABLES {
+            match read_table(dir, name) {
+                Ok(Some(df)) => {
+                    frames.insert(name.to_string(), df);
+                }
+                Ok(None) => {}
+                Err(e) => {
+                    unreadable.insert(name, e.to_string());
+                }
+            }
+        }
+        Results::build(&frames, &unreadable)
+    }
+
+    /// Type the tables a run holds in memory (by table name).
+    pub fn from_frames(frames: &BTreeMap<String, DataFrame>) -> Results {
+        Results::build(frames, &BTreeMap::new())
+    }
+
+    fn build(frames: &BTreeMap<String, DataFrame>, unreadable: &BTreeMap<&str, String>) -> Results {
+        let mut out = Results::default();
+        macro_rules! take {
+            ($field:ident, $conv:ident) => {{
+                let name = stringify!($field);
+                let file = format!("{name}.parquet");
+                match frames.get(name) {
+                    None => out.notes.push(match unreadable.get(name) {
+                        Some(e) => format!("{file}: unreadable: {e}"),
+                        None => format!("{file}: not present"),
+                    }),
+                    Some(df) => match $conv(df, Path::new(&file)) {
+                        Ok(rows) => out.$field = Some(rows),
+                        Err(e) => out.notes.push(format!("{file}: unreadable: {e}")),
+                    },
+                }
+            }};
+        }
+        take!(coefficients, coefficient_rows);
+        take!(fit_quality, quality_rows);
+        take!(spring_rate, spring_rate_rows);
+        take!(thermal, thermal_rows);
+        take!(thermal_fit, thermal_fit_rows);
+        take!(relaxation, relaxation_rows);
+        take!(lint, lint_rows);
+        take!(fit_failures, fit_failure_rows);
+        out
+    }
+
+    /// Every (tire, rim, nominal pressure) any table has rows for.
+    pub fn groups(&self) -> BTreeSet<GroupKey> {
+        fn keys<'a, T: 'a>(
+            rows: &'a Option<Vec<T>>,
+            key: impl Fn(&T) -> GroupKey + 'a,
+        ) -> impl Iterator<Item = GroupKey> + 'a {
+            rows.iter().flatten().map(key)
+        }
+        let k = |t: &String, r: i64, p: i64| (t.clone(), r, p);
+        keys(&self.coefficients, |x| k(&x.tire, x.rim_in, x.pressure_kpa))
+            .chain(keys(&self.fit_quality, |x| {
+                k(&x.tire, x.rim_in, x.pressure_kpa)
+            }))
+            .chain(keys(&self.spring_rate, |x| {
+                k(&x.tire, x.rim_in, x.pressure_kpa)
+            }))
+            .chain(keys(&self.thermal, |x| {
+                k(&x.tire, x.rim_in, x.pressure_kpa)
+            }))
+            .chain(keys(&self.thermal_fit, |x| {
+                k(&x.tire, x.rim_in, x.pressure_kpa)
+            }))
+            .chain(keys(&self.relaxation, |x| {
+                k(&x.tire, x.rim_in, x.pressure_kpa)
+            }))
+            .chain(keys(&self.lint, |x| k(&x.tire, x.rim_in, x.pressure_kpa)))
+            .chain(keys(&self.fit_failures, |x| {
+                k(&x.tire, x.rim_in, x.pressure_kpa)
+            }))
+            .collect()
+    }
+
+    /// The groups with a model: those of the `coefficients` rows.
+    pub fn model_groups(&self) -> BTreeSet<GroupKey> {
+        self.coefficients
+            .iter()
+            .flatten()
+            .map(|c| (c.tire.clone(), c.rim_in, c.pressure_kpa))
+            .collect()
+    }
+}
+
+/// The three group columns of a table.
+type Keys = (Vec<String>, Vec<i64>, Vec<i64>);
+
+fn group_keys(df: &DataFrame, path: &Path) -> Result<Keys, StoreError> {
+    let tire = req_str(df, "tire", path)?;
+    let rim = req_i64(df, "rim_in", path)?;
+    let p = req_i64(df, "pressure_kpa", path)?;
+    Ok((
+        tire.into_iter().map(Option::unwrap_or_default).collect(),
+        rim.into_iter().map(|v| v.unwrap_or(0)).collect(),
+        p.into_iter().map(|v| v.unwrap_or(0)).collect(),
+    ))
+}
+
+fn strings(v: Vec<Option<String>>) -> Vec<String> {
+    v.into_iter().map(Option::unwrap_or_default).collect()
+}
+
+fn floats(v: Vec<Option<f64>>) -> Vec<f64> {
+    v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect()
+}
+
+fn coefficient_rows(df: &DataFrame, path: &Path) -> Result<Vec<CoefficientRow>, StoreError> {
+    let (tire, rim, p) = group_keys(df, path)?;
+    let (model, family, name) = (
+        strings(req_str(df, "model", path)?),
+        strings(req_str(df, "family", path)?),
+        strings(req_str(df, "name", path)?),
+    );
+    let value = floats(req_f64(df, "value", path)?);
+    let std_error = req_f64(df, "std_error", path)?;
+    let at_bound = req_bool(df, "at_bound", path)?;
+    Ok((0..df.height())
+        .map(|i| CoefficientRow {
+            tire: tire[i].clone(),
+            rim_in: rim[i],
+            pressure_kpa: p[i],
+            model: model[i].clone(),
+            family: family[i].clone(),
+            name: name[i].clone(),
+            value: value[i],
+            std_error: std_error[i].filter(|v| v.is_finite()),
+            at_bound: at_bound[i].unwrap_or(false),
+        })
+        .collect())
+}
+
+fn quality_rows(df: &DataFrame, path: &Path) -> Result<Vec<QualityRow>, StoreError> {
+    let (tire, rim, p) = group_keys(df, path)?;
+    let channel = strings(req_str(df, "channel", path)?);
+    let h = df.height();
+    let f = |n: &str| -> Result<Vec<Option<f64>>, StoreError> {
+        Ok(opt_f64(df, n, path)?.unwrap_or_else(|| vec![None; h]))
+    };
+    let i = |n: &str| -> Result<Vec<Option<i64>>, StoreError> {
+        Ok(opt_i64(df, n, path)?.unwrap_or_else(|| vec![None; h]))
+    };
+    let termination = opt_str(df, "termination", path)?.unwrap_or_else(|| vec![None; h]);
+    let (n, iterations) = (i("n")?, i("iterations")?);
+    let (n_free, rank) = (i("n_free")?, i("jacobian_rank")?);
+    let (oos_rmse, oos_ratio, trend, trend_pct, condition) = (
+        f("oos_rmse")?,
+        f("oos_ratio")?,
+        f("trend_dev_max")?,
+        f("trend_dev_pct_of_peak")?,
+        f("condition_number")?,
+    );
+    let oos_flag = opt_bool(df, "oos_flag", path)?.unwrap_or_else(|| vec![None; h]);
+    let (rmse, pct, r2, sample, initial) = (
+        f("rmse")?,
+        f("rmse_pct_of_peak")?,
+        f("r2")?,
+        f("sample_rmse")?,
+        f("initial_rmse")?,
+    );
+    Ok((0..h)
+        .map(|k| QualityRow {
+            tire: tire[k].clone(),
+            rim_in: rim[k],
+            pressure_kpa: p[k],
+            channel: channel[k].clone(),
+            oos_rmse: oos_rmse[k],
+            oos_ratio: oos_ratio[k],
+            oos_flag: oos_flag[k],
+            trend_dev_max: trend[k],
+            trend_dev_pct_of_peak: trend_pct[k],
+            n_free: n_free[k],
+            jacobian_rank: rank[k],
+            condition_number: condition[k],
+            n: n[k],
+            rmse: rmse[k],
+            rmse_pct_of_peak: pct[k],
+            r2: r2[k],
+            sample_rmse: sample[k],
+            initial_rmse: initial[k],
+            iterations: iterations[k],
+            termination: termination[k].clone(),
+        })
+        .collect())
+}
+
+fn spring_rate_rows(df: &DataFrame, path: &Path) -> Result<Vec<SpringRateRow>, StoreError> {
+    let (tire, rim, p) = group_keys(df, path)?;
+    let ia = req_i64(df, "ia_deg_nom", path)?;
+    let condition = strings(req_str(df, "condition", path)?);
+    let cz = floats(req_f64(df, "stiffness_n_per_m", path)?);
+    Ok((0..df.height())
+        .map(|i| SpringRateRow {
+            tire: tire[i].clone(),
+            rim_in: rim[i],
+            pressure_kpa: p[i],
+            ia_deg_nom: ia[i].filter(|&a| a >= 0),
+            condition: condition[i].clone(),
+            stiffness_n_per_m: cz[i],
+        })
+        .collect())
+}
+
+fn thermal_rows(df: &DataFrame, path: &Path) -> Result<Vec<ThermalRow>, StoreError> {
+    let (tire, rim, p) = group_keys(df, path)?;
+    let quadrant = strings(req_str(df, "quadrant", path)?);
+    let t = floats(req_f64(df, "t_centre_peak_c", path)?);
+    let mu = floats(req_f64(df, "mu_peak", path)?);
+    Ok((0..df.height())
+        .map(|i| ThermalRow {
+            tire: tire[i].clone(),
+            rim_in: rim[i],
+            pressure_kpa: p[i],
+            quadrant: quadrant[i].clone(),
+            t_centre_peak_c: t[i],
+            mu_peak: mu[i],
+        })
+        .collect())
+}
+
+fn thermal_fit_rows(df: &DataFrame, path: &Path) -> Result<Vec<ThermalFitRow>, StoreError> {
+    let (tire, rim, p) = group_keys(df, path)?;
+    let f = |n: &str| req_f64(df, n, path).map(floats);
+    let (t_peak, t_cold, k, hot, mu) = (
+        f("t_peak_c")?,
+        f("t_cold_c")?,
+        f("k_cold_per_c2")?,
+        f("hot_falloff")?,
+        f("mu_peak_mean")?,
+    );
+    Ok((0..df.height())
+        .map(|i| ThermalFitRow {
+            tire: tire[i].clone(),
+            rim_in: rim[i],
+            pressure_kpa: p[i],
+            t_peak_c: t_peak[i],
+            t_cold_c: t_cold[i],
+            k_cold_per_c2: k[i],
+            hot_falloff: hot[i],
+            mu_peak_mean: mu[i],
+        })
+        .collect())
+}
+
+fn relaxation_rows(df: &DataFrame, path: &Path) -> Result<Vec<RelaxationRow>, StoreError> {
+    let (tire, rim, p) = group_keys(df, path)?;
+    let (direction, method) = (
+        strings(req_str(df, "direction", path)?),
+        strings(req_str(df, "method", path)?),
+    );
+    let fz = floats(req_f64(df, "fz_n_mean", path)?);
+    let sigma = floats(req_f64(df, "sigma_m", path)?);
+    let converged = req_bool(df, "converged", path)?;
+    Ok((0..df.height())
+        .map(|i| RelaxationRow {
+            tire: tire[i].clone(),
+            rim_in: rim[i],
+            pressure_kpa: p[i],
+            direction: direction[i].clone(),
+            method: method[i].clone(),
+            fz_n_mean: fz[i],
+            sigma_m: sigma[i],
+            converged: converged[i].unwrap_or(true),
+        })
+        .collect())
+}
+
+fn lint_rows(df: &DataFrame, path: &Path) -> Result<Vec<LintRow>, StoreError> {
+    let (tire, rim, p) = group_keys(df, path)?;
+    let s = |n: &str| req_str(df, n, path).map(strings);
+    let (file, severity, code, message) = (s("file")?, s("severity")?, s("code")?, s("message")?);
+    Ok((0..df.height())
+        .map(|i| LintRow {
+            tire: tire[i].clone(),
+            rim_in: rim[i],
+            pressure_kpa: p[i],
+            file: file[i].clone(),
+            severity: severity[i].clone(),
+            code: code[i].clone(),
+            message: message[i].clone(),
+        })
+        .collect())
+}
+
+/// `fit_failures` rows. A table written before the `fatal` column existed has only fatal rows.
+fn fit_failure_rows(df: &DataFrame, path: &Path) -> Result<Vec<FitFailure>, StoreError> {
+    let (tire, rim, p) = group_keys(df, path)?;
+    let s = |n: &str| req_str(df, n, path).map(strings);
+    let (stage, scope, reason) = (s("stage")?, s("scope")?, s("reason")?);
+    let fatal = opt_bool(df, "fatal", path)?.unwrap_or_else(|| vec![Some(true); df.height()]);
+    Ok((0..df.height())
+        .map(|i| FitFailure {
+            tire: tire[i].clone(),
+            rim_in: rim[i],
+            pressure_kpa: p[i],
+            stage: stage[i].clone(),
+            scope: scope[i].clone(),
+            fatal: fatal[i].unwrap_or(true),
+            reason: reason[i].clone(),
+        })
+        .collect())
+}
+
+/// The `fit_failures` rows of a result directory that belong to `groups`.
+pub fn read_fit_failures(
+    dir: &Path,
+    groups: &BTreeSet<GroupKey>,
+) -> Result<Vec<FitFailure>, StoreError> {
+    if groups.is_empty() {
+        return Ok(Vec::new());
+    }
+    let Some(df) = read_table(dir, "fit_failures")? else {
+        return Ok(Vec::new());
+    };
+    Ok(fit_failure_rows(&df, &table_path(dir, "fit_failures"))?
+        .into_iter()
+        .filter(|f| groups.contains(&(f.tire.clone(), f.rim_in, f.pressure_kpa)))
+        .collect())
+}
+
+/// The groups of a result directory that have a `.tir`: those of its `coefficients` table
+/// (empty when it has none or it cannot be read).
+pub fn model_groups(dir: &Path) -> BTreeSet<GroupKey> {
+    let Ok(Some(df)) = read_table(dir, "coefficients") else {
+        return BTreeSet::new();
+    };
+    let path = table_path(dir, "coefficients");
+    let (Ok(tire), Ok(rim), Ok(p)) = (
+        req_str(&df, "tire", &path),
+        req_i64(&df, "rim_in", &path),
+        req_i64(&df, "pressure_kpa", &path),
+    ) else {
+        return BTreeSet::new();
+    };
+    tire.into_iter()
+        .zip(rim)
+        .zip(p)
+        .filter_map(|((t, r), p)| Some((t?, r?, p?)))
+        .collect()
+}
+
+/// `.tir` file names by group, and the notes of the disambiguated ones.
+pub type TirNames = (BTreeMap<GroupKey, String>, Vec<(GroupKey, String)>);
+
+/// The `.tir` file name of every group of a set (`naming::unique_tir_names`: a version names
+/// each model among all of its models), with the notes of the disambiguated ones.
+pub fn tir_names(groups: &BTreeSet<GroupKey>) -> TirNames {
+    let keys: Vec<&GroupKey> = groups.iter().collect();
+    let args: Vec<(&str, f64, f64)> = keys
+        .iter()
+        .map(|(t, r, p)| (t.as_str(), *r as f64, *p as f64))
+        .collect();
+    let mut names = BTreeMap::new();
+    let mut notes = Vec::new();
+    for (key, (name, note)) in keys.into_iter().zip(unique_tir_names(&args)) {
+        if let Some(n) = note {
+            notes.push((key.clone(), n));
+        }
+        names.insert(key.clone(), name);
+    }
+    (names, notes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tables_become_typed_rows_and_a_missing_column_is_a_note_naming_it() {
+        let mut frames = BTreeMap::new();
+        frames.insert(
+            "relaxation".to_string(),
+            df!(
+                "tire" => ["X"], "rim_in" => [7i64], "pressure_kpa" => [83i64],
+                "direction" => ["lateral"], "method" => ["step"], "fz_n_mean" => [1000.0],
+                "sigma_m" => [0.2], "converged" => [true],
+            )
+            .unwrap(),
+        );
+        frames.insert(
+            "spring_rate".to_string(),
+            df!("tire" => ["X"], "something" => [1.0]).unwrap(),
+        );
+        let r = Results::from_frames(&frames);
+        let relax = r.relaxation.as_ref().unwrap();
+        assert_eq!(relax.len(), 1);
+        assert_eq!(relax[0].sigma_m, 0.2);
+        assert!(r.spring_rate.is_none());
+        assert!(
+            r.notes
+                .iter()
+                .any(|n| n.starts_with("spring_rate.parquet: unreadable") && n.contains("rim_in")),
+            "{:?}",
+            r.notes
+        );
+        assert!(r.notes.iter().any(|n| n == "thermal.parquet: not present"));
+        assert_eq!(r.groups(), BTreeSet::from([("X".to_string(), 7, 83)]));
+    }
+
+    #[test]
+    fn fit_failures_without_the_fatal_column_are_fatal() {
+        let df = df!(
+            "tire" => ["X", "Y"], "rim_in" => [7i64, 8], "pressure_kpa" => [83i64, 97],
+            "stage" => ["pac2002", "thermal"], "scope" => ["pac2002", "fy"],
+            "reason" => ["no data", "too few"],
+        )
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        write_table(dir.path(), "fit_failures", &mut df.clone()).unwrap();
+        let only_y = BTreeSet::from([("Y".to_string(), 8, 97)]);
+        let rows = read_fit_failures(dir.path(), &only_y).unwrap();
+        assert_eq!(rows.len(), 1);
+        assert!(rows[0].fatal);
+        assert_eq!(rows[0].scope, "fy");
+    }
+}
