@@ -388,7 +388,8 @@ Write a self-contained HTML report (inline SVG charts and CSS, no script, nothin
 network) of a result directory: OUT/index.html and one OUT/tire-<name>.html per tire.
 
 index.html: the round overview (tires, rims, nominal pressures, segments and models per tire),
-the fit-quality table with the three worst fits (largest RMSE in percent of the channel's peak)
+the fit-quality table (out-of-sample error first) with the three worst fits (largest
+out-of-sample RMSE in percent of the channel's peak, in-sample where a row has none)
 highlighted, lint warnings, failures and every input that was missing or unreadable.
 
 Each tire page draws, with measured samples of QC-clean segments as markers (decimated) and the

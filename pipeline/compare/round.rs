@@ -167,14 +167,12 @@ pub struct FitError {
     pub source: String,
 }
 
-/// fit_quality columns usable as a relative error, best first: (column, is out-of-sample).
-/// `rmse_pct_of_peak` is in-sample: the error of the fit on the points it was fitted to, which
-/// includes the measurement noise and is therefore a conservative error of a peak figure.
-const ERROR_COLUMNS: [(&str, bool); 1] = [("rmse_pct_of_peak", false)];
-
 /// The relative error of a figure built from `channels` of the group's fit (their errors
 /// combined in quadrature: a product of forces, like an envelope area, adds relative errors
-/// so).
+/// so). Each channel's error is its out-of-sample RMSE in percent of its peak
+/// (`rmse_pct_of_peak x oos_ratio`: k-fold by sweep, what the fit does on sweeps it did not
+/// see) where `fit_quality` has it, else the in-sample `rmse_pct_of_peak` (the error on the
+/// points it was fitted to, noise included); the source says which.
 pub fn fit_error(
     tables: &BTreeMap<String, DataFrame>,
     key: &GroupKey,
@@ -187,39 +185,51 @@ pub fn fit_error(
     let Some(df) = tables.get("fit_quality") else {
         return unknown("unknown: no fit_quality table");
     };
-    let Some(&(column, out_of_sample)) = ERROR_COLUMNS.iter().find(|(c, _)| df.column(c).is_ok())
-    else {
+    if df.column("rmse_pct_of_peak").is_err() {
         return unknown("unknown: fit_quality has no error column");
-    };
+    }
     let rows = rows_by_group(df).remove(key).unwrap_or_default();
     let chan = strs(df, "channel");
-    let pct = f64s(df, column);
-    let mut sum_sq = 0.0;
+    let pct = f64s(df, "rmse_pct_of_peak");
+    let ratio = if df.column("oos_ratio").is_ok() {
+        f64s(df, "oos_ratio")
+    } else {
+        vec![f64::NAN; df.height()]
+    };
+    let (mut sum_sq, mut in_sample) = (0.0, Vec::new());
     for want in channels {
-        match rows
-            .iter()
-            .find(|&&i| chan[i].as_deref() == Some(*want))
-            .map(|&i| pct[i])
-        {
-            Some(v) if v.is_finite() && v >= 0.0 => sum_sq += (v / 100.0).powi(2),
-            _ => {
-                return unknown(&format!(
-                    "unknown: no fit_quality {column} of channel {want}"
-                ));
-            }
+        let Some(&i) = rows.iter().find(|&&i| chan[i].as_deref() == Some(*want)) else {
+            return unknown(&format!(
+                "unknown: no fit_quality rmse_pct_of_peak of channel {want}"
+            ));
+        };
+        let v = if ratio[i].is_finite() && ratio[i] > 0.0 {
+            pct[i] * ratio[i]
+        } else {
+            in_sample.push(*want);
+            pct[i]
+        };
+        if !(v.is_finite() && v >= 0.0) {
+            return unknown(&format!(
+                "unknown: no fit_quality rmse_pct_of_peak of channel {want}"
+            ));
         }
+        sum_sq += (v / 100.0).powi(2);
     }
     FitError {
         relative: sum_sq.sqrt(),
-        source: format!(
-            "fit_quality.{column} of {} ({})",
-            channels.join(" and "),
-            if out_of_sample {
-                "out-of-sample"
-            } else {
-                "in-sample: no out-of-sample error in fit_quality yet"
-            }
-        ),
+        source: if in_sample.is_empty() {
+            format!(
+                "fit_quality.rmse_pct_of_peak x oos_ratio of {} (out-of-sample)",
+                channels.join(" and ")
+            )
+        } else {
+            format!(
+                "fit_quality.rmse_pct_of_peak of {} (in-sample for {}: no out-of-sample error)",
+                channels.join(" and "),
+                in_sample.join(" and ")
+            )
+        },
     }
 }
 
@@ -356,7 +366,27 @@ mod tests {
         let b = ("B".to_string(), 7, 83);
         assert!(fit_error(&t, &b, &["Fy0"]).relative.is_nan());
         assert!(fit_error(&t, &a, &["Mx"]).source.starts_with("unknown"));
-        assert_eq!(groups(&t), vec![a, b]);
+        assert_eq!(groups(&t), vec![a.clone(), b]);
+        // With the out-of-sample ratio, the out-of-sample error where a row has one.
+        let mut t = t;
+        t.insert(
+            "fit_quality".to_string(),
+            df!(
+                "tire" => ["A", "A", "A"],
+                "rim_in" => [7i64, 7, 7],
+                "pressure_kpa" => [83i64, 83, 83],
+                "channel" => ["Fy0", "Fx", "Fy"],
+                "rmse_pct_of_peak" => [0.3, 0.4, 0.3],
+                "oos_ratio" => [2.0, f64::NAN, 1.0],
+            )
+            .unwrap(),
+        );
+        let e = fit_error(&t, &a, &["Fy0"]);
+        assert!((e.relative - 0.006).abs() < 1e-12, "{e:?}");
+        assert!(e.source.contains("out-of-sample"), "{e:?}");
+        let e = fit_error(&t, &a, &["Fx", "Fy"]);
+        assert!((e.relative - 0.005).abs() < 1e-12, "{e:?}");
+        assert!(e.source.contains("in-sample for Fx"), "{e:?}");
     }
 
     #[test]
