@@ -286,7 +286,9 @@ const MAY_BE_NEGATIVE: [&str; 6] = [
 ];
 
 /// Numeric keys that must be strictly positive (zero leaves a division or a window empty).
-const MUST_BE_POSITIVE: [&str; 9] = [
+const MUST_BE_POSITIVE: [&str; 11] = [
+    "synth.quirks.sa_scale",
+    "synth.quirks.load_scale",
     "segment.smoothing.window_s",
     "segment.smoothing.rate_window_s",
     "segment.smoothing.ia_rate_window_s",
@@ -523,6 +525,11 @@ mod tests {
                 "[fit.spring_rate]\nbreff_range = [0.05, nan]\n",
                 "fit.spring_rate.breff_range",
                 "not a finite",
+            ),
+            (
+                "[synth.quirks]\nload_scale = 0.0\n",
+                "synth.quirks.load_scale",
+                "positive",
             ),
         ] {
             let err = Config::parse(text, "x.toml").unwrap_err().to_string();

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use rayon::prelude::*;
 use tirebase_core::inertia::analysis::{SessionOutcome, analyze_session};
-use tirebase_core::inertia::session::{load_dir_reader, load_session};
+use tirebase_core::inertia::session::{SessionError, load_dir_reader, load_session};
 use tirebase_core::inertia::{InertiaResult, RunError};
 
 use crate::schema;
@@ -48,8 +48,13 @@ impl InertiaRun {
 /// when `root` does not exist).
 pub fn find_sessions(root: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
+    // Directories already searched: a symlink back up the tree is not followed again.
+    let mut visited = std::collections::BTreeSet::new();
     let mut stack = vec![root.to_path_buf()];
     while let Some(dir) = stack.pop() {
+        if fs::metadata(&dir).is_ok_and(|m| !visited.insert(dir_identity(&m))) {
+            continue;
+        }
         let Ok(entries) = fs::read_dir(&dir) else {
             continue;
         };
@@ -57,14 +62,32 @@ pub fn find_sessions(root: &Path) -> Vec<PathBuf> {
             out.push(dir.clone());
             continue;
         }
-        for entry in entries.flatten() {
-            if entry.path().is_dir() {
-                stack.push(entry.path());
-            }
-        }
+        // Searched in name order, so a directory reached by two paths is always found by the
+        // same one.
+        let mut dirs: Vec<PathBuf> = entries
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.is_dir())
+            .collect();
+        dirs.sort();
+        stack.extend(dirs.into_iter().rev());
     }
     out.sort();
     out
+}
+
+/// What identifies a directory however it is reached (device and inode on Unix).
+#[cfg(unix)]
+fn dir_identity(meta: &fs::Metadata) -> (u64, u64) {
+    use std::os::unix::fs::MetadataExt;
+    (meta.dev(), meta.ino())
+}
+
+/// Without inodes every directory is new (no symlink loops to guard against).
+#[cfg(not(unix))]
+fn dir_identity(_: &fs::Metadata) -> (u64, u64) {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    (0, NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed))
 }
 
 /// Analyse every session (in parallel on the current rayon pool). A session id given by two
@@ -117,7 +140,18 @@ fn process_dir(dir: &Path) -> SessionOutcome {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| dir.display().to_string());
     match load_session(dir) {
-        Ok(session) => analyze_session(&session, &load_dir_reader(dir)),
+        Ok(session) => {
+            let read = load_dir_reader(dir);
+            // A FIFO or device named as a run file is refused: reading it could block forever.
+            let regular = |rel: &str| match fs::metadata(dir.join(rel)) {
+                Ok(m) if !m.is_file() => Err(SessionError::Io {
+                    path: dir.join(rel).display().to_string(),
+                    message: "not a regular file".to_string(),
+                }),
+                _ => read(rel),
+            };
+            analyze_session(&session, &regular)
+        }
         Err(e) => SessionOutcome {
             session: label.clone(),
             results: Vec::new(),

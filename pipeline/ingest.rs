@@ -50,8 +50,8 @@ use crate::store::layout::{PartitionKey, SWEPT, source_part_name};
 use crate::store::lock::{LockWait, StoreLock};
 pub use crate::store::tables::RunRow;
 use crate::store::tables::{
-    STATUS_DUPLICATE, STATUS_FAILED, STATUS_OK, STATUS_PARTIAL, collect_garbage, parts_sha256,
-    read_runs, relabel_parts, write_runs, write_samples_part, write_segments_part,
+    STATUS_DUPLICATE, STATUS_FAILED, STATUS_OK, STATUS_PARTIAL, collect_garbage, has_runs,
+    parts_sha256, read_runs, relabel_parts, write_runs, write_samples_part, write_segments_part,
 };
 
 /// Ingest errors that stop the whole ingest (per-file problems are recorded, not raised).
@@ -60,6 +60,14 @@ pub enum IngestError {
     /// A path given on the command line does not exist.
     #[error("{0}: no such file or directory")]
     MissingInput(PathBuf),
+    /// An input directory could not be listed (an input problem, not a store error).
+    #[error("{path}: cannot read the input: {error}")]
+    Input {
+        /// The directory.
+        path: PathBuf,
+        /// The OS error.
+        error: std::io::Error,
+    },
     /// The store could not be read or written.
     #[error(transparent)]
     Store(#[from] StoreError),
@@ -185,7 +193,8 @@ pub struct Discovery {
     pub skipped: Vec<(PathBuf, String)>,
 }
 
-fn is_run_file(path: &Path) -> bool {
+/// A raw run file by its name (`.dat` or `.mat`, any case).
+pub fn is_run_file(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("dat") || e.eq_ignore_ascii_case("mat"))
@@ -235,6 +244,14 @@ fn dir_id(path: &Path, meta: &fs::Metadata) -> (u64, u64, PathBuf) {
 /// loop); a FIFO, socket or device is a skipped entry (reading it could block forever); a
 /// dangling or looping file symlink is kept as a file (it fails with its reason).
 pub fn discover(paths: &[PathBuf]) -> Result<Discovery, IngestError> {
+    discover_with(paths, &is_run_file)
+}
+
+/// [`discover`] for the files `wanted` accepts (run files, rig-session files).
+pub fn discover_with(
+    paths: &[PathBuf],
+    wanted: &dyn Fn(&Path) -> bool,
+) -> Result<Discovery, IngestError> {
     let mut out = Discovery::default();
     let mut visited = BTreeSet::new();
     for p in paths {
@@ -244,7 +261,8 @@ pub fn discover(paths: &[PathBuf]) -> Result<Discovery, IngestError> {
         match fs::metadata(p) {
             Ok(meta) if meta.is_dir() => {
                 visited.insert(dir_id(p, &meta));
-                walk(p, &mut visited, &mut out).map_err(|e| StoreError::io(p, e))?;
+                walk(p, wanted, &mut visited, &mut out)
+                    .map_err(|(path, error)| IngestError::Input { path, error })?;
             }
             Ok(meta) if meta.is_file() => out.files.push(p.clone()),
             Ok(meta) => out.skipped.push((p.clone(), file_kind(&meta).to_string())),
@@ -259,39 +277,45 @@ pub fn discover(paths: &[PathBuf]) -> Result<Discovery, IngestError> {
     Ok(out)
 }
 
+/// List the files of `dir` that `wanted` accepts recursively into `out`; the directory that
+/// could not be listed and why.
 fn walk(
     dir: &Path,
+    wanted: &dyn Fn(&Path) -> bool,
     visited: &mut BTreeSet<(u64, u64, PathBuf)>,
     out: &mut Discovery,
-) -> std::io::Result<()> {
-    let mut entries: Vec<_> = fs::read_dir(dir)?.collect::<Result<_, _>>()?;
+) -> Result<(), (PathBuf, std::io::Error)> {
+    let at = |e| (dir.to_path_buf(), e);
+    let mut entries: Vec<_> = fs::read_dir(dir)
+        .and_then(|d| d.collect::<Result<_, _>>())
+        .map_err(at)?;
     entries.sort_by_key(|e| e.path());
     for entry in entries {
         let path = entry.path();
-        let file_type = entry.file_type()?;
+        let file_type = entry.file_type().map_err(|e| (path.clone(), e))?;
         let meta = if file_type.is_symlink() {
             match fs::metadata(&path) {
                 Ok(m) => m,
                 Err(_) => {
-                    if is_run_file(&path) {
+                    if wanted(&path) {
                         out.files.push(path);
                     }
                     continue;
                 }
             }
         } else {
-            entry.metadata()?
+            entry.metadata().map_err(|e| (path.clone(), e))?
         };
         if meta.is_dir() {
             if visited.insert(dir_id(&path, &meta)) {
-                walk(&path, visited, out)?;
+                walk(&path, wanted, visited, out)?;
             } else if file_type.is_symlink() {
                 out.skipped.push((
                     path,
                     "directory symlink to a directory already searched (a loop?)".to_string(),
                 ));
             }
-        } else if is_run_file(&path) {
+        } else if wanted(&path) {
             if meta.is_file() {
                 out.files.push(path);
             } else {
@@ -502,7 +526,9 @@ pub fn run_locked(
             );
         }
     }
-    if rows != previous {
+    // A store's first ingest writes its runs table even with no file (an input of rig sessions
+    // only): the store then exists for the stages after ingest.
+    if rows != previous || !has_runs(opts.store) {
         // The runs table is the commit point: every sample and segment file it names is made
         // durable first (written with `Durability::Deferred`).
         sync_filesystem(opts.store)?;

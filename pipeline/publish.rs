@@ -28,7 +28,7 @@ use crate::manifest::{
 };
 use crate::progress::Progress;
 use crate::report;
-use crate::run::{Fingerprint, RunError, RunOptions, count_duplicates, runs_table_sha};
+use crate::run::{Fingerprint, RunError, RunOptions, count_duplicates};
 use crate::store::StoreError;
 use crate::store::results::{
     self, GROUP_COLUMNS, Results, TirNames, has_group_columns, model_groups, rows_of_groups,
@@ -233,7 +233,7 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
                 .unwrap_or_default(),
             catalog_sha256: fingerprint.catalog_sha256.clone(),
             config_sha256: fingerprint.config_sha256.clone(),
-            runs_table_sha256: runs_table_sha(opts.store)?,
+            runs_table_sha256: tables::runs_sha256(opts.store)?,
         },
         counts,
         timings_s: timings,

@@ -25,7 +25,6 @@
 //! printing (the command layer prints the [`RunReport`]).
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -42,9 +41,10 @@ pub use crate::publish::RunReport;
 use crate::publish::{self, GroupKey, Publication};
 use crate::store::StoreError;
 use crate::store::files::{sha256_bytes, sha256_file};
-use crate::store::layout::runs_file;
 use crate::store::lock::{LockWait, StoreLock};
-use crate::store::tables::{RunRow, STATUS_DUPLICATE, STATUS_FAILED, STATUS_PARTIAL, read_runs};
+use crate::store::tables::{
+    self, RunRow, STATUS_DUPLICATE, STATUS_FAILED, STATUS_PARTIAL, read_runs,
+};
 use crate::store::versions;
 
 /// Folder of the input holding rig-inertia sessions.
@@ -56,6 +56,15 @@ pub enum RunError {
     /// The input directory does not exist.
     #[error("{0}: no such input directory")]
     MissingInput(PathBuf),
+    /// An input (the catalog, a rig-session file) could not be read: an input problem, not a
+    /// store error.
+    #[error("{path}: cannot read the input: {error}")]
+    Input {
+        /// The file or directory.
+        path: PathBuf,
+        /// The OS error.
+        error: std::io::Error,
+    },
     /// The store could not be read or written (includes a refused lock).
     #[error(transparent)]
     Store(#[from] StoreError),
@@ -106,7 +115,8 @@ pub enum RunOutcome {
         version: u32,
         /// Wall time, s.
         seconds: f64,
-        /// Failed (retried now, failing again) and partial input files of the latest version.
+        /// Failed (retried now, failing again) and partial input files of the latest version,
+        /// and the directory entries skipped now.
         problems: Vec<Problem>,
     },
     /// A version was published.
@@ -173,7 +183,11 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
         return Ok(RunOutcome::UpToDate {
             version: *n,
             seconds: started.elapsed().as_secs_f64(),
-            problems: failures_of_files(&prev.problems),
+            problems: failures_of_files(&prev.problems)
+                .into_iter()
+                .filter(|p| p.kind != ProblemKind::SkippedEntry)
+                .chain(skipped_problems(&fingerprint.skipped))
+                .collect(),
         });
     }
 
@@ -240,13 +254,26 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     Ok(RunOutcome::Published(Box::new(report)))
 }
 
-/// The failed and partial files among `problems`.
+/// What an up-to-date run still says about its inputs: the failed and partial files and the
+/// skipped directory entries among `problems`.
 fn failures_of_files(problems: &[Problem]) -> Vec<Problem> {
     problems
         .iter()
-        .filter(|p| matches!(p.kind, ProblemKind::FailedFile | ProblemKind::PartialFile))
+        .filter(|p| {
+            matches!(
+                p.kind,
+                ProblemKind::FailedFile | ProblemKind::PartialFile | ProblemKind::SkippedEntry
+            )
+        })
         .cloned()
         .collect()
+}
+
+/// Skipped directory entries as problems of the version.
+fn skipped_problems(skipped: &[(PathBuf, String)]) -> impl Iterator<Item = Problem> + '_ {
+    skipped
+        .iter()
+        .map(|(p, why)| Problem::new(ProblemKind::SkippedEntry, p.display().to_string(), why))
 }
 
 fn count_status(files: &[InputFile], status: &str) -> u64 {
@@ -295,6 +322,16 @@ fn file_problems(
         };
         let reason = row.error.clone().unwrap_or_default();
         match row.status.as_str() {
+            // A failed file keeps the data of its last good content (see `ingest`): said, as
+            // the version's models hold them.
+            STATUS_FAILED if row.has_live_data() => out.push(Problem::new(
+                ProblemKind::FailedFile,
+                &f.name,
+                format!(
+                    "{reason} (the {} rows of its last good content stay in the store and the models)",
+                    row.rows
+                ),
+            )),
             STATUS_FAILED => out.push(Problem::new(ProblemKind::FailedFile, &f.name, &reason)),
             STATUS_PARTIAL => out.push(Problem::new(ProblemKind::PartialFile, &f.name, &reason)),
             _ => {}
@@ -310,19 +347,22 @@ fn file_problems(
             );
         }
     }
-    out.extend(
-        skipped
-            .iter()
-            .map(|(p, why)| Problem::new(ProblemKind::SkippedEntry, p.display().to_string(), why)),
-    );
+    out.extend(skipped_problems(skipped));
     out
 }
 
 /// Stats of the raw input files, hashes of the small inputs.
 fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
-    let found = ingest::discover(&[opts.input.to_path_buf()])?;
+    let inertia_dir = opts.input.join(INERTIA_DIR);
+    let sessions = find_sessions(&inertia_dir);
+    let in_session = |p: &Path| sessions.iter().any(|s| p.starts_with(s));
+    // One walk of the input for raw files and rig-session files: every directory once (a
+    // symlink loop is a skipped entry), a FIFO or device is a skipped entry, never read.
+    let found = ingest::discover_with(&[opts.input.to_path_buf()], &|p| {
+        ingest::is_run_file(p) || in_session(p)
+    })?;
     let mut files = Vec::with_capacity(found.files.len());
-    for path in &found.files {
+    for path in found.files.iter().filter(|p| ingest::is_run_file(p)) {
         // A file that cannot be stat'ed (a dangling symlink) is listed with no size; ingest
         // records it as one failed file.
         let stamp = ingest::FileStamp::of(path).unwrap_or_default();
@@ -340,13 +380,31 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
         });
     }
     let catalog_sha256 = match opts.catalog {
-        Some(p) => sha256_file(p)?,
+        Some(p) => {
+            // A FIFO would block the read forever.
+            match std::fs::metadata(p) {
+                Ok(m) if !m.is_file() => {
+                    return Err(RunError::Input {
+                        path: p.to_path_buf(),
+                        error: std::io::Error::other("not a regular file"),
+                    });
+                }
+                _ => {}
+            }
+            sha256_file(p).map_err(input_error)?
+        }
         None => String::new(),
     };
-    let sessions = find_sessions(&opts.input.join(INERTIA_DIR));
     let mut inertia_files = Vec::new();
-    for dir in &sessions {
-        hash_tree(dir, &opts.input.join(INERTIA_DIR), &mut inertia_files)?;
+    for path in found.files.iter().filter(|p| in_session(p)) {
+        inertia_files.push(HashedFile {
+            path: path
+                .strip_prefix(&inertia_dir)
+                .unwrap_or(path)
+                .display()
+                .to_string(),
+            sha256: sha256_file(path).map_err(input_error)?,
+        });
     }
     inertia_files.sort();
     Ok(Fingerprint {
@@ -359,25 +417,12 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
     })
 }
 
-/// Hash every file below `dir` (paths relative to `base`).
-fn hash_tree(dir: &Path, base: &Path, out: &mut Vec<HashedFile>) -> Result<(), StoreError> {
-    let entries = fs::read_dir(dir).map_err(|e| StoreError::io(dir, e))?;
-    for entry in entries {
-        let path = entry.map_err(|e| StoreError::io(dir, e))?.path();
-        if path.is_dir() {
-            hash_tree(&path, base, out)?;
-        } else {
-            out.push(HashedFile {
-                path: path
-                    .strip_prefix(base)
-                    .unwrap_or(&path)
-                    .display()
-                    .to_string(),
-                sha256: sha256_file(&path)?,
-            });
-        }
+/// A file-system error on an input path, as an input error.
+fn input_error(e: StoreError) -> RunError {
+    match e {
+        StoreError::Io { path, error } => RunError::Input { path, error },
+        other => RunError::Store(other),
     }
-    Ok(())
 }
 
 /// Same set of input files with the same size and modification time as last time.
@@ -390,7 +435,8 @@ fn same_files(previous: &[InputFile], now: &[InputFile]) -> bool {
 
 /// Same tool version, configuration, catalog, inertia inputs and runs table as `prev`.
 fn same_settings(prev: &Manifest, now: &Fingerprint, store: &Path) -> Result<bool, RunError> {
-    Ok(same_settings_but_runs(prev, now) && prev.input.runs_table_sha256 == runs_table_sha(store)?)
+    Ok(same_settings_but_runs(prev, now)
+        && prev.input.runs_table_sha256 == tables::runs_sha256(store)?)
 }
 
 /// Same tool version, configuration, catalog and inertia inputs as `prev`.
@@ -430,16 +476,6 @@ fn same_groups(prev: &[GroupRecord], plan: &[GroupPlan]) -> bool {
         })
         .collect();
     a == b
-}
-
-/// SHA-256 of the store's runs table ("" without one).
-pub(crate) fn runs_table_sha(store: &Path) -> Result<String, StoreError> {
-    let path = store.join(runs_file());
-    if path.exists() {
-        sha256_file(&path)
-    } else {
-        Ok(String::new())
-    }
 }
 
 fn ingest_inputs(opts: &RunOptions, progress: &dyn Progress) -> Result<IngestReport, RunError> {
@@ -552,6 +588,6 @@ mod tests {
                 "skipped entry: raw/pipe.dat: a FIFO",
             ]
         );
-        assert_eq!(failures_of_files(&p).len(), 2);
+        assert_eq!(failures_of_files(&p).len(), 3);
     }
 }

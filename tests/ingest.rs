@@ -767,3 +767,66 @@ fn issue20_copies_of_one_run_that_disagree_are_reported() {
     );
     assert!(lines_naming(&stderr(&out), "example_A1965run51_same.dat").is_empty());
 }
+
+/// Issue 17: a run whose file names no tire (an R4 header) and has no catalog entry is stored as
+/// an unknown tire named after the file; a later catalog entry for its project and run re-labels
+/// the stored runs, segments and samples rows without parsing the file again.
+#[test]
+fn issue17_an_unknown_tire_is_relabelled_by_a_later_catalog_entry() {
+    let round = demo_round();
+    let tmp = tempfile::tempdir().unwrap();
+    let (raw, store) = (tmp.path().join("raw"), tmp.path().join("store"));
+    fs::create_dir_all(&raw).unwrap();
+    fs::copy(round.join("raw/A2410run1.dat"), raw.join("A2410run1.dat")).unwrap();
+    let first = ingest(&store, &[&raw], &[]);
+    assert_eq!(first.status.code(), Some(0), "{}", stderr(&first));
+    let runs = query(&store, "SELECT tire, rim_in, tire_source FROM runs");
+    assert_eq!(runs.len(), 1, "{runs:?}");
+    assert_eq!(
+        (
+            runs[0]["tire"].as_str(),
+            runs[0]["rim_in"].as_str(),
+            runs[0]["tire_source"].as_str()
+        ),
+        ("unknown (A2410run1)", "", "unknown")
+    );
+    let count = |table: &str, tire: &str| -> usize {
+        query(
+            &store,
+            &format!("SELECT count(*) AS n FROM {table} WHERE tire = '{tire}'"),
+        )[0]["n"]
+            .parse()
+            .unwrap()
+    };
+    let (segments, samples) = (
+        count("segments", "unknown (A2410run1)"),
+        count("samples", "unknown (A2410run1)"),
+    );
+    assert!(segments > 10 && samples > 1000, "{segments} {samples}");
+
+    let catalog = tmp.path().join("catalog.toml");
+    fs::write(
+        &catalog,
+        "[[run]]\nproject = 2410\nrun = 1\ntire = \"Test 20.5x7.0-13\"\nrim_in = 7\n",
+    )
+    .unwrap();
+    let second = ingest(&store, &[&raw], &["--catalog", catalog.to_str().unwrap()]);
+    assert_eq!(second.status.code(), Some(0), "{}", stderr(&second));
+    let summary = summary_line(&second);
+    assert!(
+        summary.contains("0 ingested") && summary.contains("1 relabelled"),
+        "{summary}"
+    );
+    let runs = query(&store, "SELECT tire, rim_in, tire_source FROM runs");
+    assert_eq!(
+        (
+            runs[0]["tire"].as_str(),
+            runs[0]["rim_in"].as_str(),
+            runs[0]["tire_source"].as_str()
+        ),
+        ("Test 20.5x7.0-13", "7", "catalog")
+    );
+    assert_eq!(count("segments", "Test 20.5x7.0-13"), segments);
+    assert_eq!(count("samples", "Test 20.5x7.0-13"), samples);
+    assert_eq!(count("segments", "unknown (A2410run1)"), 0);
+}

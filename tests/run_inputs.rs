@@ -716,3 +716,242 @@ fn issue20_mixed_input_changes_equal_a_fresh_run() {
         text(&third.stderr)
     );
 }
+
+/// `tirebase run` as a user that file permissions apply to. Root reads and writes everything,
+/// so under root the run drops to `nobody` through `setpriv` (util-linux), with `tree` (the
+/// test's input and store) handed over to that user first.
+fn run_unprivileged(tree: &Path, input: &Path, store: &Path, extra: &[&str]) -> Output {
+    let uid = Command::new("id").arg("-u").output().unwrap();
+    if text(&uid.stdout).trim() != "0" {
+        return run(input, store, extra);
+    }
+    let chown = Command::new("chown")
+        .args(["-R", "65534:65534"])
+        .arg(tree)
+        .status()
+        .unwrap();
+    assert!(chown.success());
+    Command::new("setpriv")
+        .args([
+            "--reuid=65534",
+            "--regid=65534",
+            "--clear-groups",
+            "--",
+            env!("CARGO_BIN_EXE_tirebase"),
+            "run",
+            "--input",
+        ])
+        .arg(input)
+        .arg("--store")
+        .arg(store)
+        .args(extra)
+        .output()
+        .expect("setpriv (util-linux) is needed to run as an unprivileged user under root")
+}
+
+fn chmod(path: &Path, mode: u32) {
+    use std::os::unix::fs::PermissionsExt;
+    fs::set_permissions(path, fs::Permissions::from_mode(mode)).unwrap();
+}
+
+/// `chmod` every directory below `root` (and `root`).
+fn chmod_dirs(root: &Path, mode: u32) {
+    for entry in fs::read_dir(root).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            chmod_dirs(&path, mode);
+        }
+    }
+    chmod(root, mode);
+}
+
+/// Item 5, with real permissions: a file re-sent unreadable (mode 000) is a failed file that
+/// keeps its last good data, is read again every night (the night after is "still failed",
+/// exit 1, no new version) and, once readable, gives a version equal to a fresh run; an input
+/// directory that cannot be listed stops the run as an input error (exit 2, nothing published,
+/// nothing pruned); a store whose part directories are read-only is a store error (exit 2,
+/// nothing recorded against any input file, runs table untouched) and the run after the repair
+/// equals a fresh run.
+#[test]
+fn issue20_permission_problems_are_retried_and_store_errors_are_not_blamed_on_inputs() {
+    let (tmp, input, store) = fork();
+    let file = input.join("raw/B2410run2.dat");
+    fs::File::options()
+        .write(true)
+        .open(&file)
+        .unwrap()
+        .set_modified(std::time::SystemTime::now())
+        .unwrap();
+    chmod(&file, 0o000);
+    let runs_before = tables::read_runs(&store).unwrap();
+
+    let second = run_unprivileged(tmp.path(), &input, &store, &[]);
+    let log = text(&second.stderr);
+    assert_eq!(second.status.code(), Some(1), "{log}");
+    assert!(
+        log.contains("failed file: B2410run2.dat: ")
+            && log.contains("Permission denied")
+            && log.contains("rows of its last good content stay in the store and the models"),
+        "{log}"
+    );
+    assert_eq!(latest(&store).0, 2, "{log}");
+    let runs = tables::read_runs(&store).unwrap();
+    assert_eq!(runs["B2410run2.dat"].status, "failed");
+    assert_eq!(
+        runs["B2410run2.dat"].data_sha256, runs_before["B2410run2.dat"].data_sha256,
+        "the last good data of a file that cannot be read now stays"
+    );
+
+    // Nothing changed: read again, fails again, said so, exit 1, no new version.
+    let third = run_unprivileged(tmp.path(), &input, &store, &[]);
+    let log = text(&third.stderr);
+    assert_eq!(third.status.code(), Some(1), "{log}");
+    assert!(
+        log.contains("still failed") && log.contains("Permission denied"),
+        "{log}"
+    );
+    assert_eq!(latest(&store).0, 2);
+
+    // An input directory that cannot be listed: an input error, the store as it was.
+    let runs_before = tables::read_runs(&store).unwrap();
+    chmod(&input.join("raw"), 0o000);
+    let blocked = run_unprivileged(tmp.path(), &input, &store, &[]);
+    let log = text(&blocked.stderr);
+    assert_eq!(blocked.status.code(), Some(2), "{log}");
+    assert!(
+        log.contains("raw: cannot read the input") && log.contains("nothing published"),
+        "{log}"
+    );
+    assert!(!log.contains("store error"), "{log}");
+    assert_eq!(latest(&store).0, 2);
+    assert_eq!(tables::read_runs(&store).unwrap(), runs_before);
+    chmod(&input.join("raw"), 0o755);
+
+    // The file is readable again: read, and the version equals a fresh run.
+    chmod(&file, 0o644);
+    let fourth = run_unprivileged(tmp.path(), &input, &store, &[]);
+    check(&fourth, "run after the file became readable");
+    assert_eq!(latest(&store).0, 3);
+    assert_equals_fresh(&input, &store, &[]);
+
+    // A [segment] change must rewrite every file's parts, into read-only directories.
+    let cfg = tmp.path().join("segment.toml");
+    fs::write(&cfg, "[segment.activity]\nsa_active_deg = 1.5\n").unwrap();
+    let cfg_arg = cfg.display().to_string();
+    let extra = ["--config", cfg_arg.as_str()];
+    let runs_before = tables::read_runs(&store).unwrap();
+    for part in ["samples", "segments"] {
+        chmod_dirs(&store.join(part), 0o555);
+    }
+    let blocked = run_unprivileged(tmp.path(), &input, &store, &extra);
+    let log = text(&blocked.stderr);
+    assert_eq!(blocked.status.code(), Some(2), "{log}");
+    assert!(
+        log.contains("store error") && log.contains("Permission denied"),
+        "{log}"
+    );
+    assert!(!log.contains("failed file"), "{log}");
+    assert_eq!(latest(&store).0, 3, "no version after a store error");
+    assert_eq!(
+        tables::read_runs(&store).unwrap(),
+        runs_before,
+        "runs table untouched: no input file blamed"
+    );
+
+    for part in ["samples", "segments"] {
+        chmod_dirs(&store.join(part), 0o755);
+    }
+    let repaired = run_unprivileged(tmp.path(), &input, &store, &extra);
+    check(&repaired, "run after the store repair");
+    assert_eq!(latest(&store).0, 4);
+    assert_equals_fresh(&input, &store, &extra);
+}
+
+/// Item 6 in rig sessions: an input of rig sessions only publishes (it used to stop at "not a
+/// tirebase store"); a FIFO in a session, a FIFO in place of a run file and directory symlinks
+/// back up the tree neither hang the run (hashing the FIFO blocked forever) nor make it hash the
+/// tree again through the loop: each is a skipped entry with a line, the run file's run fails
+/// with its reason, and the next night, up to date, still says what it skips; a FIFO catalog
+/// is an input error.
+#[test]
+fn issue20_rig_session_entries_neither_hang_nor_stop_the_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (input, store) = (tmp.path().join("input"), tmp.path().join("store"));
+    let o = bin()
+        .args(["synth", "inertia", "--out"])
+        .arg(input.join("inertia"))
+        .output()
+        .unwrap();
+    check(&o, "synth inertia");
+    let first = run_with_deadline(&input, &store, 600);
+    check(&first, "run on rig sessions only");
+    let m = Manifest::read(&latest(&store).1).unwrap();
+    assert_eq!(m.counts.files, 0);
+    assert!(m.counts.inertia_results > 0, "{:?}", m.counts);
+    let hashed = m.inertia_files.len();
+
+    let session = input.join("inertia/v2c_yaw_calibration_factor");
+    let run_file = session.join("yaw/yaw-cal.csv");
+    assert!(run_file.is_file());
+    fs::remove_file(&run_file).unwrap();
+    for fifo in [session.join("pipe.csv"), run_file.clone()] {
+        assert!(
+            Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .unwrap()
+                .success()
+        );
+    }
+    std::os::unix::fs::symlink("..", session.join("loop")).unwrap();
+    std::os::unix::fs::symlink("../..", session.join("loop2")).unwrap();
+
+    let second = run_with_deadline(&input, &store, 600);
+    let log = text(&second.stderr);
+    assert_eq!(second.status.code(), Some(1), "{log}");
+    for entry in ["loop: directory symlink", "loop2: directory symlink"] {
+        assert!(log.contains(entry), "{entry}: {log}");
+    }
+    for fifo in ["pipe.csv: a FIFO", "yaw/yaw-cal.csv: a FIFO"] {
+        assert!(log.contains(fifo), "{fifo}: {log}");
+    }
+    assert!(
+        log.contains("failed inertia run: v2c_yaw_calibration_factor/yaw-cal: ")
+            && log.contains("not a regular file"),
+        "{log}"
+    );
+    let m = Manifest::read(&latest(&store).1).unwrap();
+    assert_eq!(m.version, 2);
+    assert_eq!(m.counts.entries_skipped, 4, "{:?}", m.problems);
+    assert_eq!(
+        m.inertia_files.len(),
+        hashed - 1,
+        "hashed once, not through the loops"
+    );
+
+    let third = run_with_deadline(&input, &store, 600);
+    let log = text(&third.stderr);
+    assert_eq!(third.status.code(), Some(0), "{log}");
+    assert!(
+        log.contains("up to date") && log.contains("4 input entries skipped:"),
+        "{log}"
+    );
+
+    // A catalog.toml that is a FIFO is an input error (it used to be silently no catalog, and
+    // hung the run when given by --catalog).
+    assert!(
+        Command::new("mkfifo")
+            .arg(input.join("catalog.toml"))
+            .status()
+            .unwrap()
+            .success()
+    );
+    let fourth = run_with_deadline(&input, &store, 600);
+    let log = text(&fourth.stderr);
+    assert_eq!(fourth.status.code(), Some(2), "{log}");
+    assert!(
+        log.contains("catalog.toml: cannot read the input: not a regular file"),
+        "{log}"
+    );
+    assert_eq!(latest(&store).0, 2);
+}

@@ -32,7 +32,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
         stages,
         jobs: args.jobs,
     };
-    if !args.store.join(runs_file()).is_file() {
+    if !crate::store::tables::has_runs(&args.store) {
         eprintln!(
             "error: {} is not a tirebase store (no {}): ingest first",
             args.store.display(),

@@ -15,7 +15,7 @@ use crate::cli::RunArgs;
 use crate::commands::synth::write_round;
 use crate::config::Config;
 use crate::ingest::IngestError;
-use crate::manifest::{Problem, group_problems};
+use crate::manifest::{Problem, ProblemKind, group_problems};
 use crate::progress;
 use crate::run::{self, RunError, RunOptions, RunOutcome, RunReport};
 use crate::store::StoreError;
@@ -31,9 +31,13 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
         Some(dir) => dir.clone(),
         None => embedded_round(Path::new(EMBEDDED_ROUND), args.jobs)?,
     };
+    // The input's catalog.toml whatever it is (one that is not a readable file is an input
+    // error, not silently no catalog).
     let catalog = args.catalog.clone().or_else(|| {
         let default = input.join("catalog.toml");
-        default.is_file().then_some(default)
+        std::fs::symlink_metadata(&default)
+            .is_ok()
+            .then_some(default)
     });
     let opts = RunOptions {
         input: &input,
@@ -56,13 +60,24 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
         }) => {
             print_problems(&problems);
             let failing = problems.iter().filter(|p| p.kind.is_failure()).count();
+            let count = |kind: ProblemKind| problems.iter().filter(|p| p.kind == kind).count();
+            let mut still = Vec::new();
+            // Failed files were read again now; a partial file's content is what it was.
+            for (n, what) in [
+                (count(ProblemKind::FailedFile), "still failed (tried again)"),
+                (count(ProblemKind::PartialFile), "still partial"),
+            ] {
+                if n > 0 {
+                    still.push(format!("{n} input files {what}"));
+                }
+            }
             eprintln!(
                 "up to date: v{version:06} already holds these inputs ({}; {seconds:.2} s){}",
                 args.store.display(),
-                if failing == 0 {
+                if still.is_empty() {
                     String::new()
                 } else {
-                    format!("; {failing} input files still failed or partial (retried)")
+                    format!("; {}", still.join(", "))
                 }
             );
             Ok(if failing == 0 {
@@ -91,6 +106,14 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
         }
         Err(e @ (RunError::Store(StoreError::Locked { .. }) | RunError::MissingInput(_))) => {
             eprintln!("error: {e}");
+            Ok(ExitCode::from(2))
+        }
+        Err(
+            e @ (RunError::Input { .. }
+            | RunError::Ingest(IngestError::Input { .. } | IngestError::MissingInput(_))),
+        ) => {
+            // The previous version stays the latest; the next run starts over.
+            eprintln!("error: {e}; nothing published");
             Ok(ExitCode::from(2))
         }
         Err(e @ (RunError::Store(_) | RunError::Ingest(IngestError::Store(_)))) => {

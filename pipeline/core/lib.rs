@@ -16,6 +16,7 @@ pub mod frame;
 pub mod inertia;
 pub mod naming;
 pub mod numerics;
+pub mod physical;
 pub mod segment;
 pub mod synth;
 pub mod tire_model;

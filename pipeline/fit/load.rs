@@ -22,7 +22,6 @@ use tirebase_core::segment::{Level, QcFlag};
 
 use super::FitError;
 use crate::store::StoreError;
-use crate::store::layout::runs_file;
 use crate::store::tables;
 
 /// One live row of the segments table (`schemas/segments.toml`).
@@ -99,6 +98,7 @@ pub fn parse_qc_flag(text: &str) -> Option<QcFlag> {
         Some(("zeroed_channel", c)) => QcFlag::ZeroedChannel(c.to_string()),
         Some(("saturated_channel", c)) => QcFlag::SaturatedChannel(c.to_string()),
         Some(("off_nominal", l)) => QcFlag::OffNominal(level(l)?),
+        Some(("out_of_range", c)) => QcFlag::OutOfRange(c.to_string()),
         Some(_) => return None,
     })
 }
@@ -164,7 +164,7 @@ fn bool_column(df: &DataFrame, name: &str, path: &Path) -> Result<Vec<Option<boo
 /// Every live segment of the store (`store::tables` says what is live), sorted by (tire, rim,
 /// pressure, source file, index). Rows of a kind this build does not know are skipped.
 pub fn live_segments(store: &Path) -> Result<Vec<SegmentRow>, FitError> {
-    if !store.join(runs_file()).exists() {
+    if !tables::has_runs(store) {
         return Err(FitError::NotAStore(store.display().to_string()));
     }
     let mut rows: Vec<SegmentRow> = tables::live_segments(store)?
@@ -386,6 +386,7 @@ mod tests {
             QcFlag::LoadDrift,
             QcFlag::SaturatedChannel("tread_centre_c".into()),
             QcFlag::OffNominal(Level::SlipAngle),
+            QcFlag::OutOfRange("pressure_kpa".into()),
         ] {
             assert_eq!(parse_qc_flag(&flag.to_string()), Some(flag));
         }
@@ -395,5 +396,6 @@ mod tests {
         assert_eq!(judge_qc("off_nominal:fz,load_drift"), (true, true));
         assert_eq!(judge_qc("too_short,zero_pressure"), (false, false));
         assert_eq!(judge_qc("something_new"), (false, false));
+        assert_eq!(judge_qc("out_of_range:pressure_kpa"), (false, false));
     }
 }

@@ -206,6 +206,22 @@ pub fn read_runs(store: &Path) -> Result<BTreeMap<String, RunRow>, StoreError> {
     Ok(out)
 }
 
+/// The store has a runs table (something was ingested into it).
+pub fn has_runs(store: &Path) -> bool {
+    store.join(runs_file()).is_file()
+}
+
+/// SHA-256 of the runs table file ("" without one): what a version records of the data it
+/// was computed from.
+pub fn runs_sha256(store: &Path) -> Result<String, StoreError> {
+    let path = store.join(runs_file());
+    if path.exists() {
+        super::files::sha256_file(&path)
+    } else {
+        Ok(String::new())
+    }
+}
+
 /// The runs table as stored, for SQL (`query`): every column, an empty table with the schema's
 /// columns for a new store.
 pub fn runs_frame(store: &Path) -> Result<DataFrame, StoreError> {

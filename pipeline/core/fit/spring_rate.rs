@@ -354,6 +354,20 @@ fn fit_group(
         ));
     }
     let stiffness = -1.0 / line.slope;
+    // A radius or stiffness no tire has (a radius channel in another unit) is not a row.
+    use crate::physical::{RADIUS_M, VERTICAL_STIFFNESS_N_PER_M, within};
+    if !within(line.intercept, RADIUS_M) {
+        return Err(format!(
+            "unloaded radius {:.4} m outside a tire's {}..{} m (loaded radius in another unit?)",
+            line.intercept, RADIUS_M.0, RADIUS_M.1
+        ));
+    }
+    if !within(stiffness, VERTICAL_STIFFNESS_N_PER_M) {
+        return Err(format!(
+            "vertical stiffness {stiffness:.0} N/m outside a tire's {:.0}..{:.0} N/m",
+            VERTICAL_STIFFNESS_N_PER_M.0, VERTICAL_STIFFNESS_N_PER_M.1
+        ));
+    }
     Ok(SpringRateRow {
         key: key.clone(),
         pressure_kpa_mean: finite_mean(pool.pressure.iter().copied()).unwrap_or(f64::NAN),

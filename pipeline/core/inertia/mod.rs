@@ -10,9 +10,10 @@
 //! [`swing`] turns an oscillation record into a small-amplitude natural period (damped-sine fits,
 //! windowed amplitude correction); [`uncertainty`] propagates declared input uncertainties
 //! (linearised or seeded Monte Carlo). [`session`] reads a session directory (`session.toml`
-//! plus one CSV per run; the only file-system code here) and [`analysis`] runs a parsed session
-//! into [`InertiaResult`] rows and one [`RunError`] per failed run. Equations and validation
-//! cases: `shared/docs/inertia-methods.md`; the file format: `schemas/inertia_session.md`.
+//! plus one CSV per run; the only file-system code here), validates it and plans each run, and
+//! [`analysis`] measures the planned runs and combines them per rig into [`InertiaResult`] rows
+//! and one [`RunError`] per failed run. Equations and validation cases:
+//! `shared/docs/inertia-methods.md`; the file format: `schemas/inertia_session.md`.
 //! Deliberately not here: Parquet output and the command line (root crate).
 
 pub mod analysis;

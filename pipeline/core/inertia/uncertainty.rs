@@ -12,6 +12,9 @@ use crate::numerics::random::SplitMix64;
 /// A deterministic computation from input values to output values.
 pub type Computation<'a, E> = &'a dyn Fn(&[f64]) -> Result<Vec<f64>, E>;
 
+/// A deterministic computation from input values to a fixed number of output values.
+pub type FixedComputation<'a, const N: usize, E> = &'a dyn Fn(&[f64]) -> Result<[f64; N], E>;
+
 /// Propagation method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Propagation {
@@ -19,6 +22,41 @@ pub enum Propagation {
     Linear,
     /// Monte Carlo with Gaussian inputs, `samples` draws from a SplitMix64 seeded with `seed`.
     MonteCarlo { samples: usize, seed: u64 },
+}
+
+/// The inputs of one propagated computation, in the order [`propagate`] perturbs and draws
+/// them. Each value added gets an [`Input`] handle by which the computation reads it back, so a
+/// computation names its inputs instead of counting positions.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Inputs(Vec<Measured>);
+
+/// One input of an [`Inputs`] list.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Input(usize);
+
+impl Inputs {
+    /// No inputs.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Appends an input; the handle reads its value in every evaluation.
+    pub fn add(&mut self, value: Measured) -> Input {
+        self.0.push(value);
+        Input(self.0.len() - 1)
+    }
+
+    /// The inputs in order, for [`propagate`].
+    pub fn values(&self) -> &[Measured] {
+        &self.0
+    }
+}
+
+impl Input {
+    /// This input's value among the values of one evaluation.
+    pub fn of(self, x: &[f64]) -> f64 {
+        x[self.0]
+    }
 }
 
 /// Value and standard uncertainty of each output of `f`. Evaluations that fail inside the Monte
@@ -85,6 +123,17 @@ pub fn propagate<E>(
         .collect())
 }
 
+/// [`propagate`] over named [`Inputs`] for a computation with a fixed number of outputs, read
+/// back by destructuring (`let [x, z] = propagate_each(..)?`).
+pub fn propagate_each<const N: usize, E>(
+    inputs: &Inputs,
+    f: FixedComputation<'_, N, E>,
+    how: Propagation,
+) -> Result<[(f64, f64); N], E> {
+    let out = propagate(inputs.values(), &|x| f(x).map(Vec::from), how)?;
+    Ok(std::array::from_fn(|k| out[k]))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -107,5 +156,30 @@ mod tests {
         .unwrap();
         assert!((mc[0].1 / expected - 1.0).abs() < 0.03, "{}", mc[0].1);
         assert_eq!(mc[0].0, 6.0);
+    }
+
+    #[test]
+    fn named_inputs_propagate_as_the_positional_vector() {
+        // The same computation through handles and through positions: identical bits.
+        let mut inputs = Inputs::new();
+        let a = inputs.add(Measured::new(2.0, 0.01));
+        let b = inputs.add(Measured::new(3.0, 0.02));
+        let named =
+            |x: &[f64]| -> Result<[f64; 2], ()> { Ok([a.of(x) * b.of(x), a.of(x) / b.of(x)]) };
+        let positional = |x: &[f64]| -> Result<Vec<f64>, ()> { Ok(vec![x[0] * x[1], x[0] / x[1]]) };
+        for how in [
+            Propagation::Linear,
+            Propagation::MonteCarlo {
+                samples: 500,
+                seed: 3,
+            },
+        ] {
+            let [product, ratio] = propagate_each(&inputs, &named, how).unwrap();
+            let expected = propagate(inputs.values(), &positional, how).unwrap();
+            assert_eq!(
+                [product, ratio].map(|(v, u)| (v.to_bits(), u.to_bits())),
+                [expected[0], expected[1]].map(|(v, u)| (v.to_bits(), u.to_bits()))
+            );
+        }
     }
 }

@@ -204,6 +204,10 @@ pub enum QcFlag {
     SaturatedChannel(String),
     /// A level the kind needs did not bin to any nominal value.
     OffNominal(Level),
+    /// A channel's median over the segment lies outside its physical range
+    /// ([`crate::physical`]): a unit error or a broken channel (pressure: the group's pressure
+    /// would be wrong).
+    OutOfRange(String),
 }
 
 impl QcFlag {
@@ -212,9 +216,12 @@ impl QcFlag {
     /// a short or incomplete sweep, a load that moves within a sweep (every sample carries its
     /// own measured load) and an off-nominal level leave them usable: the stages judge whether
     /// such a segment is enough for them. Saturated temperature channels leave the forces usable.
+    /// A pressure outside its physical range spoils them: the group they would be fitted in
+    /// (tire, rim, pressure) is not the tire's.
     pub fn spoils_forces(&self) -> bool {
         match self {
             QcFlag::ZeroPressure | QcFlag::NonMonotonicEt | QcFlag::DuplicatedEt => true,
+            QcFlag::OutOfRange(_) => true,
             QcFlag::ZeroedChannel(c) | QcFlag::SaturatedChannel(c) => !c.starts_with("tread"),
             QcFlag::TooShort | QcFlag::LoadDrift | QcFlag::OffNominal(_) => false,
         }
@@ -232,6 +239,7 @@ impl fmt::Display for QcFlag {
             QcFlag::LoadDrift => f.write_str("load_drift"),
             QcFlag::SaturatedChannel(c) => write!(f, "saturated_channel:{c}"),
             QcFlag::OffNominal(level) => write!(f, "off_nominal:{}", level.as_str()),
+            QcFlag::OutOfRange(c) => write!(f, "out_of_range:{c}"),
         }
     }
 }
@@ -345,12 +353,19 @@ mod tests {
             QcFlag::ZeroPressure,
             QcFlag::ZeroedChannel("fy_n".into()),
             QcFlag::OffNominal(Level::Load),
+            QcFlag::OutOfRange("pressure_kpa".into()),
         ];
         let rendered: Vec<String> = flags.iter().map(ToString::to_string).collect();
         assert_eq!(
             rendered,
-            ["zero_pressure", "zeroed_channel:fy_n", "off_nominal:fz"]
+            [
+                "zero_pressure",
+                "zeroed_channel:fy_n",
+                "off_nominal:fz",
+                "out_of_range:pressure_kpa"
+            ]
         );
+        assert!(QcFlag::OutOfRange("pressure_kpa".into()).spoils_forces());
         assert!(!QcFlag::SaturatedChannel("tread_outer_c".into()).spoils_forces());
         assert!(QcFlag::SaturatedChannel("fy_n".into()).spoils_forces());
     }

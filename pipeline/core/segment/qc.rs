@@ -16,7 +16,9 @@
 //! (read at low tire force, where load control is not disturbed) exceeds `qc.load_drift` (a
 //! persistent change, beyond the swing of loose load control);
 //! `saturated_channel:<name>` when a live (noisy) force, temperature or extra channel sits
-//! exactly at its run extreme for `qc.saturation_min_s`. Off-nominal flags come from binning.
+//! exactly at its run extreme for `qc.saturation_min_s`; `out_of_range:pressure_kpa` when the
+//! segment's median pressure (dropouts left out) is outside [`crate::physical::PRESSURE_KPA`]
+//! (a pressure read in the wrong unit). Off-nominal flags come from binning.
 //! Deliberately not here: deciding what to do with flagged data (the fitting stages do).
 
 use std::ops::Range;
@@ -99,12 +101,28 @@ pub(crate) fn flag(
             mark(r, &QcFlag::SaturatedChannel(name.to_string()));
         }
     }
+    for (k, d) in drafts.iter().enumerate() {
+        if pressure_out_of_range(signals.pressure_kpa, d.samples.clone(), cfg) {
+            flags[k].push(QcFlag::OutOfRange("pressure_kpa".to_string()));
+        }
+    }
     shape_flags(signals, timeline, drafts, cfg, &mut flags);
     for f in &mut flags {
         f.sort();
         f.dedup();
     }
     flags
+}
+
+/// True when the median pressure of `range` (dropouts to ~0 left out: they have their own flag)
+/// lies outside the physical range of an inflation pressure.
+fn pressure_out_of_range(p: &[f64], range: Range<usize>, cfg: &SegmentConfig) -> bool {
+    let mut held: Vec<f64> = p[range]
+        .iter()
+        .copied()
+        .filter(|v| *v > cfg.qc.zero_pressure_max_kpa)
+        .collect();
+    median(&mut held).is_some_and(|m| !crate::physical::within(m, crate::physical::PRESSURE_KPA))
 }
 
 /// Channels checked for zeroed stretches (pressure has its own flag).

@@ -529,3 +529,27 @@ fn timing_of_a_long_raw_run() {
     let ms = t0.elapsed().as_secs_f64() * 1e3 / f64::from(n.max(1));
     eprintln!("{} samples: {ms:.2} ms per run", rig.len());
 }
+
+/// A pressure in psi read as kPa (12 "kPa") is outside the physical range of an inflation
+/// pressure: every segment says so (`out_of_range:pressure_kpa`, which spoils forces: the group
+/// would be the wrong pressure), and the same run in kPa has no such flag.
+#[test]
+fn a_pressure_outside_its_physical_range_flags_every_segment() {
+    let rig = synthetic::round4_cornering(83.0, false, false, 8);
+    let (clean, _) = segment(&rig, false);
+    assert!(clean.iter().all(|s| s.qc.is_empty()));
+    let mut psi = synthetic::round4_cornering(83.0, false, false, 8);
+    psi.cols
+        .pressure_kpa
+        .iter_mut()
+        .for_each(|v| *v /= 6.894_757);
+    let (segments, _) = segment(&psi, false);
+    let flag = QcFlag::OutOfRange("pressure_kpa".into());
+    assert_eq!(segments.len(), clean.len());
+    assert!(
+        segments.iter().all(|s| s.qc == [flag.clone()]),
+        "{:?}",
+        segments.iter().map(|s| s.qc_string()).collect::<Vec<_>>()
+    );
+    assert!(flag.spoils_forces());
+}

@@ -5,7 +5,9 @@
 //! each in [`super::RunMeta::warnings`]).
 //!
 //! Checks, on the samples where they mean something (rolling: V > 5 km/h; loaded: Fz > 100 N;
-//! the wheel-speed and radius checks need 5 s of such samples as evidence):
+//! the wheel-speed and radius checks need 5 s of such samples as evidence; a run with less
+//! rolling than that, such as spring-rate holds at standstill, has its RL checked against a
+//! tire's radius range on 5 s of loaded samples):
 //! - **Wheel speed N** against the road speed: the kinematic radius `V / (2 pi N / 60)` must lie
 //!   within 0.1..0.6 m on most rolling samples; otherwise N is withheld (an obfuscated or dead
 //!   channel), and nothing can be checked against it.
@@ -16,7 +18,7 @@
 //!   usable N, the median must be a tire radius (0.15..0.45 m). A channel with no consistent
 //!   reading (ratio or median off, or less than 80 % of its samples within 20 % of its median)
 //!   is withheld: the stages that need it then see none.
-//! - **Range checks** of pressure (20..400 kPa), load (|Fz| <= 15 kN), road speed (<= 300 km/h)
+//! - **Range checks** of pressure (20..400 kPa, [`crate::physical`]), load (|Fz| <= 15 kN), road speed (<= 300 km/h)
 //!   and temperatures (-40..200 degC): a note, the values are kept (QC decides).
 //!
 //! Deliberately not here: the declared units themselves (readers), and SL (see `slip.rs`).
@@ -85,7 +87,9 @@ impl fmt::Display for UnitNote {
                 actual_unit,
             } => write!(
                 f,
-                "{name}: rescaled x{factor} (the values are in {actual_unit}): {}",
+                "{name}: rescaled x{} (the values are in {actual_unit}): {}",
+                // Six significant digits: 2.54, 0.393701 (1 / 2.54), 100.
+                format!("{factor:.5e}").parse::<f64>().unwrap_or(*factor),
                 self.evidence
             ),
             UnitAction::Withheld => write!(
@@ -134,6 +138,13 @@ pub(crate) fn cross_check(t: &mut RunTable) -> Vec<UnitNote> {
         let kinematic = check_wheel_speed(t, &rolling, &mut notes);
         for channel in [Channel::Re, Channel::Rl] {
             check_radius(t, channel, &rolling, kinematic, &mut notes);
+        }
+    } else {
+        // A run that hardly rolls (spring-rate holds at standstill): the loaded radius against
+        // a tire's radius range on the loaded samples (RE means nothing at standstill).
+        let loaded: Vec<bool> = t.tire.fz_n.iter().map(|f| *f > LOADED_MIN_N).collect();
+        if loaded.iter().filter(|l| **l).count() as f64 / rate_hz >= MIN_EVIDENCE_S {
+            check_radius(t, Channel::Rl, &loaded, None, &mut notes);
         }
     }
     range_checks(t, &mut notes);
@@ -245,7 +256,7 @@ fn check_radius(
         }
         None => {
             let evidence = format!(
-                "no usable wheel speed to compare with; median {} as read {mid:.4} m (unit read {unit_raw}), {} of a tire's radius range {}..{} m",
+                "no usable wheel speed to compare with, median {} as read {mid:.4} m (unit read {unit_raw}), {} of a tire's radius range {}..{} m",
                 channel.name(),
                 if inside(mid, TIRE_RADIUS_M) {
                     "inside"
@@ -298,7 +309,8 @@ fn range_checks(t: &RunTable, notes: &mut Vec<UnitNote>) {
             });
         }
     };
-    check(Channel::P, Some(&t.pressure_kpa), 20.0, 400.0, "kPa");
+    let (p_lo, p_hi) = crate::physical::PRESSURE_KPA;
+    check(Channel::P, Some(&t.pressure_kpa), p_lo, p_hi, "kPa");
     check(Channel::Fz, Some(&t.tire.fz_n), -15_000.0, 15_000.0, "N");
     check(Channel::V, Some(&t.speed_kph), 0.0, 300.0, "km/h");
     for (channel, values) in [
@@ -350,6 +362,19 @@ mod tests {
             assert!((a - b).abs() < 1e-12);
         }
         assert_eq!(t.meta.warnings.len(), 1);
+        assert!(
+            t.meta.warnings[0].starts_with("RE: rescaled x2.54 (the values are in in): "),
+            "{}",
+            t.meta.warnings[0]
+        );
+        let inverse = UnitNote {
+            action: UnitAction::Rescaled {
+                factor: 1.0 / 2.54,
+                actual_unit: "cm",
+            },
+            ..notes[0].clone()
+        };
+        assert!(inverse.to_string().starts_with("RE: rescaled x0.393701 "));
     }
 
     #[test]
@@ -393,6 +418,35 @@ mod tests {
         assert!(t.effective_radius_m.is_none() && t.wheel_speed_rpm.is_none());
         assert!(t.loaded_radius_m.is_some(), "RL 0.20 m is a tire radius");
         assert_eq!(t.meta.warnings.len(), 2, "one line per channel");
+        // Stored warnings are joined with "; " and split on it again for stderr: a note must
+        // not contain the separator, or it prints as two lines.
+        assert!(
+            t.meta.warnings.iter().all(|w| !w.contains("; ")),
+            "{:?}",
+            t.meta.warnings
+        );
+    }
+
+    /// Spring-rate holds at standstill give no kinematic radius: RL in inches read as cm is
+    /// still caught (outside a tire's radius range) and withheld; a right one is kept.
+    #[test]
+    fn a_standstill_run_has_its_loaded_radius_checked_on_loaded_samples() {
+        let mut t = example();
+        t.speed_kph.iter_mut().for_each(|v| *v = 0.0);
+        let mut good = t.clone();
+        assert!(cross_check(&mut good).is_empty());
+        assert!(good.loaded_radius_m.is_some());
+        for v in t.loaded_radius_m.as_mut().unwrap() {
+            *v *= 0.01 / 0.0254;
+        }
+        let notes = cross_check(&mut t);
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert_eq!(
+            (notes[0].channel, &notes[0].action),
+            (Channel::Rl, &UnitAction::Withheld)
+        );
+        assert!(notes[0].evidence.contains("no usable wheel speed"));
+        assert!(t.loaded_radius_m.is_none());
     }
 
     #[test]

@@ -70,7 +70,7 @@ pub(crate) fn derive_kappa(t: &RunTable) -> Option<(Vec<f64>, String)> {
         })
         .collect();
     let note = format!(
-        "no SL recorded: kappa derived from {source} with the effective rolling radius where FX crosses zero in free rolling (Re = {a:.4} m {} {:.3e} m/N Fz, {} crossings); kappa_measured = false",
+        "no SL recorded: kappa derived from {source} with the effective rolling radius where FX crosses zero in free rolling (Re = {a:.4} m {} {:.3e} m/N Fz, {} crossings), kappa_measured = false",
         if b < 0.0 { "-" } else { "+" },
         b.abs(),
         crossings.len()

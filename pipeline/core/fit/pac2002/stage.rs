@@ -343,7 +343,27 @@ fn set_scalars(
             ));
         }
     }
-    let rl = radius_from_rl(sweeps);
+    let rl = radius_from_rl(sweeps).and_then(|(r0, cz)| {
+        use crate::physical::{RADIUS_M, VERTICAL_STIFFNESS_N_PER_M, within};
+        if !within(r0, RADIUS_M) {
+            notes.push(format!(
+                "the loaded-radius line gives R0 = {r0:.4} m, outside a tire's {}..{} m: not used",
+                RADIUS_M.0, RADIUS_M.1
+            ));
+            return None;
+        }
+        let cz = cz.filter(|cz| {
+            let ok = within(*cz, VERTICAL_STIFFNESS_N_PER_M);
+            if !ok {
+                notes.push(format!(
+                    "the loaded-radius line gives Cz = {cz:.0} N/m, outside a tire's {:.0}..{:.0} N/m: not used",
+                    VERTICAL_STIFFNESS_N_PER_M.0, VERTICAL_STIFFNESS_N_PER_M.1
+                ));
+            }
+            ok
+        });
+        Some((r0, cz))
+    });
     match (ctx.unloaded_radius_m, rl) {
         (Some(r0), _) => {
             c[UNLOADED_RADIUS] = r0;

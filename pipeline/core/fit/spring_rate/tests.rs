@@ -233,3 +233,27 @@ fn a_tire_without_usable_data_fails_alone_with_reasons() {
     assert!(b.iter().any(|f| f.scope == "tir vertical"), "{b:?}");
     assert_eq!(out.vertical.len(), 1);
 }
+
+/// Issue 17: a loaded radius in inches read as cm (the issue's UNLOADED_RADIUS = 0.031 m) gives
+/// no row and no `.tir` numbers: every pool fails with the radius and its range named.
+#[test]
+fn a_radius_outside_a_tires_range_is_a_failure_not_a_row() {
+    let mut segs = round(&TRUTH, "A", 1.0, 5);
+    for s in &mut segs {
+        if let Some(rl) = s.channels.loaded_radius_m.as_mut() {
+            rl.iter_mut().for_each(|r| *r *= 0.01 / 0.0254);
+        }
+    }
+    let out = run(&segs, &fnomin(&["A"]), &SpringRateConfig::default());
+    assert!(out.rows.is_empty(), "{:?}", out.rows);
+    assert!(out.vertical.is_empty());
+    assert!(
+        out.failures
+            .iter()
+            .filter(|f| f.scope != "tir vertical")
+            .all(|f| f.reason.contains("outside a tire's 0.15..0.6 m")),
+        "{:?}",
+        out.failures
+    );
+    assert!(out.failures.iter().any(|f| f.scope == "tir vertical"));
+}

@@ -27,7 +27,9 @@
 //!     slip, where fitted data rarely reach); `E > 1` before the clamp (limits and raw mode then
 //!     disagree); `C >= 2` (force reverses at large slip); `|RHX1| > 0.05` rad; `Gxa` or `Gyk`
 //!     above 1.05 (combined slip raises the force); `FZMAX < FNOMIN`; an inflation pressure
-//!     below 10 kPa (not in Pa?).
+//!     outside 20..1600 kPa (not in Pa?), an `UNLOADED_RADIUS` outside 0.1..1 m, a
+//!     `VERTICAL_STIFFNESS` that deflects the tire by less than 1 % or more than 25 % of its
+//!     radius at `FNOMIN` (a radius or a stiffness in another unit).
 //!
 //! [`UNDEFINED_MODEL_CODES`] marks the errors that leave the model undefined rather than
 //! doubtful.
@@ -404,16 +406,55 @@ impl Linter {
             ("IP", file.pressure.inflation_pa),
             ("IP_NOM", file.pressure.nominal_pa),
         ] {
-            if let Some(p) = p.filter(|p| *p < 1e4) {
+            if let Some(p) = p.filter(|p| !(PRESSURE_PA.0..=PRESSURE_PA.1).contains(p)) {
                 self.push(
                     Severity::Warning,
                     "pressure-units",
-                    format!("{name} = {p} Pa is below 10 kPa: is [UNITS] PRESSURE right?"),
+                    format!(
+                        "{name} = {p} Pa is outside a tire's {}..{} kPa: is [UNITS] PRESSURE right?",
+                        PRESSURE_PA.0 / 1e3,
+                        PRESSURE_PA.1 / 1e3
+                    ),
+                );
+            }
+        }
+        let r0 = c[UNLOADED_RADIUS];
+        if r0 > 0.0 && !(RADIUS_M.0..=RADIUS_M.1).contains(&r0) {
+            self.push(
+                Severity::Warning,
+                "radius-range",
+                format!(
+                    "UNLOADED_RADIUS = {r0} m is outside a tire's {}..{} m: is [UNITS] LENGTH right?",
+                    RADIUS_M.0, RADIUS_M.1
+                ),
+            );
+        }
+        let cz = c[VERTICAL_STIFFNESS];
+        if file.present[VERTICAL_STIFFNESS] && cz > 0.0 && r0 > 0.0 && c[FNOMIN] > 0.0 {
+            let deflection = c[FNOMIN] / cz / r0;
+            if !(DEFLECTION_OF_R0.0..=DEFLECTION_OF_R0.1).contains(&deflection) {
+                self.push(
+                    Severity::Warning,
+                    "stiffness-range",
+                    format!(
+                        "VERTICAL_STIFFNESS = {cz} N/m deflects the tire by {:.2} % of UNLOADED_RADIUS at FNOMIN, outside {}..{} %",
+                        100.0 * deflection,
+                        100.0 * DEFLECTION_OF_R0.0,
+                        100.0 * DEFLECTION_OF_R0.1
+                    ),
                 );
             }
         }
     }
 }
+
+/// Inflation pressures of tires (a bicycle's to an aircraft's), Pa.
+const PRESSURE_PA: (f64, f64) = (2.0e4, 1.6e6);
+/// Unloaded radii of tires (a kart's to a tractor's), m.
+const RADIUS_M: (f64, f64) = (0.1, 1.0);
+/// Deflection at the nominal load, `FNOMIN / VERTICAL_STIFFNESS`, as a fraction of the unloaded
+/// radius (tires sit at 3-9 %).
+const DEFLECTION_OF_R0: (f64, f64) = (0.01, 0.25);
 
 /// Worst value of one quantity over the grid, and where.
 #[derive(Clone, Copy)]
@@ -915,6 +956,9 @@ mod tests {
             ("PEY1", "1.5", "curvature-above-one"),
             ("FZMAX", "900", "fzmax-below-fnomin"),
             ("PCX1", "2.2", "shape-factor"),
+            // Issue 17: a radius read in cm as m, a stiffness from such radii.
+            ("UNLOADED_RADIUS", "0.031", "radius-range"),
+            ("VERTICAL_STIFFNESS", "1e7", "stiffness-range"),
         ];
         for (key, value, code) in warnings {
             let r = lint_text(&with(FSAE, key, value));
@@ -923,6 +967,19 @@ mod tests {
                 "{key} = {value}: expected {code}, got {:#?}",
                 r.findings
             );
+        }
+    }
+
+    /// Issue 17: an inflation pressure in psi or kPa where Pa is declared is flagged.
+    #[test]
+    fn a_pressure_outside_a_tires_range_is_flagged() {
+        let mut file = TirFile::parse(FSAE).unwrap().0;
+        file.pressure.inflation_pa = Some(82_737.0);
+        assert!(lint(&file).findings.is_empty());
+        for p in [12.0, 12_000.0, 82_737.0e3] {
+            file.pressure.inflation_pa = Some(p);
+            let r = lint(&file);
+            assert_eq!(codes(&r, Severity::Warning), ["pressure-units"], "{p}");
         }
     }
 
