@@ -96,12 +96,15 @@ DIR/truth/: tir/<tire>__<rim>in__<P>kPa.tir (the exact PAC2002 truth per tire, r
 pressure, ISO-W, SI), <tire>__<rim>in.toml (vertical stiffness N/m and unloaded radius m static
 and dynamic per pressure, relaxation-length laws, the mu(T) law under [thermal]), segments.csv
 (one row per generated segment: kind, ET range s, nominal pressure kPa, IA deg, load N, slip
-angle deg ISO-W, speed km/h), defects.csv and round.toml (the resolved configuration).
+angle deg ISO-W, speed km/h), defects.csv and round.toml (the resolved configuration); and the
+demo car's rig-inertia sessions under DIR/inertia/ (car_yaw, car_pitch, wheel_trifilar, each
+with expected.toml: the known answers), which `tirebase run` processes into inertia.parquet.
 
 The physics: forces from the truth model with first-order relaxation (sigma_alpha, sigma_kappa),
 tread temperature from slip power with grip following mu(T), loaded and effective radii, wheel
 speed, SL and SR, sensor noise and IR-sensor quirks. Same seed and configuration -> the same
-bytes, whatever --jobs. DIR/raw, DIR/truth and DIR/catalog.toml are replaced.
+bytes, whatever --jobs. DIR/raw, DIR/truth and DIR/catalog.toml are replaced, and in
+DIR/inertia/ the three session directories (other sessions there are kept).
 
 Configuration: built-in defaults < [synth] of --config FILE (see config/default.toml) < flags.")]
 pub struct SynthRoundArgs {
@@ -114,8 +117,8 @@ pub struct SynthRoundArgs {
     /// Seed of every random stream (unsigned 64-bit integer).
     #[arg(long, value_name = "N")]
     pub seed: Option<u64>,
-    /// demo: 2 tire/rim combinations x 2 pressures (seconds); full: 12 combinations x 4-5
-    /// pressure runs, cornering and drive/brake (benchmark load).
+    /// demo: 4 tire/rim combinations (three tires, one on two rims) x 2 pressures (seconds);
+    /// full: 12 combinations x 4-5 pressure runs, cornering and drive/brake (benchmark load).
     #[arg(long, value_enum, value_name = "SIZE")]
     pub size: Option<SynthSize>,
     /// Inject the defects of a real round (duplicated and non-monotonic ET, P = 0 stretch,
@@ -387,10 +390,17 @@ pub struct CompareArgs {
 Write a self-contained HTML report (inline SVG charts and CSS, no script, nothing loaded from a
 network) of a result directory: OUT/index.html and one OUT/tire-<name>.html per tire.
 
-index.html: the round overview (tires, rims, nominal pressures, segments and models per tire),
-the fit-quality table (out-of-sample error first) with the three worst fits (largest
-out-of-sample RMSE in percent of the channel's peak, in-sample where a row has none)
-highlighted, lint warnings, failures and every input that was missing or unreadable.
+index.html: the tire selection at the conditions of the car of --car (default config/car.toml,
+a typical FSAE car; the figures of `tirebase compare`): with a pressure selector (each tire's
+best tested pressure, or one tested pressure), peak mu_y (-) and cornering stiffness (kN/rad)
+against load Fz (N) per tire and rim at its design camber, peak mu_y against camber (deg) at the
+nominal load, the thermal window (grip relative to its optimum against tread temperature,
+degC), the friction envelopes (Fx against Fy, N) of the top four tires at the nominal load, and
+the ranked comparison table; then the round overview (tires, rims, nominal pressures, segments
+and models per tire), the rig-inertia results (inertia.parquet), the fit-quality table (out-of-sample
+error first) with the three worst fits (largest out-of-sample RMSE in percent of the channel's
+peak, in-sample where a row has none) highlighted, lint warnings, failures and every input that
+was missing or unreadable.
 
 Each tire page draws, with measured samples of QC-clean segments as markers (decimated) and the
 fitted PAC2002 model of RESULTS/tir/<tire>__<rim>in__<P>kPa.tir as lines (evaluated at the
@@ -410,8 +420,8 @@ chart whose table or model is missing shows a \"no data\" note instead; a table 
 the report needs counts as missing, and the index lists it with the column's name.
 
 RESULTS is laid out as the fit stage writes it: <table>.parquet (coefficients, fit_quality,
-spring_rate, thermal, thermal_fit, relaxation, lint, fit_failures) and tir/*.tir, e.g. a
-published STORE/versions/v000003. Existing pages in OUT are replaced.")]
+spring_rate, thermal, thermal_fit, relaxation, lint, fit_failures, inertia) and tir/*.tir, e.g.
+a published STORE/versions/v000003. Existing pages in OUT are replaced.")]
 pub struct ReportArgs {
     /// Store root directory (the measured segments and samples).
     #[arg(long, value_name = "DIR")]
@@ -422,6 +432,9 @@ pub struct ReportArgs {
     /// Output directory for index.html and the tire pages (created if missing).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+    /// Car file of the front page's tire selection (format and defaults: config/car.toml).
+    #[arg(long, value_name = "FILE")]
+    pub car: Option<PathBuf>,
 }
 
 /// `tirebase tir ...`
@@ -527,6 +540,10 @@ pub struct TirScoreArgs {
     /// Only this tire (its name as stored).
     #[arg(long, value_name = "NAME")]
     pub tire: Option<String>,
+    /// Only samples on this rim width, whole inches (the rim_in partition): a tire tested on
+    /// two rims has one model per rim.
+    #[arg(long, value_name = "IN")]
+    pub rim_in: Option<i64>,
     /// Only samples of this nominal pressure, kPa (the pressure_kpa_nom partition).
     #[arg(long, value_name = "KPA")]
     pub pressure_kpa: Option<i64>,
@@ -654,7 +671,8 @@ pub struct DiffArgs {
     /// The new version (number, vNNNNNN or latest).
     #[arg(value_name = "B")]
     pub b: String,
-    /// Only this tire (exact name as in the store).
+    /// Only this tire (exact name as in the store); inertia rows, which belong to no tire, are
+    /// left out.
     #[arg(long, value_name = "T")]
     pub tire: Option<String>,
     /// Output format.

@@ -364,8 +364,9 @@ fn keyed(df: &DataFrame, tire: Option<&str>) -> KeyedTable {
     let value_cols: Vec<&Column> = values.iter().filter_map(|k| df.column(k).ok()).collect();
     let tire_col = df.column("tire").ok();
     for i in 0..df.height() {
-        if let (Some(want), Some(t)) = (tire, tire_col)
-            && cell_text(t, i) != want
+        // With a tire filter, rows of tables without a tire (inertia) belong to no tire.
+        if let Some(want) = tire
+            && tire_col.is_none_or(|t| cell_text(t, i) != want)
         {
             continue;
         }
@@ -545,6 +546,16 @@ mod tests {
         let wide = TirFile::from_coefs(Coefs::defaults());
         let env = envelope(&wide, &wide);
         assert_eq!(env[1], (-0.35, 0.35), "default +-90 deg is limited");
+    }
+
+    #[test]
+    fn a_tire_filter_leaves_out_rows_of_no_tire() {
+        let inertia =
+            df!("session" => ["s"], "quantity" => ["inertia"], "value" => [96.0]).unwrap();
+        assert_eq!(keyed(&inertia, None).rows.len(), 1);
+        assert!(keyed(&inertia, Some("T")).rows.is_empty());
+        let per_tire = df!("tire" => ["T", "U"], "value" => [1.0, 2.0]).unwrap();
+        assert_eq!(keyed(&per_tire, Some("T")).rows.len(), 1);
     }
 
     #[test]

@@ -31,16 +31,13 @@ use crate::report;
 use crate::run::{Fingerprint, RunError, RunOptions, count_duplicates};
 use crate::store::StoreError;
 use crate::store::results::{
-    self, GROUP_COLUMNS, Results, TirNames, has_group_columns, model_groups, rows_of_groups,
-    tir_names,
+    self, GROUP_COLUMNS, INERTIA_TABLE, Results, TirNames, has_group_columns, model_groups,
+    rows_of_groups, tir_names,
 };
 use crate::store::tables::{self, STATUS_FAILED, STATUS_OK, STATUS_PARTIAL};
 use crate::store::versions::VersionBuilder;
 
 pub use crate::store::results::GroupKey;
-
-/// Tables published from the inertia stage (never merged per tire group).
-const INERTIA_TABLE: &str = "inertia";
 
 /// Everything a run hands to publishing.
 pub struct Publication<'a> {
@@ -139,7 +136,7 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
         .iter()
         .map(|(name, df)| (name.clone(), df.height() as u64))
         .collect();
-    let results = Results::from_frames(&merged);
+    let mut results = Results::from_frames(&merged);
     drop(merged);
     let reused_failures = match prev_dir {
         Some(dir) => results::read_fit_failures(dir, &reused_keys)?,
@@ -149,8 +146,9 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
 
     let t = Instant::now();
     let inertia = inertia_stage(&fingerprint.inertia_sessions, opts.jobs, &staging, progress)?;
-    if let Some((_, rows)) = &inertia {
-        tables.insert(INERTIA_TABLE.to_string(), *rows);
+    if let Some((_, df)) = &inertia {
+        tables.insert(INERTIA_TABLE.to_string(), df.height() as u64);
+        results.set_inertia(df);
     }
     timings.insert("inertia".to_string(), t.elapsed().as_secs_f64());
 
@@ -419,13 +417,13 @@ fn rename_lint_files(
     Ok(out)
 }
 
-/// Process the rig sessions (if any) into `staging/inertia.parquet`; the outcome and its rows.
+/// Process the rig sessions (if any) into `staging/inertia.parquet`; the outcome and the table.
 fn inertia_stage(
     sessions: &[PathBuf],
     jobs: usize,
     staging: &Path,
     progress: &dyn Progress,
-) -> Result<Option<(InertiaRun, u64)>, RunError> {
+) -> Result<Option<(InertiaRun, DataFrame)>, RunError> {
     if sessions.is_empty() {
         return Ok(None);
     }
@@ -439,8 +437,7 @@ fn inertia_stage(
         done.results.len(),
         done.errors().count()
     ));
-    let rows = df.height() as u64;
-    Ok(Some((done, rows)))
+    Ok(Some((done, df)))
 }
 
 /// Write the HTML report into `staging/report/`; the one-line error if it failed (a failed
@@ -453,12 +450,14 @@ fn report_stage(
     progress: &dyn Progress,
 ) -> Option<String> {
     let stage = progress.stage("report", "reports", 1);
+    let car = crate::compare::car::Car::builtin();
     let write = || {
         report::write_report_from(
             store,
             results,
             &staging.join("tir"),
             &staging.join("report"),
+            &car,
         )
     };
     let written = match rayon::ThreadPoolBuilder::new()

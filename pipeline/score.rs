@@ -28,6 +28,9 @@ use crate::query::{self, QueryError};
 pub struct Selection {
     /// Only this tire (name as stored); every tire when `None`.
     pub tire: Option<String>,
+    /// Only this rim width, whole inches (the `rim_in` partition); every rim when `None`. A
+    /// model is one (tire, rim, pressure): a tire tested on two rims has two.
+    pub rim_in: Option<i64>,
     /// Only samples of this nominal pressure partition, kPa; every pressure when `None`.
     pub pressure_kpa_nom: Option<i64>,
     /// Largest |slip angle| scored, deg.
@@ -46,6 +49,7 @@ impl Default for Selection {
     fn default() -> Self {
         Selection {
             tire: None,
+            rim_in: None,
             pressure_kpa_nom: None,
             max_abs_alpha_deg: 12.5,
             min_fz_n: 100.0,
@@ -99,8 +103,9 @@ pub enum ScoreError {
 }
 
 /// Columns read from the samples table.
-const COLUMNS: [&str; 13] = [
+const COLUMNS: [&str; 14] = [
     "tire",
+    "rim_in",
     "source_file",
     "sample_index",
     "pressure_kpa_nom",
@@ -206,6 +211,9 @@ fn selected_samples(
         .select(COLUMNS.iter().map(|c| col(*c)).collect::<Vec<_>>());
     if let Some(tire) = &selection.tire {
         frame = frame.filter(col("tire").eq(lit(tire.clone())));
+    }
+    if let Some(rim_in) = selection.rim_in {
+        frame = frame.filter(col("rim_in").eq(lit(rim_in)));
     }
     let df = frame
         .sort(

@@ -1,6 +1,7 @@
 //! Integration tests: one binary, one module per command, each driving the real `tirebase`
 //! binary in temporary directories.
 
+mod compare;
 mod fit;
 mod inertia;
 mod ingest;

@@ -61,20 +61,33 @@ fn chromium() -> PathBuf {
 const PROBE: &str = r#"<script>
 (function () {
   const out = [];
-  for (const svg of document.querySelectorAll('svg.plot')) {
-    const r = svg.getBoundingClientRect();
-    const f = svg.querySelector('rect.frame').getBBox();
-    const series = svg.querySelectorAll('g.series');
-    let drawn = 0, inside = 0, lines = 0;
-    for (const g of series) {
-      const b = g.getBBox();
-      if (b.width > 0 || b.height > 0) drawn++;
-      if (b.x <= f.x + f.width && b.x + b.width >= f.x &&
-          b.y <= f.y + f.height && b.y + b.height >= f.y) inside++;
-      if (g.querySelector('path:not(.markers)')) lines++;
+  // Every state of the page's pressure selector (CSS radio tabs); a chart counts once, in the
+  // first state that shows it.
+  const radios = Array.from(document.querySelectorAll('input.psel'));
+  const states = radios.length ? radios : [null];
+  const seen = new Set();
+  for (const radio of states) {
+    if (radio) radio.checked = true;
+    for (const svg of document.querySelectorAll('svg.plot')) {
+      if (seen.has(svg.id) || svg.getClientRects().length === 0) continue;
+      seen.add(svg.id);
+      const r = svg.getBoundingClientRect();
+      const f = svg.querySelector('rect.frame').getBBox();
+      const series = svg.querySelectorAll('g.series');
+      let drawn = 0, inside = 0, lines = 0;
+      for (const g of series) {
+        const b = g.getBBox();
+        if (b.width > 0 || b.height > 0) drawn++;
+        if (b.x <= f.x + f.width && b.x + b.width >= f.x &&
+            b.y <= f.y + f.height && b.y + b.height >= f.y) inside++;
+        if (g.querySelector('path:not(.markers)')) lines++;
+      }
+      out.push(['svg', svg.id, svg.dataset.kind, Math.round(r.width), Math.round(r.height),
+                series.length, drawn, inside, lines, radio ? radio.id : '-'].join(' '));
     }
-    out.push(['svg', svg.id, svg.dataset.kind, Math.round(r.width), Math.round(r.height),
-              series.length, drawn, inside, lines].join(' '));
+  }
+  for (const svg of document.querySelectorAll('svg.plot')) {
+    if (!seen.has(svg.id)) out.push(['hidden', svg.id, svg.dataset.kind].join(' '));
   }
   for (const d of document.querySelectorAll('.plot-missing')) {
     out.push(['missing', d.id, d.dataset.kind].join(' '));
@@ -92,6 +105,8 @@ const PROBE: &str = r#"<script>
 struct Rendered {
     /// kind -> number of charts drawn.
     drawn: BTreeMap<String, usize>,
+    /// selector state (radio id, "-" without a selector) -> kinds of the charts it showed.
+    by_state: BTreeMap<String, Vec<String>>,
     /// kind -> number of "no data" notes.
     missing: BTreeMap<String, usize>,
     /// kind -> charts with at least one line (model) series.
@@ -187,7 +202,17 @@ fn render(page: &Path, scratch: &Path) -> Rendered {
                 if lines > 0 {
                     *seen.with_lines.entry(f[2].to_string()).or_default() += 1;
                 }
+                seen.by_state
+                    .entry(f[9].to_string())
+                    .or_default()
+                    .push(f[2].to_string());
             }
+            "hidden" => panic!(
+                "{}: chart {} ({}) is shown in no state of the page",
+                page.display(),
+                f[1],
+                f[2]
+            ),
             "missing" => *seen.missing.entry(f[2].to_string()).or_default() += 1,
             other => panic!("unexpected probe line {other}"),
         }
@@ -199,6 +224,56 @@ fn render(page: &Path, scratch: &Path) -> Rendered {
         page.display()
     );
     seen
+}
+
+/// The front page's tire-selection charts, per pressure choice.
+const SELECTION_KINDS: [&str; 4] = [
+    "sel_peak_mu",
+    "sel_cornering_stiffness",
+    "sel_camber",
+    "sel_thermal",
+];
+
+/// The front page shows the tire selection: every choice of its pressure selector ("best" and
+/// each of the `pressures` tested) shows the four per-pressure charts with data and model
+/// lines, the friction envelopes are drawn, no chart lacks data, and the ranked comparison
+/// table follows.
+fn check_front_page(seen: &Rendered, html: &str, pressures: usize) {
+    assert!(
+        seen.missing.is_empty(),
+        "front page charts without data: {seen:?}"
+    );
+    let states: Vec<&String> = seen.by_state.keys().collect();
+    assert_eq!(states.len(), 1 + pressures, "selector states: {states:?}");
+    assert!(seen.by_state.contains_key("psel-best"), "{states:?}");
+    for (state, kinds) in &seen.by_state {
+        let mut kinds = kinds.clone();
+        if state == "psel-best" {
+            kinds.retain(|k| k != "sel_envelope");
+        }
+        kinds.sort();
+        let mut want: Vec<String> = SELECTION_KINDS.iter().map(|k| k.to_string()).collect();
+        want.sort();
+        assert_eq!(kinds, want, "charts shown with {state}");
+    }
+    for kind in SELECTION_KINDS.iter().chain(&["sel_envelope"]) {
+        assert_eq!(
+            seen.with_lines.get(*kind),
+            seen.drawn.get(*kind),
+            "every {kind} chart draws model lines"
+        );
+    }
+    assert_eq!(seen.drawn.get("sel_envelope"), Some(&1));
+    let selection = html
+        .split("id=\"selection\"")
+        .nth(1)
+        .expect("the front page opens with the tire selection");
+    assert!(
+        html.find("id=\"selection\"").unwrap() < html.find("id=\"fit_quality\"").unwrap(),
+        "the selection comes before the fit-quality tables"
+    );
+    assert!(selection.contains("Comparison at the car's conditions"));
+    assert!(selection.contains("lateral_mu") && selection.contains("mu_y_peak_fz700"));
 }
 
 /// Every kind of chart a tire page has.
@@ -232,8 +307,10 @@ fn write_table(dir: &Path, name: &str, mut df: DataFrame) {
     ParquetWriter::new(file).finish(&mut df).unwrap();
 }
 
-/// Result tables built from the round's truth files (see the module doc).
-fn write_fixture_tables(round: &Path, results: &Path) {
+/// Result tables built from the round's truth files (see the module doc); returns the number of
+/// tire, rim and pressure groups (the fit-quality fixture's worst rows are `groups + 0.2`,
+/// `+ 0.1` and `+ 0.0` % of peak).
+fn write_fixture_tables(round: &Path, results: &Path) -> usize {
     let mut tires = Vec::new();
     let mut spring = (
         Vec::<String>::new(),
@@ -273,9 +350,14 @@ fn write_fixture_tables(round: &Path, results: &Path) {
         })
         .collect();
     truths.sort();
+    // Rim of every row of each table, in push order.
+    let (mut spring_rim, mut relax_rim, mut tfit_rim, mut therm_rim) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut tfit_gain = Vec::new();
     for path in truths {
         let truth: toml::Table = toml::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
         let tire = truth["tire"].as_str().unwrap().to_string();
+        let rim_in = truth["rim_in"].as_float().unwrap().round() as i64;
         let th = truth["thermal"].as_table().unwrap();
         let t_peak = th["t_peak_c"].as_float().unwrap();
         let t_cold = th["t_cold_c"].as_float().unwrap();
@@ -284,9 +366,10 @@ fn write_fixture_tables(round: &Path, results: &Path) {
         for p in truth["pressure"].as_array().unwrap() {
             let p = p.as_table().unwrap();
             let kpa = p["pressure_kpa_nom"].as_float().unwrap().round() as i64;
-            tires.push((tire.clone(), kpa));
+            tires.push((tire.clone(), rim_in, kpa));
             for cond in ["static", "dynamic"] {
                 spring.0.push(tire.clone());
+                spring_rim.push(rim_in);
                 spring.1.push(kpa);
                 spring.2.push(0);
                 spring.3.push(cond.to_string());
@@ -302,6 +385,7 @@ fn write_fixture_tables(round: &Path, results: &Path) {
             ] {
                 for (load, sigma) in p[key].as_table().unwrap() {
                     relax.0.push(tire.clone());
+                    relax_rim.push(rim_in);
                     relax.1.push(kpa);
                     relax.2.push(load.parse().unwrap());
                     relax.3.push(load.parse::<f64>().unwrap());
@@ -310,6 +394,8 @@ fn write_fixture_tables(round: &Path, results: &Path) {
                 }
             }
             tfit.0.push(tire.clone());
+            tfit_rim.push(rim_in);
+            tfit_gain.push(gain);
             tfit.1.push(kpa);
             tfit.2.push(t_peak);
             tfit.3.push(t_cold);
@@ -323,6 +409,7 @@ fn write_fixture_tables(round: &Path, results: &Path) {
             ] {
                 for t in [30.0, 38.0, 46.0, 54.0, 62.0, 70.0] {
                     therm.0.push(tire.clone());
+                    therm_rim.push(rim_in);
                     therm.1.push(kpa);
                     therm.2.push(q.to_string());
                     therm.3.push(t);
@@ -333,20 +420,19 @@ fn write_fixture_tables(round: &Path, results: &Path) {
             }
         }
     }
-    let rim = |n: usize| vec![7i64; n];
-    let n = spring.0.len();
-    write_table(results, "spring_rate", df!("tire" => spring.0, "rim_in" => rim(n), "pressure_kpa" => spring.1, "ia_deg_nom" => spring.2, "condition" => spring.3, "stiffness_n_per_m" => spring.4).unwrap());
+    write_table(results, "spring_rate", df!("tire" => spring.0, "rim_in" => spring_rim, "pressure_kpa" => spring.1, "ia_deg_nom" => spring.2, "condition" => spring.3, "stiffness_n_per_m" => spring.4).unwrap());
     let n = relax.0.len();
-    write_table(results, "relaxation", df!("tire" => relax.0, "rim_in" => rim(n), "pressure_kpa" => relax.1, "fz_n_nom" => relax.2, "fz_n_mean" => relax.3, "direction" => relax.4, "method" => vec!["sweep"; n], "sigma_m" => relax.5, "converged" => vec![true; n]).unwrap());
+    write_table(results, "relaxation", df!("tire" => relax.0, "rim_in" => relax_rim, "pressure_kpa" => relax.1, "fz_n_nom" => relax.2, "fz_n_mean" => relax.3, "direction" => relax.4, "method" => vec!["sweep"; n], "sigma_m" => relax.5, "converged" => vec![true; n]).unwrap());
     let n = tfit.0.len();
-    write_table(results, "thermal_fit", df!("tire" => tfit.0, "rim_in" => rim(n), "pressure_kpa" => tfit.1, "t_peak_c" => tfit.2, "t_cold_c" => tfit.3, "k_cold_per_c2" => tfit.4, "hot_falloff" => vec![1.0; n], "mu_peak_mean" => tfit.5).unwrap());
-    let n = therm.0.len();
-    write_table(results, "thermal", df!("tire" => therm.0, "rim_in" => rim(n), "pressure_kpa" => therm.1, "quadrant" => therm.2, "t_centre_peak_c" => therm.3, "mu_peak" => therm.4).unwrap());
+    write_table(results, "thermal_fit", df!("tire" => tfit.0, "rim_in" => tfit_rim, "pressure_kpa" => tfit.1, "t_peak_c" => tfit.2, "gain_peak_over_cold" => tfit_gain, "t_cold_c" => tfit.3, "k_cold_per_c2" => tfit.4, "hot_falloff" => vec![1.0; n], "mu_peak_mean" => tfit.5).unwrap());
+    write_table(results, "thermal", df!("tire" => therm.0, "rim_in" => therm_rim, "pressure_kpa" => therm.1, "quadrant" => therm.2, "t_centre_peak_c" => therm.3, "mu_peak" => therm.4).unwrap());
     // Fit quality: three channels per group; one clearly worst row per tire group index.
-    let (mut t, mut p, mut ch, mut pct) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for (i, (tire, kpa)) in tires.iter().enumerate() {
+    let (mut t, mut r, mut p, mut ch, mut pct) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (i, (tire, rim_in, kpa)) in tires.iter().enumerate() {
         for (j, c) in ["fx", "fy", "mz"].into_iter().enumerate() {
             t.push(tire.clone());
+            r.push(*rim_in);
             p.push(*kpa);
             ch.push(c);
             pct.push(1.0 + i as f64 + 0.1 * j as f64);
@@ -354,11 +440,12 @@ fn write_fixture_tables(round: &Path, results: &Path) {
     }
     let n = t.len();
     let r2: Vec<f64> = pct.iter().map(|x| 1.0 - x / 100.0).collect();
-    write_table(results, "fit_quality", df!("tire" => t.clone(), "rim_in" => rim(n), "pressure_kpa" => p.clone(), "channel" => ch, "n" => vec![1000i64; n], "rmse" => pct.clone(), "rmse_pct_of_peak" => pct, "r2" => r2).unwrap());
-    let (tire0, kpa0) = tires[0].clone();
-    write_table(results, "lint", df!("tire" => [tire0.clone()], "rim_in" => [7i64], "pressure_kpa" => [kpa0], "severity" => ["warning"], "code" => ["fixture-lint"], "message" => ["fixture: E > 1 before clamping at Fz 1557 N"]).unwrap());
-    write_table(results, "fit_failures", df!("tire" => [tire0.clone()], "rim_in" => [7i64], "pressure_kpa" => [kpa0], "stage" => ["relaxation"], "reason" => ["fixture: no step-steer segments"]).unwrap());
-    write_table(results, "coefficients", df!("tire" => [tire0.clone(), tire0], "rim_in" => [7i64, 7], "pressure_kpa" => [kpa0, kpa0], "model" => ["pac2002", "pac2002"], "family" => ["fy", "fy"], "name" => ["PEY1", "PDY1"], "value" => [1.0, 2.4], "std_error" => [0.01, 0.02], "at_bound" => [true, false]).unwrap());
+    write_table(results, "fit_quality", df!("tire" => t.clone(), "rim_in" => r, "pressure_kpa" => p.clone(), "channel" => ch, "n" => vec![1000i64; n], "rmse" => pct.clone(), "rmse_pct_of_peak" => pct, "r2" => r2).unwrap());
+    let (tire0, rim0, kpa0) = tires[0].clone();
+    write_table(results, "lint", df!("tire" => [tire0.clone()], "rim_in" => [rim0], "pressure_kpa" => [kpa0], "severity" => ["warning"], "code" => ["fixture-lint"], "message" => ["fixture: E > 1 before clamping at Fz 1557 N"]).unwrap());
+    write_table(results, "fit_failures", df!("tire" => [tire0.clone()], "rim_in" => [rim0], "pressure_kpa" => [kpa0], "stage" => ["relaxation"], "reason" => ["fixture: no step-steer segments"]).unwrap());
+    write_table(results, "coefficients", df!("tire" => [tire0.clone(), tire0], "rim_in" => [rim0, rim0], "pressure_kpa" => [kpa0, kpa0], "model" => ["pac2002", "pac2002"], "family" => ["fy", "fy"], "name" => ["PEY1", "PDY1"], "value" => [1.0, 2.4], "std_error" => [0.01, 0.02], "at_bound" => [true, false]).unwrap());
+    tires.len()
 }
 
 fn copy_dir(from: &Path, to: &Path) {
@@ -422,7 +509,7 @@ fn report_renders_every_plot_in_headless_chromium() {
     // Full result directory: every chart must be drawn on every tire page.
     let results = tmp.path().join("results");
     copy_dir(&round.join("truth").join("tir"), &results.join("tir"));
-    write_fixture_tables(&round, &results);
+    let groups = write_fixture_tables(&round, &results);
     let out = tmp.path().join("report");
     let (output, seconds) = report(&store, &results, &out);
     ok(&output, "report");
@@ -444,7 +531,11 @@ fn report_renders_every_plot_in_headless_chromium() {
         .into_iter()
         .filter(|p| p.file_name().unwrap() != "index.html")
         .collect();
-    assert_eq!(tire_pages.len(), 2, "one page per demo tire");
+    assert_eq!(
+        tire_pages.len(),
+        3,
+        "one page per demo tire (one of them on two rims)"
+    );
     let index = std::fs::read_to_string(out.join("index.html")).unwrap();
     for p in &tire_pages {
         let name = p.file_name().unwrap().to_string_lossy();
@@ -453,8 +544,8 @@ fn report_renders_every_plot_in_headless_chromium() {
             "index links {name}"
         );
     }
-    // The fixture's three worst rows (4.2, 4.1, 4.0 % of peak) are listed first and
-    // highlighted again in the full table.
+    // The fixture's three worst rows (groups + 0.2, + 0.1, + 0.0 % of peak) are listed first
+    // and highlighted again in the full table.
     assert_eq!(index.matches("<tr class=\"worst\">").count(), 6);
     let worst = index
         .split("Worst fits")
@@ -468,11 +559,13 @@ fn report_renders_every_plot_in_headless_chromium() {
             .find(v)
             .unwrap_or_else(|| panic!("{v} not among the worst: {worst}"))
     };
-    assert!(pos("4.2000") < pos("4.1000") && pos("4.1000") < pos("4.0000"));
-    assert!(!worst.contains("3.2000"));
+    let pct = |x: f64| format!("{x:.4}");
+    let n = groups as f64;
+    assert!(pos(&pct(n + 0.2)) < pos(&pct(n + 0.1)) && pos(&pct(n + 0.1)) < pos(&pct(n)));
+    assert!(!worst.contains(&pct(n - 0.8)));
     assert!(index.contains("fixture-lint") && index.contains("fixture: no step-steer segments"));
     let idx = render(&out.join("index.html"), tmp.path());
-    assert!(idx.drawn.is_empty() && idx.missing.is_empty());
+    check_front_page(&idx, &index, 2);
     for page in &tire_pages {
         let seen = render(page, tmp.path());
         for kind in KINDS {
@@ -566,4 +659,62 @@ fn report_without_a_result_directory_is_a_clear_error() {
         stderr.contains("nope") && stderr.contains("result directory not found"),
         "{stderr}"
     );
+}
+
+/// Issue 22 "Done when", third line: the README's main command (`tirebase run` in an empty
+/// directory, on the embedded round) publishes a version whose report opens with the tire
+/// selection (every chart drawn with data in headless Chromium, in every state of the pressure
+/// selector), has a page for every tire (every chart drawn with data), shows the rig-inertia
+/// results, and publishes inertia.parquet.
+#[test]
+fn readme_main_command_publishes_the_selection_front_page_tire_pages_and_inertia() {
+    chromium(); // fail early, with instructions, when it is missing
+    let cwd = tempfile::tempdir().unwrap();
+    let bin = std::env::var_os("TIREBASE_TEST_BIN")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_tirebase")));
+    let run = Command::new(bin)
+        .current_dir(cwd.path())
+        .arg("run")
+        .output()
+        .unwrap();
+    ok(&run, "tirebase run (the README's main command)");
+    let version = cwd.path().join("outputs/store/versions/v000001");
+    let inertia = tirebase::store::files::read_parquet(&version.join("inertia.parquet")).unwrap();
+    assert!(inertia.height() > 0, "inertia.parquet is empty");
+
+    let report = version.join("report");
+    let index = std::fs::read_to_string(report.join("index.html")).unwrap();
+    let front = render(&report.join("index.html"), cwd.path());
+    check_front_page(&front, &index, 2);
+    assert!(
+        index.contains("id=\"inertia\"") && index.contains("demo car"),
+        "the rig-inertia results are on the index"
+    );
+    let tire_pages: Vec<PathBuf> = pages(&report)
+        .into_iter()
+        .filter(|p| p.file_name().unwrap() != "index.html")
+        .collect();
+    assert_eq!(tire_pages.len(), 3, "a page per tire of the embedded round");
+    for page in &tire_pages {
+        let name = page.file_name().unwrap().to_string_lossy();
+        assert!(
+            index.contains(&format!("href=\"{name}\"")),
+            "index links {name}"
+        );
+        let seen = render(page, cwd.path());
+        for kind in KINDS {
+            assert!(
+                seen.drawn.get(kind).copied().unwrap_or(0) > 0,
+                "{}: no {kind} chart drawn: {seen:?}",
+                page.display()
+            );
+        }
+        assert!(
+            seen.missing.is_empty(),
+            "{}: charts without data: {:?}",
+            page.display(),
+            seen.missing
+        );
+    }
 }

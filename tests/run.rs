@@ -141,9 +141,32 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
         );
     }
     let m1 = Manifest::read(&v1).unwrap();
-    assert!(m1.counts.groups >= 4, "{:?}", m1.counts);
+    // 4 tire/rim combinations x 2 pressures.
+    assert_eq!(m1.counts.groups, 8, "{:?}", m1.counts);
     assert_eq!(m1.counts.tir_files, m1.counts.groups, "{:?}", m1.counts);
     assert!(m1.groups.iter().all(|g| g.from_version == 1));
+    // The embedded round carries the demo car's rig sessions: inertia.parquet from the start,
+    // with the car's yaw inertia within its session's stated tolerance.
+    assert_eq!(m1.counts.inertia_sessions, 3, "{:?}", m1.counts);
+    assert_eq!(m1.counts.inertia_failed_runs, 0, "{:?}", m1.counts);
+    let inertia = read_table(&v1.join("inertia.parquet"));
+    let yaw = inertia
+        .clone()
+        .lazy()
+        .filter(
+            col("session")
+                .eq(lit("car_yaw"))
+                .and(col("quantity").eq(lit("inertia")))
+                .and(col("method").eq(lit("falling_mass_exact"))),
+        )
+        .collect()
+        .unwrap();
+    let value = yaw.column("value").unwrap().f64().unwrap().get(0).unwrap();
+    let truth = tirebase::core::synth::inertia::demo_car::YAW_INERTIA;
+    assert!(
+        (value / truth - 1.0).abs() < 5.1e-4,
+        "car yaw inertia {value}"
+    );
 
     // Nothing changed.
     let again = tb(&["run"]);
@@ -173,7 +196,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
         assert!(v.is_finite() && v.abs() > 0.5 && v.abs() < 5.0, "PDY1 {r}");
     }
 
-    // Rig sessions appear: a new version; every tire group is reused from v000001.
+    // More rig sessions appear: a new version; every tire group is reused from v000001.
     let o = bin()
         .args(["synth", "inertia", "--out"])
         .arg(cwd.path().join("outputs/round/inertia"))
@@ -190,7 +213,8 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
         "{:?}",
         m2.groups
     );
-    assert!(m2.counts.inertia_results > 0);
+    assert!(m2.counts.inertia_results > m1.counts.inertia_results);
+    assert!(m2.counts.inertia_sessions > m1.counts.inertia_sessions);
     for table in TIRE_TABLES {
         let name = format!("{table}.parquet");
         assert!(

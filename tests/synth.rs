@@ -60,7 +60,8 @@ fn demo_round_is_complete_and_identical_for_any_thread_count() {
         );
     }
     let raw: Vec<&String> = ta.keys().filter(|k| k.starts_with("raw/")).collect();
-    assert_eq!(raw.len(), 8, "{raw:?}");
+    // 4 tire/rim combinations x 2 pressures x (cornering, drive/brake).
+    assert_eq!(raw.len(), 16, "{raw:?}");
     for ext in [".dat", ".mat"] {
         assert!(raw.iter().any(|k| k.ends_with(ext)), "no {ext}");
     }
@@ -70,12 +71,29 @@ fn demo_round_is_complete_and_identical_for_any_thread_count() {
             .any(|k| k.contains("raw") && k.matches("raw").count() == 2)
     );
     let tirs = ta.keys().filter(|k| k.starts_with("truth/tir/")).count();
-    assert_eq!(tirs, 4);
+    assert_eq!(tirs, 8);
+    // The demo car's rig sessions, with their known answers.
+    for session in ["car_yaw", "car_pitch", "wheel_trifilar"] {
+        for file in ["session.toml", "expected.toml"] {
+            let key = format!("inertia/{session}/{file}");
+            assert!(ta.contains_key(&key), "no {key}");
+        }
+    }
 
     let catalog: toml::Table =
         toml::from_str(std::str::from_utf8(&ta["catalog.toml"]).unwrap()).unwrap();
     let runs = catalog["run"].as_array().unwrap();
-    assert_eq!(runs.len(), 8);
+    assert_eq!(runs.len(), 16);
+    let combos: std::collections::BTreeSet<(String, i64)> = runs
+        .iter()
+        .map(|r| {
+            (
+                r["tire"].as_str().unwrap().to_string(),
+                r["rim_in"].as_integer().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(combos.len(), 4, "{combos:?}");
     for r in runs {
         let keys: Vec<&String> = r.as_table().unwrap().keys().collect();
         assert_eq!(keys, ["kind", "project", "rim_in", "run", "tire"]);

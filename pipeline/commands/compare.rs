@@ -50,11 +50,18 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|r| r.error_source.as_str())
         .collect();
+    let sources: Vec<&str> = sources.into_iter().collect();
     eprintln!(
         "ranked by {} (higher is better); ties: differences within the uncertainty from {}",
         crate::compare::objective_column(objective),
-        sources.into_iter().collect::<Vec<_>>().join("; ")
+        sources.join("; ")
     );
+    if sources.iter().any(|s| s.contains("in-sample")) {
+        eprintln!(
+            "note: fit_quality has no out-of-sample error yet: the in-sample RMSE (which includes \
+             measurement noise) stands in for it, so ties are judged conservatively"
+        );
+    }
     if let Some(s) = comparison.cross_round_spread {
         eprintln!("cross-round pairs add the largest round-to-round spread, {s:.4}");
     }

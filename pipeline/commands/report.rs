@@ -1,6 +1,6 @@
 //! `tirebase report`: regenerate the HTML report of a result directory from a store.
 //!
-//! In: `--store`, `--results`, `--out`. Out: the pages in OUT (see [`crate::report`]), a
+//! In: `--store`, `--results`, `--out`, `--car`. Out: the pages in OUT (see [`crate::report`]), a
 //! one-line summary on stderr and the index path on stdout. Deliberately not here: fitting or
 //! publishing (the report of a published version is written by `run`).
 
@@ -8,11 +8,13 @@ use std::io::Write;
 use std::process::ExitCode;
 
 use crate::cli::ReportArgs;
+use crate::compare::car::Car;
 use crate::report;
 
 /// Write the report and print where it is.
 pub fn run(args: &ReportArgs) -> anyhow::Result<ExitCode> {
-    let summary = report::write_report(&args.store, &args.results, &args.out)?;
+    let car = Car::load(args.car.as_deref())?;
+    let summary = report::write_report(&args.store, &args.results, &args.out, &car)?;
     eprintln!(
         "report: {} tire pages, {} charts drawn, {} without data, {:.0} KiB -> {}",
         summary.tires,

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use crate::cli::{SynthCommand, SynthInertiaArgs, SynthRoundArgs, SynthSize};
 use crate::config::Config;
-use tirebase_core::synth::inertia::validation_sessions;
+use tirebase_core::synth::inertia::{SyntheticSession, demo_car_sessions, validation_sessions};
 
 use crate::core::synth::round::{
     OutFile, RunSummary, Size, SynthConfig, plan_round, render_run, render_truth,
@@ -66,8 +66,9 @@ fn round(args: &SynthRoundArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Generate a whole virtual round into `out` (raw/, truth/ and catalog.toml are replaced) with
-/// `jobs` worker threads (None = one per core); returns the one-line summary.
+/// Generate a whole virtual round into `out` (raw/, truth/ and catalog.toml are replaced; the
+/// demo car's rig sessions are written into inertia/, replacing only their own directories)
+/// with `jobs` worker threads (None = one per core); returns the one-line summary.
 pub fn write_round(cfg: &SynthConfig, out: &Path, jobs: Option<usize>) -> anyhow::Result<String> {
     let started = Instant::now();
     let plan = plan_round(cfg)?;
@@ -109,11 +110,15 @@ pub fn write_round(cfg: &SynthConfig, out: &Path, jobs: Option<usize>) -> anyhow
     for file in render_truth(&plan, &summaries)? {
         write_atomic(out, &file)?;
     }
+    let sessions = demo_car_sessions(cfg.seed);
+    for s in &sessions {
+        write_session(&out.join(crate::run::INERTIA_DIR), s)?;
+    }
     let rows: usize = summaries.iter().map(|s| s.rows).sum();
     let segments: usize = summaries.iter().map(|s| s.segments.len()).sum();
     let defects: usize = summaries.iter().map(|s| s.defects.len()).sum();
     Ok(format!(
-        "synth round: {} run files ({} rows, {:.1} MB), {} tire/rim combinations, {} truth models, {} segments, {} defects -> {} in {:.1} s",
+        "synth round: {} run files ({} rows, {:.1} MB), {} tire/rim combinations, {} truth models, {} segments, {} defects, {} rig sessions -> {} in {:.1} s",
         summaries.len(),
         rows,
         total_bytes as f64 / 1e6,
@@ -121,6 +126,7 @@ pub fn write_round(cfg: &SynthConfig, out: &Path, jobs: Option<usize>) -> anyhow
         plan.truths.len(),
         segments,
         defects,
+        sessions.len(),
         out.display(),
         started.elapsed().as_secs_f64()
     ))
@@ -136,27 +142,33 @@ fn write_atomic(root: &Path, file: &OutFile) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Write session `s` into `root/<name>/` (that directory is replaced): session.toml,
+/// expected.toml and its run files; returns the directory.
+fn write_session(root: &Path, s: &SyntheticSession) -> anyhow::Result<PathBuf> {
+    let dir = root.join(&s.name);
+    if dir.exists() {
+        fs::remove_dir_all(&dir).with_context(|| format!("{}: cannot replace", dir.display()))?;
+    }
+    fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    fs::write(dir.join("session.toml"), &s.session_toml)
+        .with_context(|| format!("{}: write", dir.display()))?;
+    fs::write(dir.join("expected.toml"), s.expected_toml())
+        .with_context(|| format!("{}: write", dir.display()))?;
+    for (rel, contents) in &s.files {
+        let path = dir.join(rel);
+        if let Some(parent) = path.parent() {
+            fs::create_dir_all(parent)
+                .with_context(|| format!("{}: cannot create", parent.display()))?;
+        }
+        fs::write(&path, contents).with_context(|| format!("{}: write", path.display()))?;
+    }
+    Ok(dir)
+}
+
 /// Writes every synthetic inertia session under `args.out`.
 pub fn inertia(args: &SynthInertiaArgs) -> anyhow::Result<ExitCode> {
     for s in validation_sessions(args.seed) {
-        let dir = args.out.join(&s.name);
-        if dir.exists() {
-            fs::remove_dir_all(&dir)
-                .with_context(|| format!("{}: cannot replace", dir.display()))?;
-        }
-        fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
-        fs::write(dir.join("session.toml"), &s.session_toml)
-            .with_context(|| format!("{}: write", dir.display()))?;
-        fs::write(dir.join("expected.toml"), s.expected_toml())
-            .with_context(|| format!("{}: write", dir.display()))?;
-        for (rel, contents) in &s.files {
-            let path = dir.join(rel);
-            if let Some(parent) = path.parent() {
-                fs::create_dir_all(parent)
-                    .with_context(|| format!("{}: cannot create", parent.display()))?;
-            }
-            fs::write(&path, contents).with_context(|| format!("{}: write", path.display()))?;
-        }
+        let dir = write_session(&args.out, &s)?;
         // a closed stdout (e.g. `| head`) must not stop the writing
         let _ = writeln!(std::io::stdout().lock(), "{}", dir.display());
     }

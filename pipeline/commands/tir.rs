@@ -242,6 +242,7 @@ fn score(args: &TirScoreArgs) -> anyhow::Result<ExitCode> {
     print_read_warnings(&args.tir, &warnings);
     let selection = crate::score::Selection {
         tire: args.tire.clone(),
+        rim_in: args.rim_in,
         pressure_kpa_nom: args.pressure_kpa,
         max_abs_alpha_deg: args.max_alpha_deg,
         min_fz_n: args.min_fz_n,
@@ -251,7 +252,7 @@ fn score(args: &TirScoreArgs) -> anyhow::Result<ExitCode> {
     let rows = crate::score::score(&args.store, &file, &selection, eval_mode(args.mode))?;
     if rows.is_empty() {
         bail!(
-            "{}: no sample matches the selection (tire, pressure, |alpha|, Fz, V)",
+            "{}: no sample matches the selection (tire, rim, pressure, |alpha|, Fz, V)",
             args.store.display()
         );
     }

@@ -23,13 +23,11 @@ pub mod table;
 
 use std::collections::BTreeMap;
 
+use car::Car;
 use rayon::prelude::*;
+use round::{FitError, GroupKey, RoundResults, ThermalWindow, TirModel};
 use tirebase_core::compare::rank::{difference_tolerance, rank};
 use tirebase_core::compare::{self as figures_of, Figures, Objective, Pac2002Tire};
-use tirebase_core::naming::tir_file_name;
-
-use car::Car;
-use round::{FitError, GroupKey, RoundResults, ThermalWindow, TirModel};
 
 /// Which tires to keep: case-insensitive; a pattern with `*` or `?` matches the whole name as
 /// a glob, any other pattern is a substring. No pattern keeps every tire.
@@ -194,7 +192,7 @@ pub fn compare(
     let mut candidates = Vec::new();
     let mut outside = 0;
     for r in rounds {
-        for key in round::groups(&r.tables) {
+        for key in r.groups() {
             if !filter.matches(&key.0) {
                 continue;
             }
@@ -202,14 +200,13 @@ pub fn compare(
                 outside += 1;
                 continue;
             }
-            let file = tir_file_name(&key.0, key.1 as f64, key.2 as f64);
-            match r.models.get(&file) {
-                Some(model) => candidates.push(Candidate {
+            match r.model(&key) {
+                Ok(model) => candidates.push(Candidate {
                     round: r,
                     key,
                     model,
                 }),
-                None => notes.push(format!(
+                Err(file) => notes.push(format!(
                     "{}: {} {} in {} kPa: no model tir/{file}, left out",
                     r.label, key.0, key.1, key.2
                 )),
@@ -233,14 +230,14 @@ pub fn compare(
             let tire = Pac2002Tire::new(&c.model.model, c.model.use_mode, max_load);
             let figures = figures_of::evaluate(&tire, &car.conditions);
             let FitError { relative, source } =
-                round::fit_error(&c.round.tables, &c.key, error_channels(objective));
+                round::fit_error(&c.round.results, &c.key, error_channels(objective));
             let value = objective_value(objective, &figures);
             CompareRow {
                 round: c.round.label.clone(),
                 tire: c.key.0.clone(),
                 rim_in: c.key.1,
                 pressure_kpa: c.key.2,
-                thermal: round::thermal_window(&c.round.tables, &c.key),
+                thermal: round::thermal_window(&c.round.results, &c.key),
                 objective: value,
                 objective_error: value.abs() * relative,
                 error_source: source,
@@ -386,7 +383,8 @@ fn sort_rows(rows: &mut Vec<CompareRow>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use polars::prelude::*;
+    use crate::store::results::QualityRow;
+    use tirebase_core::naming::tir_file_name;
     use tirebase_core::synth::tires::{base_coefs, truth_model};
 
     /// A round of the virtual machine's truth models (tires 0 and 1 on 7 in at 10 and 12 psi),
@@ -424,13 +422,29 @@ mod tests {
                 e.push(pct);
             }
         }
-        let n = t.len();
-        r.tables.insert(
-            "fit_quality".into(),
-            df!("tire" => t, "rim_in" => vec![7i64; n], "pressure_kpa" => p, "channel" => ch, "rmse_pct_of_peak" => e)
-                .unwrap(),
-        );
+        r.results.fit_quality = Some(quality_rows(&t, &p, &ch, &e));
         r
+    }
+
+    /// fit_quality rows of 7 in rims with only `rmse_pct_of_peak`.
+    fn quality_rows(tires: &[String], p: &[i64], ch: &[&str], pct: &[f64]) -> Vec<QualityRow> {
+        (0..tires.len())
+            .map(|i| QualityRow {
+                tire: tires[i].clone(),
+                rim_in: 7,
+                pressure_kpa: p[i],
+                channel: ch[i].to_string(),
+                n: None,
+                rmse: None,
+                rmse_pct_of_peak: Some(pct[i]),
+                r2: None,
+                sample_rmse: None,
+                initial_rmse: None,
+                iterations: None,
+                termination: None,
+                ..QualityRow::default()
+            })
+            .collect()
     }
 
     #[test]
@@ -504,10 +518,12 @@ mod tests {
     fn disjoint_rounds_cannot_be_judged_against_each_other() {
         let car = Car::builtin();
         let mut r2 = truth_round("r2", 0.01, 1.0);
-        r2.tables.insert(
-            "fit_quality".into(),
-            df!("tire" => ["Other tire"], "rim_in" => [7i64], "pressure_kpa" => [69i64], "channel" => ["Fy0"], "rmse_pct_of_peak" => [0.01]).unwrap(),
-        );
+        r2.results.fit_quality = Some(quality_rows(
+            &["Other tire".to_string()],
+            &[69],
+            &["Fy0"],
+            &[0.01],
+        ));
         r2.models = BTreeMap::from([(
             tir_file_name("Other tire", 7.0, 69.0),
             r2.models.values().next().unwrap().clone(),

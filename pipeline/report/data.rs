@@ -14,11 +14,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
-use tirebase_core::tire_model::Pac2002;
-use tirebase_core::tire_model::tir::TirFile;
-
 use crate::store::columns::{req_f64, req_i64};
-use crate::store::results::{Results, tir_names};
+use crate::store::results::{Results, TirModel, read_tir_models, tir_names};
 use crate::store::tables::{self, SegmentRecord};
 
 /// Segment kinds whose samples are plotted.
@@ -95,8 +92,8 @@ pub struct Segment {
 pub struct ReportData {
     /// The result tables, typed (`None` for one not present or unreadable: a note says which).
     pub results: Results,
-    /// Models by `.tir` file name.
-    pub models: BTreeMap<String, Pac2002>,
+    /// Models (and their `USE_MODE`) by `.tir` file name.
+    pub models: BTreeMap<String, TirModel>,
     /// The `.tir` file name of each (tire, rim, nominal pressure) with a model (names are unique
     /// per result set, see `naming::unique_tir_names`).
     pub tir_names: BTreeMap<(String, i64, i64), String>,
@@ -135,31 +132,9 @@ pub fn load(
 }
 
 fn load_models(dir: &Path, data: &mut ReportData) {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        data.notes.push("tir/: no .tir directory".to_string());
-        return;
-    };
-    let mut paths: Vec<_> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "tir"))
-        .collect();
-    paths.sort();
-    for path in paths {
-        let name = path
-            .file_name()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .into_owned();
-        let parsed = std::fs::read(&path)
-            .map_err(|e| e.to_string())
-            .and_then(|bytes| TirFile::parse_bytes(&bytes).map_err(|e| e.to_string()));
-        match parsed {
-            Ok((tir, _)) => {
-                data.models.insert(name, tir.model());
-            }
-            Err(e) => data.notes.push(format!("tir/{name}: unreadable: {e}")),
-        }
-    }
+    let (models, notes) = read_tir_models(dir);
+    data.models = models;
+    data.notes.extend(notes);
 }
 
 /// Live, QC-clean slip-test segments with their samples.

@@ -2,10 +2,13 @@
 //! (inline CSS and SVG, no script, nothing fetched from a network or another file except the
 //! links between the pages).
 //!
-//! In: a store (the measured samples and segments) and the results: a result directory as
-//! `fit::write_outcome` writes it (`<table>.parquet`, `tir/*.tir`), or the typed tables a run
-//! has just merged (`store::results::Results`) and its `tir/` directory. Out: the pages in `out_dir`
-//! and a [`ReportSummary`]. Each tire page shows data against model for Fy-SA, Mz-SA and Fx-SL
+//! In: a store (the measured samples and segments), the results (a result directory as
+//! `fit::write_outcome` writes it: `<table>.parquet`, `tir/*.tir`; or the typed tables a run
+//! has just merged, `store::results::Results`, and its `tir/` directory) and the car the tires
+//! are chosen for. Out: the pages in `out_dir` and a [`ReportSummary`]. The index opens with
+//! the tire selection (`selection.rs`: every tire at the car's conditions, charts and the
+//! ranked comparison), then the tires, the rig-inertia results, fit quality, lint warnings,
+//! failures. Each tire page shows data against model for Fy-SA, Mz-SA and Fx-SL
 //! per load and inclination (the seed's figures 18-19), the friction envelope (figure 22), peak
 //! mu and cornering stiffness against load per pressure (figures 23-24), vertical stiffness
 //! against pressure and inclination, mu against tread temperature (figure 29), relaxation length
@@ -17,12 +20,18 @@
 mod data;
 mod pages;
 mod plots;
+mod selection;
 pub mod svg;
 
 use std::path::{Path, PathBuf};
 
+use tirebase_core::compare::Objective;
+
 pub use data::ReportData;
 
+use crate::compare::car::Car;
+use crate::compare::round::RoundResults;
+use crate::compare::{TireFilter, compare};
 use crate::store::results::Results;
 
 /// Report errors: only the inputs as a whole being unusable or the output being unwritable.
@@ -71,11 +80,13 @@ pub struct ReportSummary {
 
 /// Writes a self-contained HTML report (index.html + one page per tire, inline SVG, no network)
 /// into `out_dir` from the store's samples/segments and a finished result directory laid out as
-/// write_outcome writes it (tables as <name>.parquet, tir/*.tir).
+/// write_outcome writes it (tables as <name>.parquet, tir/*.tir); the index opens with the
+/// tire selection for `car`.
 pub fn write_report(
     store: &Path,
     results: &Path,
     out_dir: &Path,
+    car: &Car,
 ) -> Result<ReportSummary, ReportError> {
     if !results.is_dir() {
         return Err(ReportError::NoResults {
@@ -87,6 +98,7 @@ pub fn write_report(
         &Results::read(results),
         &results.join("tir"),
         out_dir,
+        car,
     )
 }
 
@@ -96,9 +108,12 @@ pub fn write_report_from(
     results: &Results,
     tir_dir: &Path,
     out_dir: &Path,
+    car: &Car,
 ) -> Result<ReportSummary, ReportError> {
     let data = data::load(store, results, tir_dir)?;
-    let built = pages::build(&data);
+    let round = RoundResults::new("this round", data.results.clone(), data.models.clone());
+    let comparison = compare(&[round], car, Objective::Lateral, &TireFilter::default());
+    let built = pages::build(&data, &comparison);
     crate::store::files::ensure_dir(out_dir).map_err(|source| ReportError::Write {
         path: out_dir.to_path_buf(),
         source,

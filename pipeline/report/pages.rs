@@ -14,7 +14,9 @@ use tirebase_core::naming::sanitize_tire;
 
 use super::data::ReportData;
 use super::plots;
+use super::selection::SelectionSection;
 use super::svg::{Plot, escape};
+use crate::compare::Comparison;
 use crate::store::results::{CoefficientRow, FitFailure, LintRow, QualityRow};
 
 /// Rows of fit quality highlighted as the worst of the round.
@@ -42,8 +44,8 @@ svg.plot{border:1px solid #ddd;background:#fafafa}\
 .plot-missing h4{margin:.3em 0}.note{color:#666;font-size:.9em}\
 .warn{color:#a33}";
 
-/// Build every page.
-pub fn build(data: &ReportData) -> Built {
+/// Build every page; the index opens with the tire selection of `comparison`.
+pub fn build(data: &ReportData, comparison: &Comparison) -> Built {
     let names = page_names(&data.tires);
     let worst_order = worst_fit_rows(data);
     let worst: BTreeSet<usize> = worst_order.iter().copied().collect();
@@ -59,12 +61,15 @@ pub fn build(data: &ReportData) -> Built {
         built.plots_without_data += missing;
         tire_pages.push((file.clone(), html));
     }
+    let selection = super::selection::section(data, comparison);
+    built.plots += selection.drawn;
+    built.plots_without_data += selection.missing;
     let index = index_page(
         data,
         &names,
         &worst_order,
-        built.plots,
-        built.plots_without_data,
+        &selection,
+        (built.plots, built.plots_without_data),
     );
     built.pages.push(("index.html".to_string(), index));
     built.pages.extend(tire_pages);
@@ -90,8 +95,13 @@ fn page_names(tires: &[String]) -> Vec<String> {
 }
 
 fn head(title: &str) -> String {
+    head_with(title, "")
+}
+
+/// The page head with `css` appended to the shared style.
+fn head_with(title: &str, css: &str) -> String {
     format!(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n",
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{}</title>\n<style>{STYLE}{css}</style>\n</head>\n<body>\n",
         escape(title)
     )
 }
@@ -121,7 +131,7 @@ fn worst_fit_rows(data: &ReportData) -> Vec<usize> {
 }
 
 /// One cell of a result table as shown.
-enum Cell {
+pub(super) enum Cell {
     Text(String),
     Int(i64),
     Float(f64),
@@ -287,19 +297,26 @@ impl Tabular for CoefficientRow {
 
 /// Rows of a result table (by index) as HTML; `worst` rows highlighted.
 fn table_html<T: Tabular>(rows: &[T], show: &[usize], worst: &BTreeSet<usize>) -> String {
+    grid_html(
+        T::COLUMNS,
+        show.iter().map(|&i| (worst.contains(&i), rows[i].cells())),
+    )
+}
+
+/// A table of `headers` and rows of cells (each flagged when highlighted as worst) as HTML.
+pub(super) fn grid_html<H: AsRef<str>>(
+    headers: &[H],
+    rows: impl Iterator<Item = (bool, Vec<Cell>)>,
+) -> String {
     let mut out = String::from("<table>\n<tr>");
-    for c in T::COLUMNS {
-        let _ = write!(out, "<th>{}</th>", escape(c));
+    for c in headers {
+        let _ = write!(out, "<th>{}</th>", escape(c.as_ref()));
     }
     out.push_str("</tr>\n");
-    for &i in show {
-        let class = if worst.contains(&i) {
-            " class=\"worst\""
-        } else {
-            ""
-        };
+    for (is_worst, cells) in rows {
+        let class = if is_worst { " class=\"worst\"" } else { "" };
         let _ = write!(out, "<tr{class}>");
-        for cell in rows[i].cells() {
+        for cell in cells {
             let (text, num) = match cell {
                 Cell::Float(x) => (format_sig(x), true),
                 Cell::Int(x) => (x.to_string(), true),
@@ -521,10 +538,10 @@ fn index_page(
     data: &ReportData,
     names: &[String],
     worst: &[usize],
-    drawn: usize,
-    missing: usize,
+    selection: &SelectionSection,
+    (drawn, missing): (usize, usize),
 ) -> String {
-    let mut out = head("tirebase report");
+    let mut out = head_with("tirebase report", &selection.css);
     let _ = writeln!(
         out,
         "<h1>tirebase round report</h1>\n<p class=\"note\">{} tires · {} models · \
@@ -533,6 +550,7 @@ fn index_page(
         data.models.len(),
         data.segments.len()
     );
+    out.push_str(&selection.html);
     out.push_str("<h2 id=\"tires\">Tires</h2>\n");
     if data.tires.is_empty() {
         out.push_str("<p class=\"note\">no tires in the store or the results</p>\n");
@@ -557,6 +575,7 @@ fn index_page(
         }
         out.push_str("</table>\n");
     }
+    out.push_str(&inertia_section(data));
     let worst_set: BTreeSet<usize> = worst.iter().copied().collect();
     let r = &data.results;
     if let Some(rows) = &r.fit_quality
@@ -597,6 +616,76 @@ fn index_page(
         out.push_str("</ul>\n");
     }
     out.push_str("</body>\n</html>\n");
+    out
+}
+
+/// Quantities of the rig-inertia results shown on the index (the rest stays in the table).
+const INERTIA_QUANTITIES: [&str; 5] = [
+    "inertia",
+    "inertia_cg",
+    "cg_height",
+    "cg_offset_x",
+    "aero_drag_coefficient",
+];
+
+/// Rig objects that are part of the rig, not of the car (tare and calibration runs).
+const RIG_OBJECTS: [&str; 2] = ["platform", "table"];
+
+/// The rig-inertia results of the measured objects (inertia.parquet), when present.
+fn inertia_section(data: &ReportData) -> String {
+    let mut out = String::from("<h2 id=\"inertia\">Rig inertia</h2>\n");
+    let Some(all) = &data.results.inertia else {
+        out.push_str(
+            "<p class=\"note\">no rig-inertia sessions (inertia.parquet not present)</p>\n",
+        );
+        return out;
+    };
+    let rows: Vec<usize> = (0..all.len())
+        .filter(|&i| {
+            INERTIA_QUANTITIES.contains(&all[i].quantity.as_str())
+                && !RIG_OBJECTS.contains(&all[i].object.as_str())
+        })
+        .collect();
+    let _ = writeln!(
+        out,
+        "<p class=\"note\">Inertias about the stated axis (yaw vertical, pitch, roll) and CG \
+         position of the measured objects, each with its standard uncertainty (k = 1); {} of \
+         inertia.parquet's {} rows (the rig's own tare and calibration results, periods and \
+         first moments are in the table).</p>",
+        rows.len(),
+        all.len()
+    );
+    if rows.is_empty() {
+        out.push_str("<p class=\"note\">none</p>\n");
+        return out;
+    }
+    let columns = [
+        "session",
+        "object",
+        "axis",
+        "quantity",
+        "method",
+        "value",
+        "uncertainty",
+        "units",
+    ];
+    out.push_str(&grid_html(
+        &columns,
+        rows.iter().map(|&i| {
+            let r = &all[i];
+            let cells = vec![
+                text(&r.session),
+                text(&r.object),
+                text(&r.axis),
+                text(&r.quantity),
+                text(&r.method),
+                Cell::Float(r.value),
+                Cell::Float(r.uncertainty),
+                text(&r.units),
+            ];
+            (false, cells)
+        }),
+    ));
     out
 }
 
@@ -643,7 +732,13 @@ mod tests {
     #[test]
     fn an_empty_round_still_gives_an_index() {
         let data = ReportData::default();
-        let built = build(&data);
+        let comparison = crate::compare::compare(
+            &[],
+            &crate::compare::car::Car::builtin(),
+            tirebase_core::compare::Objective::Lateral,
+            &Default::default(),
+        );
+        let built = build(&data, &comparison);
         assert_eq!(built.pages.len(), 1);
         assert!(built.pages[0].1.contains("no tires"));
     }

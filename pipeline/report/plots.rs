@@ -95,7 +95,7 @@ pub fn model_for<'a>(
         .get(&(tire.to_string(), rim_in, p_kpa))
         .cloned()
         .unwrap_or_else(|| tir_file_name(tire, rim_in as f64, p_kpa as f64));
-    data.models.get(&name)
+    data.models.get(&name).map(|m| &m.model)
 }
 
 /// Label of a nominal load (or its rounded mean when not held).

@@ -7,9 +7,11 @@
 //! table name ([`read_table`], [`table_names`], [`write_table`]), [`Results`] (typed rows of the
 //! tables the report shows, each checked for the columns it needs: a table without one is a
 //! note naming the file and column, never a chart of NaN), the fit failures of some groups
-//! ([`read_fit_failures`]), the groups with a model ([`model_groups`]) and the `.tir` file name
-//! of each ([`tir_names`]). Deliberately not here: computing the tables (fit) and what is done
-//! with the rows.
+//! ([`read_fit_failures`]), the groups with a model ([`model_groups`]), the `.tir` file name
+//! of each ([`tir_names`]) and the parsed models of a `tir/` directory ([`read_tir_models`]).
+//! [`Results`] also carries the rig-inertia results (`inertia`, no group columns) when the
+//! version has them. Deliberately not here: computing the tables (fit) and what is done with
+//! the rows.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
@@ -17,6 +19,8 @@ use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
 use tirebase_core::naming::unique_tir_names;
+use tirebase_core::tire_model::Pac2002;
+use tirebase_core::tire_model::tir::TirFile;
 
 use super::StoreError;
 use super::columns::{opt_bool, opt_f64, opt_i64, opt_str, req_bool, req_f64, req_i64, req_str};
@@ -129,7 +133,7 @@ pub struct CoefficientRow {
 
 /// A row of `fit_quality` as the report uses it. The measures are `None` where the table holds
 /// null or (a table written before the column existed) does not have the column.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct QualityRow {
     pub tire: String,
     pub rim_in: i64,
@@ -185,7 +189,11 @@ pub struct ThermalRow {
     pub tire: String,
     pub rim_in: i64,
     pub pressure_kpa: i64,
+    /// The cold-to-warm test (segment) the sweep belongs to.
+    pub segment_id: String,
     pub quadrant: String,
+    /// Time of the sweep's peak, s (NaN when not recorded).
+    pub et_peak_s: f64,
     pub t_centre_peak_c: f64,
     pub mu_peak: f64,
 }
@@ -197,11 +205,15 @@ pub struct ThermalFitRow {
     pub rim_in: i64,
     pub pressure_kpa: i64,
     pub t_peak_c: f64,
+    /// Relative gain of peak grip at `t_peak_c` over the cold reference.
+    pub gain_peak_over_cold: f64,
     pub t_cold_c: f64,
     pub k_cold_per_c2: f64,
     /// NaN when the hot side was not resolved.
     pub hot_falloff: f64,
     pub mu_peak_mean: f64,
+    /// The mu(T) fit converged (a null reads as converged).
+    pub converged: bool,
 }
 
 /// A row of `relaxation` as the report uses it.
@@ -215,6 +227,23 @@ pub struct RelaxationRow {
     pub fz_n_mean: f64,
     pub sigma_m: f64,
     pub converged: bool,
+}
+
+/// A row of `inertia` (the rig-inertia results) as the report uses it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InertiaRow {
+    pub session: String,
+    pub run: String,
+    /// Vehicle id, `table`, `platform` or a calibration body.
+    pub object: String,
+    pub axis: String,
+    pub quantity: String,
+    pub method: String,
+    /// SI, in `units`.
+    pub value: f64,
+    /// Standard uncertainty (k = 1), NaN when not evaluated.
+    pub uncertainty: f64,
+    pub units: String,
 }
 
 /// A row of `lint`.
@@ -241,11 +270,17 @@ pub struct Results {
     pub relaxation: Option<Vec<RelaxationRow>>,
     pub lint: Option<Vec<LintRow>>,
     pub fit_failures: Option<Vec<FitFailure>>,
+    /// The rig-inertia results (`None` when the results have none: not every result set comes
+    /// with rig sessions, so a missing `inertia.parquet` is no note; an unreadable one is).
+    pub inertia: Option<Vec<InertiaRow>>,
     /// One line per table that is not present or could not be read.
     pub notes: Vec<String>,
 }
 
-/// The tables [`Results`] holds.
+/// The rig-inertia results table of a version (not a fit table: no group columns).
+pub const INERTIA_TABLE: &str = "inertia";
+
+/// The fit tables [`Results`] holds (besides [`INERTIA_TABLE`]).
 pub const RESULT_TABLES: [&str; 8] = [
     "coefficients",
     "fit_quality",
@@ -273,7 +308,28 @@ impl Results {
                 }
             }
         }
-        Results::build(&frames, &unreadable)
+        let mut out = Results::build(&frames, &unreadable);
+        match read_table(dir, INERTIA_TABLE) {
+            Ok(Some(df)) => out.set_inertia(&df),
+            Ok(None) => {}
+            Err(e) => out
+                .notes
+                .push(format!("{INERTIA_TABLE}.parquet: unreadable: {e}")),
+        }
+        out
+    }
+
+    /// Type the rig-inertia results (`inertia` table) beside the fit tables; a frame without a
+    /// column the report needs is a note.
+    pub fn set_inertia(&mut self, df: &DataFrame) {
+        let file = format!("{INERTIA_TABLE}.parquet");
+        match inertia_rows(df, Path::new(&file)) {
+            Ok(rows) => self.inertia = Some(rows),
+            Err(e) => {
+                self.inertia = None;
+                self.notes.push(format!("{file}: unreadable: {e}"));
+            }
+        }
     }
 
     /// Type the tables a run holds in memory (by table name).
@@ -472,7 +528,9 @@ fn spring_rate_rows(df: &DataFrame, path: &Path) -> Result<Vec<SpringRateRow>, S
 
 fn thermal_rows(df: &DataFrame, path: &Path) -> Result<Vec<ThermalRow>, StoreError> {
     let (tire, rim, p) = group_keys(df, path)?;
+    let segment_id = strings(req_str(df, "segment_id", path)?);
     let quadrant = strings(req_str(df, "quadrant", path)?);
+    let et = floats(req_f64(df, "et_peak_s", path)?);
     let t = floats(req_f64(df, "t_centre_peak_c", path)?);
     let mu = floats(req_f64(df, "mu_peak", path)?);
     Ok((0..df.height())
@@ -480,7 +538,9 @@ fn thermal_rows(df: &DataFrame, path: &Path) -> Result<Vec<ThermalRow>, StoreErr
             tire: tire[i].clone(),
             rim_in: rim[i],
             pressure_kpa: p[i],
+            segment_id: segment_id[i].clone(),
             quadrant: quadrant[i].clone(),
+            et_peak_s: et[i],
             t_centre_peak_c: t[i],
             mu_peak: mu[i],
         })
@@ -490,23 +550,27 @@ fn thermal_rows(df: &DataFrame, path: &Path) -> Result<Vec<ThermalRow>, StoreErr
 fn thermal_fit_rows(df: &DataFrame, path: &Path) -> Result<Vec<ThermalFitRow>, StoreError> {
     let (tire, rim, p) = group_keys(df, path)?;
     let f = |n: &str| req_f64(df, n, path).map(floats);
-    let (t_peak, t_cold, k, hot, mu) = (
+    let (t_peak, gain, t_cold, k, hot, mu) = (
         f("t_peak_c")?,
+        f("gain_peak_over_cold")?,
         f("t_cold_c")?,
         f("k_cold_per_c2")?,
         f("hot_falloff")?,
         f("mu_peak_mean")?,
     );
+    let converged = req_bool(df, "converged", path)?;
     Ok((0..df.height())
         .map(|i| ThermalFitRow {
             tire: tire[i].clone(),
             rim_in: rim[i],
             pressure_kpa: p[i],
             t_peak_c: t_peak[i],
+            gain_peak_over_cold: gain[i],
             t_cold_c: t_cold[i],
             k_cold_per_c2: k[i],
             hot_falloff: hot[i],
             mu_peak_mean: mu[i],
+            converged: converged[i].unwrap_or(true),
         })
         .collect())
 }
@@ -547,6 +611,34 @@ fn lint_rows(df: &DataFrame, path: &Path) -> Result<Vec<LintRow>, StoreError> {
             severity: severity[i].clone(),
             code: code[i].clone(),
             message: message[i].clone(),
+        })
+        .collect())
+}
+
+fn inertia_rows(df: &DataFrame, path: &Path) -> Result<Vec<InertiaRow>, StoreError> {
+    let s = |n: &str| req_str(df, n, path).map(strings);
+    let (session, run, object, axis, quantity, method, units) = (
+        s("session")?,
+        s("run")?,
+        s("object")?,
+        s("axis")?,
+        s("quantity")?,
+        s("method")?,
+        s("units")?,
+    );
+    let value = floats(req_f64(df, "value", path)?);
+    let uncertainty = floats(req_f64(df, "uncertainty", path)?);
+    Ok((0..df.height())
+        .map(|i| InertiaRow {
+            session: session[i].clone(),
+            run: run[i].clone(),
+            object: object[i].clone(),
+            axis: axis[i].clone(),
+            quantity: quantity[i].clone(),
+            method: method[i].clone(),
+            value: value[i],
+            uncertainty: uncertainty[i],
+            units: units[i].clone(),
         })
         .collect())
 }
@@ -606,6 +698,55 @@ pub fn model_groups(dir: &Path) -> BTreeSet<GroupKey> {
         .zip(p)
         .filter_map(|((t, r), p)| Some((t?, r?, p?)))
         .collect()
+}
+
+/// A fitted model as a result directory's `tir/` holds it.
+#[derive(Clone, Debug)]
+pub struct TirModel {
+    /// The model.
+    pub model: Pac2002,
+    /// `[MODEL] USE_MODE` of the file.
+    pub use_mode: Option<i64>,
+}
+
+/// Read one `.tir` file; the reason when it cannot be read.
+pub fn read_tir_model(path: &Path) -> Result<TirModel, String> {
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let (tir, _) = TirFile::parse_bytes(&bytes).map_err(|e| e.to_string())?;
+    Ok(TirModel {
+        model: tir.model(),
+        use_mode: tir.use_mode,
+    })
+}
+
+/// Every `.tir` of a result directory's `tir_dir` by file name, and one note per file that
+/// cannot be read (`tir/<name>: unreadable: ...`; `tir/: no .tir directory` when there is none).
+pub fn read_tir_models(tir_dir: &Path) -> (BTreeMap<String, TirModel>, Vec<String>) {
+    let mut models = BTreeMap::new();
+    let mut notes = Vec::new();
+    let Ok(entries) = std::fs::read_dir(tir_dir) else {
+        notes.push("tir/: no .tir directory".to_string());
+        return (models, notes);
+    };
+    let mut paths: Vec<_> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "tir"))
+        .collect();
+    paths.sort();
+    for path in paths {
+        let name = path
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned();
+        match read_tir_model(&path) {
+            Ok(m) => {
+                models.insert(name, m);
+            }
+            Err(e) => notes.push(format!("tir/{name}: unreadable: {e}")),
+        }
+    }
+    (models, notes)
 }
 
 /// `.tir` file names by group, and the notes of the disambiguated ones.

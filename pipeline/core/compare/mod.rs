@@ -50,7 +50,7 @@ const PEAK_GRID: usize = 61;
 /// Grid points of the camber search.
 const CAMBER_GRID: usize = 17;
 /// Grid points per axis of the friction-envelope outline.
-const ENVELOPE_GRID: usize = 41;
+const ENVELOPE_GRID: usize = 81;
 
 /// The car's conditions the figures are evaluated at (SI; validated by [`Conditions::validate`]).
 #[derive(Clone, Debug, PartialEq)]

@@ -71,6 +71,35 @@ fn validation_cases_v1_to_v5() {
     println!("{}", report.join("\n"));
 }
 
+/// The embedded demo round's sessions (the default seed and 19 others) meet their stated
+/// tolerances; prints the worst relative error per expectation.
+#[test]
+fn demo_car_sessions_over_seeds() {
+    let mut worst: std::collections::BTreeMap<String, f64> = Default::default();
+    for seed in (0..19).chain([2024]) {
+        for s in synth::demo_car_sessions(seed) {
+            let out = run(&s);
+            assert!(out.errors.is_empty(), "{}: {:#?}", s.name, out.errors);
+            for e in &s.expected {
+                let row = out
+                    .results
+                    .iter()
+                    .find(|r| r.run == e.run && r.quantity == e.quantity && r.method == e.method)
+                    .unwrap_or_else(|| panic!("{}: no row {}/{}", s.name, e.run, e.quantity));
+                let err = (row.value - e.value).abs();
+                let w = worst
+                    .entry(format!("{} {}", s.name, e.quantity))
+                    .or_default();
+                *w = w.max(err / e.tolerance);
+            }
+            check(&s);
+        }
+    }
+    for (k, v) in worst {
+        println!("{k:40} worst |error| = {v:.2} x tolerance");
+    }
+}
+
 #[test]
 fn v1_time_shift_leaves_alpha_unchanged() {
     // V1b: shifting every event by +7.3 s leaves alpha unchanged to 1e-9.

@@ -1254,3 +1254,101 @@ pub fn validation_sessions(seed: u64) -> Vec<SyntheticSession> {
         v5(true, "none", s(23)),
     ]
 }
+
+// ------------------------------------------------------------------------------------------------
+// The embedded demo round's rig sessions
+// ------------------------------------------------------------------------------------------------
+
+/// Known answers of the demo round's car (`demo_car_sessions`).
+pub mod demo_car {
+    /// Yaw inertia of the car about its CG, kg m^2.
+    pub const YAW_INERTIA: f64 = 96.0;
+    /// Mass as tested (no driver), kg.
+    pub const MASS_KG: f64 = 215.0;
+    /// CG height above the deck (ground), m.
+    pub const CG_HEIGHT_M: f64 = 0.285;
+    /// CG position ahead of the pendulum's pivot plane, m.
+    pub const CG_X_M: f64 = 0.012;
+    /// Pitch inertia about the CG, kg m^2.
+    pub const PITCH_INERTIA: f64 = 88.0;
+    /// Wheel-and-tire assembly: mass, kg, and inertia about its spin axis, kg m^2.
+    pub const WHEEL: (f64, f64) = (7.2, 0.26);
+}
+
+/// The embedded demo round's rig sessions (`tirebase run` on the embedded round processes
+/// them): the team's car on the yaw table (tare, calibration body and car runs, encoder jitter
+/// and band errors), the car on the compound pendulum in pitch (static tilts with added masses
+/// for the CG height, a swing for the inertia; inclinometer offset and noise), and one
+/// wheel-and-tire assembly lying on the trifilar (its spin inertia). Answers in [`demo_car`];
+/// tolerances from the validation cases' noise studies (V2a, V4c, V3a).
+pub fn demo_car_sessions(seed: u64) -> Vec<SyntheticSession> {
+    let s = |k: u64| seed.wrapping_mul(1_000_003).wrapping_add(100 + k);
+    let named = |mut session: SyntheticSession, object: &str| {
+        session.session_toml = session.session_toml.replace(
+            "vehicle_id = \"SYN\"",
+            &format!("vehicle_id = \"{object}\""),
+        );
+        session
+    };
+    let mut yaw = three_run_yaw(
+        EncoderOutput::Events {
+            jitter_s: 20e-6,
+            band_error_deg: 0.02,
+        },
+        "yaw_model = \"const_alpha\"",
+    );
+    yaw.runs[2].load_inertia = demo_car::YAW_INERTIA;
+    let mut yaw = named(yaw_session("car_yaw", &yaw, s(1)), "demo car");
+    // V2a's noise study: sd 0.0101 % of the car's inertia.
+    yaw.expect(
+        "yaw-veh",
+        "inertia",
+        "falling_mass_exact",
+        demo_car::YAW_INERTIA,
+        demo_car::YAW_INERTIA * 5.1e-4,
+        "demo car: yaw inertia, V2a noise (5 sd)",
+    );
+
+    let mut pitch = v4_params();
+    pitch.vehicle = (
+        demo_car::MASS_KG,
+        demo_car::CG_X_M,
+        demo_car::CG_HEIGHT_M,
+        demo_car::PITCH_INERTIA,
+    );
+    pitch.static_noise_deg = 0.002;
+    let mut pitch = named(pendulum_session("car_pitch", &pitch, s(2)), "demo car");
+    let cg = "pitch-plat-static+pitch-veh-static";
+    pitch.expect(
+        cg,
+        "cg_height",
+        "static_tilt_ls",
+        demo_car::CG_HEIGHT_M,
+        1.5e-3,
+        "demo car: CG height, V4c static noise (+-1.5 mm)",
+    );
+    pitch.expect(
+        "pitch-veh-swing",
+        "inertia_cg",
+        "compound_pendulum",
+        demo_car::PITCH_INERTIA,
+        demo_car::PITCH_INERTIA * 2.5e-3,
+        "demo car: pitch inertia, V4c (+-0.25 %)",
+    );
+
+    let mut wheel = v3_params(false, true, "trifilar");
+    wheel.object = demo_car::WHEEL;
+    let mut wheel = named(
+        trifilar_session("wheel_trifilar", &wheel, s(3)),
+        "demo wheel and tire",
+    );
+    wheel.expect(
+        "trifilar-object",
+        "inertia",
+        "trifilar",
+        demo_car::WHEEL.1,
+        demo_car::WHEEL.1 * 5e-4,
+        "demo wheel and tire: spin inertia, V3a (+-0.05 %)",
+    );
+    vec![yaw, pitch, wheel]
+}

@@ -70,7 +70,8 @@ pub enum RoundError {
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Size {
-    /// 2 tire/rim combinations, 2 pressures, every test kind (the main job's default data set).
+    /// 4 tire/rim combinations (three tires, one of them on two rims), 2 pressures, every test
+    /// kind (the main job's default data set).
     #[default]
     Demo,
     /// 12 tire/rim combinations, 4-5 pressure runs each, cornering and drive/brake.
@@ -342,6 +343,14 @@ pub fn plan_round(config: &SynthConfig) -> Result<RoundPlan, RoundError> {
                 },
                 Combo {
                     tire_index: 1,
+                    rim_in: 7.0,
+                },
+                Combo {
+                    tire_index: 1,
+                    rim_in: 8.0,
+                },
+                Combo {
+                    tire_index: 5,
                     rim_in: 7.0,
                 },
             ],
