@@ -458,25 +458,28 @@ fn rig_lagged() -> &'static Fitted {
 /// The rig delay of [`rig_lagged`], s.
 const RIG_DELAY_S: f64 = 0.02;
 
-/// Issue 18, Done when 1 (rig lag): where a tire was swept at two or more speeds (the round-9
-/// plan: 15, 25 and 45 mph at 250 lb) the relaxation stage separates the rig's 20 ms delay
-/// from the tire's relaxation length: the lag within 10 % and every row's sigma within 10 % of
-/// the truth. Where it was swept at one speed the table says the lag was not separated (its
-/// sigma then carries V x 20 ms). The steady-state fit, de-lagged with both, stays within 2 %
-/// (Fx, Fy) and 5 % (Mz) of truth.
+/// Issue 18, Done when 1 (rig lag): where a tire was swept at two or more speeds at one load
+/// (the round-9 plan: 15, 25 and 45 mph at 250 lb) the relaxation stage separates the rig's
+/// 20 ms delay from the tire's relaxation length: every row of such a tire/rim/pressure says so
+/// and has the lag within 10 % and sigma within 10 % of the truth. Every row of a group swept at
+/// one speed only says the lag was not separated (the configured 0 s); its sigma then carries
+/// the rig's `V x 20 ms` of apparent length, within 10 % of `truth + V x lag`. The steady-state
+/// fit, de-lagged with both, stays within 2 % (Fx, Fy) and 5 % (Mz) of truth.
 #[test]
 fn rig_lag_is_separated_from_relaxation_with_two_speeds_issue_18() {
     let f = rig_lagged();
     assert_eq!(f.fit.status.code(), Some(0), "fit exit code");
     let rx = read_table(&f.out, "relaxation");
-    let (rt, rr, rp, dir) = (
+    let (rt, rr, rp, dir, method) = (
         strs(&rx, "tire"),
         f64s(&rx, "rim_in"),
         f64s(&rx, "pressure_kpa"),
         strs(&rx, "direction"),
+        strs(&rx, "method"),
     );
-    let (fz, sigma, v) = (
+    let (fz, fz_nom, sigma, v) = (
         f64s(&rx, "fz_n_mean"),
+        f64s(&rx, "fz_n_nom"),
         f64s(&rx, "sigma_m"),
         f64s(&rx, "speed_kph"),
     );
@@ -489,43 +492,82 @@ fn rig_lag_is_separated_from_relaxation_with_two_speeds_issue_18() {
         .iter()
         .map(|b| b.unwrap())
         .collect();
+    let group = |k: usize| tir_file_name(&rt[k], rr[k], rp[k]);
+    // The groups with sweeps of one direction and load at two or more speeds (4 km/h bins).
+    let mut speeds: BTreeMap<(String, String, i64), Vec<i64>> = BTreeMap::new();
+    for k in (0..rx.height()).filter(|&k| method[k] == "sweep") {
+        let bin = (v[k] / 4.0).round() as i64;
+        let e = speeds
+            .entry((group(k), dir[k].clone(), fz_nom[k] as i64))
+            .or_default();
+        if !e.contains(&bin) {
+            e.push(bin);
+        }
+    }
+    let two_speeds: std::collections::BTreeSet<String> = speeds
+        .iter()
+        .filter(|(_, s)| s.len() >= 2)
+        .map(|(key, _)| key.0.clone())
+        .collect();
     let (mut worst_lag, mut worst_sigma, mut n_sep) = (0.0_f64, 0.0_f64, 0);
+    let mut worst_apparent = 0.0_f64;
+    let mut failures = Vec::new();
     for k in 0..rx.height() {
-        let name = tir_file_name(&rt[k], rr[k], rp[k]);
+        let name = group(k);
         let truth = model(&f.round.join("truth/tir").join(&name)).model();
         let (sk, sa) = truth.relaxation_lengths(fz[k], 0.0);
         let t = if dir[k] == "lateral" { sa } else { sk };
         let e = sigma[k] / t - 1.0;
+        let row = format!(
+            "{name} {} {} at {:.0} N, {:.0} km/h: lag {:.4} s, sigma {:.4} m (truth {:.4} m, {:+.2} %)",
+            dir[k],
+            method[k],
+            fz[k],
+            v[k],
+            lag[k],
+            sigma[k],
+            t,
+            100.0 * e
+        );
+        if separated[k] != two_speeds.contains(&name) {
+            failures.push(format!("lag_separated = {}: {row}", separated[k]));
+        }
         if separated[k] {
             n_sep += 1;
             let e_lag = lag[k] / RIG_DELAY_S - 1.0;
             worst_lag = worst_lag.max(e_lag.abs());
             worst_sigma = worst_sigma.max(e.abs());
-            assert!(
-                e_lag.abs() < 0.1 && e.abs() < 0.1,
-                "{name} {} at {:.0} N, {:.0} km/h: lag {:.4} s, sigma {:+.2} %",
-                dir[k],
-                fz[k],
-                v[k],
-                lag[k],
-                100.0 * e
-            );
+            if e_lag.abs() >= 0.1 || e.abs() >= 0.1 {
+                failures.push(row);
+            }
         } else {
-            assert_eq!(lag[k], 0.0, "{name}: an assumed lag is the configured 0");
+            // Not separated: the assumed lag is the configured 0 and the rig's delay stays in
+            // sigma as V x delay of apparent length.
+            let apparent = t + v[k] / 3.6 * RIG_DELAY_S;
+            let e_apparent = sigma[k] / apparent - 1.0;
+            worst_apparent = worst_apparent.max(e_apparent.abs());
+            if lag[k] != 0.0 || e_apparent.abs() >= 0.1 {
+                failures.push(format!("{row}, truth + V lag {apparent:.4} m"));
+            }
         }
     }
     eprintln!(
-        "rig lag: {n_sep} of {} rows separated, worst lag error {:.2} %, worst sigma error {:.2} %",
+        "rig lag: {n_sep} of {} rows separated ({} groups swept at two or more speeds), worst lag \
+         error {:.2} %, worst sigma error {:.2} %; {} rows of one-speed groups, sigma within \
+         {:.2} % of truth + V x lag",
         rx.height(),
+        two_speeds.len(),
         100.0 * worst_lag,
-        100.0 * worst_sigma
+        100.0 * worst_sigma,
+        rx.height() - n_sep,
+        100.0 * worst_apparent
     );
-    // The two round-9 tire/pressure groups of the demo round have speed sweeps.
-    let groups: std::collections::BTreeSet<(String, i64)> = (0..rx.height())
-        .filter(|&k| separated[k])
-        .map(|k| (rt[k].clone(), rp[k] as i64))
-        .collect();
-    assert_eq!(groups.len(), 2, "{groups:?}");
+    assert!(failures.is_empty(), "{failures:#?}");
+    assert!(
+        !two_speeds.is_empty() && n_sep > 0,
+        "no group with two speeds"
+    );
+    assert!(n_sep < rx.height(), "no one-speed group");
     check_models(f, [2.0, 2.0, 5.0]);
 }
 
