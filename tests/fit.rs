@@ -1029,3 +1029,141 @@ fn drive_brake_only_group_is_written_with_use_mode_1() {
     let q = read_table(&out, "fit_quality");
     assert_eq!(strs(&q, "channel"), ["Fx0", "Fx"], "{q}");
 }
+
+/// Issue 18: the geometry a `.tir` states is known or left out, never 0, and no coefficient
+/// sits on a bound without a row saying why. Every model of the demo round (tire sizes in the
+/// names: WIDTH, ASPECT_RATIO and RIM_RADIUS from the size, RIM_WIDTH from the rim) and one of a
+/// tire whose name states no size (those three left out) are checked; every coefficient row at
+/// a bound has a note naming the bound and its meaning, every held one a note saying why.
+#[test]
+fn geometry_is_known_or_left_out_and_every_bound_is_explained_issue_18() {
+    let f = realistic();
+    let geometry = [
+        Coef::WIDTH,
+        Coef::ASPECT_RATIO,
+        Coef::RIM_RADIUS,
+        Coef::RIM_WIDTH,
+    ];
+    let mut files = 0;
+    for entry in std::fs::read_dir(f.out.join("tir")).unwrap() {
+        let path = entry.unwrap().path();
+        let m = model(&path);
+        for coef in geometry {
+            assert!(m.present[coef], "{}: no {}", path.display(), coef.name());
+            assert!(
+                m.coefs[coef] > 0.0,
+                "{}: {} = {}",
+                path.display(),
+                coef.name(),
+                m.coefs[coef]
+            );
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        for coef in geometry {
+            let line = text
+                .lines()
+                .find(|l| l.split('=').next().map(str::trim) == Some(coef.name()))
+                .unwrap();
+            let value: f64 = line
+                .split('=')
+                .nth(1)
+                .unwrap()
+                .split('$')
+                .next()
+                .unwrap()
+                .trim()
+                .parse()
+                .unwrap();
+            assert!(value > 0.0, "{}: {line}", path.display());
+        }
+        files += 1;
+    }
+    assert_eq!(files, 8);
+    let check_notes = |out: &Path| -> (usize, usize) {
+        let c = read_table(out, "coefficients");
+        let (names, origins, notes) = (strs(&c, "name"), strs(&c, "origin"), strs(&c, "note"));
+        let at_bound: Vec<bool> = c
+            .column("at_bound")
+            .unwrap()
+            .bool()
+            .unwrap()
+            .iter()
+            .map(|b| b.unwrap())
+            .collect();
+        let (mut on_bound, mut held) = (0, 0);
+        for k in 0..c.height() {
+            if at_bound[k] {
+                on_bound += 1;
+                assert!(
+                    notes[k].starts_with("on its ") && notes[k].contains(": "),
+                    "{} on a bound without a reason: {:?}",
+                    names[k],
+                    notes[k]
+                );
+                eprintln!("{}: {}", names[k], notes[k]);
+            }
+            if origins[k] == "fixed" {
+                held += 1;
+                assert!(
+                    notes[k].starts_with("held: "),
+                    "{}: {:?}",
+                    names[k],
+                    notes[k]
+                );
+            }
+        }
+        (on_bound, held)
+    };
+    let (on_bound, held) = check_notes(&f.out);
+    eprintln!("demo round: {on_bound} coefficients on a bound, {held} held, all explained");
+
+    // A tire whose name states no size: WIDTH, ASPECT_RATIO, RIM_RADIUS left out, not 0.
+    let dir = tempfile::tempdir().unwrap();
+    let (raw, store, out) = (
+        dir.path().join("raw"),
+        dir.path().join("store"),
+        dir.path().join("out"),
+    );
+    std::fs::create_dir_all(&raw).unwrap();
+    std::fs::copy(f.round.join("raw/B2410run2.dat"), raw.join("B2410run2.dat")).unwrap();
+    let catalog = std::fs::read_to_string(f.round.join("catalog.toml"))
+        .unwrap()
+        .replace("Hoosier 20.5x7.0-13 R25B", "Team test tire B");
+    let catalog_path = dir.path().join("catalog.toml");
+    std::fs::write(&catalog_path, catalog).unwrap();
+    ok(
+        &tirebase(&[
+            "ingest",
+            p(&raw),
+            "--store",
+            p(&store),
+            "--catalog",
+            p(&catalog_path),
+        ]),
+        "ingest",
+    );
+    let o = tirebase(&["fit", "--store", p(&store), "--out", p(&out), "--jobs", "1"]);
+    ok(&o, "fit");
+    let path = out
+        .join("tir")
+        .join(tir_file_name("Team test tire B", 7.0, 83.0));
+    let m = model(&path);
+    let text = std::fs::read_to_string(&path).unwrap();
+    for coef in [Coef::WIDTH, Coef::ASPECT_RATIO, Coef::RIM_RADIUS] {
+        assert!(
+            !m.present[coef],
+            "{}: {} written",
+            path.display(),
+            coef.name()
+        );
+        assert!(
+            !text
+                .lines()
+                .any(|l| l.split('=').next().map(str::trim) == Some(coef.name())),
+            "{}",
+            coef.name()
+        );
+    }
+    assert!((m.coefs[Coef::RIM_WIDTH] - 7.0 * 0.0254).abs() < 1e-9);
+    check_notes(&out);
+}

@@ -455,3 +455,42 @@ fn fit_resting_on_one_sweep_is_flagged_out_of_sample() {
     let q = fit.families[0].quality.clone().unwrap();
     assert!(!q.oos_flagged(1.2), "{q:?}");
 }
+
+/// Issue 18: no coefficient is left on a bound without a row saying why. A tire whose data
+/// say mu_y = 5 (beyond the fit's |mu| <= 4, the lint's limit) leaves PDY1 on its bound; the
+/// coefficient row says which bound and what it means, and every held coefficient says why.
+#[test]
+fn a_coefficient_on_a_bound_says_why() {
+    let mut truth = fsae_demo();
+    truth[PDY1] = -5.0;
+    let input = ttc_round(&truth, &RoundSpec::realistic(7));
+    let fit = fit(&input, &FitConfig::default()).expect("fit");
+    let on_bound: Vec<&FittedCoefficient> =
+        fit.coefficients.iter().filter(|c| c.at_bound).collect();
+    for c in &on_bound {
+        eprintln!("{}: {} ({:?})", c.coef.name(), c.value, c.note);
+    }
+    let pdy1 = fit.coefficients.iter().find(|c| c.coef == PDY1).unwrap();
+    assert!(pdy1.at_bound, "{pdy1:?}");
+    assert_eq!(pdy1.value, -4.0);
+    assert!(pdy1.std_error.is_none(), "{pdy1:?}");
+    let note = pdy1.note.as_deref().unwrap_or_default();
+    assert!(
+        note.starts_with("on its lower bound -4 ") && note.contains("not physical"),
+        "{note}"
+    );
+    for c in &fit.coefficients {
+        if c.at_bound {
+            assert!(
+                c.note.as_deref().is_some_and(|n| n.starts_with("on its ")),
+                "{c:?}"
+            );
+        }
+        if matches!(c.origin, CoefficientOrigin::Fixed { .. }) {
+            assert!(
+                c.note.as_deref().is_some_and(|n| n.starts_with("held: ")),
+                "{c:?}"
+            );
+        }
+    }
+}
