@@ -5,13 +5,19 @@
 //! sweeps, the stage's envelope and configuration. Out: [`OutOfSample`] (k-fold by sweep) and
 //! [`TrendDeviation`] (dense grid along every sweep).
 //!
-//! - Out of sample: the sweeps are dealt into `k` folds in a fixed pseudo-random order (a hash
-//!   of the sweep id, so folds mix loads and inclinations); for each fold the family's free
-//!   coefficients are refitted on the other folds' sweeps, warm-started from the full fit with
-//!   a short budget ([`super::FitConfig::kfold_iterations`], one robust-loss round), and the
-//!   held-out sweeps' collapsed points are predicted. The RMSE over every held-out point is on
-//!   the same points as the in-sample `rmse`. Families fitted earlier (e.g. `Fy0` under `Mz0`)
-//!   keep their full-data values: a family's own coefficients are what is cross-validated.
+//! - Out of sample: the sweeps are dealt into `k` folds by their nominal levels, diagonally:
+//!   fold = (rank of the load + rank of the inclination + rank of the held slip angle) mod `k`
+//!   (ranks among the family's distinct levels), so a fold on a load x inclination grid holds at
+//!   most one sweep of a load at each inclination, never most of a load or inclination level
+//!   (its prediction would be an extrapolation), and repeats of a condition are held out
+//!   together. For each
+//!   fold the family's free coefficients are refitted on the other folds' sweeps, warm-started
+//!   from the family's own stage (where its in-sample figure was measured; the combined `Mz`
+//!   family later refits the `Mz0` coefficients on every sweep) with a short budget
+//!   ([`super::FitConfig::kfold_iterations`], one robust-loss round), and the held-out sweeps'
+//!   collapsed points are predicted. The RMSE over every held-out point is on the same points
+//!   as the in-sample `rmse`. Families fitted earlier (e.g. `Fy0` under `Mz0`) keep their
+//!   full-data values: a family's own coefficients are what is cross-validated.
 //! - Trend deviation: between neighbouring collapsed points of every sweep the operating point
 //!   is interpolated at [`TREND_SUBDIVISIONS`] steps (~0.5 mrad of slip angle on the default
 //!   grid) and the model is compared with the data's local trend there (a least-squares
@@ -66,25 +72,40 @@ pub struct TrendDeviation {
     pub n: usize,
 }
 
-/// Which fold a sweep belongs to: FNV-1a of its id, so the folds do not follow the sorted
-/// (load, inclination) order.
-fn fold_of(id: &str, k: usize) -> usize {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in id.bytes() {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    (h % k as u64) as usize
+/// Rank of every value among the distinct values (to `resolution`).
+fn ranks(values: &[f64], resolution: f64) -> Vec<usize> {
+    let keys: Vec<i64> = values
+        .iter()
+        .map(|v| (v / resolution).round() as i64)
+        .collect();
+    let mut levels = keys.clone();
+    levels.sort_unstable();
+    levels.dedup();
+    keys.iter()
+        .map(|k| levels.binary_search(k).unwrap_or(0))
+        .collect()
 }
 
-/// The folds of `sweeps`: every fold non-empty (ids hashed, then an empty fold takes a sweep
-/// from the largest one), `None` with fewer than two sweeps or `k < 2`.
+/// The folds of `sweeps`: diagonal in the nominal levels (module docs), every fold non-empty
+/// (an empty fold takes a sweep from the largest one), `None` with fewer than two sweeps or
+/// `k < 2`.
 fn folds(sweeps: &[&CollapsedSweep], k: usize) -> Option<Vec<usize>> {
     let k = k.min(sweeps.len());
     if k < 2 {
         return None;
     }
-    let mut fold: Vec<usize> = sweeps.iter().map(|s| fold_of(&s.id, k)).collect();
+    let level = |f: fn(&CollapsedSweep) -> f64, resolution: f64| {
+        ranks(
+            &sweeps.iter().map(|s| f(s)).collect::<Vec<f64>>(),
+            resolution,
+        )
+    };
+    let fz = level(|s| s.nominal.fz_n, 1.0);
+    let gamma = level(|s| s.nominal.gamma_rad, 1e-4);
+    let alpha = level(|s| s.nominal.alpha_rad, 1e-4);
+    let mut fold: Vec<usize> = (0..sweeps.len())
+        .map(|i| (fz[i] + gamma[i] + alpha[i]) % k)
+        .collect();
     for f in 0..k {
         if fold.contains(&f) {
             continue;
@@ -324,6 +345,30 @@ mod tests {
             assert!(f.contains(&g), "{f:?}");
         }
         assert!(folds(&refs[..1], 5).is_none());
+        // A 5-load x 3-inclination grid in 5 folds: each fold holds one sweep of 3 different
+        // loads at the 3 inclinations.
+        let grid: Vec<CollapsedSweep> = (0..15)
+            .map(|i| {
+                let mut s = mk(&format!("g-{i}"));
+                s.nominal.fz_n = 200.0 * (1 + i % 5) as f64;
+                s.nominal.gamma_rad = (i / 5) as f64 * 0.02;
+                s
+            })
+            .collect();
+        let refs: Vec<&CollapsedSweep> = grid.iter().collect();
+        let f = folds(&refs, 5).unwrap();
+        for g in 0..5 {
+            let held: Vec<&&CollapsedSweep> = refs
+                .iter()
+                .zip(&f)
+                .filter(|(_, x)| **x == g)
+                .map(|(s, _)| s)
+                .collect();
+            assert_eq!(held.len(), 3, "{f:?}");
+            let mut loads: Vec<i64> = held.iter().map(|s| s.nominal.fz_n as i64).collect();
+            loads.dedup();
+            assert_eq!(loads.len(), 3, "{f:?}");
+        }
         assert_eq!(folds(&refs[..2], 5).unwrap().len(), 2);
     }
 }

@@ -98,6 +98,9 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
     let mut evaluations = 0;
     let mut fitted: Vec<Family> = Vec::new();
     let mut free_lists: Vec<(Family, Vec<Coef>)> = Vec::new();
+    // Every family's coefficients as its own stage left them (later families may refit some:
+    // the combined Mz family refits the Mz0 coefficients on every sweep).
+    let mut stage_coefs: Vec<(Family, Coefs<f64>)> = Vec::new();
     for family in Family::FIT_ORDER {
         if family == Family::My {
             families.push(rolling_placeholder(cfg, &mut c, &mut origins, &mut notes));
@@ -133,6 +136,7 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
                     std_errors.push((*coef, outcome.std_errors[k], outcome.at_bounds[k]));
                 }
                 free_lists.push((family, free));
+                stage_coefs.push((family, c.clone()));
                 fitted.push(family);
                 families.push(FamilyFit {
                     family,
@@ -157,7 +161,15 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
             }
         }
     }
-    evaluations += cross_validate(&mut families, &free_lists, &sweeps, &env, cfg, &c);
+    evaluations += cross_validate(
+        &mut families,
+        &free_lists,
+        &stage_coefs,
+        &sweeps,
+        &env,
+        cfg,
+        &c,
+    );
     let has = |f: Family| fitted.contains(&f);
     let use_mode = match (has(Family::Fx0), has(Family::Fy0)) {
         (true, true) if has(Family::Fx) && has(Family::Fy) => 4,
@@ -179,11 +191,14 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
     })
 }
 
-/// Out-of-sample and trend-deviation quality of every fitted family, with the final
-/// coefficients (see `quality`); returns the refits' evaluations.
+/// Out-of-sample and trend-deviation quality of every fitted family (see `quality`): the trend
+/// of the final coefficients (the written model), the out-of-sample refits from the family's
+/// own stage (`stage_coefs`), where its in-sample figure was measured; returns the refits'
+/// evaluations.
 fn cross_validate(
     families: &mut [FamilyFit],
     free_lists: &[(Family, Vec<Coef>)],
+    stage_coefs: &[(Family, Coefs<f64>)],
     sweeps: &[CollapsedSweep],
     env: &Envelope,
     cfg: &FitConfig,
@@ -203,8 +218,19 @@ fn cross_validate(
         };
         q.trend = quality::trend_deviation(fam.family, &data, c);
         if cfg.kfold >= 2 {
-            q.out_of_sample =
-                quality::out_of_sample(fam.family, free, &data, env, cfg, c, &q.identifiability);
+            let at_stage = stage_coefs
+                .iter()
+                .find(|(f, _)| *f == fam.family)
+                .map_or(c, |(_, s)| s);
+            q.out_of_sample = quality::out_of_sample(
+                fam.family,
+                free,
+                &data,
+                env,
+                cfg,
+                at_stage,
+                &q.identifiability,
+            );
             evaluations += q.out_of_sample.as_ref().map_or(0, |o| o.evaluations);
         }
     }
