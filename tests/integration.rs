@@ -6,6 +6,7 @@ mod fit;
 mod inertia;
 mod ingest;
 mod real;
+mod real_quality;
 mod report;
 mod run;
 mod run_inputs;
