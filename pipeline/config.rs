@@ -102,7 +102,7 @@ pub struct FitSettings {
     pub max_iterations: usize,
     /// Prior weight pulling the asymmetric combined terms RHX1, RBY3 to zero.
     pub asymmetry_weight: f64,
-    /// Prior weight pulling weakly identified terms (residual torque, trail curvature, camber, load-curvature and combined-slip shape terms) to neutral values.
+    /// Prior weight pulling weakly identified terms (residual torque, trail curvature, load-curvature and combined-slip shape terms; camber terms only through residual torque and trail curvature) to neutral values.
     pub regularisation_weight: f64,
     /// Weight of the physical-constraint penalties.
     pub constraint_weight: f64,

@@ -206,6 +206,14 @@ pub fn unidentifiable(c: Coef, levels: &Levels) -> Option<String> {
     None
 }
 
+/// True for a camber term: a coefficient that needs two or more inclination levels, or
+/// inclinations of both signs, to be identified.
+#[cfg(test)]
+pub fn is_camber_term(c: Coef) -> bool {
+    let n = needs_of(c);
+    n.cambers >= 2 || n.camber_both_signs
+}
+
 /// The value an unidentifiable coefficient is held at: neutral for load/camber variations,
 /// a typical value for shape parameters the data cannot reach.
 pub fn held_value(c: Coef) -> f64 {

@@ -283,7 +283,7 @@ pub struct FitConfig {
     /// as this relative RMS error of the fit.
     pub asymmetry_weight: f64,
     /// Weight of the priors pulling weakly identified terms (residual torque, trail curvature,
-    /// camber, load-curvature and combined-slip shape terms) to their neutral values: one
+    /// load-curvature and combined-slip shape terms) to their neutral values: one
     /// typical departure costs as much as this relative RMS error of the fit.
     pub regularisation_weight: f64,
     /// Weight of the physical-constraint penalties (per unit of violation, relative to a

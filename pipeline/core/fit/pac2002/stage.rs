@@ -851,9 +851,15 @@ pub(super) fn penalties_of(
 /// from it: `(centre, scale)`. A prior `regularisation_weight (c - centre)/scale` settles what
 /// the data leave undetermined (a flat direction of the cost) at the neutral value and moves a
 /// well-determined coefficient by a negligible amount: one scale away costs as much as 0.1 % of
-/// relative RMS error at the default weight. Terms: residual torque, trail curvature, camber
-/// terms, load curvature terms and the combined-slip shape terms; the main peak, stiffness and
-/// shape factors have none.
+/// relative RMS error at the default weight. Terms: residual torque, trail curvature (both with
+/// their camber terms), the curvature asymmetry, load curvature terms and the combined-slip
+/// shape terms; the main peak, stiffness and shape factors have none.
+///
+/// The other camber terms have none either: each is free only when the family's data have the
+/// inclination levels that identify it ([`super::family::unidentifiable`]: two inclinations,
+/// three for `QDZ4`'s `gamma^2`, both signs for `QBZ5`'s `|gamma|`, two loads as well for the
+/// `dfz gamma` terms) and is held at its neutral value otherwise (one inclination tested), so
+/// a prior would only pull a determined camber law toward zero.
 fn neutral_prior(coef: Coef) -> Option<(f64, f64)> {
     Some(match coef {
         // Residual torque.
@@ -862,13 +868,8 @@ fn neutral_prior(coef: Coef) -> Option<(f64, f64)> {
         QDZ8 | QDZ9 => (0.0, 0.2),
         // Trail curvature and its load and camber terms.
         QEZ1 | QEZ2 | QEZ3 | QEZ4 | QEZ5 => (0.0, 2.0),
-        // Camber terms.
-        PDY3 | PDX3 => (0.0, 10.0),
-        PKY3 | PEY3 | PEY4 => (0.0, 1.0),
-        PHY3 | QHZ3 | QHZ4 => (0.0, 0.05),
-        PVY3 | PVY4 | SSZ3 | SSZ4 | RVY3 => (0.0, 1.0),
-        QBZ4 | QBZ5 | QDZ3 => (0.0, 5.0),
-        QDZ4 => (0.0, 50.0),
+        // Asymmetry of the lateral curvature in slip angle.
+        PEY3 => (0.0, 1.0),
         // Load curvature.
         PEX3 | QBZ3 => (0.0, 2.0),
         // Combined-slip shape.
@@ -1140,4 +1141,45 @@ fn coefficient_list(
             })
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::family::is_camber_term;
+    use super::*;
+
+    /// Camber terms are held when one inclination was tested and carry no prior when the
+    /// inclination levels identify them; those of residual torque and trail curvature keep it.
+    #[test]
+    fn identified_camber_terms_carry_no_prior() {
+        let one_ia = Levels {
+            loads: 5,
+            cambers: 1,
+            camber_both_signs: false,
+            alphas: 3,
+            alpha_both_signs: true,
+        };
+        let tested = Levels {
+            cambers: 5,
+            camber_both_signs: true,
+            ..one_ia.clone()
+        };
+        let mut n = 0;
+        for family in Family::FIT_ORDER {
+            for &c in family.coefficients() {
+                if !is_camber_term(c) {
+                    continue;
+                }
+                n += 1;
+                assert!(
+                    unidentifiable(c, &one_ia).is_some(),
+                    "{c:?} free with one IA"
+                );
+                assert!(unidentifiable(c, &tested).is_none(), "{c:?}");
+                let kept = matches!(c, QDZ8 | QDZ9 | QEZ5);
+                assert_eq!(neutral_prior(c).is_some(), kept, "{c:?}");
+            }
+        }
+        assert!(n >= 19, "{n} camber terms");
+    }
 }
