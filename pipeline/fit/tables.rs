@@ -336,7 +336,8 @@ pub fn relaxation(results: &[GroupResult]) -> Result<DataFrame, FitError> {
                 .b("converged", row.converged)
                 .b("at_bound", row.at_bound)
                 .f("measurement_lag_s", row.measurement_lag_s)
-                .b("lag_separated", row.lag_separated);
+                .b("lag_separated", row.lag_separated)
+                .s("lag_note", row.lag_note.clone());
         }
     }
     f.finish()

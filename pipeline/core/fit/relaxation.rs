@@ -264,6 +264,9 @@ pub struct MeasurementLagFit {
     pub speeds_kph: Vec<f64>,
     /// On a bound of its search interval.
     pub at_bound: bool,
+    /// Why the lag is what it is: identified (with its test statistic), assumed (one speed),
+    /// or not separated (two speeds, but no lag fits as well as the best one).
+    pub note: String,
 }
 
 impl Default for RelaxationConfig {
@@ -372,8 +375,10 @@ pub struct RelaxationRow {
     pub measurement_lag_s: f64,
     /// True when that lag was identified from rows at two or more speeds, so `sigma` is the
     /// tire's alone; false when it was assumed (one speed): `sigma` then carries any rig lag as
-    /// `V lag` of extra length.
+    /// `V lag` of extra length; false with a lag of 0 when two speeds showed no lag.
     pub lag_separated: bool,
+    /// Why the lag is what it is (see [`MeasurementLagFit::note`]).
+    pub lag_note: String,
 }
 
 /// PAC2002 relaxation coefficients of one tire/rim/pressure, fitted to its rows' `sigma(Fz)`.
@@ -478,6 +483,7 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
         for r in &mut rows {
             r.measurement_lag_s = lag.lag.lag_s;
             r.lag_separated = lag.identified;
+            r.lag_note.clone_from(&lag.note);
             r.sigma_law_m = law.sigma_m(
                 input.model,
                 input.unloaded_radius_m,
@@ -673,6 +679,21 @@ impl LagProblem {
         (rss, s, c)
     }
 
+    /// Residuals of the measured force against `s F_lag + c` at `sigma` and `lag`, the nuisance
+    /// parameters solved; `None` for a sample the cost does not count.
+    pub fn residuals_with(&self, sigma_m: f64, lag: &MeasurementLag) -> Vec<Option<f64>> {
+        let (_, s, c) = self.cost_with(sigma_m, lag);
+        let y = lag.apply(
+            &self.t_s,
+            first_order_lag(&self.t_s, &self.v_mps, &self.f_ss, sigma_m),
+        );
+        y.iter()
+            .zip(&self.f_meas)
+            .zip(&self.counted)
+            .map(|((yy, m), counted)| counted.then(|| m - s * yy - c))
+            .collect()
+    }
+
     /// Find `sigma` in `range` by grid + Brent.
     pub fn fit(&self, range: (f64, f64)) -> Result<LagFit, String> {
         let n = self.counted.iter().filter(|c| **c).count();
@@ -841,8 +862,18 @@ fn group_row(
         at_bound: best.at_bound,
         measurement_lag_s: first.problem.measurement.lag_s,
         lag_separated: false,
+        lag_note: String::new(),
     })
 }
+
+/// Likelihood-ratio threshold of the measurement-lag test: an identified lag is kept only when
+/// it lowers the pooled cost by more than this many effective noise variances below no lag,
+/// i.e. the lag is three of its standard errors from 0 (for a quadratic profile the statistic is
+/// `(lag / SE)^2`).
+const LAG_LR_THRESHOLD: f64 = 9.0;
+
+/// Longest residual autocorrelation lag summed for the effective sample count, samples.
+const MAX_AUTOCORRELATION_LAG: usize = 500;
 
 /// The rig's measurement lag of one input: identified by a profile over the lag when some load
 /// has sweep segments at two or more road speeds, else the configured value. At every trial lag
@@ -850,6 +881,15 @@ fn group_row(
 /// slip rate (a relaxation length does not depend on speed; a lag in time adds `V lag` to the
 /// apparent length, so only the right lag lets one `sigma` fit every speed), and the summed
 /// cost of those loads is minimised over the lag by grid + Brent.
+///
+/// The search starts at 0, so noise alone always finds some small lag. The minimum is kept only
+/// when the data support it over no lag: the drop of the pooled cost from lag 0 to the minimum,
+/// in units of the residual variance per effective sample, must exceed [`LAG_LR_THRESHOLD`].
+/// The effective sample count is the counted samples divided by `1 + 2 sum rho_k`, with `rho_k`
+/// the residuals' autocorrelation at the minimum summed up to its first non-positive value:
+/// the residuals (thermal drift, model error, smoothed noise) are far from independent, and
+/// counting every sample would make any lag look significant. Otherwise the lag is 0 and the
+/// rows say `lag_separated = false` with the statistic in their note.
 fn identify_measurement_lag(
     key: &TireKey,
     groups: &BTreeMap<GroupKey, Vec<Prepared>>,
@@ -864,6 +904,11 @@ fn identify_measurement_lag(
         identified: false,
         speeds_kph: Vec::new(),
         at_bound: false,
+        note: format!(
+            "assumed {:.1} ms: no load swept at two or more speeds, the lag is not separable \
+             from sigma",
+            1e3 * cfg.measurement_lag_s
+        ),
     };
     // Sweep groups by (direction, nominal load): one shared sigma each.
     let mut by_load: BTreeMap<(Direction, i64), Vec<&GroupKey>> = BTreeMap::new();
@@ -884,25 +929,27 @@ fn identify_measurement_lag(
         return assumed;
     }
     let (lo, hi) = cfg.sigma_range_m;
-    let profile = |lag_s: f64| -> f64 {
-        let lag = MeasurementLag {
-            form: cfg.measurement_lag_form,
-            lag_s,
-        };
+    let lag_of = |lag_s: f64| MeasurementLag {
+        form: cfg.measurement_lag_form,
+        lag_s,
+    };
+    // Each informative load's shared sigma (at zero inclination) and pooled cost at a lag.
+    let per_load = |lag: &MeasurementLag| -> Vec<(f64, f64)> {
         informative
             .iter()
             .map(|members| {
                 let pooled = |sigma0: f64| -> f64 {
                     members
                         .iter()
-                        .map(|m| m.problem.cost_with(sigma0 * m.factor, &lag).0)
+                        .map(|m| m.problem.cost_with(sigma0 * m.factor, lag).0)
                         .sum()
                 };
                 scalar::minimize(&pooled, lo, hi, &ScalarOptions::default())
-                    .map_or(f64::INFINITY, |b| b.cost)
+                    .map_or((f64::NAN, f64::INFINITY), |b| (b.x, b.cost))
             })
-            .sum()
+            .collect()
     };
+    let profile = |lag_s: f64| -> f64 { per_load(&lag_of(lag_s)).iter().map(|p| p.1).sum() };
     let (a, b) = cfg.measurement_lag_range_s;
     let options = ScalarOptions {
         grid: 21,
@@ -920,16 +967,82 @@ fn identify_measurement_lag(
         .collect();
     speeds_kph.sort_by(f64::total_cmp);
     speeds_kph.dedup_by(|x, y| (*x - *y).abs() < 4.0);
-    MeasurementLagFit {
-        key: key.clone(),
-        lag: MeasurementLag {
-            form: cfg.measurement_lag_form,
-            lag_s: best.x,
-        },
-        identified: true,
-        speeds_kph,
-        at_bound: best.at_bound,
+    // The test against no lag.
+    let best_lag = lag_of(best.x);
+    let residuals: Vec<Vec<Option<f64>>> = informative
+        .iter()
+        .zip(per_load(&best_lag))
+        .flat_map(|(members, (sigma0, _))| {
+            members
+                .iter()
+                .map(move |m| m.problem.residuals_with(sigma0 * m.factor, &best_lag))
+        })
+        .collect();
+    let n: usize = residuals.iter().flatten().filter(|r| r.is_some()).count();
+    let inflation = autocorrelation_inflation(&residuals);
+    let n_eff = n as f64 / inflation;
+    let cost_at_zero = profile(0.0_f64.max(a));
+    let statistic = if best.cost > 0.0 && n > 0 {
+        (cost_at_zero - best.cost).max(0.0) * n_eff / best.cost
+    } else {
+        f64::INFINITY
+    };
+    let summary = format!(
+        "{:.2} ms lowers the pooled cost below no lag by {statistic:.1} effective noise \
+         variances ({n} samples, {n_eff:.0} effective: residual autocorrelation time {inflation:.1} \
+         samples; threshold {LAG_LR_THRESHOLD})",
+        1e3 * best.x
+    );
+    if a > 0.0 || statistic > LAG_LR_THRESHOLD {
+        MeasurementLagFit {
+            key: key.clone(),
+            lag: best_lag,
+            identified: true,
+            speeds_kph,
+            at_bound: best.at_bound,
+            note: format!("identified: {summary}"),
+        }
+    } else {
+        MeasurementLagFit {
+            key: key.clone(),
+            lag: lag_of(0.0),
+            identified: false,
+            speeds_kph,
+            at_bound: false,
+            note: format!("not separated, 0 used: the best lag {summary}"),
+        }
     }
+}
+
+/// `1 + 2 sum rho_k` of residual sequences (`None`: a sample the cost does not count), the
+/// autocorrelations pooled over the sequences and summed from `k = 1` up to the first
+/// non-positive one (at most [`MAX_AUTOCORRELATION_LAG`]); at least 1.
+fn autocorrelation_inflation(residuals: &[Vec<Option<f64>>]) -> f64 {
+    let autocovariance = |k: usize| -> f64 {
+        let (mut sum, mut pairs) = (0.0, 0usize);
+        for r in residuals {
+            for i in 0..r.len().saturating_sub(k) {
+                if let (Some(x), Some(y)) = (r[i], r[i + k]) {
+                    sum += x * y;
+                    pairs += 1;
+                }
+            }
+        }
+        if pairs > 0 { sum / pairs as f64 } else { 0.0 }
+    };
+    let c0 = autocovariance(0);
+    if c0 <= 0.0 {
+        return 1.0;
+    }
+    let mut total = 1.0;
+    for k in 1..=MAX_AUTOCORRELATION_LAG {
+        let rho = autocovariance(k) / c0;
+        if rho <= 0.0 || !rho.is_finite() {
+            break;
+        }
+        total += 2.0 * rho;
+    }
+    total
 }
 
 /// Build the lag problem of a segment from the model.

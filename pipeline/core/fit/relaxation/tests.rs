@@ -682,6 +682,7 @@ fn row_at(direction: Direction, fz: f64, sigma: f64, se_rel: f64) -> RelaxationR
         at_bound: false,
         measurement_lag_s: 0.0,
         lag_separated: false,
+        lag_note: String::new(),
     }
 }
 
@@ -847,6 +848,32 @@ fn three_speed_round(model: &Pac2002, rig: &MeasurementLag) -> Vec<MeasuredSegme
     segs
 }
 
+/// Issue 18: the same three-speed round without any rig lag. The search over the lag starts at
+/// 0, so noise finds some small lag; it must not be kept: the lag is 0, not separated, and the
+/// note says why.
+#[test]
+fn no_rig_lag_is_not_separated_from_noise() {
+    let model = fsae_model(PT);
+    let segs = three_speed_round(&model, &MeasurementLag::NONE);
+    let input = RelaxationInput {
+        key: key("T", 83),
+        model: &model,
+        unloaded_radius_m: 0.2612,
+        vertical_stiffness_n_per_m: 137_800.0,
+        segments: &segs,
+    };
+    let out = run(&[input], &RelaxationConfig::default());
+    assert!(out.failures.is_empty(), "{:?}", out.failures);
+    let lag = &out.measurement_lags[0];
+    eprintln!("{}", lag.note);
+    assert!(!lag.identified && lag.lag.lag_s == 0.0, "{lag:?}");
+    assert!(lag.note.starts_with("not separated"), "{lag:?}");
+    assert_eq!(lag.speeds_kph.len(), 3, "{lag:?}");
+    for r in &out.rows {
+        assert!(!r.lag_separated && r.measurement_lag_s == 0.0 && r.lag_note == lag.note);
+    }
+}
+
 /// Issue 18: a rig lag in time (a 20 ms delay, or a 15 ms first-order filter) beside the tire's
 /// relaxation length. Sweeps at two or more speeds at one load separate the two: the lag within
 /// 10 % and every row's sigma within 5 % of the truth, the same at every speed. The same data
@@ -877,8 +904,8 @@ fn rig_lag_is_separated_from_relaxation_with_two_speeds() {
             .map(|r| r.sigma_row_m / sigma_alpha(&model, r.fz_n_mean) - 1.0)
             .fold(0.0_f64, |a, e| if e.abs() > a.abs() { e } else { a });
         eprintln!(
-            "{form:?} {lag_s} s: identified {:.4} s, worst row sigma {worst:+.4}",
-            lag.lag.lag_s
+            "{form:?} {lag_s} s: identified {:.4} s, worst row sigma {worst:+.4}; {}",
+            lag.lag.lag_s, lag.note
         );
         assert!(lag.identified && !lag.at_bound, "{lag:?}");
         assert!(
