@@ -21,6 +21,7 @@ use tirebase_core::tire_model::tir::TirFile;
 use tirebase_core::tire_model::{Coef, Evaluation, Mode, Pac2002, SlipInput};
 
 use crate::manifest::{Manifest, ManifestError};
+use crate::schema::TableName;
 use crate::store::StoreError;
 use crate::store::results;
 
@@ -30,12 +31,12 @@ const SAME_REL: f64 = 1e-12;
 const SAME_FORCE: f64 = 1e-9;
 
 /// Result tables compared generically: (table, row kind).
-const TABLES: [(&str, &str); 5] = [
-    ("fit_quality", "quality"),
-    ("spring_rate", "stage"),
-    ("thermal_fit", "stage"),
-    ("relaxation", "stage"),
-    ("inertia", "inertia"),
+const TABLES: [(TableName, &str); 5] = [
+    (TableName::FitQuality, "quality"),
+    (TableName::SpringRate, "stage"),
+    (TableName::ThermalFit, "stage"),
+    (TableName::Relaxation, "stage"),
+    (TableName::Inertia, "inertia"),
 ];
 
 /// Diff errors.
@@ -387,7 +388,7 @@ fn keyed(df: &DataFrame, tire: Option<&str>) -> KeyedTable {
 fn table_rows(
     a: &Path,
     b: &Path,
-    table: &str,
+    table: TableName,
     kind: &'static str,
     tire: Option<&str>,
     out: &mut Vec<DiffRow>,

@@ -12,10 +12,10 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use rayon::prelude::*;
 use tirebase_core::inertia::analysis::{SessionOutcome, analyze_session};
-use tirebase_core::inertia::session::{SessionError, load_dir_reader, load_session};
+use tirebase_core::inertia::session::{SESSION_FILE, Session, SessionError};
 use tirebase_core::inertia::{InertiaResult, RunError};
 
-use crate::schema;
+use crate::schema::{self, TableName};
 use crate::store::StoreError;
 
 /// The processed sessions.
@@ -58,7 +58,7 @@ pub fn find_sessions(root: &Path) -> Vec<PathBuf> {
         let Ok(entries) = fs::read_dir(&dir) else {
             continue;
         };
-        if dir.join("session.toml").is_file() {
+        if dir.join(SESSION_FILE).is_file() {
             out.push(dir.clone());
             continue;
         }
@@ -134,6 +134,27 @@ fn reject_duplicate_ids(outcomes: &mut [SessionOutcome], dirs: &[PathBuf]) {
     }
 }
 
+/// A reader of run files relative to a session directory.
+fn load_dir_reader(dir: &Path) -> impl Fn(&str) -> Result<String, SessionError> + Sync + '_ {
+    move |rel: &str| {
+        let path: PathBuf = dir.join(rel);
+        std::fs::read_to_string(&path).map_err(|e| SessionError::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })
+    }
+}
+
+/// Reads and parses `DIR/session.toml`.
+fn load_session(dir: &Path) -> Result<Session, SessionError> {
+    let path = dir.join(SESSION_FILE);
+    let text = std::fs::read_to_string(&path).map_err(|e| SessionError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    Session::parse(&text)
+}
+
 fn process_dir(dir: &Path) -> SessionOutcome {
     let label = dir
         .file_name()
@@ -188,5 +209,5 @@ pub fn results_frame(rows: &[InertiaResult]) -> Result<DataFrame, StoreError> {
         table: "inertia".into(),
         message: e.to_string(),
     })?;
-    schema::table("inertia").conform(df)
+    schema::table(TableName::Inertia).conform(df)
 }

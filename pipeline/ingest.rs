@@ -50,8 +50,8 @@ use crate::store::layout::{PartitionKey, SWEPT, source_part_name};
 use crate::store::lock::{LockWait, StoreLock};
 pub use crate::store::tables::RunRow;
 use crate::store::tables::{
-    STATUS_DUPLICATE, STATUS_FAILED, STATUS_OK, STATUS_PARTIAL, collect_garbage, has_runs,
-    parts_sha256, read_runs, relabel_parts, write_runs, write_samples_part, write_segments_part,
+    RunStatus, collect_garbage, has_runs, parts_sha256, read_runs, relabel_parts, write_runs,
+    write_samples_part, write_segments_part,
 };
 
 /// Ingest errors that stop the whole ingest (per-file problems are recorded, not raised).
@@ -487,7 +487,7 @@ pub fn run_locked(
         mark_duplicate_runs(&mut rows)
     };
     for (name, status) in report.files.iter_mut() {
-        if let Some(row) = rows.get(name).filter(|r| r.status == STATUS_DUPLICATE) {
+        if let Some(row) = rows.get(name).filter(|r| r.status == RunStatus::Duplicate) {
             *status = FileStatus::Duplicate(row.error.clone().unwrap_or_default());
         }
     }
@@ -506,7 +506,7 @@ pub fn run_locked(
     report.files.sort();
     for (name, _) in &report.files {
         let Some(row) = rows.get(name) else { continue };
-        if row.status == STATUS_PARTIAL {
+        if row.status == RunStatus::Partial {
             report
                 .partial
                 .push((name.clone(), row.error.clone().unwrap_or_default()));
@@ -518,7 +518,7 @@ pub fn run_locked(
             let partial_reason = row
                 .error
                 .as_deref()
-                .filter(|_| row.status == STATUS_PARTIAL);
+                .filter(|_| row.status == RunStatus::Partial);
             report.warnings.extend(
                 w.split("; ")
                     .filter(|w| !w.is_empty() && !partial_reason.is_some_and(|r| r.contains(w)))
@@ -558,7 +558,7 @@ fn canonical_present(
     rows: &BTreeMap<String, RunRow>,
     present: &BTreeSet<&str>,
 ) -> bool {
-    dup.status == STATUS_DUPLICATE
+    dup.status == RunStatus::Duplicate
         && dup.project.is_some()
         && dup.run.is_some()
         && rows.values().any(|r| {
@@ -581,7 +581,7 @@ fn failed_row(
     row.source_file = name.to_string();
     row.source_path = path.display().to_string();
     row.sha256 = sha.to_string();
-    row.status = STATUS_FAILED.into();
+    row.status = RunStatus::Failed;
     row.error = Some(error.clone());
     let stamp = FileStamp::of(path).ok();
     row.size_bytes = stamp.map(|s| s.size_bytes);
@@ -807,11 +807,10 @@ fn parse_and_store(
         sha256: sha.clone(),
         data_sha256: Some(sha.clone()),
         status: if stops_early.is_some() {
-            STATUS_PARTIAL
+            RunStatus::Partial
         } else {
-            STATUS_OK
-        }
-        .into(),
+            RunStatus::Ok
+        },
         error: stops_early,
         project: run.meta.project.map(i64::from),
         run: run.meta.run.map(i64::from),
@@ -1243,9 +1242,6 @@ pub fn duplicate_runs_note(duplicates: usize) -> String {
     }
 }
 
-/// `runs.status` of a file whose run another file holds (see [`mark_duplicate_runs`]).
-pub const DUPLICATE: &str = STATUS_DUPLICATE;
-
 /// One run enters the store once. The consortium ships every run as `.dat` and `.mat`, in US
 /// customary (`A` prefix) and SI (`B`), and from Round 6 as "run" and "raw" files: a whole round
 /// download holds each test up to eight times, and every copy's segments would enter the fits.
@@ -1258,14 +1254,14 @@ fn mark_duplicate_runs(rows: &mut BTreeMap<String, RunRow>) -> BTreeMap<String, 
     let mut runs: BTreeMap<(i64, i64), Vec<&RunRow>> = BTreeMap::new();
     for r in rows.values() {
         if let (Some(project), Some(run), Some(_)) = (r.project, r.run, &r.data_sha256)
-            && (r.status == STATUS_OK || r.status == STATUS_PARTIAL)
+            && (r.status == RunStatus::Ok || r.status == RunStatus::Partial)
         {
             runs.entry((project, run)).or_default().push(r);
         }
     }
     let preference = |r: &RunRow| {
         (
-            r.status == STATUS_PARTIAL,
+            r.status == RunStatus::Partial,
             r.units.as_deref() != Some("SI"),
             !TtcFileName::parse(&r.source_file).is_some_and(|n| n.raw),
             r.format.as_deref() != Some("mat"),
@@ -1295,7 +1291,7 @@ fn mark_duplicate_runs(rows: &mut BTreeMap<String, RunRow>) -> BTreeMap<String, 
         .into_iter()
         .map(|(name, (canonical, which, disagreement))| {
             let row = rows.get_mut(&name).expect("marked rows exist");
-            row.status = DUPLICATE.to_string();
+            row.status = RunStatus::Duplicate;
             row.error = Some(format!(
                 "same run as {canonical} ({which}), which is the copy stored"
             ));
@@ -1411,7 +1407,7 @@ mod tests {
     fn row(name: &str, run: Option<i64>, units: &str, format: &str) -> RunRow {
         RunRow {
             source_file: name.to_string(),
-            status: "ok".to_string(),
+            status: RunStatus::Ok,
             data_sha256: Some(format!("sha-{name}")),
             project: Some(1965),
             run,
@@ -1445,7 +1441,7 @@ mod tests {
         assert!(marked.values().all(|c| c == "B1965raw51.mat"), "{marked:?}");
         for name in expected {
             let r = &rows[name];
-            assert_eq!(r.status, DUPLICATE);
+            assert_eq!(r.status, RunStatus::Duplicate);
             assert_eq!(r.data_sha256, None);
             assert!(
                 r.error
@@ -1461,7 +1457,7 @@ mod tests {
             "unknown.dat",
             "unknown2.dat",
         ] {
-            assert_eq!(rows[name].status, "ok", "{name}");
+            assert_eq!(rows[name].status, RunStatus::Ok, "{name}");
         }
         // Already marked: nothing more to do.
         assert!(mark_duplicate_runs(&mut rows).is_empty());

@@ -151,6 +151,21 @@ pub struct InputFile {
     pub status: String,
 }
 
+#[cfg(test)]
+impl InputFile {
+    /// A stored `ok` file of 10 bytes under `raw/` (for tests).
+    pub(crate) fn ok_for_test(name: &str, sha: &str) -> InputFile {
+        InputFile {
+            name: name.into(),
+            path: format!("raw/{name}"),
+            size: 10,
+            mtime_ns: 5,
+            sha256: sha.into(),
+            status: "ok".into(),
+        }
+    }
+}
+
 /// A file and its content hash.
 #[derive(Clone, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(default)]

@@ -29,12 +29,13 @@ use crate::manifest::{
 use crate::progress::Progress;
 use crate::report;
 use crate::run::{Fingerprint, RunError, RunOptions, count_duplicates};
+use crate::schema::TableName;
 use crate::store::StoreError;
 use crate::store::results::{
     self, GROUP_COLUMNS, INERTIA_TABLE, Results, TirNames, has_group_columns, model_groups,
     rows_of_groups, tir_names,
 };
-use crate::store::tables::{self, STATUS_FAILED, STATUS_OK, STATUS_PARTIAL};
+use crate::store::tables::{self, RunStatus};
 use crate::store::versions::VersionBuilder;
 
 pub use crate::store::results::GroupKey;
@@ -192,13 +193,13 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
             from_version: reused.get(&plan_key(g)).copied().unwrap_or(number),
         })
         .collect();
-    let status = |s: &str| files.iter().filter(|f| f.status == s).count() as u64;
+    let status = |s: RunStatus| files.iter().filter(|f| f.status == s.as_str()).count() as u64;
     let done = |s: FileStatus| ingest.count(|x| *x == s) as u64;
     let counts = Counts {
         files: files.len() as u64,
-        files_ok: status(STATUS_OK),
-        files_partial: status(STATUS_PARTIAL),
-        files_failed: status(STATUS_FAILED),
+        files_ok: status(RunStatus::Ok),
+        files_partial: status(RunStatus::Partial),
+        files_failed: status(RunStatus::Failed),
         files_duplicate: count_duplicates(&files),
         files_ingested: done(FileStatus::Ingested),
         files_resegmented: done(FileStatus::Resegmented),
@@ -294,7 +295,7 @@ fn merge_tables(
         names.extend(
             results::table_names(dir)?
                 .into_iter()
-                .filter(|n| n != INERTIA_TABLE),
+                .filter(|n| n != INERTIA_TABLE.as_str()),
         );
     }
     let mut out = BTreeMap::new();
@@ -335,7 +336,7 @@ fn merge_tables(
         } else {
             merged
         };
-        if name == "lint" {
+        if name == TableName::Lint.as_str() {
             merged = rename_lint_files(&merged, tir_names).map_err(table_err)?;
         }
         results::write_table(staging, &name, &mut merged)?;
@@ -627,14 +628,7 @@ mod tests {
     }
 
     fn file(name: &str, sha: &str) -> InputFile {
-        InputFile {
-            name: name.into(),
-            path: format!("raw/{name}"),
-            size: 10,
-            mtime_ns: 5,
-            sha256: sha.into(),
-            status: "ok".into(),
-        }
+        InputFile::ok_for_test(name, sha)
     }
 
     #[test]
@@ -715,8 +709,10 @@ mod tests {
             "reason" => failures.iter().map(|f| f.reason.as_str()).collect::<Vec<_>>(),
         )
         .unwrap();
-        let mut df = crate::schema::table("fit_failures").conform(df).unwrap();
-        results::write_table(dir.path(), "fit_failures", &mut df).unwrap();
+        let mut df = crate::schema::table(TableName::FitFailures)
+            .conform(df)
+            .unwrap();
+        results::write_table(dir.path(), TableName::FitFailures, &mut df).unwrap();
         let all = BTreeSet::from([("T".to_string(), 7, 83), ("U".to_string(), 7, 69)]);
         assert_eq!(
             results::read_fit_failures(dir.path(), &all).unwrap(),

@@ -19,7 +19,7 @@ use polars::prelude::*;
 use polars::sql::SQLContext;
 
 use crate::manifest::Manifest;
-use crate::schema::{self, TableSchema};
+use crate::schema::{self, TableName, TableSchema};
 use crate::store::layout::{SAMPLES_DIR, runs_file};
 use crate::store::{StoreError, results, tables, versions};
 
@@ -74,7 +74,7 @@ pub fn context(root: &Path) -> Result<SQLContext, QueryError> {
     // Only the part files the runs table names are scanned (`store::tables`' live rule).
     let seg_files = tables::live_segment_files(root)?;
     let segments = if seg_files.is_empty() {
-        empty_frame(schema::table("segments"))
+        empty_frame(schema::table(TableName::Segments))
     } else {
         scan_files(&seg_files, false)?
     };
@@ -82,7 +82,7 @@ pub fn context(root: &Path) -> Result<SQLContext, QueryError> {
 
     let sample_files = tables::live_sample_files(root)?;
     let samples = if sample_files.is_empty() {
-        empty_frame(schema::table("samples"))
+        empty_frame(schema::table(TableName::Samples))
     } else {
         scan_files(&sample_files, true)?
     };
@@ -191,6 +191,12 @@ pub fn write_csv(df: &mut DataFrame, out: &mut dyn Write) -> PolarsResult<()> {
 
 /// Render a frame as an aligned text table (every row; floats to 6 significant digits).
 pub fn format_table(df: &DataFrame) -> String {
+    aligned_text(df, |v| format!("{v:.6}"))
+}
+
+/// A frame as text: a header line, a rule, then one line per row, columns padded to their widest
+/// cell and separated by two spaces; floats through `float`, nulls empty.
+pub fn aligned_text(df: &DataFrame, float: impl Fn(f64) -> String) -> String {
     let names: Vec<String> = df
         .get_column_names()
         .iter()
@@ -203,7 +209,7 @@ pub fn format_table(df: &DataFrame) -> String {
             .iter()
             .map(|c| match c.get(i) {
                 Ok(AnyValue::Null) => String::new(),
-                Ok(AnyValue::Float64(v)) => format!("{v:.6}"),
+                Ok(AnyValue::Float64(v)) => float(v),
                 Ok(AnyValue::String(s)) => s.to_string(),
                 Ok(v) => v.to_string(),
                 Err(_) => String::new(),
@@ -245,7 +251,7 @@ mod tests {
 
     use crate::store::files::write_parquet_atomic;
     use crate::store::layout::{PartitionKey, partition_dir};
-    use crate::store::tables::RunRow;
+    use crate::store::tables::{RunRow, RunStatus};
 
     /// A two-file store where one file's data is live and the other's was superseded.
     fn tiny_store(root: &Path) {
@@ -254,12 +260,12 @@ mod tests {
                 source_file: "a.dat".into(),
                 data_sha256: Some("aaa".into()),
                 parts_sha256: Some("111111111111".into()),
-                status: "ok".into(),
+                status: RunStatus::Ok,
                 ..RunRow::default()
             },
             RunRow {
                 source_file: "b.dat".into(),
-                status: "failed".into(),
+                status: RunStatus::Failed,
                 ..RunRow::default()
             },
         ]

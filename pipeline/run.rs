@@ -42,9 +42,7 @@ use crate::publish::{self, GroupKey, Publication};
 use crate::store::StoreError;
 use crate::store::files::{sha256_bytes, sha256_file};
 use crate::store::lock::{LockWait, StoreLock};
-use crate::store::tables::{
-    self, RunRow, STATUS_DUPLICATE, STATUS_FAILED, STATUS_PARTIAL, read_runs,
-};
+use crate::store::tables::{self, RunRow, RunStatus, read_runs};
 use crate::store::versions;
 
 /// Folder of the input holding rig-inertia sessions.
@@ -172,9 +170,11 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     let files_unchanged = previous
         .as_ref()
         .is_some_and(|(_, _, m)| same_files(&m.files, &fingerprint.files));
-    let previous_clean = previous
-        .as_ref()
-        .is_some_and(|(_, _, m)| m.files.iter().all(|f| f.status != STATUS_FAILED));
+    let previous_clean = previous.as_ref().is_some_and(|(_, _, m)| {
+        m.files
+            .iter()
+            .all(|f| f.status != RunStatus::Failed.as_str())
+    });
     if let Some((n, _, prev)) = &previous
         && files_unchanged
         && previous_clean
@@ -220,7 +220,7 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     if plan.is_empty() && fingerprint.inertia_sessions.is_empty() {
         let mut report = RunReport::default();
         report.manifest.counts.files = files.len() as u64;
-        report.manifest.counts.files_failed = count_status(&files, STATUS_FAILED);
+        report.manifest.counts.files_failed = count_status(&files, RunStatus::Failed);
         report.manifest.problems = file_problems;
         return Ok(RunOutcome::Nothing(Box::new(report)));
     }
@@ -276,8 +276,8 @@ fn skipped_problems(skipped: &[(PathBuf, String)]) -> impl Iterator<Item = Probl
         .map(|(p, why)| Problem::new(ProblemKind::SkippedEntry, p.display().to_string(), why))
 }
 
-fn count_status(files: &[InputFile], status: &str) -> u64 {
-    files.iter().filter(|f| f.status == status).count() as u64
+fn count_status(files: &[InputFile], status: RunStatus) -> u64 {
+    files.iter().filter(|f| f.status == status.as_str()).count() as u64
 }
 
 /// Split the plan into groups to fit and groups whose results the previous version holds for
@@ -321,10 +321,10 @@ fn file_problems(
             continue;
         };
         let reason = row.error.clone().unwrap_or_default();
-        match row.status.as_str() {
+        match row.status {
             // A failed file keeps the data of its last good content (see `ingest`): said, as
             // the version's models hold them.
-            STATUS_FAILED if row.has_live_data() => out.push(Problem::new(
+            RunStatus::Failed if row.has_live_data() => out.push(Problem::new(
                 ProblemKind::FailedFile,
                 &f.name,
                 format!(
@@ -332,14 +332,14 @@ fn file_problems(
                     row.rows
                 ),
             )),
-            STATUS_FAILED => out.push(Problem::new(ProblemKind::FailedFile, &f.name, &reason)),
-            STATUS_PARTIAL => out.push(Problem::new(ProblemKind::PartialFile, &f.name, &reason)),
+            RunStatus::Failed => out.push(Problem::new(ProblemKind::FailedFile, &f.name, &reason)),
+            RunStatus::Partial => out.push(Problem::new(ProblemKind::PartialFile, &f.name, &reason)),
             _ => {}
         }
-        if row.status != STATUS_FAILED
+        if row.status != RunStatus::Failed
             && let Some(w) = &row.warnings
         {
-            let partial_reason = (row.status == STATUS_PARTIAL).then_some(reason.as_str());
+            let partial_reason = (row.status == RunStatus::Partial).then_some(reason.as_str());
             out.extend(
                 w.split("; ")
                     .filter(|w| !w.is_empty() && !partial_reason.is_some_and(|r| r.contains(w)))
@@ -507,7 +507,7 @@ fn input_records(runs: &BTreeMap<String, RunRow>, stats: &[InputFile]) -> Vec<In
             let mut f = f.clone();
             if let Some(row) = runs.get(&f.name) {
                 f.sha256 = row.sha256.clone();
-                f.status = row.status.clone();
+                f.status = row.status.to_string();
             }
             f
         })
@@ -516,7 +516,7 @@ fn input_records(runs: &BTreeMap<String, RunRow>, stats: &[InputFile]) -> Vec<In
 
 /// Files of the version that hold no data of their own (a duplicate copy of another's run).
 pub(crate) fn count_duplicates(files: &[InputFile]) -> u64 {
-    count_status(files, STATUS_DUPLICATE)
+    count_status(files, RunStatus::Duplicate)
 }
 
 #[cfg(test)]
@@ -524,14 +524,7 @@ mod tests {
     use super::*;
 
     fn file(name: &str, sha: &str) -> InputFile {
-        InputFile {
-            name: name.into(),
-            path: format!("raw/{name}"),
-            size: 10,
-            mtime_ns: 5,
-            sha256: sha.into(),
-            status: "ok".into(),
-        }
+        InputFile::ok_for_test(name, sha)
     }
 
     #[test]
@@ -552,23 +545,29 @@ mod tests {
 
     #[test]
     fn file_problems_list_failed_partial_warnings_and_skipped_entries() {
-        let row = |name: &str, status: &str, error: Option<&str>, warnings: Option<&str>| RunRow {
-            source_file: name.into(),
-            status: status.into(),
-            error: error.map(String::from),
-            warnings: warnings.map(String::from),
-            ..RunRow::default()
-        };
+        let row =
+            |name: &str, status: RunStatus, error: Option<&str>, warnings: Option<&str>| RunRow {
+                source_file: name.into(),
+                status,
+                error: error.map(String::from),
+                warnings: warnings.map(String::from),
+                ..RunRow::default()
+            };
         let runs: BTreeMap<String, RunRow> = [
-            row("a.dat", "ok", None, Some("w1; w2")),
-            row("b.dat", "failed", Some("b.dat: line 3: bad"), Some("old")),
+            row("a.dat", RunStatus::Ok, None, Some("w1; w2")),
+            row(
+                "b.dat",
+                RunStatus::Failed,
+                Some("b.dat: line 3: bad"),
+                Some("old"),
+            ),
             row(
                 "c.dat",
-                "partial",
+                RunStatus::Partial,
                 Some("rows stop early: line 9: truncated last line"),
                 Some("line 9: truncated last line; other"),
             ),
-            row("gone.dat", "failed", Some("x"), None),
+            row("gone.dat", RunStatus::Failed, Some("x"), None),
         ]
         .into_iter()
         .map(|r| (r.source_file.clone(), r))

@@ -13,40 +13,111 @@ use serde::Deserialize;
 
 use crate::store::StoreError;
 
-/// Embedded schema definitions: (file name, TOML text).
-const SOURCES: &[(&str, &str)] = &[
-    ("runs.toml", include_str!("../schemas/runs.toml")),
-    ("segments.toml", include_str!("../schemas/segments.toml")),
-    ("samples.toml", include_str!("../schemas/samples.toml")),
-    ("inertia.toml", include_str!("../schemas/inertia.toml")),
-    (
-        "spring_rate.toml",
-        include_str!("../schemas/spring_rate.toml"),
-    ),
-    ("thermal.toml", include_str!("../schemas/thermal.toml")),
-    (
-        "thermal_fit.toml",
-        include_str!("../schemas/thermal_fit.toml"),
-    ),
-    (
-        "relaxation.toml",
-        include_str!("../schemas/relaxation.toml"),
-    ),
-    (
-        "coefficients.toml",
-        include_str!("../schemas/coefficients.toml"),
-    ),
-    (
-        "fit_quality.toml",
-        include_str!("../schemas/fit_quality.toml"),
-    ),
-    ("lint.toml", include_str!("../schemas/lint.toml")),
-    (
-        "fit_failures.toml",
-        include_str!("../schemas/fit_failures.toml"),
-    ),
-    ("compare.toml", include_str!("../schemas/compare.toml")),
-];
+/// The tables tirebase defines, one per `schemas/<name>.toml`: a table is named by a variant,
+/// so a misspelt table is a compile error.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum TableName {
+    /// `schemas/runs.toml`.
+    Runs,
+    /// `schemas/segments.toml`.
+    Segments,
+    /// `schemas/samples.toml`.
+    Samples,
+    /// `schemas/inertia.toml`.
+    Inertia,
+    /// `schemas/spring_rate.toml`.
+    SpringRate,
+    /// `schemas/thermal.toml`.
+    Thermal,
+    /// `schemas/thermal_fit.toml`.
+    ThermalFit,
+    /// `schemas/relaxation.toml`.
+    Relaxation,
+    /// `schemas/coefficients.toml`.
+    Coefficients,
+    /// `schemas/fit_quality.toml`.
+    FitQuality,
+    /// `schemas/lint.toml`.
+    Lint,
+    /// `schemas/fit_failures.toml`.
+    FitFailures,
+    /// `schemas/compare.toml`.
+    Compare,
+}
+
+impl TableName {
+    /// Every table, in the order of [`all`].
+    pub const ALL: [TableName; 13] = [
+        TableName::Runs,
+        TableName::Segments,
+        TableName::Samples,
+        TableName::Inertia,
+        TableName::SpringRate,
+        TableName::Thermal,
+        TableName::ThermalFit,
+        TableName::Relaxation,
+        TableName::Coefficients,
+        TableName::FitQuality,
+        TableName::Lint,
+        TableName::FitFailures,
+        TableName::Compare,
+    ];
+
+    /// The table's name: its schema file's stem, its `<name>.parquet` and its SQL name.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            TableName::Runs => "runs",
+            TableName::Segments => "segments",
+            TableName::Samples => "samples",
+            TableName::Inertia => "inertia",
+            TableName::SpringRate => "spring_rate",
+            TableName::Thermal => "thermal",
+            TableName::ThermalFit => "thermal_fit",
+            TableName::Relaxation => "relaxation",
+            TableName::Coefficients => "coefficients",
+            TableName::FitQuality => "fit_quality",
+            TableName::Lint => "lint",
+            TableName::FitFailures => "fit_failures",
+            TableName::Compare => "compare",
+        }
+    }
+
+    /// The table named `name`, if tirebase defines one.
+    pub fn parse(name: &str) -> Option<TableName> {
+        TableName::ALL.into_iter().find(|t| t.as_str() == name)
+    }
+
+    /// The embedded schema definition (TOML).
+    const fn source(self) -> &'static str {
+        match self {
+            TableName::Runs => include_str!("../schemas/runs.toml"),
+            TableName::Segments => include_str!("../schemas/segments.toml"),
+            TableName::Samples => include_str!("../schemas/samples.toml"),
+            TableName::Inertia => include_str!("../schemas/inertia.toml"),
+            TableName::SpringRate => include_str!("../schemas/spring_rate.toml"),
+            TableName::Thermal => include_str!("../schemas/thermal.toml"),
+            TableName::ThermalFit => include_str!("../schemas/thermal_fit.toml"),
+            TableName::Relaxation => include_str!("../schemas/relaxation.toml"),
+            TableName::Coefficients => include_str!("../schemas/coefficients.toml"),
+            TableName::FitQuality => include_str!("../schemas/fit_quality.toml"),
+            TableName::Lint => include_str!("../schemas/lint.toml"),
+            TableName::FitFailures => include_str!("../schemas/fit_failures.toml"),
+            TableName::Compare => include_str!("../schemas/compare.toml"),
+        }
+    }
+}
+
+impl std::fmt::Display for TableName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl AsRef<str> for TableName {
+    fn as_ref(&self) -> &str {
+        self.as_str()
+    }
+}
 
 /// Column data types used by tirebase tables.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Deserialize)]
@@ -110,28 +181,34 @@ pub struct TableSchema {
     pub columns: Vec<Column>,
 }
 
-/// Every table schema, parsed once.
+/// Every table schema, parsed once, in the order of [`TableName::ALL`].
 pub fn all() -> &'static [TableSchema] {
     static ALL: OnceLock<Vec<TableSchema>> = OnceLock::new();
     ALL.get_or_init(|| {
-        SOURCES
+        TableName::ALL
             .iter()
-            .map(|(file, text)| {
-                toml::from_str(text).unwrap_or_else(|e| panic!("schemas/{file} is invalid: {e}"))
+            .map(|t| {
+                let schema: TableSchema = toml::from_str(t.source())
+                    .unwrap_or_else(|e| panic!("schemas/{t}.toml is invalid: {e}"));
+                assert_eq!(
+                    schema.name,
+                    t.as_str(),
+                    "schemas/{t}.toml names another table"
+                );
+                schema
             })
             .collect()
     })
 }
 
 /// The schema of table `name`.
-///
-/// # Panics
-/// If no such table is defined (a programming error: table names are constants).
-pub fn table(name: &str) -> &'static TableSchema {
-    all()
-        .iter()
-        .find(|t| t.name == name)
-        .unwrap_or_else(|| panic!("no schema for table {name}"))
+pub fn table(name: TableName) -> &'static TableSchema {
+    &all()[name as usize]
+}
+
+/// The schema of the table called `name` (a name read at run time), if tirebase defines it.
+pub fn table_named(name: &str) -> Option<&'static TableSchema> {
+    TableName::parse(name).map(table)
 }
 
 impl TableSchema {
@@ -199,7 +276,7 @@ impl TableSchema {
     /// newtons), `{fz}` in its name replaced by the load, in load order.
     ///
     /// ```
-    /// let t = tirebase::schema::table("compare").for_loads(&[350, 700]);
+    /// let t = tirebase::schema::table(tirebase::schema::TableName::Compare).for_loads(&[350, 700]);
     /// let names: Vec<&str> = t.columns.iter().map(|c| c.name.as_str()).collect();
     /// assert!(names.contains(&"mu_y_peak_fz350") && names.contains(&"mu_y_peak_fz700"));
     /// assert!(t.columns.iter().all(|c| !c.per_load));
@@ -355,15 +432,15 @@ mod tests {
                 );
             }
         }
-        let t = table("compare").for_loads(&[350, 700, 1050]);
-        let per_load = table("compare")
+        let t = table(TableName::Compare).for_loads(&[350, 700, 1050]);
+        let per_load = table(TableName::Compare)
             .columns
             .iter()
             .filter(|c| c.per_load)
             .count();
         assert_eq!(
             t.columns.len(),
-            table("compare").columns.len() + 2 * per_load
+            table(TableName::Compare).columns.len() + 2 * per_load
         );
         let mut names: Vec<_> = t.columns.iter().map(|c| c.name.clone()).collect();
         names.sort();
@@ -373,7 +450,7 @@ mod tests {
 
     #[test]
     fn conform_orders_casts_and_rejects_unknown_columns() {
-        let runs = table("runs");
+        let runs = table(TableName::Runs);
         let df = df!("rows" => [3i32], "source_file" => ["a.dat"]).unwrap();
         let err = runs.conform(df).unwrap_err().to_string();
         assert!(err.contains("missing column"), "{err}");

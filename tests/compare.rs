@@ -17,7 +17,6 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use std::sync::OnceLock;
 
 use polars::prelude::*;
@@ -25,61 +24,43 @@ use tirebase::core::compare::envelope::{convex_hull, polygon_area};
 use tirebase::core::naming::{tir_file_name, tire_rim_stem};
 use tirebase::core::tire_model::tir::TirFile;
 use tirebase::core::tire_model::{Coef, Evaluation, Mode, Pac2002, SlipInput};
+use tirebase::schema::TableName;
 
-fn tirebase(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tirebase"))
-        .args(args)
-        .output()
-        .expect("run tirebase")
-}
-
-fn ok(o: &Output, what: &str) {
-    assert!(
-        o.status.success(),
-        "{what} failed ({:?}): {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
+use crate::harness::{bin, demo_published, ok, p, run, synth_round, tirebase};
 
 /// A demo round and its first published version.
 struct Published {
-    _dir: tempfile::TempDir,
+    _dir: Option<tempfile::TempDir>,
     round: PathBuf,
     store: PathBuf,
-}
-
-fn publish(synth_flags: &[&str]) -> Published {
-    let dir = tempfile::tempdir().unwrap();
-    let (round, store) = (dir.path().join("round"), dir.path().join("store"));
-    let mut args = vec!["synth", "round", "--out", p(&round)];
-    args.extend_from_slice(synth_flags);
-    ok(&tirebase(&args), "synth round");
-    let run = tirebase(&["run", "--input", p(&round), "--store", p(&store)]);
-    ok(&run, "run");
-    Published {
-        _dir: dir,
-        round,
-        store,
-    }
 }
 
 /// The demo round without the heat model: noise and force relaxation as usual, grip independent
 /// of temperature, so the truth `.tir` *is* the tire at every sample.
 fn without_heat() -> &'static Published {
     static P: OnceLock<Published> = OnceLock::new();
-    P.get_or_init(|| publish(&["--no-heat"]))
+    P.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let (round, store) = (dir.path().join("round"), dir.path().join("store"));
+        synth_round(&round, &["--no-heat"]);
+        ok(&run(&round, &store, &[]), "run");
+        Published {
+            _dir: Some(dir),
+            round,
+            store,
+        }
+    })
 }
 
 /// The default demo round (heat on: grip follows the tread temperature, and the truth `.tir`
-/// describes the tire at the reference temperatures of its sweeps).
+/// describes the tire at the reference temperatures of its sweeps): the harness's.
 fn default_round() -> &'static Published {
     static P: OnceLock<Published> = OnceLock::new();
-    P.get_or_init(|| publish(&[]))
+    P.get_or_init(|| Published {
+        _dir: None,
+        round: demo_published().join("input"),
+        store: demo_published().join("store"),
+    })
 }
 
 fn compare_csv(store: &Path, extra: &[&str]) -> Vec<u8> {
@@ -381,7 +362,7 @@ fn figures_against_truth(
         compare_csv(&pubd.store, &[]),
         "compare --format csv must be byte-stable"
     );
-    let one_thread = Command::new(env!("CARGO_BIN_EXE_tirebase"))
+    let one_thread = bin()
         .args(["compare", "--store", p(&pubd.store), "--format", "csv"])
         .env("RAYON_NUM_THREADS", "1")
         .output()
@@ -394,7 +375,7 @@ fn figures_against_truth(
         .iter()
         .map(|s| s.to_string())
         .collect();
-    let schema = tirebase::schema::table("compare").for_loads(&[350, 700, 1050]);
+    let schema = tirebase::schema::table(TableName::Compare).for_loads(&[350, 700, 1050]);
     let expected: Vec<String> = schema.columns.iter().map(|c| c.name.clone()).collect();
     assert_eq!(header, expected, "CSV header = schemas/compare.toml");
     let version = pubd.store.join("versions/v000001");

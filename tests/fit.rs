@@ -17,7 +17,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::OnceLock;
 
 use polars::prelude::*;
@@ -25,25 +25,7 @@ use tirebase::core::naming::tir_file_name;
 use tirebase::core::tire_model::tir::TirFile;
 use tirebase::core::tire_model::{Coef, Mode, Pac2002, SlipInput};
 
-fn tirebase(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tirebase"))
-        .args(args)
-        .output()
-        .expect("run tirebase")
-}
-
-fn ok(o: &Output, what: &str) {
-    assert!(
-        o.status.success(),
-        "{what} failed ({:?}): {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
+use crate::harness::{copy_tree, demo_round, ok, p, synth_round, tirebase};
 
 /// A demo round, its store and one fit of it.
 struct Fitted {
@@ -54,16 +36,17 @@ struct Fitted {
     fit: Output,
 }
 
+/// Ingest and fit a demo round: the harness's for no flags, else one made with `synth_flags`.
 fn prepare(synth_flags: &[&str]) -> Fitted {
     let dir = tempfile::tempdir().unwrap();
-    let (round, store, out) = (
-        dir.path().join("round"),
-        dir.path().join("store"),
-        dir.path().join("out"),
-    );
-    let mut args = vec!["synth", "round", "--out", p(&round)];
-    args.extend_from_slice(synth_flags);
-    ok(&tirebase(&args), "synth round");
+    let (store, out) = (dir.path().join("store"), dir.path().join("out"));
+    let round = if synth_flags.is_empty() {
+        demo_round().to_path_buf()
+    } else {
+        let round = dir.path().join("round");
+        synth_round(&round, synth_flags);
+        round
+    };
     let catalog = round.join("catalog.toml");
     ok(
         &tirebase(&[
@@ -843,19 +826,6 @@ fn thermal_alone_writes_the_full_fits_thermal_tables() {
     }
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for entry in std::fs::read_dir(from).unwrap() {
-        let path = entry.unwrap().path();
-        let target = to.join(path.file_name().unwrap());
-        if path.is_dir() {
-            copy_dir(&path, &target);
-        } else {
-            std::fs::copy(&path, &target).unwrap();
-        }
-    }
-}
-
 /// Mark every force segment of one tire, rim and pressure as having a zeroed lateral force (a
 /// QC flag that spoils forces), as a segmenter would for a bad test.
 fn flag_force_segments(store: &Path, tire: &str, rim_in: i64, pressure_kpa: i64) -> usize {
@@ -918,7 +888,7 @@ fn a_failed_group_is_reported_and_the_others_are_written() {
     let f = ideal();
     let dir = tempfile::tempdir().unwrap();
     let (store, out) = (dir.path().join("store"), dir.path().join("out"));
-    copy_dir(&f.store, &store);
+    copy_tree(&f.store, &store);
     let tire = "Hoosier 16.0x7.5-10 R25B";
     let n = flag_force_segments(&store, tire, 7, 69);
     assert!(n > 20, "flagged {n}");

@@ -5,16 +5,11 @@
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use tirebase::schema::TableName;
 
 use polars::prelude::*;
 
-fn tirebase(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tirebase"))
-        .args(args)
-        .output()
-        .expect("run tirebase")
-}
+use crate::harness::{bin, copy_tree, tirebase};
 
 fn synth(dir: &Path) -> Vec<PathBuf> {
     let out = tirebase(&[
@@ -91,10 +86,7 @@ fn synthetic_sessions_are_recovered_within_tolerance() {
     let mut args = vec!["inertia".to_string()];
     args.extend(sessions.iter().map(|p| p.display().to_string()));
     args.extend(["--out".into(), out_dir.display().to_string()]);
-    let out = Command::new(env!("CARGO_BIN_EXE_tirebase"))
-        .args(&args)
-        .output()
-        .unwrap();
+    let out = bin().args(&args).output().unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -152,7 +144,7 @@ fn written_parquet_matches_schema() {
         String::from_utf8_lossy(&out.stderr)
     );
     let df = read_table(&out_dir.join("inertia.parquet"));
-    let conformed = tirebase::schema::table("inertia")
+    let conformed = tirebase::schema::table(TableName::Inertia)
         .conform(df.clone())
         .unwrap();
     assert_eq!(
@@ -200,10 +192,7 @@ fn same_inputs_give_identical_bytes() {
         let mut args = vec!["inertia".to_string()];
         args.extend(order);
         args.extend(["--out".into(), out_dir.display().to_string()]);
-        let out = Command::new(env!("CARGO_BIN_EXE_tirebase"))
-            .args(&args)
-            .output()
-            .unwrap();
+        let out = bin().args(&args).output().unwrap();
         assert!(out.status.success());
         bytes.push(fs::read(out_dir.join("inertia.parquet")).unwrap());
     }
@@ -211,19 +200,6 @@ fn same_inputs_give_identical_bytes() {
         bytes[0] == bytes[1],
         "argument order changed the output bytes"
     );
-}
-
-fn copy_dir(from: &Path, to: &Path) {
-    fs::create_dir_all(to).unwrap();
-    for e in fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let target = to.join(e.file_name());
-        if e.file_type().unwrap().is_dir() {
-            copy_dir(&e.path(), &target);
-        } else {
-            fs::copy(e.path(), target).unwrap();
-        }
-    }
 }
 
 fn edit(path: &Path, from: &str, to: &str) {
@@ -242,7 +218,7 @@ fn malformed_sessions_give_one_clear_error_per_run_and_others_continue() {
     // 1. yaw: the vehicle run references a missing file; the calibration run has a negative
     //    falling mass; the tare run is fine (its acceleration is still reported).
     let yaw = bad.join("yaw_missing_file_negative_mass");
-    copy_dir(&find("v2a_yaw_tare_calibration"), &yaw);
+    copy_tree(&find("v2a_yaw_tare_calibration"), &yaw);
     edit(
         &yaw.join("session.toml"),
         "file = \"yaw/yaw-veh.csv\"",
@@ -256,14 +232,14 @@ fn malformed_sessions_give_one_clear_error_per_run_and_others_continue() {
 
     // 2. yaw: too few encoder edges in the vehicle run (first 5 events only).
     let few = bad.join("yaw_too_few_edges");
-    copy_dir(&find("v1_yaw"), &few);
+    copy_tree(&find("v1_yaw"), &few);
     let csv = few.join("yaw/yaw-veh.csv");
     let text = fs::read_to_string(&csv).unwrap();
     fs::write(&csv, text.lines().take(7).collect::<Vec<_>>().join("\n")).unwrap();
 
     // 3. trifilar: the object record is a slow ramp (no oscillation); the platform run still works.
     let flat = bad.join("trifilar_no_period");
-    copy_dir(&find("v3a_trifilar_noisy"), &flat);
+    copy_tree(&find("v3a_trifilar_noisy"), &flat);
     let csv = flat.join("trifilar/trifilar-object.csv");
     let mut body = String::from("t_s,angle_deg\n");
     for i in 0..2000 {
@@ -277,7 +253,7 @@ fn malformed_sessions_give_one_clear_error_per_run_and_others_continue() {
 
     // 4. pendulum: a unit error in a key (pivot_to_deck_mm) and a CSV column in the wrong unit.
     let units = bad.join("pendulum_bad_units");
-    copy_dir(&find("v4a_pendulum"), &units);
+    copy_tree(&find("v4a_pendulum"), &units);
     edit(
         &units.join("pendulum/pitch-veh-swing.csv"),
         "t_s,angle_deg",
@@ -285,7 +261,7 @@ fn malformed_sessions_give_one_clear_error_per_run_and_others_continue() {
     );
 
     let units_key = bad.join("pendulum_bad_key");
-    copy_dir(&find("v4a_pendulum"), &units_key);
+    copy_tree(&find("v4a_pendulum"), &units_key);
     edit(
         &units_key.join("session.toml"),
         "pivot_to_deck_m =",

@@ -12,25 +12,19 @@
 use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::time::SystemTime;
 
 use polars::prelude::*;
+
+use crate::harness::{bin, demo_round, tirebase};
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn tirebase(args: &[&str], paths: &[&Path]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tirebase"))
-        .args(args)
-        .args(paths)
-        .output()
-        .expect("run tirebase")
-}
-
 fn ingest(store: &Path, inputs: &[&Path], extra: &[&str]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_tirebase"));
+    let mut cmd = bin();
     cmd.arg("ingest").args(inputs).arg("--store").arg(store);
     cmd.args(extra).output().expect("run tirebase ingest")
 }
@@ -41,7 +35,11 @@ fn stderr(out: &Output) -> String {
 
 /// Rows of `tirebase query --format csv`, as column -> text maps.
 fn query(store: &Path, sql: &str) -> Vec<BTreeMap<String, String>> {
-    let out = tirebase(&["query", "--format", "csv", sql, "--store"], &[store]);
+    let out = bin()
+        .args(["query", "--format", "csv", sql, "--store"])
+        .arg(store)
+        .output()
+        .expect("run tirebase");
     assert!(out.status.success(), "query {sql:?}: {}", stderr(&out));
     let mut reader = csv::Reader::from_reader(out.stdout.as_slice());
     let header: Vec<String> = reader
@@ -549,8 +547,11 @@ fn usage_errors_exit_2_and_create_no_store() {
         ("missing path", ingest(&store, &[&good, &missing], &[])),
         ("unknown flag", ingest(&store, &[&good], &["--bogus"])),
         ("bad --jobs", ingest(&store, &[&good], &["--jobs", "many"])),
-        ("no --store", tirebase(&["ingest"], &[&good])),
-        ("no path", tirebase(&["ingest", "--store"], &[&store])),
+        ("no --store", tirebase(&[Path::new("ingest"), &good])),
+        (
+            "no path",
+            tirebase(&[Path::new("ingest"), Path::new("--store"), &store]),
+        ),
         (
             "missing catalog",
             ingest(&store, &[&good], &["--catalog", "/no/such/catalog.toml"]),
@@ -567,20 +568,6 @@ fn usage_errors_exit_2_and_create_no_store() {
         err.contains("no-such-dir: no such file or directory"),
         "{err}"
     );
-}
-
-/// A demo virtual round (written once per test binary run into a temp dir that lives until the
-/// process exits).
-fn demo_round() -> &'static Path {
-    static ROUND: std::sync::OnceLock<tempfile::TempDir> = std::sync::OnceLock::new();
-    ROUND
-        .get_or_init(|| {
-            let dir = tempfile::tempdir().unwrap();
-            let out = tirebase(&["synth", "round", "--out"], &[dir.path()]);
-            assert!(out.status.success(), "synth round: {}", stderr(&out));
-            dir
-        })
-        .path()
 }
 
 /// The lazily scanned samples table of a store, hive partitions parsed from the directories.

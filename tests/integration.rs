@@ -1,8 +1,10 @@
 //! Integration tests: one binary, one module per command, each driving the real `tirebase`
-//! binary in temporary directories.
+//! binary in temporary directories through the shared [`harness`] (the binary, temp stores, the
+//! demo round generated once per test process).
 
 mod compare;
 mod fit;
+mod harness;
 mod inertia;
 mod ingest;
 mod real;

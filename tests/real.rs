@@ -13,32 +13,14 @@
 //! larger than the MF 6.1 fit's.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use tirebase::core::naming::tir_file_name;
 
+use crate::harness::{ok, p, tirebase};
+
 /// The MF 6.1 fit's figures from `shared/real/README.md`: (pressure kPa, Fy RMSE N, Mz RMSE N m).
 const MF61_README: [(i64, f64, f64); 3] = [(69, 177.0, 14.6), (83, 158.0, 13.7), (97, 162.0, 13.3)];
-
-fn tirebase(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tirebase"))
-        .args(args)
-        .output()
-        .expect("run tirebase")
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
-
-fn ok(o: &Output, what: &str) {
-    assert!(
-        o.status.success(),
-        "{what} failed ({:?}): {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
 
 fn real_dir() -> Option<PathBuf> {
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));

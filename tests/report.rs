@@ -20,22 +20,7 @@ use std::process::Command;
 
 use polars::prelude::*;
 
-/// The binary under test. `TIREBASE_TEST_BIN` overrides it for a developer whose shared
-/// target directory's `tirebase` may be replaced by another worktree's build mid-test.
-fn tirebase(args: &[&std::ffi::OsStr]) -> std::process::Output {
-    let bin = std::env::var_os("TIREBASE_TEST_BIN")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_tirebase")));
-    Command::new(bin).args(args).output().expect("run tirebase")
-}
-
-fn ok(output: &std::process::Output, what: &str) {
-    assert!(
-        output.status.success(),
-        "{what} failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-}
+use crate::harness::{copy_tree, demo_published, demo_round, ok, tirebase};
 
 /// The browser: $TIREBASE_CHROMIUM, else chromium or chromium-browser on PATH.
 fn chromium() -> PathBuf {
@@ -293,7 +278,7 @@ const KINDS: [&str; 9] = [
 /// are null (the report reads typed rows, and a table without a column counts as missing).
 fn write_table(dir: &Path, name: &str, mut df: DataFrame) {
     let n = df.height();
-    for c in tirebase::schema::table(name).file_columns() {
+    for c in tirebase::schema::table_named(name).unwrap().file_columns() {
         if df.column(&c.name).is_err() {
             df.with_column(Column::full_null(
                 c.name.as_str().into(),
@@ -448,12 +433,21 @@ fn write_fixture_tables(round: &Path, results: &Path) -> usize {
     tires.len()
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let path = e.unwrap().path();
-        std::fs::copy(&path, to.join(path.file_name().unwrap())).unwrap();
+/// Every kind of tire-page chart drawn on `page`, none without data.
+fn assert_every_chart_drawn(page: &Path, seen: &Rendered) {
+    for kind in KINDS {
+        assert!(
+            seen.drawn.get(kind).copied().unwrap_or(0) > 0,
+            "{}: no {kind} chart drawn: {seen:?}",
+            page.display()
+        );
     }
+    assert!(
+        seen.missing.is_empty(),
+        "{}: charts without data: {:?}",
+        page.display(),
+        seen.missing
+    );
 }
 
 fn report(store: &Path, results: &Path, out: &Path) -> (std::process::Output, f64) {
@@ -484,16 +478,7 @@ fn pages(out: &Path) -> Vec<PathBuf> {
 fn report_renders_every_plot_in_headless_chromium() {
     let browser = chromium(); // fail early, with instructions, when it is missing
     let tmp = tempfile::tempdir().unwrap();
-    let (round, store) = (tmp.path().join("round"), tmp.path().join("store"));
-    ok(
-        &tirebase(&[
-            "synth".as_ref(),
-            "round".as_ref(),
-            "--out".as_ref(),
-            round.as_os_str(),
-        ]),
-        "synth round",
-    );
+    let (round, store) = (demo_round(), tmp.path().join("store"));
     ok(
         &tirebase(&[
             "ingest".as_ref(),
@@ -508,8 +493,8 @@ fn report_renders_every_plot_in_headless_chromium() {
 
     // Full result directory: every chart must be drawn on every tire page.
     let results = tmp.path().join("results");
-    copy_dir(&round.join("truth").join("tir"), &results.join("tir"));
-    let groups = write_fixture_tables(&round, &results);
+    copy_tree(&round.join("truth").join("tir"), &results.join("tir"));
+    let groups = write_fixture_tables(round, &results);
     let out = tmp.path().join("report");
     let (output, seconds) = report(&store, &results, &out);
     ok(&output, "report");
@@ -568,19 +553,7 @@ fn report_renders_every_plot_in_headless_chromium() {
     check_front_page(&idx, &index, 2);
     for page in &tire_pages {
         let seen = render(page, tmp.path());
-        for kind in KINDS {
-            assert!(
-                seen.drawn.get(kind).copied().unwrap_or(0) > 0,
-                "{}: no {kind} chart drawn: {seen:?}",
-                page.display()
-            );
-        }
-        assert!(
-            seen.missing.is_empty(),
-            "{}: charts without data: {:?}",
-            page.display(),
-            seen.missing
-        );
+        assert_every_chart_drawn(page, &seen);
         for kind in [
             "fy_sa",
             "mz_sa",
@@ -604,7 +577,7 @@ fn report_renders_every_plot_in_headless_chromium() {
 
     // Degraded result directory: no tables, one model missing, one unreadable.
     let sparse = tmp.path().join("sparse");
-    copy_dir(&round.join("truth").join("tir"), &sparse.join("tir"));
+    copy_tree(&round.join("truth").join("tir"), &sparse.join("tir"));
     let mut tirs: Vec<PathBuf> = std::fs::read_dir(sparse.join("tir"))
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -661,8 +634,9 @@ fn report_without_a_result_directory_is_a_clear_error() {
     );
 }
 
-/// Issue 22 "Done when", third line: the README's main command (`tirebase run` in an empty
-/// directory, on the embedded round) publishes a version whose report opens with the tire
+/// Issue 22 "Done when", third line: the README's main command (`tirebase run` on the demo
+/// round: the harness's first run of it; `run::readme_command_...` runs the command itself, in an
+/// empty directory) publishes a version whose report opens with the tire
 /// selection (every chart drawn with data in headless Chromium, in every state of the pressure
 /// selector), has a page for every tire (every chart drawn with data), shows the rig-inertia
 /// results, and publishes inertia.parquet.
@@ -670,16 +644,7 @@ fn report_without_a_result_directory_is_a_clear_error() {
 fn readme_main_command_publishes_the_selection_front_page_tire_pages_and_inertia() {
     chromium(); // fail early, with instructions, when it is missing
     let cwd = tempfile::tempdir().unwrap();
-    let bin = std::env::var_os("TIREBASE_TEST_BIN")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_tirebase")));
-    let run = Command::new(bin)
-        .current_dir(cwd.path())
-        .arg("run")
-        .output()
-        .unwrap();
-    ok(&run, "tirebase run (the README's main command)");
-    let version = cwd.path().join("outputs/store/versions/v000001");
+    let version = demo_published().join("store/versions/v000001");
     let inertia = tirebase::store::files::read_parquet(&version.join("inertia.parquet")).unwrap();
     assert!(inertia.height() > 0, "inertia.parquet is empty");
 
@@ -703,18 +668,6 @@ fn readme_main_command_publishes_the_selection_front_page_tire_pages_and_inertia
             "index links {name}"
         );
         let seen = render(page, cwd.path());
-        for kind in KINDS {
-            assert!(
-                seen.drawn.get(kind).copied().unwrap_or(0) > 0,
-                "{}: no {kind} chart drawn: {seen:?}",
-                page.display()
-            );
-        }
-        assert!(
-            seen.missing.is_empty(),
-            "{}: charts without data: {:?}",
-            page.display(),
-            seen.missing
-        );
+        assert_every_chart_drawn(page, &seen);
     }
 }

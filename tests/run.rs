@@ -10,12 +10,13 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
-use std::sync::OnceLock;
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use polars::prelude::*;
 use tirebase::manifest::Manifest;
+
+use crate::harness::{bin, demo_round, ok, run, synth_round, text, tree};
 
 /// Tables every version of a demo round must hold (inertia only with sessions).
 const TIRE_TABLES: [&str; 6] = [
@@ -26,46 +27,6 @@ const TIRE_TABLES: [&str; 6] = [
     "thermal_fit",
     "relaxation",
 ];
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_tirebase"))
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-fn check(output: &Output, what: &str) {
-    assert!(
-        output.status.success(),
-        "{what} failed ({:?}): {}",
-        output.status.code(),
-        text(&output.stderr)
-    );
-}
-
-/// `tirebase synth round --out DIR [extra]`.
-fn synth_round(out: &Path, extra: &[&str]) {
-    let o = bin()
-        .args(["synth", "round", "--out"])
-        .arg(out)
-        .args(extra)
-        .output()
-        .unwrap();
-    check(&o, "synth round");
-}
-
-/// A demo round shared read-only by the tests of this process (generated once).
-fn shared_round() -> &'static Path {
-    static ROUND: OnceLock<tempfile::TempDir> = OnceLock::new();
-    ROUND
-        .get_or_init(|| {
-            let dir = tempfile::tempdir().unwrap();
-            synth_round(dir.path(), &[]);
-            dir
-        })
-        .path()
-}
 
 fn run_cmd(input: &Path, store: &Path, extra: &[&str]) -> Command {
     let mut c = bin();
@@ -78,30 +39,8 @@ fn run_cmd(input: &Path, store: &Path, extra: &[&str]) -> Command {
     c
 }
 
-fn run(input: &Path, store: &Path, extra: &[&str]) -> Output {
-    run_cmd(input, store, extra).output().unwrap()
-}
-
 fn versions_of(store: &Path) -> Vec<(u32, PathBuf)> {
     tirebase::store::versions::list(store).unwrap()
-}
-
-/// Every file below `root` with its bytes.
-fn tree(root: &Path) -> BTreeMap<String, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        for entry in std::fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-            } else {
-                let rel = path.strip_prefix(root).unwrap().display().to_string();
-                out.insert(rel, std::fs::read(&path).unwrap());
-            }
-        }
-    }
-    out
 }
 
 fn read_table(path: &Path) -> DataFrame {
@@ -129,7 +68,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
 
     // First use: generates the embedded round, publishes v000001.
     let first = tb(&["run"]);
-    check(&first, "first run");
+    ok(&first, "first run");
     assert!(cwd.path().join("outputs/round/catalog.toml").is_file());
     assert!(first.stdout.is_empty(), "run must keep stdout free");
     let v1 = store.join("versions/v000001");
@@ -170,7 +109,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
 
     // Nothing changed.
     let again = tb(&["run"]);
-    check(&again, "second run");
+    ok(&again, "second run");
     assert!(
         text(&again.stderr).contains("up to date"),
         "{}",
@@ -187,7 +126,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
         "csv",
         "SELECT tire, pressure_kpa, value FROM coefficients WHERE name = 'PDY1' AND version = 1",
     ]);
-    check(&q, "query");
+    ok(&q, "query");
     let rows: Vec<String> = text(&q.stdout).lines().skip(1).map(String::from).collect();
     assert_eq!(rows.len() as u64, m1.counts.groups, "{rows:?}");
     for r in &rows {
@@ -202,8 +141,8 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
         .arg(cwd.path().join("outputs/round/inertia"))
         .output()
         .unwrap();
-    check(&o, "synth inertia");
-    check(&tb(&["run"]), "run with inertia");
+    ok(&o, "synth inertia");
+    ok(&tb(&["run"]), "run with inertia");
     let v2 = store.join("versions/v000002");
     assert_complete(&v2);
     let m2 = Manifest::read(&v2).unwrap();
@@ -226,7 +165,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
     assert_eq!(t1, t2, "reused .tir files differ");
 
     let versions = tb(&["versions", "--store", "outputs/store"]);
-    check(&versions, "versions");
+    ok(&versions, "versions");
     let listing = text(&versions.stdout);
     assert!(listing.contains("v000002") && listing.contains("inertia sessions changed"));
 
@@ -240,7 +179,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
         "--format",
         "csv",
     ]);
-    check(&same, "diff 2 2");
+    ok(&same, "diff 2 2");
     assert_eq!(
         text(&same.stdout).lines().count(),
         1,
@@ -257,7 +196,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
         "--format",
         "csv",
     ]);
-    check(&d12, "diff 1 2");
+    ok(&d12, "diff 1 2");
     let d12 = text(&d12.stdout);
     assert!(d12.lines().skip(1).count() > 0);
     assert!(
@@ -268,7 +207,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
     // Other data (another noise realisation of the virtual machine): everything is refit and
     // the diff shows changed coefficients and nonzero force deltas for every group.
     synth_round(&cwd.path().join("outputs/round"), &["--seed", "7"]);
-    check(&tb(&["run"]), "run on changed data");
+    ok(&tb(&["run"]), "run on changed data");
     let m3 = Manifest::read(&store.join("versions/v000003")).unwrap();
     assert_eq!(m3.counts.groups_fitted, m3.counts.groups, "{}", m3.summary);
     let d = tb(&[
@@ -280,7 +219,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
         "--format",
         "csv",
     ]);
-    check(&d, "diff 2 3");
+    ok(&d, "diff 2 3");
     let df = CsvReadOptions::default()
         .with_has_header(true)
         .with_infer_schema_length(None)
@@ -339,7 +278,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
         "--tire",
         tire,
     ]);
-    check(&one, "diff --tire");
+    ok(&one, "diff --tire");
     let one = text(&one.stdout);
     assert!(
         one.lines().skip(1).all(|l| l.starts_with(tire.as_str())),
@@ -382,7 +321,7 @@ fn assert_store_sound(store: &Path, before: &[(PathBuf, BTreeMap<String, Vec<u8>
 
 #[test]
 fn sigkill_at_any_point_leaves_earlier_versions_intact_and_the_next_run_completes() {
-    let input = shared_round();
+    let input = demo_round();
     let tmp = tempfile::tempdir().unwrap();
     let store = tmp.path().join("store");
 
@@ -392,7 +331,7 @@ fn sigkill_at_any_point_leaves_earlier_versions_intact_and_the_next_run_complete
         assert_store_sound(&store, &[]);
     }
     let first = run(input, &store, &[]);
-    check(&first, "run after kills");
+    ok(&first, "run after kills");
     let v1 = store.join("versions/v000001");
     assert_complete(&v1);
     let m1 = Manifest::read(&v1).unwrap();
@@ -411,7 +350,7 @@ fn sigkill_at_any_point_leaves_earlier_versions_intact_and_the_next_run_complete
         assert_store_sound(&store, &before);
     }
     let last = run(input, &store, &extra);
-    check(&last, "run after kills with the new config");
+    ok(&last, "run after kills with the new config");
     let all = versions_of(&store);
     assert_eq!(all.len(), 2, "{all:?}: {}", text(&last.stderr));
     assert_store_sound(&store, &before);
@@ -424,12 +363,12 @@ fn sigkill_at_any_point_leaves_earlier_versions_intact_and_the_next_run_complete
         .args(["SELECT count(*) AS n FROM versions"])
         .output()
         .unwrap();
-    check(&q, "query versions");
+    ok(&q, "query versions");
 }
 
 #[test]
 fn concurrent_runs_one_publishes_the_other_waits_or_refuses() {
-    let input = shared_round();
+    let input = demo_round();
     let tmp = tempfile::tempdir().unwrap();
     let store = tmp.path().join("store");
     let first = run_cmd(input, &store, &[])
@@ -461,8 +400,8 @@ fn concurrent_runs_one_publishes_the_other_waits_or_refuses() {
         .unwrap();
     let first = first.wait_with_output().unwrap();
     let waiter = waiter.wait_with_output().unwrap();
-    check(&first, "first run");
-    check(&waiter, "waiting run");
+    ok(&first, "first run");
+    ok(&waiter, "waiting run");
     let log = text(&waiter.stderr);
     assert!(log.contains("waiting for the store lock"), "{log}");
     assert!(log.contains("up to date"), "{log}");
@@ -471,7 +410,7 @@ fn concurrent_runs_one_publishes_the_other_waits_or_refuses() {
 
 #[test]
 fn jobs_one_and_two_publish_identical_tables() {
-    let input = shared_round();
+    let input = demo_round();
     let tmp = tempfile::tempdir().unwrap();
     let (s1, s2) = (tmp.path().join("s1"), tmp.path().join("s2"));
     let a = run_cmd(input, &s1, &["--jobs", "1"])
@@ -482,8 +421,8 @@ fn jobs_one_and_two_publish_identical_tables() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    check(&a.wait_with_output().unwrap(), "--jobs 1");
-    check(&b.wait_with_output().unwrap(), "--jobs 2");
+    ok(&a.wait_with_output().unwrap(), "--jobs 1");
+    ok(&b.wait_with_output().unwrap(), "--jobs 2");
     let (v1, v2) = (s1.join("versions/v000001"), s2.join("versions/v000001"));
     let (m1, m2) = (Manifest::read(&v1).unwrap(), Manifest::read(&v2).unwrap());
     assert_eq!(m1.tables, m2.tables);

@@ -13,89 +13,52 @@ use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::OnceLock;
 
 use polars::prelude::*;
 use tirebase::manifest::{Manifest, ProblemKind};
-use tirebase::store::tables;
+use tirebase::store::tables::{self, RunRow, RunStatus};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_tirebase"))
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-/// `tirebase run --input INPUT --store STORE [extra]`.
-fn run(input: &Path, store: &Path, extra: &[&str]) -> Output {
-    bin()
-        .arg("run")
-        .arg("--input")
-        .arg(input)
-        .arg("--store")
-        .arg(store)
-        .args(extra)
-        .output()
-        .unwrap()
-}
-
-fn check(o: &Output, what: &str) {
-    assert!(
-        o.status.success(),
-        "{what} failed ({:?}): {}",
-        o.status.code(),
-        text(&o.stderr)
-    );
-}
-
-/// Copy a directory tree (files keep their modification times).
-fn copy_tree(from: &Path, to: &Path) {
-    fs::create_dir_all(to).unwrap();
-    for entry in fs::read_dir(from).unwrap() {
-        let entry = entry.unwrap();
-        let (src, dst) = (entry.path(), to.join(entry.file_name()));
-        if entry.file_type().unwrap().is_dir() {
-            copy_tree(&src, &dst);
-        } else {
-            fs::copy(&src, &dst).unwrap();
-            let mtime = fs::metadata(&src).unwrap().modified().unwrap();
-            fs::File::options()
-                .write(true)
-                .open(&dst)
-                .unwrap()
-                .set_modified(mtime)
-                .unwrap();
-        }
-    }
-}
-
-/// A demo round (input/) and a store after one run on it (store/), made once per process.
-fn baseline() -> &'static Path {
-    static BASE: OnceLock<tempfile::TempDir> = OnceLock::new();
-    BASE.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
-        let o = bin()
-            .args(["synth", "round", "--out"])
-            .arg(dir.path().join("input"))
-            .output()
-            .unwrap();
-        check(&o, "synth round");
-        check(
-            &run(&dir.path().join("input"), &dir.path().join("store"), &[]),
-            "first run",
-        );
-        dir
-    })
-    .path()
-}
+use crate::harness::{bin, copy_tree, demo_published, ok, run, text};
 
 /// A private copy of the baseline: (temp dir, input, store).
 fn fork() -> (tempfile::TempDir, PathBuf, PathBuf) {
     let tmp = tempfile::tempdir().unwrap();
-    copy_tree(baseline(), tmp.path());
+    copy_tree(demo_published(), tmp.path());
     let (input, store) = (tmp.path().join("input"), tmp.path().join("store"));
     (tmp, input, store)
+}
+
+/// A run on unchanged inputs: exit 0, "up to date".
+fn assert_up_to_date(input: &Path, store: &Path) {
+    let again = run(input, store, &[]);
+    ok(&again, "run on unchanged inputs");
+    let log = text(&again.stderr);
+    assert!(log.contains("up to date"), "{log}");
+}
+
+/// A run stopped by a store error: exit 2, a store error naming `says`, no input file blamed,
+/// no version after `latest_version`, the runs table as it was.
+fn assert_stopped_on_store_error(
+    o: &Output,
+    store: &Path,
+    says: &str,
+    latest_version: u32,
+    runs_before: &BTreeMap<String, RunRow>,
+) {
+    let log = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{log}");
+    assert!(log.contains("store error") && log.contains(says), "{log}");
+    assert!(!log.contains("failed file"), "{log}");
+    assert_eq!(
+        latest(store).0,
+        latest_version,
+        "no version after a store error"
+    );
+    assert_eq!(
+        &tables::read_runs(store).unwrap(),
+        runs_before,
+        "runs table untouched: no input file blamed"
+    );
 }
 
 fn latest(store: &Path) -> (u32, PathBuf) {
@@ -259,7 +222,7 @@ fn issue20_catalog_edit_relabels_the_store_and_the_models() {
     fs::write(&catalog, text_before.replace(old, new)).unwrap();
 
     let second = run(&input, &store, &[]);
-    check(&second, "run after the catalog edit");
+    ok(&second, "run after the catalog edit");
     let log = text(&second.stderr);
     assert!(log.contains("catalog changed"), "{log}");
     assert!(log.contains("relabelled"), "no relabel: {log}");
@@ -272,15 +235,8 @@ fn issue20_catalog_edit_relabels_the_store_and_the_models() {
     let runs = tables::read_runs(&store).unwrap();
     assert!(runs.values().all(|r| r.tire.as_deref() != Some(old)));
     assert_equals_fresh(&input, &store, &[]);
-
     // Unchanged since: up to date.
-    let third = run(&input, &store, &[]);
-    check(&third, "third run");
-    assert!(
-        text(&third.stderr).contains("up to date"),
-        "{}",
-        text(&third.stderr)
-    );
+    assert_up_to_date(&input, &store);
 }
 
 /// Item 2: a `[segment]` change re-segments every file and refits.
@@ -294,7 +250,7 @@ fn issue20_segment_config_edit_resegments_and_refits() {
     let before = Manifest::read(&latest(&store).1).unwrap();
 
     let second = run(&input, &store, &extra);
-    check(&second, "run with the new [segment] config");
+    ok(&second, "run with the new [segment] config");
     let log = text(&second.stderr);
     assert!(log.contains("config changed"), "{log}");
     assert!(log.contains("re-segmented"), "{log}");
@@ -316,7 +272,7 @@ fn issue20_removed_input_file_leaves_the_store_and_the_models() {
     fs::remove_file(&gone).unwrap();
 
     let second = run(&input, &store, &[]);
-    check(&second, "run without one file");
+    ok(&second, "run without one file");
     let log = text(&second.stderr);
     assert!(log.contains("1 files removed"), "{log}");
     let runs = tables::read_runs(&store).unwrap();
@@ -369,7 +325,7 @@ fn issue20_failed_file_is_retried_every_run() {
     // The share comes back: the file reads, a version equal to a fresh run.
     fs::rename(outside.join("B2410run2.dat"), outside.join("later.dat")).unwrap();
     let fourth = run(&input, &store, &[]);
-    check(&fourth, "run after the file came back");
+    ok(&fourth, "run after the file came back");
     assert_eq!(latest(&store).0, 3);
     assert_equals_fresh(&input, &store, &[]);
 }
@@ -392,22 +348,10 @@ fn issue20_store_write_error_is_a_store_error_not_a_failed_file() {
     let runs_before = tables::read_runs(&store).unwrap();
 
     let second = run(&input, &store, &[]);
-    let log = text(&second.stderr);
-    assert_eq!(second.status.code(), Some(2), "{log}");
-    assert!(
-        log.contains("store error") && log.contains("tire="),
-        "{log}"
-    );
-    assert!(!log.contains("failed file"), "{log}");
-    assert_eq!(latest(&store).0, 1, "no version after a store error");
-    assert_eq!(
-        tables::read_runs(&store).unwrap(),
-        runs_before,
-        "runs table untouched"
-    );
+    assert_stopped_on_store_error(&second, &store, "tire=", 1, &runs_before);
 
     fs::remove_file(&blocker).unwrap();
-    check(&run(&input, &store, &[]), "run after the repair");
+    ok(&run(&input, &store, &[]), "run after the repair");
     assert_equals_fresh(&input, &store, &[]);
 }
 
@@ -530,7 +474,7 @@ fn issue20_file_cut_in_transfer_is_partial_and_said() {
         "{log}"
     );
     let runs = tables::read_runs(&store).unwrap();
-    assert_eq!(runs["B2410run7.dat"].status, "partial");
+    assert_eq!(runs["B2410run7.dat"].status, RunStatus::Partial);
     let m = Manifest::read(&latest(&store).1).unwrap();
     assert_eq!(m.counts.files_partial, 1);
     assert!(
@@ -558,7 +502,7 @@ fn issue20_every_problem_is_on_stderr_and_in_the_manifest() {
         .arg(input.join("inertia"))
         .output()
         .unwrap();
-    check(&o, "synth inertia");
+    ok(&o, "synth inertia");
     // Every run of the yaw sessions loses its samples (header line kept).
     let mut broken = 0;
     let mut stack = vec![input.join("inertia")];
@@ -643,7 +587,7 @@ fn issue20_tir_names_stay_unique_per_group() {
 
     let out = run(&input, &store, &[]);
     let log = text(&out.stderr);
-    check(&out, "run with colliding tire names");
+    ok(&out, "run with colliding tire names");
     assert!(log.contains(".tir file names disambiguated"), "{log}");
     let (_, dir) = latest(&store);
     let m = Manifest::read(&dir).unwrap();
@@ -710,7 +654,7 @@ fn issue20_mixed_input_changes_equal_a_fresh_run() {
 
     let second = run(&input, &store, &[]);
     let log = text(&second.stderr);
-    check(&second, "run after the mixed changes");
+    ok(&second, "run after the mixed changes");
     assert!(
         log.contains("relabelled") && log.contains("1 files removed"),
         "{log}"
@@ -725,15 +669,9 @@ fn issue20_mixed_input_changes_equal_a_fresh_run() {
         Some("tire_name")
     );
     assert!(!runs.contains_key("A2410run6.dat"));
-    assert_eq!(runs["A2410run6-resent.dat"].status, "ok");
+    assert_eq!(runs["A2410run6-resent.dat"].status, RunStatus::Ok);
     assert_equals_fresh(&input, &store, &[]);
-    let third = run(&input, &store, &[]);
-    check(&third, "third run");
-    assert!(
-        text(&third.stderr).contains("up to date"),
-        "{}",
-        text(&third.stderr)
-    );
+    assert_up_to_date(&input, &store);
 }
 
 /// `tirebase run` as a user that file permissions apply to. Root reads and writes everything,
@@ -815,7 +753,7 @@ fn issue20_permission_problems_are_retried_and_store_errors_are_not_blamed_on_in
     );
     assert_eq!(latest(&store).0, 2, "{log}");
     let runs = tables::read_runs(&store).unwrap();
-    assert_eq!(runs["B2410run2.dat"].status, "failed");
+    assert_eq!(runs["B2410run2.dat"].status, RunStatus::Failed);
     assert_eq!(
         runs["B2410run2.dat"].data_sha256, runs_before["B2410run2.dat"].data_sha256,
         "the last good data of a file that cannot be read now stays"
@@ -849,7 +787,7 @@ fn issue20_permission_problems_are_retried_and_store_errors_are_not_blamed_on_in
     // The file is readable again: read, and the version equals a fresh run.
     chmod(&file, 0o644);
     let fourth = run_unprivileged(tmp.path(), &input, &store, &[]);
-    check(&fourth, "run after the file became readable");
+    ok(&fourth, "run after the file became readable");
     assert_eq!(latest(&store).0, 3);
     assert_equals_fresh(&input, &store, &[]);
 
@@ -863,25 +801,13 @@ fn issue20_permission_problems_are_retried_and_store_errors_are_not_blamed_on_in
         chmod_dirs(&store.join(part), 0o555);
     }
     let blocked = run_unprivileged(tmp.path(), &input, &store, &extra);
-    let log = text(&blocked.stderr);
-    assert_eq!(blocked.status.code(), Some(2), "{log}");
-    assert!(
-        log.contains("store error") && log.contains("Permission denied"),
-        "{log}"
-    );
-    assert!(!log.contains("failed file"), "{log}");
-    assert_eq!(latest(&store).0, 3, "no version after a store error");
-    assert_eq!(
-        tables::read_runs(&store).unwrap(),
-        runs_before,
-        "runs table untouched: no input file blamed"
-    );
+    assert_stopped_on_store_error(&blocked, &store, "Permission denied", 3, &runs_before);
 
     for part in ["samples", "segments"] {
         chmod_dirs(&store.join(part), 0o755);
     }
     let repaired = run_unprivileged(tmp.path(), &input, &store, &extra);
-    check(&repaired, "run after the store repair");
+    ok(&repaired, "run after the store repair");
     assert_eq!(latest(&store).0, 4);
     assert_equals_fresh(&input, &store, &extra);
 }
@@ -901,9 +827,9 @@ fn issue20_rig_session_entries_neither_hang_nor_stop_the_run() {
         .arg(input.join("inertia"))
         .output()
         .unwrap();
-    check(&o, "synth inertia");
+    ok(&o, "synth inertia");
     let first = run_with_deadline(&input, &store, 600);
-    check(&first, "run on rig sessions only");
+    ok(&first, "run on rig sessions only");
     let m = Manifest::read(&latest(&store).1).unwrap();
     assert_eq!(m.counts.files, 0);
     assert!(m.counts.inertia_results > 0, "{:?}", m.counts);

@@ -4,52 +4,14 @@
 //! truth files are well-formed, that `--defects` records every kind, and that `--config` keys are
 //! validated by name. The physics is tested in `tirebase_core::synth` (unit tests).
 
-use std::collections::BTreeMap;
-use std::path::Path;
-use std::process::Command;
-
-fn synth(out: &Path, extra: &[&str]) -> std::process::Output {
-    let output = Command::new(env!("CARGO_BIN_EXE_tirebase"))
-        .args(["synth", "round", "--out"])
-        .arg(out)
-        .args(extra)
-        .output()
-        .expect("run tirebase");
-    assert!(
-        output.status.success(),
-        "synth round failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    output
-}
-
-fn tree(root: &Path) -> BTreeMap<String, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        for entry in std::fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-            } else {
-                let rel = path
-                    .strip_prefix(root)
-                    .unwrap()
-                    .to_string_lossy()
-                    .replace('\\', "/");
-                out.insert(rel, std::fs::read(&path).unwrap());
-            }
-        }
-    }
-    out
-}
+use crate::harness::{bin, synth_round, tree};
 
 #[test]
 fn demo_round_is_complete_and_identical_for_any_thread_count() {
     let a = tempfile::tempdir().unwrap();
     let b = tempfile::tempdir().unwrap();
-    synth(a.path(), &["--jobs", "1"]);
-    synth(b.path(), &["--jobs", "2"]);
+    synth_round(a.path(), &["--jobs", "1"]);
+    synth_round(b.path(), &["--jobs", "2"]);
     let ta = tree(a.path());
     let tb = tree(b.path());
     assert_eq!(ta.keys().collect::<Vec<_>>(), tb.keys().collect::<Vec<_>>());
@@ -134,7 +96,7 @@ fn demo_round_is_complete_and_identical_for_any_thread_count() {
 #[test]
 fn defects_are_injected_and_recorded() {
     let d = tempfile::tempdir().unwrap();
-    synth(d.path(), &["--defects", "--ideal", "--seed", "5"]);
+    synth_round(d.path(), &["--defects", "--ideal", "--seed", "5"]);
     let csv = std::fs::read_to_string(d.path().join("truth/defects.csv")).unwrap();
     let kinds: Vec<&str> = csv
         .lines()
@@ -163,7 +125,7 @@ fn unknown_config_key_is_an_error_naming_it() {
     let d = tempfile::tempdir().unwrap();
     let cfg = d.path().join("bad.toml");
     std::fs::write(&cfg, "[synth]\nseed = 1\n[synth.realism]\nnoise = 2.0\n").unwrap();
-    let output = Command::new(env!("CARGO_BIN_EXE_tirebase"))
+    let output = bin()
         .args(["synth", "round", "--out"])
         .arg(d.path().join("round"))
         .arg("--config")

@@ -7,7 +7,8 @@
 //! Deliberately not here: unit tests of the reader and model (in tirebase-core).
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+use crate::harness::{text, tirebase};
 
 const TOL: f64 = 1e-9;
 const FORCES: [&str; 5] = ["Fx_N", "Fy_N", "Mx_Nm", "My_Nm", "Mz_Nm"];
@@ -16,17 +17,6 @@ fn fixture(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/fixtures")
         .join(rel)
-}
-
-fn tirebase(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tirebase"))
-        .args(args)
-        .output()
-        .expect("run tirebase")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
 }
 
 /// A CSV as header + rows of strings.

@@ -123,7 +123,7 @@ impl Car {
             key,
             reason,
         };
-        let loads_n = loads(&raw.loads_n).map_err(|r| invalid("loads_n", r))?;
+        let loads_n = loads(&raw.loads_n).map_err(|r| invalid("loads_n", r.to_string()))?;
         let mut whole: Vec<i64> = loads_n.iter().map(|f| f.round() as i64).collect();
         whole.dedup();
         if whole.len() != loads_n.len() {
@@ -206,42 +206,56 @@ impl Car {
     }
 }
 
+/// Why `loads_n` is not a list of loads.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+enum LoadsError {
+    #[error("not a number: {0}")]
+    NotANumber(String),
+    #[error("{0}")]
+    Range(String),
+    #[error("range needs min <= max and step > 0, got min = {min}, max = {max}, step = {step}")]
+    BadRange { min: f64, max: f64, step: f64 },
+    #[error("{0} loads: at most 50")]
+    TooMany(usize),
+    #[error("a list of loads or {{ min, max, step }}, got {0}")]
+    NotLoads(String),
+    #[error("no load given")]
+    Empty,
+}
+
 /// `loads_n` as a list or a `{ min, max, step }` range (max included when a step lands on it).
-fn loads(value: &toml::Value) -> Result<Vec<f64>, String> {
+fn loads(value: &toml::Value) -> Result<Vec<f64>, LoadsError> {
     let loads = match value {
         toml::Value::Array(items) => items
             .iter()
             .map(|v| match v {
                 toml::Value::Float(f) => Ok(*f),
                 toml::Value::Integer(i) => Ok(*i as f64),
-                other => Err(format!("not a number: {other}")),
+                other => Err(LoadsError::NotANumber(other.to_string())),
             })
-            .collect::<Result<Vec<f64>, String>>()?,
+            .collect::<Result<Vec<f64>, LoadsError>>()?,
         toml::Value::Table(_) => {
             let r: LoadRange = value
                 .clone()
                 .try_into()
-                .map_err(|e: toml::de::Error| e.message().to_string())?;
+                .map_err(|e: toml::de::Error| LoadsError::Range(e.message().to_string()))?;
             if !(r.min.is_finite() && r.max >= r.min && r.step > 0.0) {
-                return Err(format!(
-                    "range needs min <= max and step > 0, got min = {}, max = {}, step = {}",
-                    r.min, r.max, r.step
-                ));
+                return Err(LoadsError::BadRange {
+                    min: r.min,
+                    max: r.max,
+                    step: r.step,
+                });
             }
             let n = ((r.max - r.min) / r.step + 1e-9).floor() as usize + 1;
             if n > 50 {
-                return Err(format!("{n} loads: at most 50"));
+                return Err(LoadsError::TooMany(n));
             }
             (0..n).map(|i| r.min + i as f64 * r.step).collect()
         }
-        other => {
-            return Err(format!(
-                "a list of loads or {{ min, max, step }}, got {other}"
-            ));
-        }
+        other => return Err(LoadsError::NotLoads(other.to_string())),
     };
     if loads.is_empty() {
-        return Err("no load given".into());
+        return Err(LoadsError::Empty);
     }
     Ok(loads)
 }

@@ -206,8 +206,8 @@ pub fn compare(
                     key,
                     model,
                 }),
-                Err(file) => notes.push(format!(
-                    "{}: {} {} in {} kPa: no model tir/{file}, left out",
+                Err(missing) => notes.push(format!(
+                    "{}: {} {} in {} kPa: {missing}, left out",
                     r.label, key.0, key.1, key.2
                 )),
             }

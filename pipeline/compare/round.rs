@@ -12,13 +12,19 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use crate::schema::TableName;
 pub use crate::store::results::{GroupKey, TirModel};
 use crate::store::results::{
     QualityRow, Results, ThermalFitRow, ThermalRow, read_tir_models, tir_names,
 };
 
 /// Result tables a comparison reads (notes about the others are left out).
-pub const TABLES: [&str; 4] = ["fit_quality", "coefficients", "thermal_fit", "thermal"];
+pub const TABLES: [TableName; 4] = [
+    TableName::FitQuality,
+    TableName::Coefficients,
+    TableName::ThermalFit,
+    TableName::Thermal,
+];
 
 /// A round's typed result tables and models.
 #[derive(Clone, Debug, Default)]
@@ -62,13 +68,21 @@ impl RoundResults {
         all
     }
 
-    /// The model of a group; `Err(file name)` when the round has no readable model for it.
-    pub fn model(&self, key: &GroupKey) -> Result<&TirModel, String> {
+    /// The model of a group, or the file it would be in when the round has no readable model.
+    pub fn model(&self, key: &GroupKey) -> Result<&TirModel, NoModel> {
         let file = self.tir_names.get(key).cloned().unwrap_or_else(|| {
             tirebase_core::naming::tir_file_name(&key.0, key.1 as f64, key.2 as f64)
         });
-        self.models.get(&file).ok_or(file)
+        self.models.get(&file).ok_or(NoModel { file })
     }
+}
+
+/// A group of a round without a readable model.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("no model tir/{file}")]
+pub struct NoModel {
+    /// The `.tir` file name the model would have.
+    pub file: String,
 }
 
 /// Load the tables and models of `dir` as round `label`.
@@ -362,7 +376,10 @@ mod tests {
         );
         let round = RoundResults::new("r", r, BTreeMap::new());
         assert_eq!(round.groups(), vec![a.clone(), b]);
-        assert_eq!(round.model(&a).err().as_deref(), Some("a__7in__83kPa.tir"));
+        assert_eq!(
+            round.model(&a).err().map(|e| e.file).as_deref(),
+            Some("a__7in__83kPa.tir")
+        );
         // With the out-of-sample ratio, the out-of-sample error where a row has one.
         let mut r = results();
         for q in r.fit_quality.iter_mut().flatten() {

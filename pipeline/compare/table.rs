@@ -8,11 +8,12 @@
 use polars::prelude::*;
 
 use super::{Comparison, objective_column};
+use crate::schema::TableName;
 use crate::store::StoreError;
 
 /// The comparison as the `compare` table.
 pub fn to_frame(c: &Comparison) -> Result<DataFrame, StoreError> {
-    let schema = crate::schema::table("compare").for_loads(&c.car.loads_whole_n());
+    let schema = crate::schema::table(TableName::Compare).for_loads(&c.car.loads_whole_n());
     let rows = &c.rows;
     let opt = |v: Option<f64>| v.filter(|x| x.is_finite());
     let f = |g: &dyn Fn(&super::CompareRow) -> f64| -> Vec<f64> { rows.iter().map(g).collect() };
@@ -202,50 +203,7 @@ pub fn format_number(x: f64) -> String {
 
 /// The table as aligned text: every column, numbers with up to 4 significant digits.
 pub fn format_text(df: &DataFrame) -> String {
-    let names: Vec<String> = df
-        .get_column_names()
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-    let mut cells: Vec<Vec<String>> = vec![names.clone()];
-    for i in 0..df.height() {
-        cells.push(
-            df.columns()
-                .iter()
-                .map(|c| match c.get(i) {
-                    Ok(AnyValue::Float64(v)) => format_number(v),
-                    Ok(AnyValue::String(s)) => s.to_string(),
-                    Ok(AnyValue::Null) | Err(_) => String::new(),
-                    Ok(v) => v.to_string(),
-                })
-                .collect(),
-        );
-    }
-    let widths: Vec<usize> = (0..names.len())
-        .map(|j| {
-            cells
-                .iter()
-                .map(|r| r[j].chars().count())
-                .max()
-                .unwrap_or(0)
-        })
-        .collect();
-    let mut out = String::new();
-    for (k, row) in cells.iter().enumerate() {
-        let line: Vec<String> = row
-            .iter()
-            .zip(&widths)
-            .map(|(c, w)| format!("{c:<w$}"))
-            .collect();
-        out.push_str(line.join("  ").trim_end());
-        out.push('\n');
-        if k == 0 {
-            let rule: Vec<String> = widths.iter().map(|w| "-".repeat(*w)).collect();
-            out.push_str(&rule.join("  "));
-            out.push('\n');
-        }
-    }
-    out
+    crate::query::aligned_text(df, format_number)
 }
 
 #[cfg(test)]

@@ -29,6 +29,7 @@ use tirebase_core::fit::relaxation::{
 use tirebase_core::fit::segment_data::{MeasuredSegment, SegmentKind, StageFailure, TireKey};
 use tirebase_core::fit::spring_rate::{self, SpringRateConfig, SpringRateOutput, TirVertical};
 use tirebase_core::fit::thermal::{self, ThermalConfig, ThermalOutput};
+use tirebase_core::numerics::stats::finite_median;
 
 use super::load::LoadedSegment;
 use super::{FitFailure, StageSet};
@@ -201,18 +202,6 @@ pub fn middle_nominal_load(segments: &[&LoadedSegment]) -> Option<f64> {
     (!levels.is_empty()).then(|| levels[(levels.len() - 1) / 2])
 }
 
-/// Median of the finite values.
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    v.retain(|x| x.is_finite());
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    match n {
-        0 => None,
-        _ if n % 2 == 1 => Some(v[n / 2]),
-        _ => Some(0.5 * (v[n / 2 - 1] + v[n / 2])),
-    }
-}
-
 /// The PAC2002 stage's view of the group's force-clean matrix segments.
 fn pac2002_input(
     key: &TireKey,
@@ -227,12 +216,11 @@ fn pac2002_input(
         .filter(|s| s.segment.kind == SegmentKind::Cornering || has_kappa(s))
         .filter_map(|s| sweep_of(s))
         .collect();
-    let speed_kph = median(
+    let speed_kph = finite_median(
         segments
             .iter()
             .filter(|s| pac2002_segment(s))
-            .map(|s| s.row.speed_kph_mean)
-            .collect(),
+            .map(|s| s.row.speed_kph_mean),
     )?;
     Some(FitInput {
         context: FitContext {
@@ -396,11 +384,10 @@ fn run_pac2002_and_relaxation(
     };
     out.n_pac2002_segments = input.sweeps.len();
     record_unusable_sweeps(out, all);
-    out.pressure_kpa_mean = median(
+    out.pressure_kpa_mean = finite_median(
         all.iter()
             .filter(|s| pac2002_segment(s))
-            .flat_map(|s| s.segment.channels.pressure_kpa.iter().copied())
-            .collect(),
+            .flat_map(|s| s.segment.channels.pressure_kpa.iter().copied()),
     )
     .unwrap_or(f64::NAN);
     let relax_segments: Vec<MeasuredSegment> = all

@@ -94,7 +94,8 @@ impl Frame {
 
     /// The conformed frame (an empty table has every schema column and no rows).
     fn finish(self) -> Result<DataFrame, FitError> {
-        let table = schema::table(self.name);
+        let table = schema::table_named(self.name)
+            .unwrap_or_else(|| panic!("no schema for table {}", self.name));
         if self.columns.is_empty() {
             return Ok(DataFrame::empty_with_schema(&table.file_schema()));
         }
@@ -403,7 +404,9 @@ mod tests {
         assert_eq!(df.height(), 0);
         assert_eq!(
             df.width(),
-            schema::table("relaxation").file_columns().count()
+            schema::table(schema::TableName::Relaxation)
+                .file_columns()
+                .count()
         );
     }
 }

@@ -12,7 +12,7 @@
 //! here: reading, hashing or writing anything (`ingest` acts on the decision).
 
 use super::{FileStamp, Identity};
-use crate::store::tables::{RunRow, STATUS_DUPLICATE, STATUS_OK, STATUS_PARTIAL};
+use crate::store::tables::{RunRow, RunStatus};
 
 /// What the file and its settings are now.
 #[derive(Clone, Debug)]
@@ -67,9 +67,9 @@ pub fn decide(stored: Option<&RunRow>, now: &Now) -> Decision {
         && row.source_path == now.path
         && row.size_bytes == Some(now.stamp.size_bytes)
         && row.mtime_ns == Some(now.stamp.mtime_ns);
-    match row.status.as_str() {
-        STATUS_OK | STATUS_PARTIAL if row.data_sha256.is_some() => {}
-        STATUS_DUPLICATE => {
+    match row.status {
+        RunStatus::Ok | RunStatus::Partial if row.data_sha256.is_some() => {}
+        RunStatus::Duplicate => {
             if !now.canonical_present {
                 return Decision::Ingest;
             }
@@ -124,7 +124,7 @@ pub fn decide(stored: Option<&RunRow>, now: &Now) -> Decision {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::store::tables::STATUS_FAILED;
+    use crate::store::tables::RunStatus;
 
     const SEG: &str = "seg-config-1";
     const TOOL: &str = "0.1.0";
@@ -135,7 +135,7 @@ mod tests {
             source_path: "/in/raw/B2410run2.dat".into(),
             sha256: "c1".into(),
             data_sha256: Some("c1".into()),
-            status: STATUS_OK.into(),
+            status: RunStatus::Ok,
             project: Some(2410),
             run: Some(2),
             tire: Some("Hoosier R25B".into()),
@@ -286,7 +286,7 @@ mod tests {
     fn failures_are_retried_every_time() {
         let id = catalog("Hoosier R25B", 7, Some("drive_brake"));
         let mut failed = stored();
-        failed.status = STATUS_FAILED.into();
+        failed.status = RunStatus::Failed;
         failed.sha256 = String::new();
         failed.error = Some("Permission denied".into());
         assert_eq!(
@@ -305,7 +305,7 @@ mod tests {
     fn a_partial_file_is_kept_like_an_ok_one() {
         let id = catalog("Hoosier R25B", 7, Some("drive_brake"));
         let mut partial = stored();
-        partial.status = STATUS_PARTIAL.into();
+        partial.status = RunStatus::Partial;
         assert_eq!(
             decide(Some(&partial), &now(Some(&id), None)),
             Decision::UpToDate
@@ -315,7 +315,7 @@ mod tests {
     #[test]
     fn a_duplicate_stays_one_while_its_canonical_copy_is_there() {
         let mut dup = stored();
-        dup.status = STATUS_DUPLICATE.into();
+        dup.status = RunStatus::Duplicate;
         dup.data_sha256 = None;
         dup.parts_sha256 = None;
         assert_eq!(decide(Some(&dup), &now(None, None)), Decision::UpToDate);

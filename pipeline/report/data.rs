@@ -14,6 +14,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+use crate::store::StoreError;
 use crate::store::columns::{req_f64, req_i64};
 use crate::store::results::{Results, TirModel, read_tir_models, tir_names};
 use crate::store::tables::{self, SegmentRecord};
@@ -208,7 +209,7 @@ fn load_segments(store: &Path, data: &mut ReportData) -> Result<(), super::Repor
 
 /// Per member segment of one file: (index, statistics, decimated samples); or the file and why
 /// it could not be read.
-type FileResult = Result<Vec<(usize, SegmentStats, Vec<Sample>)>, (PathBuf, String)>;
+type FileResult = Result<Vec<(usize, SegmentStats, Vec<Sample>)>, (PathBuf, StoreError)>;
 
 /// Read one partition file and cut out its member segments.
 fn read_members(
@@ -264,7 +265,7 @@ impl FileSamples {
     }
 }
 
-fn read_samples(path: &Path) -> Result<FileSamples, String> {
+fn read_samples(path: &Path) -> Result<FileSamples, StoreError> {
     let columns = [
         "sample_index",
         "alpha_rad",
@@ -274,15 +275,13 @@ fn read_samples(path: &Path) -> Result<FileSamples, String> {
         "fz_n",
         "mz_nm",
     ];
-    let df = tables::read_sample_columns(path, &columns, &[], false).map_err(|e| e.to_string())?;
-    let sample_index: Vec<i64> = req_i64(&df, "sample_index", path)
-        .map_err(|e| e.to_string())?
+    let df = tables::read_sample_columns(path, &columns, &[], false)?;
+    let sample_index: Vec<i64> = req_i64(&df, "sample_index", path)?
         .into_iter()
         .map(|v| v.unwrap_or(-1))
         .collect();
-    let f = |c: &str| -> Result<Vec<f64>, String> {
-        Ok(req_f64(&df, c, path)
-            .map_err(|e| e.to_string())?
+    let f = |c: &str| -> Result<Vec<f64>, StoreError> {
+        Ok(req_f64(&df, c, path)?
             .into_iter()
             .map(|v| v.unwrap_or(f64::NAN))
             .collect())

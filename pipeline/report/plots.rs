@@ -10,6 +10,7 @@
 
 use std::collections::BTreeMap;
 
+use tirebase_core::compare::envelope::convex_hull;
 use tirebase_core::naming::tir_file_name;
 use tirebase_core::tire_model::{Coef, Mode, Pac2002, SlipInput, pac2002::relaxation_lengths};
 
@@ -419,36 +420,6 @@ fn model_envelope(
     hull
 }
 
-/// Convex hull (Andrew's monotone chain), counter-clockwise, without the closing point.
-fn convex_hull(mut pts: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
-    pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
-    pts.dedup();
-    if pts.len() < 3 {
-        return pts;
-    }
-    let cross = |o: (f64, f64), a: (f64, f64), b: (f64, f64)| {
-        (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
-    };
-    let mut lower: Vec<(f64, f64)> = Vec::new();
-    for &p in &pts {
-        while lower.len() >= 2 && cross(lower[lower.len() - 2], lower[lower.len() - 1], p) <= 0.0 {
-            lower.pop();
-        }
-        lower.push(p);
-    }
-    let mut upper: Vec<(f64, f64)> = Vec::new();
-    for &p in pts.iter().rev() {
-        while upper.len() >= 2 && cross(upper[upper.len() - 2], upper[upper.len() - 1], p) <= 0.0 {
-            upper.pop();
-        }
-        upper.push(p);
-    }
-    lower.pop();
-    upper.pop();
-    lower.extend(upper);
-    lower
-}
-
 /// Peak mu_y (seed figure 23) and cornering stiffness (figure 24) against load, one colour per
 /// (rim, pressure): lines = model (pure lateral slip, IA 0) over the tested loads, markers =
 /// per-segment values measured on the cornering data at IA 0.
@@ -754,18 +725,6 @@ fn capitalise(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn hull_of_a_square_grid_is_its_corners() {
-        let pts: Vec<(f64, f64)> = (0..5)
-            .flat_map(|i| (0..5).map(move |j| (i as f64, j as f64)))
-            .collect();
-        let hull = convex_hull(pts);
-        assert_eq!(hull.len(), 4, "{hull:?}");
-        for c in [(0.0, 0.0), (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)] {
-            assert!(hull.contains(&c));
-        }
-    }
 
     #[test]
     fn tables_with_unexpected_columns_give_notes_not_panics() {

@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use tirebase_core::compare::{
-    Pac2002Tire, SteadyStateTire, cornering_stiffness, envelope_outline, peak_fy,
+    LoadFigures, Pac2002Tire, SteadyStateTire, cornering_stiffness, envelope_outline, peak_fy,
 };
 
 use polars::prelude::{AnyValue, DataFrame};
@@ -165,30 +165,33 @@ fn choice_charts(
     let cond = &c.car.conditions;
     let loads = &cond.loads_n;
     let (lo, hi) = (0.5 * loads[0], 1.25 * loads[loads.len() - 1]);
-    let suffix = format!(" · {}", choice.label);
-    let mut mu = Plot::new(
-        format!("sel-mu-{}", choice.id),
+    // `sel-<id>-<choice>`, the title ending with the choice's label
+    let plot = |id: &str, kind: &str, title: String, x: Axis, y: Axis| {
+        let title = format!("{title} · {}", choice.label);
+        Plot::new(format!("sel-{id}-{}", choice.id), kind, title, x, y)
+    };
+    let load_axis = || Axis::from_zero("vertical load Fz (N)");
+    let mu_axis = || Axis::new("peak μy = |Fy|/Fz (-)");
+    let mut mu = plot(
+        "mu",
         "sel_peak_mu",
-        format!("Peak μy vs load at the design camber{suffix}"),
-        Axis::from_zero("vertical load Fz (N)"),
-        Axis::new("peak μy = |Fy|/Fz (-)"),
+        "Peak μy vs load at the design camber".into(),
+        load_axis(),
+        mu_axis(),
     );
-    let mut ky = Plot::new(
-        format!("sel-ky-{}", choice.id),
+    let mut ky = plot(
+        "ky",
         "sel_cornering_stiffness",
-        format!("Cornering stiffness vs load{suffix}"),
-        Axis::from_zero("vertical load Fz (N)"),
+        "Cornering stiffness vs load".into(),
+        load_axis(),
         Axis::from_zero("cornering stiffness |dFy/dα| (kN/rad)"),
     );
-    let mut camber = Plot::new(
-        format!("sel-camber-{}", choice.id),
+    let mut camber = plot(
+        "camber",
         "sel_camber",
-        format!(
-            "Peak μy vs camber at Fz = {:.0} N{suffix}",
-            cond.nominal_load_n
-        ),
+        format!("Peak μy vs camber at Fz = {:.0} N", cond.nominal_load_n),
         Axis::from_zero("inclination, leaning into the turn (deg)"),
-        Axis::new("peak μy = |Fy|/Fz (-)"),
+        mu_axis(),
     );
     let max_load = hi.max(cond.nominal_load_n);
     for &i in &choice.rows {
@@ -201,34 +204,30 @@ fn choice_charts(
         let g = r.figures.camber_rad;
         let (f_lo, f_hi) = tire.ranges().fz_n;
         let tested = |f: f64| f >= f_lo * (1.0 - 1e-9) && f <= f_hi * (1.0 + 1e-9);
-        let mu_curve: Vec<(f64, f64)> = linspace(lo, hi, CURVE_POINTS)
-            .map(|f| (f, peak_fy(&tire, cond, f, g) / f))
-            .collect();
-        push_curve(&mut mu, label.clone(), color, mu_curve, tested);
-        mu.series.push(Series::new(
-            "",
-            color,
-            Style::Markers,
-            r.figures
-                .loads
-                .iter()
-                .map(|l| (l.fz_n, l.mu_y_peak))
-                .collect(),
-        ));
-        let ky_curve: Vec<(f64, f64)> = linspace(lo, hi, CURVE_POINTS)
-            .map(|f| (f, cornering_stiffness(&tire, cond, f, g) / 1000.0))
-            .collect();
-        push_curve(&mut ky, label.clone(), color, ky_curve, tested);
-        ky.series.push(Series::new(
-            "",
-            color,
-            Style::Markers,
-            r.figures
-                .loads
-                .iter()
-                .map(|l| (l.fz_n, l.cornering_stiffness_n_per_rad / 1000.0))
-                .collect(),
-        ));
+        // the model over the load span (extrapolation dashed), and the row's figure per load
+        let vs_load =
+            |plot: &mut Plot, model: &dyn Fn(f64) -> f64, figure: fn(&LoadFigures) -> f64| {
+                let curve = linspace(lo, hi, CURVE_POINTS)
+                    .map(|f| (f, model(f)))
+                    .collect();
+                push_curve(plot, label.clone(), color, curve, tested);
+                let markers = r
+                    .figures
+                    .loads
+                    .iter()
+                    .map(|l| (l.fz_n, figure(l)))
+                    .collect();
+                plot.series
+                    .push(Series::new("", color, Style::Markers, markers));
+            };
+        vs_load(&mut mu, &|f| peak_fy(&tire, cond, f, g) / f, |l| {
+            l.mu_y_peak
+        });
+        vs_load(
+            &mut ky,
+            &|f| cornering_stiffness(&tire, cond, f, g) / 1000.0,
+            |l| l.cornering_stiffness_n_per_rad / 1000.0,
+        );
         let (g_lo, g_hi) = tire.ranges().gamma_rad;
         let g_lo = g_lo.max(0.0);
         let curve: Vec<(f64, f64)> = linspace(g_lo, g_hi.max(g_lo), CURVE_POINTS)

@@ -18,13 +18,15 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
+use tirebase_core::inertia::InertiaResult;
 use tirebase_core::naming::unique_tir_names;
 use tirebase_core::tire_model::Pac2002;
-use tirebase_core::tire_model::tir::TirFile;
+use tirebase_core::tire_model::tir::{TirFile, TirReadError};
 
 use super::StoreError;
 use super::columns::{opt_bool, opt_f64, opt_i64, opt_str, req_bool, req_f64, req_i64, req_str};
 use super::files::{parquet_files_in, read_parquet, write_parquet_atomic};
+use crate::schema::TableName;
 
 /// A fit group: (tire, rim_in, pressure_kpa nominal).
 pub type GroupKey = (String, i64, i64);
@@ -33,8 +35,8 @@ pub type GroupKey = (String, i64, i64);
 pub const GROUP_COLUMNS: [&str; 3] = ["tire", "rim_in", "pressure_kpa"];
 
 /// The file of table `name` in a result directory.
-pub fn table_path(dir: &Path, name: &str) -> PathBuf {
-    dir.join(format!("{name}.parquet"))
+pub fn table_path(dir: &Path, name: impl AsRef<str>) -> PathBuf {
+    dir.join(format!("{}.parquet", name.as_ref()))
 }
 
 /// Names of the tables a result directory holds, sorted.
@@ -46,7 +48,7 @@ pub fn table_names(dir: &Path) -> Result<Vec<String>, StoreError> {
 }
 
 /// Table `name` of a result directory; `None` when the directory has no such table.
-pub fn read_table(dir: &Path, name: &str) -> Result<Option<DataFrame>, StoreError> {
+pub fn read_table(dir: &Path, name: impl AsRef<str>) -> Result<Option<DataFrame>, StoreError> {
     let path = table_path(dir, name);
     if !path.is_file() {
         return Ok(None);
@@ -55,7 +57,11 @@ pub fn read_table(dir: &Path, name: &str) -> Result<Option<DataFrame>, StoreErro
 }
 
 /// Write table `name` into a result directory atomically.
-pub fn write_table(dir: &Path, name: &str, df: &mut DataFrame) -> Result<(), StoreError> {
+pub fn write_table(
+    dir: &Path,
+    name: impl AsRef<str>,
+    df: &mut DataFrame,
+) -> Result<(), StoreError> {
     write_parquet_atomic(&table_path(dir, name), df)
 }
 
@@ -229,23 +235,6 @@ pub struct RelaxationRow {
     pub converged: bool,
 }
 
-/// A row of `inertia` (the rig-inertia results) as the report uses it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct InertiaRow {
-    pub session: String,
-    pub run: String,
-    /// Vehicle id, `table`, `platform` or a calibration body.
-    pub object: String,
-    pub axis: String,
-    pub quantity: String,
-    pub method: String,
-    /// SI, in `units`.
-    pub value: f64,
-    /// Standard uncertainty (k = 1), NaN when not evaluated.
-    pub uncertainty: f64,
-    pub units: String,
-}
-
 /// A row of `lint`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LintRow {
@@ -272,24 +261,24 @@ pub struct Results {
     pub fit_failures: Option<Vec<FitFailure>>,
     /// The rig-inertia results (`None` when the results have none: not every result set comes
     /// with rig sessions, so a missing `inertia.parquet` is no note; an unreadable one is).
-    pub inertia: Option<Vec<InertiaRow>>,
+    pub inertia: Option<Vec<InertiaResult>>,
     /// One line per table that is not present or could not be read.
     pub notes: Vec<String>,
 }
 
 /// The rig-inertia results table of a version (not a fit table: no group columns).
-pub const INERTIA_TABLE: &str = "inertia";
+pub const INERTIA_TABLE: TableName = TableName::Inertia;
 
 /// The fit tables [`Results`] holds (besides [`INERTIA_TABLE`]).
-pub const RESULT_TABLES: [&str; 8] = [
-    "coefficients",
-    "fit_quality",
-    "spring_rate",
-    "thermal",
-    "thermal_fit",
-    "relaxation",
-    "lint",
-    "fit_failures",
+pub const RESULT_TABLES: [TableName; 8] = [
+    TableName::Coefficients,
+    TableName::FitQuality,
+    TableName::SpringRate,
+    TableName::Thermal,
+    TableName::ThermalFit,
+    TableName::Relaxation,
+    TableName::Lint,
+    TableName::FitFailures,
 ];
 
 impl Results {
@@ -304,7 +293,7 @@ impl Results {
                 }
                 Ok(None) => {}
                 Err(e) => {
-                    unreadable.insert(name, e.to_string());
+                    unreadable.insert(name.as_str(), e.to_string());
                 }
             }
         }
@@ -615,7 +604,7 @@ fn lint_rows(df: &DataFrame, path: &Path) -> Result<Vec<LintRow>, StoreError> {
         .collect())
 }
 
-fn inertia_rows(df: &DataFrame, path: &Path) -> Result<Vec<InertiaRow>, StoreError> {
+fn inertia_rows(df: &DataFrame, path: &Path) -> Result<Vec<InertiaResult>, StoreError> {
     let s = |n: &str| req_str(df, n, path).map(strings);
     let (session, run, object, axis, quantity, method, units) = (
         s("session")?,
@@ -626,10 +615,14 @@ fn inertia_rows(df: &DataFrame, path: &Path) -> Result<Vec<InertiaRow>, StoreErr
         s("method")?,
         s("units")?,
     );
+    // optional: the report does not show it, and test tables may leave it out
+    let diagnostics = opt_str(df, "diagnostics", path)?
+        .map(strings)
+        .unwrap_or_else(|| vec![String::new(); df.height()]);
     let value = floats(req_f64(df, "value", path)?);
     let uncertainty = floats(req_f64(df, "uncertainty", path)?);
     Ok((0..df.height())
-        .map(|i| InertiaRow {
+        .map(|i| InertiaResult {
             session: session[i].clone(),
             run: run[i].clone(),
             object: object[i].clone(),
@@ -639,6 +632,7 @@ fn inertia_rows(df: &DataFrame, path: &Path) -> Result<Vec<InertiaRow>, StoreErr
             value: value[i],
             uncertainty: uncertainty[i],
             units: units[i].clone(),
+            diagnostics: diagnostics[i].clone(),
         })
         .collect())
 }
@@ -670,22 +664,24 @@ pub fn read_fit_failures(
     if groups.is_empty() {
         return Ok(Vec::new());
     }
-    let Some(df) = read_table(dir, "fit_failures")? else {
+    let Some(df) = read_table(dir, TableName::FitFailures)? else {
         return Ok(Vec::new());
     };
-    Ok(fit_failure_rows(&df, &table_path(dir, "fit_failures"))?
-        .into_iter()
-        .filter(|f| groups.contains(&(f.tire.clone(), f.rim_in, f.pressure_kpa)))
-        .collect())
+    Ok(
+        fit_failure_rows(&df, &table_path(dir, TableName::FitFailures))?
+            .into_iter()
+            .filter(|f| groups.contains(&(f.tire.clone(), f.rim_in, f.pressure_kpa)))
+            .collect(),
+    )
 }
 
 /// The groups of a result directory that have a `.tir`: those of its `coefficients` table
 /// (empty when it has none or it cannot be read).
 pub fn model_groups(dir: &Path) -> BTreeSet<GroupKey> {
-    let Ok(Some(df)) = read_table(dir, "coefficients") else {
+    let Ok(Some(df)) = read_table(dir, TableName::Coefficients) else {
         return BTreeSet::new();
     };
-    let path = table_path(dir, "coefficients");
+    let path = table_path(dir, TableName::Coefficients);
     let (Ok(tire), Ok(rim), Ok(p)) = (
         req_str(&df, "tire", &path),
         req_i64(&df, "rim_in", &path),
@@ -709,10 +705,21 @@ pub struct TirModel {
     pub use_mode: Option<i64>,
 }
 
-/// Read one `.tir` file; the reason when it cannot be read.
-pub fn read_tir_model(path: &Path) -> Result<TirModel, String> {
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
-    let (tir, _) = TirFile::parse_bytes(&bytes).map_err(|e| e.to_string())?;
+/// Why a `.tir` file could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum TirModelError {
+    /// The file could not be read.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    /// The file is not a readable `.tir`.
+    #[error(transparent)]
+    Read(#[from] TirReadError),
+}
+
+/// Read one `.tir` file.
+pub fn read_tir_model(path: &Path) -> Result<TirModel, TirModelError> {
+    let bytes = std::fs::read(path)?;
+    let (tir, _) = TirFile::parse_bytes(&bytes)?;
     Ok(TirModel {
         model: tir.model(),
         use_mode: tir.use_mode,

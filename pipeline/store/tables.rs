@@ -31,16 +31,51 @@ use super::layout::{
     PartitionKey, SAMPLES_DIR, SEGMENTS_DIR, SWEPT, TEMP_SUFFIX, partition_dir, runs_file,
     source_part_name,
 };
-use crate::schema;
+use crate::schema::{self, TableName};
 
-/// `runs.status` of a file whose data is stored and complete.
-pub const STATUS_OK: &str = "ok";
-/// `runs.status` of a file whose rows stop early (a truncated transfer): stored, flagged.
-pub const STATUS_PARTIAL: &str = "partial";
-/// `runs.status` of a file whose last attempt failed (an earlier stored version stays).
-pub const STATUS_FAILED: &str = "failed";
-/// `runs.status` of a file whose run another file holds (no data of its own).
-pub const STATUS_DUPLICATE: &str = "duplicate";
+/// `runs.status`: what the store holds for an input file.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum RunStatus {
+    /// Its data are stored and complete.
+    Ok,
+    /// Its rows stop early (a truncated transfer): stored, flagged.
+    Partial,
+    /// Its last attempt failed (an earlier stored version stays).
+    #[default]
+    Failed,
+    /// Another file holds its run (no data of its own).
+    Duplicate,
+}
+
+impl RunStatus {
+    /// The name in the runs table and the manifest.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            RunStatus::Ok => "ok",
+            RunStatus::Partial => "partial",
+            RunStatus::Failed => "failed",
+            RunStatus::Duplicate => "duplicate",
+        }
+    }
+
+    /// The status named `name`, if any.
+    pub fn parse(name: &str) -> Option<RunStatus> {
+        [
+            RunStatus::Ok,
+            RunStatus::Partial,
+            RunStatus::Failed,
+            RunStatus::Duplicate,
+        ]
+        .into_iter()
+        .find(|s| s.as_str() == name)
+    }
+}
+
+impl std::fmt::Display for RunStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
 
 /// One row of the runs table (see `schemas/runs.toml`).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -49,7 +84,7 @@ pub struct RunRow {
     pub source_path: String,
     pub sha256: String,
     pub data_sha256: Option<String>,
-    pub status: String,
+    pub status: RunStatus,
     pub error: Option<String>,
     pub project: Option<i64>,
     pub run: Option<i64>,
@@ -172,12 +207,17 @@ pub fn read_runs(store: &Path) -> Result<BTreeMap<String, RunRow>, StoreError> {
     let (et_start_s, et_end_s) = (of("et_start_s")?, of("et_end_s")?);
     let mut out = BTreeMap::new();
     for k in 0..n {
+        let status_name = status[k].as_deref().unwrap_or_default();
+        let run_status = RunStatus::parse(status_name).ok_or_else(|| StoreError::Schema {
+            table: path.display().to_string(),
+            message: format!("row {}: unknown status {status_name:?}", k + 1),
+        })?;
         let row = RunRow {
             source_file: source_file[k].clone().unwrap_or_default(),
             source_path: source_path[k].clone().unwrap_or_default(),
             sha256: sha256[k].clone().unwrap_or_default(),
             data_sha256: data_sha256[k].clone(),
-            status: status[k].clone().unwrap_or_default(),
+            status: run_status,
             error: error[k].clone(),
             project: project[k],
             run: run[k],
@@ -228,7 +268,7 @@ pub fn runs_frame(store: &Path) -> Result<DataFrame, StoreError> {
     let path = store.join(runs_file());
     if !path.exists() {
         return Ok(DataFrame::empty_with_schema(
-            &schema::table("runs").file_schema(),
+            &schema::table(TableName::Runs).file_schema(),
         ));
     }
     read_parquet(&path)
@@ -269,7 +309,7 @@ pub fn write_runs(store: &Path, rows: &BTreeMap<String, RunRow>) -> Result<(), S
         "parts_sha256" => s(|x| x.parts_sha256.clone()),
     )
     .map_err(polars_at(&path))?;
-    let mut df = schema::table("runs").conform(df)?;
+    let mut df = schema::table(TableName::Runs).conform(df)?;
     super::files::write_parquet_atomic(&path, &mut df)
 }
 
@@ -459,7 +499,7 @@ pub fn read_sample_columns(
 /// Write one file's part of the segments table (`segments/<part>`), conformed to its schema.
 /// Not durable until the caller syncs the filesystem (the runs table commits it).
 pub fn write_segments_part(store: &Path, part: &str, df: DataFrame) -> Result<(), StoreError> {
-    let mut df = schema::table("segments").conform(df)?;
+    let mut df = schema::table(TableName::Segments).conform(df)?;
     write_parquet_atomic_with(
         &store.join(SEGMENTS_DIR).join(part),
         Durability::Deferred,
@@ -476,7 +516,7 @@ pub fn write_samples_part(
     rows: usize,
     arrays: Vec<(&str, ArrayRef)>,
 ) -> Result<(), StoreError> {
-    let (schema, arrays) = schema::table("samples").conform_arrays(arrays)?;
+    let (schema, arrays) = schema::table(TableName::Samples).conform_arrays(arrays)?;
     let batch = RecordBatchT::try_new(rows, Arc::new(schema.clone()), arrays)
         .map_err(|e| StoreError::polars(store, e))?;
     let dir = store.join(partition_dir(key));
@@ -577,7 +617,7 @@ mod tests {
     fn row(name: &str, data: Option<&str>, parts: Option<&str>) -> RunRow {
         RunRow {
             source_file: name.into(),
-            status: STATUS_OK.into(),
+            status: RunStatus::Ok,
             data_sha256: data.map(String::from),
             parts_sha256: parts.map(String::from),
             ..RunRow::default()

@@ -31,6 +31,7 @@ use polars::prelude::*;
 use tirebase::ingest::{self, IngestOptions};
 use tirebase::progress::Silent;
 use tirebase::store::lock::LockWait;
+use tirebase_core::numerics::stats::median_high;
 use tirebase_core::segment::SegmentConfig;
 
 /// Seconds of one call.
@@ -40,9 +41,9 @@ fn time(f: impl FnOnce()) -> f64 {
     start.elapsed().as_secs_f64()
 }
 
+/// The median of one timing's repetitions (the upper one of an even count).
 fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
+    median_high(&mut v).unwrap_or(f64::NAN)
 }
 
 /// Seconds of a full ingest of one file into a fresh store below `scratch`.

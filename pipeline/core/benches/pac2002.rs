@@ -9,7 +9,9 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-// `Coefs`, `SlipInput` and `tir` are used by the included test-support module via `super::`.
+// `Coefs`, `SlipInput`, `SplitMix64` and `tir` are used by the included test-support module via
+// `super::`.
+use tirebase_core::numerics::random::SplitMix64;
 use tirebase_core::tire_model::{Channel, Coef, Coefs, Evaluation, Mode, Pac2002, SlipInput, tir};
 
 #[path = "../tire_model/test_support.rs"]

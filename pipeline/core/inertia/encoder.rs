@@ -10,6 +10,7 @@
 
 use super::MethodError;
 use crate::numerics::least_squares::polyfit_centered;
+use crate::numerics::stats::median_high;
 
 /// Event times with their band indices.
 #[derive(Debug, Clone, PartialEq)]
@@ -87,8 +88,7 @@ pub fn index_events(times_s: &[f64], min_events: usize) -> Result<IndexedEvents,
         });
     }
     let mut gaps: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
-    gaps.sort_by(f64::total_cmp);
-    let median_gap = gaps[gaps.len() / 2];
+    let median_gap = median_high(&mut gaps).unwrap_or(0.0);
     let mut kept = vec![times[0]];
     for &t in &times[1..] {
         if t - kept[kept.len() - 1] >= 0.3 * median_gap {

@@ -310,14 +310,7 @@ pub fn minimize(
 /// Square roots of the IRLS weights of `r` (they multiply residuals and Jacobian rows).
 fn robust_weights(r: &[f64], loss: RobustLoss, floor: f64) -> Vec<f64> {
     let mut abs: Vec<f64> = r.iter().map(|x| x.abs()).collect();
-    abs.sort_by(f64::total_cmp);
-    let median = if abs.is_empty() {
-        0.0
-    } else if abs.len() % 2 == 1 {
-        abs[abs.len() / 2]
-    } else {
-        0.5 * (abs[abs.len() / 2 - 1] + abs[abs.len() / 2])
-    };
+    let median = super::stats::median(&mut abs).unwrap_or(0.0);
     let s = (1.4826 * median).max(floor);
     r.iter()
         .map(|x| {

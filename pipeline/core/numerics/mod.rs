@@ -3,7 +3,8 @@
 //! In: plain slices and nalgebra vectors of `f64`. Out: fitted parameters with covariances and
 //! convergence facts (non-convergence is data, see [`levmar::FitOutcome`] and
 //! [`bounded_least_squares::FitOutcome`]; the latter is the bounded, robust solver the PAC2002
-//! fits use). Deliberately pure:
+//! fits use), the seeded generator [`random::SplitMix64`] and the medians of [`stats`].
+//! Deliberately pure:
 //! no file system, no serde, no Arrow or polars, no knowledge of tires or rigs.
 
 pub mod bounded_least_squares;
@@ -13,6 +14,7 @@ pub mod levmar;
 pub mod ode;
 pub mod period;
 pub mod random;
+pub mod stats;
 
 /// Bad input to a numerical routine (non-convergence is not an error: it is reported in the
 /// outcome structs).

@@ -36,8 +36,8 @@ use std::collections::BTreeMap;
 
 use super::config::SegmentConfig;
 use super::output::{NominalLevels, RunClass, SegmentKind, SweepVariable};
-use super::prepare::median;
 use super::sweep::{Detection, Motion};
+use crate::numerics::stats::median_high;
 
 /// A detection's classification.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -121,7 +121,7 @@ fn trains(dets: &[Detection], bins: &[NominalLevels], cfg: &SegmentConfig) -> Ve
     }
     for t in &mut out {
         let mut rates: Vec<f64> = t.members.iter().filter_map(|&i| dets[i].rate).collect();
-        t.rate = median(&mut rates).unwrap_or(0.0);
+        t.rate = median_high(&mut rates).unwrap_or(0.0);
     }
     out
 }
@@ -200,7 +200,7 @@ pub(crate) fn classify(
         .map(|(v, _)| *v);
     let matrix_rate: BTreeMap<SweepVariable, f64> = short_cycles
         .into_iter()
-        .filter_map(|(v, mut rates)| median(&mut rates).map(|m| (v, m)))
+        .filter_map(|(v, mut rates)| median_high(&mut rates).map(|m| (v, m)))
         .collect();
     let at_matrix_rate = |t: &Train| {
         matrix_rate

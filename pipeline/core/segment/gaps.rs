@@ -8,6 +8,7 @@
 use std::ops::Range;
 
 use super::config::GapConfig;
+use crate::numerics::stats::median_high;
 
 /// Fallback sample period when ET gives none (fewer than two distinct times), s.
 const FALLBACK_PERIOD_S: f64 = 0.01;
@@ -71,12 +72,7 @@ fn median_positive_step(et_s: &[f64]) -> Option<f64> {
         .map(|w| w[1] - w[0])
         .filter(|dt| *dt > SAME_TIME_S)
         .collect();
-    if steps.is_empty() {
-        return None;
-    }
-    let mid = steps.len() / 2;
-    let (_, median, _) = steps.select_nth_unstable_by(mid, f64::total_cmp);
-    Some(*median)
+    median_high(&mut steps)
 }
 
 #[cfg(test)]

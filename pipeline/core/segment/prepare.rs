@@ -11,6 +11,7 @@ use std::ops::Range;
 use super::config::SegmentConfig;
 use super::gaps::Timeline;
 use super::signals::RunSignals;
+use crate::numerics::stats::median_high;
 
 /// Working channels of one run (same length as the run).
 #[derive(Clone, Debug)]
@@ -218,17 +219,7 @@ fn free_rolling_slip(sl: &[f64], sa_deg: &[f64], v_kph: &[f64], cfg: &SegmentCon
     if free.is_empty() {
         free = (0..sl.len()).filter(rolling).map(|i| sl[i]).collect();
     }
-    median(&mut free).unwrap_or(0.0)
-}
-
-/// Median of a scratch vector (reordered), `None` when empty.
-pub(crate) fn median(values: &mut [f64]) -> Option<f64> {
-    if values.is_empty() {
-        return None;
-    }
-    let mid = values.len() / 2;
-    let (_, m, _) = values.select_nth_unstable_by(mid, f64::total_cmp);
-    Some(*m)
+    median_high(&mut free).unwrap_or(0.0)
 }
 
 /// Centred moving average over `2 * half + 1` samples, shrinking at the ends.

@@ -26,8 +26,9 @@ use std::ops::Range;
 use super::config::SegmentConfig;
 use super::gaps::Timeline;
 use super::output::{QcFlag, SegmentKind};
-use super::prepare::{is_exact_zero, median, zero_runs};
+use super::prepare::{is_exact_zero, zero_runs};
 use super::signals::RunSignals;
+use crate::numerics::stats::median_high;
 
 /// What QC needs to know about a segment.
 pub(crate) struct Draft {
@@ -122,7 +123,8 @@ fn pressure_out_of_range(p: &[f64], range: Range<usize>, cfg: &SegmentConfig) ->
         .copied()
         .filter(|v| *v > cfg.qc.zero_pressure_max_kpa)
         .collect();
-    median(&mut held).is_some_and(|m| !crate::physical::within(m, crate::physical::PRESSURE_KPA))
+    median_high(&mut held)
+        .is_some_and(|m| !crate::physical::within(m, crate::physical::PRESSURE_KPA))
 }
 
 /// Channels checked for zeroed stretches (pressure has its own flag).
@@ -187,7 +189,7 @@ pub(crate) fn zeroed_stretches(
     }
     let side = |r: Range<usize>| {
         let mut v: Vec<f64> = x[r].iter().map(|v| v.abs()).collect();
-        median(&mut v).unwrap_or(0.0)
+        median_high(&mut v).unwrap_or(0.0)
     };
     let block_of = |i: usize| {
         let k = blocks.partition_point(|b| b.end <= i);
@@ -296,7 +298,7 @@ fn shape_flags(
             .filter(|d| d.kind == kind)
             .map(|d| d.samples.len() as f64)
             .collect();
-        median(&mut lens).unwrap_or(0.0)
+        median_high(&mut lens).unwrap_or(0.0)
     };
     for (d, f) in drafts.iter().zip(flags.iter_mut()) {
         if d.kind == SegmentKind::Other {

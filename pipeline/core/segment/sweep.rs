@@ -27,7 +27,8 @@ use std::ops::Range;
 use super::config::{SegmentConfig, Tolerance};
 use super::gaps::Timeline;
 use super::plateau::{LevelRun, held_pieces, held_runs, level_runs, linear_change};
-use super::prepare::{Prepared, median};
+use super::prepare::Prepared;
+use crate::numerics::stats::median_high;
 
 /// What moves in a detection.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -267,7 +268,7 @@ fn cycles(
                 .collect();
             Detection {
                 span: span_of(&x[r.clone()]),
-                rate: median(&mut moving),
+                rate: median_high(&mut moving),
                 samples: r,
                 motion,
                 parts,
@@ -542,7 +543,7 @@ fn ia_ramps(
                     prep.ia_rate[r.clone()].iter().map(|v| v.abs()).collect();
                 out.push(Detection {
                     span: (lo, hi),
-                    rate: median(&mut moving),
+                    rate: median_high(&mut moving),
                     samples: r,
                     motion: Motion::IaRamp,
                     parts: 1,

@@ -341,6 +341,7 @@ fn eval_lanes(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::numerics::random::SplitMix64;
     use crate::tire_model::Pac2002;
     use crate::tire_model::test_support::*;
 
@@ -484,15 +485,15 @@ mod tests {
             let tire = Pac2002::new(coefs_from_tir(tir));
             let mut points = random_points(200_000, 5, tire.coefs[FNOMIN]);
             // Edge lanes: zero load, below FZMIN, zero slip, standstill, low and reverse speed.
-            let mut rng = SplitMix64(17);
+            let mut rng = SplitMix64::new(17);
             for p in points.iter_mut().step_by(7) {
                 match rng.next_u64() % 7 {
                     0 => p.fz_n = 0.0,
-                    1 => p.fz_n = rng.uniform(0.0, 0.1) * tire.coefs[FNOMIN],
+                    1 => p.fz_n = rng.uniform_in(0.0, 0.1) * tire.coefs[FNOMIN],
                     2 => p.kappa = 0.0,
                     3 => p.alpha_rad = 0.0,
                     4 => p.vx_mps = 0.0,
-                    5 => p.vx_mps = rng.uniform(-1.5, 1.5),
+                    5 => p.vx_mps = rng.uniform_in(-1.5, 1.5),
                     _ => p.vx_mps = -p.vx_mps,
                 }
             }

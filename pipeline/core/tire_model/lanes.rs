@@ -402,7 +402,7 @@ pub fn exp(x: V) -> V {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tire_model::test_support::SplitMix64;
+    use crate::numerics::random::SplitMix64;
 
     /// `|a - b|` in units in the last place of the reference `b` (normal range).
     fn ulps(a: f64, b: f64) -> f64 {
@@ -422,8 +422,8 @@ mod tests {
         hi: f64,
         specials: &[f64],
     ) -> f64 {
-        let mut rng = SplitMix64(99);
-        let mut args: Vec<f64> = (0..400_000).map(|_| rng.uniform(lo, hi)).collect();
+        let mut rng = SplitMix64::new(99);
+        let mut args: Vec<f64> = (0..400_000).map(|_| rng.uniform_in(lo, hi)).collect();
         args.extend_from_slice(specials);
         while !args.len().is_multiple_of(LANES) {
             args.push(0.5);

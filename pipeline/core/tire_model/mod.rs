@@ -19,3 +19,6 @@ pub use real::{Dual, Real};
 
 #[cfg(test)]
 pub(crate) mod test_support;
+// The seeded generator `test_support` reaches as `super::SplitMix64` (the benches import it too).
+#[cfg(test)]
+use crate::numerics::random::SplitMix64;

@@ -11,7 +11,7 @@
 
 // `super` is `tire_model` in the library and the benchmark's crate root in the benches; both
 // have these names in scope.
-use super::{Coefs, SlipInput, tir::TirFile};
+use super::{Coefs, SlipInput, SplitMix64, tir::TirFile};
 
 /// The FSAE-size PAC2002 demo tire (`PDY1 < 0`, `QSX4..11` set).
 pub const FSAE_DEMO_TIR: &str =
@@ -97,38 +97,18 @@ pub fn reference_tires() -> [(&'static str, Coefs<f64>); 2] {
     ]
 }
 
-/// SplitMix64: a tiny seeded generator so tests and benchmarks need no RNG crate.
-pub struct SplitMix64(pub u64);
-
-impl SplitMix64 {
-    /// Next raw 64-bit value.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[lo, hi)`.
-    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        let u = (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
-        lo + (hi - lo) * u
-    }
-}
-
 /// `n` operating points drawn uniformly over an FSAE test envelope scaled to `fnomin_n`:
 /// `Fz` in `[0.15, 2] FNOMIN` (a continuous load, as measured data has), `kappa` in
 /// `[-0.2, 0.2]`, `alpha` in `[-12, 12]` deg, `gamma` in `[-1, 4]` deg, `Vx` 11.176 m/s.
 pub fn random_points(n: usize, seed: u64, fnomin_n: f64) -> Vec<SlipInput> {
-    let mut rng = SplitMix64(seed);
+    let mut rng = SplitMix64::new(seed);
     let deg = std::f64::consts::PI / 180.0;
     (0..n)
         .map(|_| SlipInput {
-            fz_n: rng.uniform(0.15, 2.0) * fnomin_n,
-            kappa: rng.uniform(-0.2, 0.2),
-            alpha_rad: rng.uniform(-12.0, 12.0) * deg,
-            gamma_rad: rng.uniform(-1.0, 4.0) * deg,
+            fz_n: rng.uniform_in(0.15, 2.0) * fnomin_n,
+            kappa: rng.uniform_in(-0.2, 0.2),
+            alpha_rad: rng.uniform_in(-12.0, 12.0) * deg,
+            gamma_rad: rng.uniform_in(-1.0, 4.0) * deg,
             vx_mps: 11.176,
         })
         .collect()

@@ -10,6 +10,7 @@ use super::{
     Channel, ColumnInfo, ExtraChannel, KappaSource, RunMeta, RunTable, TtcError, TtcFileName,
 };
 use crate::frame::{IsoW, Sae, TireChannels};
+use crate::numerics::stats::median_high;
 
 /// One decoded column of the source, in its original unit.
 pub(crate) struct SourceColumn {
@@ -138,12 +139,7 @@ pub(crate) fn estimate_sample_rate_hz(et_s: &[f64]) -> Option<f64> {
         .map(|w| w[1] - w[0])
         .filter(|d| *d > 0.0)
         .collect();
-    if steps.is_empty() {
-        return None;
-    }
-    let middle = steps.len() / 2;
-    let (_, median, _) = steps.select_nth_unstable_by(middle, f64::total_cmp);
-    Some(1.0 / *median)
+    median_high(&mut steps).map(|median| 1.0 / median)
 }
 
 /// A warning when most loaded samples have ISO-W `Fz < 0`: the file's frame flag is probably

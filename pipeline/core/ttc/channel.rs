@@ -34,6 +34,31 @@ pub enum Channel {
     Sl,
 }
 
+/// A unit string that does not fit its channel; the message lists the accepted spellings.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum UnitError {
+    /// A known unit of another quantity.
+    #[error("unit {unit:?} measures {measures:?}, the channel needs {needs:?} (one of: {known})")]
+    WrongQuantity {
+        /// The unit as written.
+        unit: String,
+        /// What it measures.
+        measures: Quantity,
+        /// What the channel measures.
+        needs: Quantity,
+        /// The accepted spellings, comma-separated.
+        known: String,
+    },
+    /// A spelling no reader knows.
+    #[error("unknown unit string {unit:?} (expected one of: {known})")]
+    Unknown {
+        /// The unit as written, non-printable characters escaped.
+        unit: String,
+        /// The accepted spellings, comma-separated.
+        known: String,
+    },
+}
+
 impl Channel {
     /// All channels in the order TIRF files list them.
     pub const ALL: [Channel; 22] = [
@@ -149,9 +174,10 @@ impl Channel {
     /// ```
     /// use tirebase_core::ttc::{Channel, Unit};
     /// assert_eq!(Channel::Fz.parse_unit("lb"), Ok(Unit::PoundForce));
-    /// assert!(Channel::Fz.parse_unit("psi").unwrap_err().contains("measures Pressure"));
+    /// let err = Channel::Fz.parse_unit("psi").unwrap_err();
+    /// assert!(err.to_string().contains("measures Pressure"));
     /// ```
-    pub fn parse_unit(self, unit_raw: &str) -> Result<Unit, String> {
+    pub fn parse_unit(self, unit_raw: &str) -> Result<Unit, UnitError> {
         let expected = self.quantity();
         let known: Vec<&str> = Unit::spellings()
             .filter(|(_, u)| u.quantity() == expected)
@@ -159,16 +185,16 @@ impl Channel {
             .collect();
         match Unit::parse(unit_raw) {
             Some(unit) if unit.quantity() == expected => Ok(unit),
-            Some(unit) => Err(format!(
-                "unit {unit_raw:?} measures {:?}, the channel needs {expected:?} (one of: {})",
-                unit.quantity(),
-                known.join(", ")
-            )),
-            None => Err(format!(
-                "unknown unit string {:?} (expected one of: {})",
-                printable(unit_raw),
-                known.join(", ")
-            )),
+            Some(unit) => Err(UnitError::WrongQuantity {
+                unit: unit_raw.to_string(),
+                measures: unit.quantity(),
+                needs: expected,
+                known: known.join(", "),
+            }),
+            None => Err(UnitError::Unknown {
+                unit: printable(unit_raw),
+                known: known.join(", "),
+            }),
         }
     }
 

@@ -26,6 +26,7 @@
 use std::fmt;
 
 use super::{Channel, RunTable};
+use crate::numerics::stats::finite_median_high;
 
 /// Road speed above which the wheel rolls for these checks, km/h.
 const ROLLING_MIN_KPH: f64 = 5.0;
@@ -104,17 +105,6 @@ impl fmt::Display for UnitNote {
     }
 }
 
-/// Median of the finite values (`None` when there is none).
-fn median(values: impl Iterator<Item = f64>) -> Option<f64> {
-    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return None;
-    }
-    let mid = v.len() / 2;
-    let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
-    Some(*m)
-}
-
 /// The metres per unit of the unit a channel was read in (cm when unknown).
 fn read_unit(t: &RunTable, channel: Channel) -> (String, f64) {
     let info = t.meta.columns.iter().find(|c| c.channel == Some(channel));
@@ -173,10 +163,10 @@ fn check_wheel_speed(
         .collect();
     let frac = in_range.len() as f64 / samples.len() as f64;
     if frac >= CONSISTENT_FRAC {
-        return median(in_range.into_iter()).map(|r| (r, samples.len()));
+        return finite_median_high(in_range).map(|r| (r, samples.len()));
     }
-    let rpm = median(samples.iter().map(|&i| n_rpm[i])).unwrap_or(f64::NAN);
-    let v = median(samples.iter().map(|&i| t.speed_kph[i])).unwrap_or(f64::NAN);
+    let rpm = finite_median_high(samples.iter().map(|&i| n_rpm[i])).unwrap_or(f64::NAN);
+    let v = finite_median_high(samples.iter().map(|&i| t.speed_kph[i])).unwrap_or(f64::NAN);
     notes.push(UnitNote {
         channel: Channel::N,
         action: UnitAction::Withheld,
@@ -211,7 +201,7 @@ fn check_radius(
         .filter(|&i| rolling[i])
         .map(|i| values[i])
         .collect();
-    let Some(mid) = median(samples.iter().copied()) else {
+    let Some(mid) = finite_median_high(samples.iter().copied()) else {
         return;
     };
     let consistent = samples
@@ -298,7 +288,7 @@ fn range_checks(t: &RunTable, notes: &mut Vec<UnitNote>) {
         let Some(values) = values else {
             return;
         };
-        let Some(mid) = median(values.iter().copied().filter(|v| v.abs() > 1.0)) else {
+        let Some(mid) = finite_median_high(values.iter().copied().filter(|v| v.abs() > 1.0)) else {
             return;
         };
         if !(lo..=hi).contains(&mid) {

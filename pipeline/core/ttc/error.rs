@@ -6,6 +6,8 @@
 
 use thiserror::Error;
 
+use super::channel::UnitError;
+
 /// Everything that makes a TTC run file unreadable.
 ///
 /// `Display` is a single line starting with the source name given to the reader, so a batch can
@@ -13,7 +15,7 @@ use thiserror::Error;
 /// characters, so even binary garbage stays on one short line.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum TtcError {
-    /// The file could not be read at all (only from the `read_path` convenience).
+    /// The bytes could not be read at all (only from `read_dat_from`'s reader).
     #[error("{source_name}: cannot read: {message}")]
     Io {
         source_name: String,
@@ -48,7 +50,7 @@ pub enum TtcError {
         /// `line 3, column 11` (`.dat`) or `variable channel, units{11}` (`.mat`).
         location: String,
         channel: String,
-        message: String,
+        message: Box<UnitError>,
     },
 
     /// A channel every run needs is absent.

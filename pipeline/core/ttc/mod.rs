@@ -12,7 +12,7 @@
 //! .mat bytes --mat::read---> variables --------+
 //! ```
 //!
-//! Deliberately not here: files on disk (beyond the thin [`read_path`]), segmentation, QC
+//! Deliberately not here: files on disk (the caller hands over the bytes), segmentation, QC
 //! judgements (a P = 0 stretch parses fine; later stages flag it), filtering of any kind: the
 //! measured channels stay as measured.
 //!
@@ -57,7 +57,7 @@ mod tests;
 
 use crate::frame::{IsoW, TireChannels};
 
-pub use channel::Channel;
+pub use channel::{Channel, UnitError};
 pub use dat::read_dat;
 pub use error::TtcError;
 pub use mat::read_mat;
@@ -329,14 +329,4 @@ pub fn read_run(bytes: &[u8], source_name: &str) -> Result<RunTable, TtcError> {
     } else {
         read_dat(bytes, source_name)
     }
-}
-
-/// Convenience: read a file from disk and parse it with [`read_run`].
-pub fn read_path(path: &std::path::Path) -> Result<RunTable, TtcError> {
-    let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| TtcError::Io {
-        source_name: name.clone(),
-        message: e.to_string(),
-    })?;
-    read_run(&bytes, &name)
 }

@@ -12,6 +12,7 @@
 //! ratio (a cornering run keeps kappa = 0, not measured).
 
 use super::RunTable;
+use crate::numerics::stats::median_high;
 
 /// Minimum span (2nd to 98th percentile) of SR while rolling for a slip-ratio sweep to exist.
 pub(crate) const SWEEP_SPAN: f64 = 0.1;
@@ -135,8 +136,7 @@ impl RadiusLaw {
     /// [`MIN_CROSSINGS_LINE`] of them or without a load spread.
     fn fit(points: &[(f64, f64)]) -> RadiusLaw {
         let mut radii: Vec<f64> = points.iter().map(|p| p.1).collect();
-        radii.sort_by(f64::total_cmp);
-        let median = radii[radii.len() / 2];
+        let median = median_high(&mut radii).unwrap_or(f64::NAN);
         let lo = points.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
         let hi = points.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
         let constant = RadiusLaw {

@@ -8,6 +8,7 @@ use super::dat::{DatColumn, render_dat};
 use super::example::{RoundStyle, example_columns, example_dat, example_mat, example_value};
 use super::mat::{Compression, MatValue, MatWriter, NumericClass, parse_mat};
 use super::*;
+use crate::numerics::random::SplitMix64;
 
 /// Repository root (the core crate lives at `pipeline/core`).
 fn repo_root() -> PathBuf {
@@ -659,6 +660,12 @@ fn big_endian_files_decode() {
     assert_eq!(file.variables[0].value.as_vector(), Some(&[1.5, -2.25][..]));
 }
 
+/// A fixture file read from disk and parsed with [`read_run`] (the library reads no files).
+fn read_path(path: &std::path::Path) -> Result<RunTable, TtcError> {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    read_run(&bytes, &path.display().to_string())
+}
+
 #[test]
 fn files_from_the_independent_python_encoder_read_correctly() {
     let dir = repo_root().join("tests/fixtures/ttc");
@@ -833,16 +840,12 @@ fn bad_corpus_readme_lists_every_file() {
 // ---------------------------------------------------------------------------------------------
 // Mutation fuzzing (deterministic)
 
-/// SplitMix64: a tiny seeded generator, enough to drive mutations reproducibly.
-struct SplitMix(u64);
+/// The seeded generator that drives mutations reproducibly, with an index draw.
+struct SplitMix(SplitMix64);
 
 impl SplitMix {
     fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
 
     fn below(&mut self, n: usize) -> usize {
@@ -921,7 +924,7 @@ fn random_mutations_of_valid_files_never_panic() {
         ("m.mat", example_mat(6, Compression::None)),
         ("m.mat", example_mat(6, Compression::Zlib)),
     ];
-    let mut rng = SplitMix(0x7715_ba5e);
+    let mut rng = SplitMix(SplitMix64::new(0x7715_ba5e));
     let mut outcomes = [0usize; 2];
     for round in 0..4000 {
         let (name, seed) = &seeds[round % seeds.len()];

@@ -1,7 +1,7 @@
 //! Rig session files: `session.toml` plus one CSV per run -> a validated [`Session`].
 //!
-//! In: the text of `session.toml` and, per run, the text of its CSV (read through a closure so
-//! synthetic sessions can be analysed in memory; [`load_dir_reader`] is the file-system one).
+//! In: the text of `session.toml` and, per run, the text of its CSV (read through a closure, so
+//! synthetic sessions are analysed in memory; the pipeline's `inertia` module reads the files).
 //! Out: [`Session`] with SI values and uncertainties, and per run a [`RunPlan`]. Three steps, one
 //! module each: [`parse`] (text -> raw records, `CsvTable`), [`validate`] (raw records ->
 //! [`Session`]; each rig section and each run keeps its own result, so a bad `[trifilar]` table
@@ -10,15 +10,13 @@
 //! `schemas/inertia_session.md`: keys carry their unit as a suffix (`_m`, `_kg`, `_s`, `_deg`,
 //! `_kg_m2`, `_n_m`, `_m_s2`); a measured value is a number or `{ v = .., u = .. }` (standard
 //! uncertainty, same unit). Unknown keys (including a wrong unit suffix) are errors.
-//! Deliberately no unit conversion: a wrong unit is an error, not a guess. The two loaders at
-//! the end are the only file-system code of the inertia analysis.
+//! Deliberately no unit conversion: a wrong unit is an error, not a guess; and no file system.
 
 mod parse;
 mod plan;
 mod validate;
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
 
 use super::Measured;
 use super::swing::{CorrectionScope, PeriodMethod, SignalKind};
@@ -59,7 +57,8 @@ pub enum SessionError {
     },
 }
 
-const SESSION_FILE: &str = "session.toml";
+/// The session file's name in a session directory.
+pub const SESSION_FILE: &str = "session.toml";
 
 fn field(key: impl Into<String>, message: impl Into<String>) -> SessionError {
     SessionError::Field {
@@ -374,25 +373,4 @@ impl Session {
             _ => FrictionMethod::TareCalibration,
         }
     }
-}
-
-/// A reader of run files relative to a session directory.
-pub fn load_dir_reader(dir: &Path) -> impl Fn(&str) -> Result<String, SessionError> + Sync + '_ {
-    move |rel: &str| {
-        let path: PathBuf = dir.join(rel);
-        std::fs::read_to_string(&path).map_err(|e| SessionError::Io {
-            path: path.display().to_string(),
-            message: e.to_string(),
-        })
-    }
-}
-
-/// Reads and parses `DIR/session.toml`.
-pub fn load_session(dir: &Path) -> Result<Session, SessionError> {
-    let path = dir.join(SESSION_FILE);
-    let text = std::fs::read_to_string(&path).map_err(|e| SessionError::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })?;
-    Session::parse(&text)
 }

@@ -65,7 +65,7 @@ pub enum TirReadError {
         /// 1-based line number.
         line: usize,
         /// What is unknown and what is accepted.
-        reason: String,
+        reason: units::UnknownUnit,
     },
     /// A model other than PAC2002 / MF 5.2.
     #[error(

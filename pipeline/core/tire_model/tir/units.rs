@@ -106,15 +106,14 @@ impl Units {
 
     /// Set one `[UNITS]` key from its value; `Err` with a one-line reason for an unknown unit,
     /// `Ok(false)` when the key is not a unit key.
-    pub fn set(&mut self, key: &str, value: &str) -> Result<bool, String> {
+    pub fn set(&mut self, key: &str, value: &str) -> Result<bool, UnknownUnit> {
         let Some(slot) = UNIT_KEYS.iter().position(|k| k.eq_ignore_ascii_case(key)) else {
             return Ok(false);
         };
-        let factor = unit_factor(slot, value).ok_or_else(|| {
-            format!(
-                "unknown {} unit '{}' (known: {})",
-                UNIT_KEYS[slot], value, KNOWN[slot]
-            )
+        let factor = unit_factor(slot, value).ok_or_else(|| UnknownUnit {
+            key: UNIT_KEYS[slot],
+            value: value.to_string(),
+            known: KNOWN[slot],
         })?;
         match slot {
             0 => self.length_m = factor,
@@ -165,6 +164,18 @@ impl Default for Units {
     fn default() -> Self {
         Units::SI
     }
+}
+
+/// A `[UNITS]` value that is not a known unit of its key.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("unknown {key} unit '{value}' (known: {known})")]
+pub struct UnknownUnit {
+    /// The unit key (`LENGTH`, `FORCE`, ...).
+    pub key: &'static str,
+    /// The value as written.
+    pub value: String,
+    /// The accepted spellings.
+    pub known: &'static str,
 }
 
 /// Accepted spellings per unit key (for error messages).
@@ -237,7 +248,10 @@ mod tests {
     #[test]
     fn unit_names_are_case_and_punctuation_insensitive() {
         let mut u = Units::SI;
-        assert_eq!(u.set("length", "'ignored'"), Err("unknown LENGTH unit ''ignored'' (known: meter, millimeter, centimeter, kilometer, inch, foot, mile)".to_string()));
+        assert_eq!(
+            u.set("length", "'ignored'").unwrap_err().to_string(),
+            "unknown LENGTH unit ''ignored'' (known: meter, millimeter, centimeter, kilometer, inch, foot, mile)"
+        );
         assert_eq!(u.set("LENGTH", "Millimeter"), Ok(true));
         assert_eq!(u.set("FORCE", "Pound_Force"), Ok(true));
         assert_eq!(u.set("ANGLE", "DEG"), Ok(true));

@@ -11,7 +11,7 @@
 //! 1 MiB or more is parsed in two halves on two threads (split at a line end); if either half
 //! finds a problem or warns, the whole body is parsed again on one thread, so every message
 //! names the line it would name without the split.
-//! Deliberately not here: reading files (see [`super::read_path`]) and unit conversion (shared
+//! Deliberately not here: reading files (the caller's) and unit conversion (shared
 //! with the `.mat` reader in `build.rs`).
 
 mod write;
@@ -277,7 +277,7 @@ fn parse_units(
                                 source_name: source_name.to_string(),
                                 location: format!("line 3, column {}", index + 1),
                                 channel: printable(name),
-                                message,
+                                message: Box::new(message),
                             })?,
                     )
                 }

@@ -12,7 +12,7 @@ mod read;
 mod write;
 
 pub use read::{MatFile, looks_like_mat, parse_mat};
-pub use write::{Compression, MatWriteError, MatWriter};
+pub use write::{Compression, MatWriteError, MatWriter, ValueProblem};
 
 use super::build::{SourceColumn, build};
 use super::error::printable;
@@ -286,7 +286,7 @@ fn run_from_variables(
                         source_name: source_name.to_string(),
                         location: format!("variable channel, units{{{}}}", entry.index + 1),
                         channel: printable(&name),
-                        message,
+                        message: Box::new(message),
                     })?;
                 (entry.unit.clone(), Some(unit))
             }

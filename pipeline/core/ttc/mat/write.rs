@@ -32,8 +32,53 @@ pub enum Compression {
 /// A value the writer refuses (the file so far is unchanged).
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum MatWriteError {
-    #[error("MAT writer: variable {name:?}: {message}")]
-    Invalid { name: String, message: String },
+    #[error("MAT writer: variable {name:?}: {problem}")]
+    Invalid { name: String, problem: ValueProblem },
+}
+
+/// What is wrong with a value (or a part of it: the `In*` variants say where).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ValueProblem {
+    #[error("{0:?} is not a MATLAB name (a letter, then letters, digits or _, at most 63)")]
+    BadName(String),
+    #[error("a variable of this name was already written")]
+    AlreadyWritten,
+    #[error("dimensions overflow")]
+    DimensionsOverflow,
+    #[error("dimensions {0:?}: need at least two, each below 2^31")]
+    BadDimensions(Vec<usize>),
+    #[error("cannot write an unsupported value ({0})")]
+    Unsupported(String),
+    #[error("{found} values, but dimensions {dims:?} need {expected}")]
+    Count {
+        found: usize,
+        expected: usize,
+        dims: Vec<usize>,
+    },
+    #[error("value {value} at index {index} does not fit {class}")]
+    DoesNotFit {
+        value: f64,
+        index: usize,
+        class: &'static str,
+    },
+    #[error("a struct needs at least one field")]
+    NoFields,
+    #[error("element larger than 4 GiB")]
+    TooLarge,
+    #[error("zlib compression failed: {0}")]
+    Zlib(String),
+    #[error("field name: {0}")]
+    FieldName(Box<ValueProblem>),
+    #[error("cell {index}: {problem}")]
+    InCell {
+        index: usize,
+        problem: Box<ValueProblem>,
+    },
+    #[error("field {field}: {problem}")]
+    InField {
+        field: String,
+        problem: Box<ValueProblem>,
+    },
 }
 
 /// Builds a MAT-file in memory.
@@ -89,15 +134,13 @@ impl MatWriter {
         value: &MatValue,
         compression: Compression,
     ) -> Result<(), MatWriteError> {
-        let invalid = |message: String| MatWriteError::Invalid {
+        let invalid = |problem: ValueProblem| MatWriteError::Invalid {
             name: name.to_string(),
-            message,
+            problem,
         };
         check_name(name).map_err(invalid)?;
         if self.names.iter().any(|n| n == name) {
-            return Err(invalid(
-                "a variable of this name was already written".to_string(),
-            ));
+            return Err(invalid(ValueProblem::AlreadyWritten));
         }
         let mut element = Vec::new();
         encode_matrix(&mut element, name, value).map_err(invalid)?;
@@ -112,7 +155,7 @@ impl MatWriter {
                         push_tag(&mut self.bytes, MI_COMPRESSED, compressed.len());
                         self.bytes.extend_from_slice(&compressed);
                     })
-                    .map_err(|e| invalid(format!("zlib compression failed: {e}")))?;
+                    .map_err(|e| invalid(ValueProblem::Zlib(e.to_string())))?;
             }
         }
         self.names.push(name.to_string());
@@ -180,7 +223,7 @@ impl MatWriter {
 }
 
 /// MATLAB identifiers: a letter, then letters, digits or `_`, at most 63 characters.
-fn check_name(name: &str) -> Result<(), String> {
+fn check_name(name: &str) -> Result<(), ValueProblem> {
     let mut chars = name.chars();
     let valid = chars.next().is_some_and(|c| c.is_ascii_alphabetic())
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
@@ -188,25 +231,21 @@ fn check_name(name: &str) -> Result<(), String> {
     if valid {
         Ok(())
     } else {
-        Err(format!(
-            "{name:?} is not a MATLAB name (a letter, then letters, digits or _, at most 63)"
-        ))
+        Err(ValueProblem::BadName(name.to_string()))
     }
 }
 
 /// Append a full `miMATRIX` element (tag included) for `value`.
-fn encode_matrix(out: &mut Vec<u8>, name: &str, value: &MatValue) -> Result<(), String> {
+fn encode_matrix(out: &mut Vec<u8>, name: &str, value: &MatValue) -> Result<(), ValueProblem> {
     let tag_at = out.len();
     push_tag(out, MI_MATRIX, 0);
     let dims = value.dims().to_vec();
     let count = dims
         .iter()
         .try_fold(1usize, |acc, d| acc.checked_mul(*d))
-        .ok_or("dimensions overflow")?;
+        .ok_or(ValueProblem::DimensionsOverflow)?;
     if dims.len() < 2 || dims.iter().any(|d| i32::try_from(*d).is_err()) {
-        return Err(format!(
-            "dimensions {dims:?}: need at least two, each below 2^31"
-        ));
+        return Err(ValueProblem::BadDimensions(dims));
     }
     let class = match value {
         MatValue::Numeric { class, .. } => numeric_class_code(*class),
@@ -214,7 +253,7 @@ fn encode_matrix(out: &mut Vec<u8>, name: &str, value: &MatValue) -> Result<(), 
         MatValue::Cell { .. } => MX_CELL,
         MatValue::Struct { .. } => MX_STRUCT,
         MatValue::Unsupported { description } => {
-            return Err(format!("cannot write an unsupported value ({description})"));
+            return Err(ValueProblem::Unsupported(description.clone()));
         }
     };
     push_element(
@@ -242,7 +281,10 @@ fn encode_matrix(out: &mut Vec<u8>, name: &str, value: &MatValue) -> Result<(), 
         MatValue::Cell { items, .. } => {
             expect_count(items.len(), count, &dims)?;
             for (k, item) in items.iter().enumerate() {
-                encode_matrix(out, "", item).map_err(|e| format!("cell {}: {e}", k + 1))?;
+                encode_matrix(out, "", item).map_err(|e| ValueProblem::InCell {
+                    index: k + 1,
+                    problem: Box::new(e),
+                })?;
             }
         }
         MatValue::Struct { fields, values, .. } => {
@@ -250,24 +292,27 @@ fn encode_matrix(out: &mut Vec<u8>, name: &str, value: &MatValue) -> Result<(), 
             expect_count(values.len(), count * fields.len(), &dims)?;
             for (k, item) in values.iter().enumerate() {
                 let field = &fields[k % fields.len().max(1)];
-                encode_matrix(out, "", item).map_err(|e| format!("field {field}: {e}"))?;
+                encode_matrix(out, "", item).map_err(|e| ValueProblem::InField {
+                    field: field.clone(),
+                    problem: Box::new(e),
+                })?;
             }
         }
         MatValue::Unsupported { .. } => unreachable!("rejected above"),
     }
     let len = out.len() - tag_at - 8;
-    let len = u32::try_from(len).map_err(|_| "element larger than 4 GiB".to_string())?;
+    let len = u32::try_from(len).map_err(|_| ValueProblem::TooLarge)?;
     out[tag_at + 4..tag_at + 8].copy_from_slice(&len.to_le_bytes());
     Ok(())
 }
 
 /// Field name length (small element) and the names in fixed-width NUL-padded slots.
-fn encode_struct_fields(out: &mut Vec<u8>, fields: &[String]) -> Result<(), String> {
+fn encode_struct_fields(out: &mut Vec<u8>, fields: &[String]) -> Result<(), ValueProblem> {
     if fields.is_empty() {
-        return Err("a struct needs at least one field".to_string());
+        return Err(ValueProblem::NoFields);
     }
     for field in fields {
-        check_name(field).map_err(|e| format!("field name: {e}"))?;
+        check_name(field).map_err(|e| ValueProblem::FieldName(Box::new(e)))?;
     }
     let longest = fields.iter().map(String::len).max().unwrap_or(0);
     let slot = if longest < 32 { 32 } else { 64 };
@@ -281,13 +326,15 @@ fn encode_struct_fields(out: &mut Vec<u8>, fields: &[String]) -> Result<(), Stri
     Ok(())
 }
 
-fn expect_count(found: usize, expected: usize, dims: &[usize]) -> Result<(), String> {
+fn expect_count(found: usize, expected: usize, dims: &[usize]) -> Result<(), ValueProblem> {
     if found == expected {
         Ok(())
     } else {
-        Err(format!(
-            "{found} values, but dimensions {dims:?} need {expected}"
-        ))
+        Err(ValueProblem::Count {
+            found,
+            expected,
+            dims: dims.to_vec(),
+        })
     }
 }
 
@@ -308,21 +355,22 @@ fn numeric_class_code(class: NumericClass) -> u8 {
 
 /// The class's own storage type and the little-endian bytes. Integer classes require integral
 /// values in range; single rounds to `f32`.
-fn numeric_storage(class: NumericClass, data: &[f64]) -> Result<(u32, Vec<u8>), String> {
+fn numeric_storage(class: NumericClass, data: &[f64]) -> Result<(u32, Vec<u8>), ValueProblem> {
     fn integers<const N: usize>(
         data: &[f64],
         min: f64,
         max: f64,
         class: NumericClass,
         to_bytes: impl Fn(f64) -> [u8; N],
-    ) -> Result<Vec<u8>, String> {
+    ) -> Result<Vec<u8>, ValueProblem> {
         let mut bytes = Vec::with_capacity(data.len() * N);
         for (k, v) in data.iter().enumerate() {
             if !(v.fract() == 0.0 && *v >= min && *v <= max) {
-                return Err(format!(
-                    "value {v} at index {k} does not fit {}",
-                    class.name()
-                ));
+                return Err(ValueProblem::DoesNotFit {
+                    value: *v,
+                    index: k,
+                    class: class.name(),
+                });
             }
             bytes.extend_from_slice(&to_bytes(*v));
         }

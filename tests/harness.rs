@@ -1,0 +1,144 @@
+//! The shared test harness of the integration tests: the `tirebase` binary, output checks, temp
+//! directories and the demo round, generated once per test process.
+//!
+//! In: nothing but the binary under test (`TIREBASE_TEST_BIN` overrides cargo's, for a developer
+//! whose shared target directory's `tirebase` may be replaced by another worktree's build
+//! mid-test). Out: command outputs and read-only fixtures. The cached fixtures ([`demo_round`],
+//! [`demo_published`]) live in temp directories until the process exits; a test that changes
+//! them works on a copy ([`copy_tree`]). Deliberately not here: what a test checks.
+
+use std::collections::BTreeMap;
+use std::ffi::OsStr;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+/// The binary under test, as a command to add arguments to.
+pub fn bin() -> Command {
+    let path = std::env::var_os("TIREBASE_TEST_BIN")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_tirebase")));
+    Command::new(path)
+}
+
+/// `tirebase ARGS...`, run to completion.
+pub fn tirebase<S: AsRef<OsStr>>(args: &[S]) -> Output {
+    bin().args(args).output().expect("run tirebase")
+}
+
+/// Bytes as text (stderr, stdout), invalid UTF-8 replaced.
+pub fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Assert that `what` exited 0, showing its exit code and stderr otherwise.
+pub fn ok(output: &Output, what: &str) {
+    assert!(
+        output.status.success(),
+        "{what} failed ({:?}): {}",
+        output.status.code(),
+        text(&output.stderr)
+    );
+}
+
+/// A path as an argument string (temp paths are UTF-8).
+pub fn p(path: &Path) -> &str {
+    path.to_str().expect("UTF-8 path")
+}
+
+/// `tirebase synth round --out OUT [extra]`, asserted to succeed.
+pub fn synth_round(out: &Path, extra: &[&str]) -> Output {
+    let o = bin()
+        .args(["synth", "round", "--out"])
+        .arg(out)
+        .args(extra)
+        .output()
+        .expect("run tirebase");
+    ok(&o, "synth round");
+    o
+}
+
+/// `tirebase run --input INPUT --store STORE [extra]` (not asserted: exit codes are checked).
+pub fn run(input: &Path, store: &Path, extra: &[&str]) -> Output {
+    bin()
+        .arg("run")
+        .arg("--input")
+        .arg(input)
+        .arg("--store")
+        .arg(store)
+        .args(extra)
+        .output()
+        .expect("run tirebase")
+}
+
+/// The default demo round (`synth round` without flags), generated once per process. Read-only:
+/// copy it ([`copy_tree`]) to change it.
+pub fn demo_round() -> &'static Path {
+    static ROUND: OnceLock<tempfile::TempDir> = OnceLock::new();
+    ROUND
+        .get_or_init(|| {
+            let dir = tempfile::tempdir().expect("temp dir");
+            synth_round(dir.path(), &[]);
+            dir
+        })
+        .path()
+}
+
+/// Below one temp directory: `input/`, the default demo round, and `store/`, the store after one
+/// `tirebase run` on it (first version published). Made once per process; read-only (copy the
+/// directory with [`copy_tree`] to run again on it).
+pub fn demo_published() -> &'static Path {
+    static BASE: OnceLock<tempfile::TempDir> = OnceLock::new();
+    BASE.get_or_init(|| {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (input, store) = (dir.path().join("input"), dir.path().join("store"));
+        copy_tree(demo_round(), &input);
+        ok(&run(&input, &store, &[]), "first run of the demo round");
+        dir
+    })
+    .path()
+}
+
+/// Copy a directory tree; files keep their modification times (the store fingerprints them).
+pub fn copy_tree(from: &Path, to: &Path) {
+    fs::create_dir_all(to).unwrap();
+    for entry in fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let (src, dst) = (entry.path(), to.join(entry.file_name()));
+        if entry.file_type().unwrap().is_dir() {
+            copy_tree(&src, &dst);
+        } else {
+            fs::copy(&src, &dst).unwrap();
+            let mtime = fs::metadata(&src).unwrap().modified().unwrap();
+            fs::File::options()
+                .write(true)
+                .open(&dst)
+                .unwrap()
+                .set_modified(mtime)
+                .unwrap();
+        }
+    }
+}
+
+/// Every file below `root` with its bytes, keyed by its `/`-separated relative path.
+pub fn tree(root: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for entry in fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let rel = path
+                    .strip_prefix(root)
+                    .unwrap()
+                    .to_string_lossy()
+                    .replace('\\', "/");
+                out.insert(rel, fs::read(&path).unwrap());
+            }
+        }
+    }
+    out
+}
