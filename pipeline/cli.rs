@@ -27,7 +27,8 @@ pub enum Command {
     Run(RunArgs),
     Versions(VersionsArgs),
     Diff(DiffArgs),
-    /// PAC2002 / MF 5.2 `.tir` property files: evaluate, lint, convert.
+    /// Magic Formula `.tir` property files (PAC2002 / MF 5.2, MF 6.1, MF 6.2): evaluate, lint,
+    /// convert.
     #[command(subcommand)]
     Tir(TirCommand),
     Ingest(IngestArgs),
@@ -100,6 +101,14 @@ angle deg ISO-W, speed km/h), defects.csv and round.toml (the resolved configura
 demo car's rig-inertia sessions under DIR/inertia/ (car_yaw, car_pitch, wheel_trifilar, each
 with expected.toml: the known answers), which `tirebase run` processes into inertia.parquet.
 
+With --truth mf61 ([synth] truth = \"mf61\") the truth is instead one MF 6.1 model per tire and rim
+with inflation-pressure terms (PPX1-4, PPY1-5, PPZ1-2, PPMX1, PFZ1, PCFX3, PCFY3; NOMPRES 12 psi,
+82.7 kPa), evaluated at each sample's true pressure (commanded + servo wander), so an MF 6.1 fit
+can recover it exactly; it is written as truth/tir/<tire>__<rim>in__mf61.tir, and the
+per-pressure files are the same model with INFLPRES at that pressure. The default pac2002 truth
+folds pressure effects into one PAC2002 set per pressure, which no single MF 6.1 model matches
+exactly (PAC2002's camber shift PHY3, its Mz trail term, its relaxation laws, R0(p)).
+
 The physics: forces from the truth model with first-order relaxation (sigma_alpha, sigma_kappa),
 tread temperature from slip power with grip following mu(T), loaded and effective radii, wheel
 speed, SL and SR, sensor noise and IR-sensor quirks. Same seed and configuration -> the same
@@ -130,6 +139,10 @@ pub struct SynthRoundArgs {
     /// column's decimals). Same as --no-noise --no-lag --no-heat.
     #[arg(long)]
     pub ideal: bool,
+    /// Truth model: pac2002 (default; one PAC2002 set per pressure) or mf61 (one MF 6.1 model
+    /// per tire and rim with pressure terms, written as truth/tir/<tire>__<rim>in__mf61.tir).
+    #[arg(long, value_enum, value_name = "FORM")]
+    pub truth: Option<SynthTruth>,
     /// No sensor noise or servo wander (realism.noise_scale = 0).
     #[arg(long)]
     pub no_noise: bool,
@@ -142,6 +155,13 @@ pub struct SynthRoundArgs {
     /// Worker threads (default: all cores); the output does not depend on it.
     #[arg(long, value_name = "N")]
     pub jobs: Option<usize>,
+}
+
+/// Truth model form for `synth round --truth`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SynthTruth {
+    Pac2002,
+    Mf61,
 }
 
 /// Round size for `synth round`.
@@ -209,8 +229,8 @@ pub struct IngestArgs {
     pub keep_duplicate_runs: bool,
 }
 
-/// Fit every tire, rim and pressure of a store: PAC2002 .tir files, spring rate, thermal,
-/// relaxation tables.
+/// Fit every tire, rim and pressure of a store: PAC2002 .tir files per pressure, an MF 6.1 .tir
+/// per tire and rim, spring rate, thermal, relaxation tables.
 #[derive(Debug, Args)]
 #[command(long_about = "\
 Fit every (tire, rim, nominal pressure) of a store and write the results to OUT. Stages, in
@@ -246,7 +266,19 @@ dependency order, per group (groups run in parallel; the output does not depend 
                (t_peak_c degC, gain_peak_over_cold: peak mu / mu at t_cold_c - 1, t_cold_c the air
                temperature over the group's runs, degC)
 
-Every table starts with tire, rim_in (in), pressure_kpa (nominal, kPa). A stage that fails for
+Then, per (tire, rim), with [fit] models containing mf61 (default: pac2002 and mf61) and the
+pac2002 stage on: one Magic Formula 6.1 model across every tested pressure, started from the
+per-pressure PAC2002 fits (pressure terms from their trends, PFZ1 from the spring-rate
+stiffnesses) and refined jointly over all pressures; no turn slip.
+               -> OUT/tir/<tire>__<rim>in__mf61.tir (FITTYP 61, NOMPRES = the tested pressure
+               nearest the mean, PRESMIN..PRESMAX the measured range, Pa), rows with
+               model = mf61 in coefficients (pressure_kpa = NOMPRES in kPa), fit_quality (per
+               tested pressure and family: rmse, oos_rmse N or N m from the model refitted
+               without that pressure, oos_ratio and oos_flag as for PAC2002, oos_folds = the
+               tested pressures; trend and Jacobian columns null) and lint.
+
+Every table starts with tire, rim_in (in), pressure_kpa (nominal, kPa); coefficients,
+fit_quality and lint then name the model (pac2002 or mf61). A stage that fails for
 a group is a row of OUT/fit_failures.parquet (stage, scope, fatal, reason) and a line on stderr;
 the other groups and stages are still written.
 
@@ -442,11 +474,17 @@ pub struct ReportArgs {
 pub enum TirCommand {
     /// Evaluate a .tir model at the operating points of a CSV file.
     ///
+    /// Reads PAC2002 / MF 5.2 (FITTYP 6 or 21, or PROPERTY_FILE_FORMAT 'PAC2002'), MF 6.1
+    /// (FITTYP 61) and MF 6.2 (FITTYP 62) files and evaluates them as MFeval 4.3.1 does
+    /// (steady state, combined slip; turn slip is not modelled: phit = 0).
+    ///
     /// IN.csv needs a header with the columns Fz_N (vertical load, N, > 0 in compression),
     /// kappa (longitudinal slip ratio, > 0 driving, -1 locked), alpha_rad (slip angle, rad),
     /// gamma_rad (inclination angle, rad) and Vx_mps (wheel-centre forward speed, m/s), in any
-    /// order; other columns are ignored. All in ISO-W (TYDEX W) axes: x forward, y left, z up,
-    /// so alpha > 0 gives Fy < 0 on a normal tire. (From SAE data: negate alpha and Fz.)
+    /// order, and optionally P_Pa (inflation pressure, Pa; MF 6.x only, default the file's
+    /// INFLPRES, then NOMPRES; a PAC2002 file has no pressure terms and ignores it); other
+    /// columns are ignored. All in ISO-W (TYDEX W) axes: x forward, y left, z up, so alpha > 0
+    /// gives Fy < 0 on a normal tire. (From SAE data: negate alpha and Fz.)
     ///
     /// OUT.csv repeats every input column, in the same row order, and adds Fx_N, Fy_N (N),
     /// Mx_Nm, My_Nm, Mz_Nm (N m), ISO-W, combined slip, written with full round-trip
@@ -454,7 +492,8 @@ pub enum TirCommand {
     Eval(TirEvalArgs),
     /// Check a .tir file for physical problems over its operating envelope.
     ///
-    /// Samples Fz, inclination, kappa and alpha over the file's range sections and reports
+    /// Samples Fz, inclination, kappa and alpha over the file's range sections (MF 6.x files
+    /// also at PRESMIN, NOMPRES and PRESMAX, or 0.75 / 1.25 NOMPRES) and reports
     /// errors (e.g. C <= 0, Gxa or Gyk <= 0, oscillating Fx/Fy, FNOMIN <= 0, a coefficient
     /// family missing for the declared USE_MODE) and warnings (e.g. E > 1 before clamping,
     /// |RHX1| large). Findings go to stdout as `FILE: severity[code]: message`. The file is
@@ -464,13 +503,24 @@ pub enum TirCommand {
     /// Exit code: 0 no errors (warnings printed), 1 lint errors found, 2 the file cannot be
     /// read (a one-line reason naming the line).
     Lint(TirLintArgs),
-    /// Rewrite any accepted .tir file as a complete PAC2002 file in the Adams layout.
+    /// Rewrite any accepted .tir file as a complete file of its own or another Magic Formula.
     ///
-    /// Accepts PAC2002 (with or without FITTYP), MF_05 and MF 5.2 (FITTYP 6 or 21) files in any
-    /// [UNITS]; writes SI units (m, N, rad, kg, s, Pa), PROPERTY_FILE_FORMAT = 'PAC2002' and
-    /// FITTYP = 6, every coefficient once with its description, LF line endings. Numbers are
-    /// written so that reading the output gives back exactly the same values. Sections it
-    /// does not know are kept at the end.
+    /// Accepts PAC2002 (with or without FITTYP), MF_05 and MF 5.2 (FITTYP 6 or 21), MF 6.1
+    /// (FITTYP 61) and MF 6.2 (FITTYP 62) files in any [UNITS]; writes SI units (m, N, rad, kg,
+    /// s, Pa), every coefficient of the version once with its description, LF line endings:
+    /// PAC2002 in the Adams layout (PROPERTY_FILE_FORMAT = 'PAC2002', FITTYP = 6), MF 6.x in the
+    /// MF-Tyre 6.1 layout (FITTYP 61 / 62). Numbers are written so that reading the output
+    /// gives back exactly the same values. Sections and keys it does not use are kept.
+    ///
+    /// --to pac2002 on an MF 6.x file writes the PAC2002 model at one inflation pressure
+    /// (--pressure, default the file's INFLPRES): the pressure terms fold into the
+    /// coefficients; terms PAC2002 cannot carry (PKY4 != 2, PKY5, PEY5, RBX3, RBY4, QDZ10/11,
+    /// QSX12..14, QSY5..7, the load dependence of the camber shift, the zero-camber Fy0 in Mz)
+    /// are listed on stderr with the largest Fx, Fy, Mz differences over the envelope.
+    /// --to mf61 (or mf62) on a PAC2002 file lifts it into MF 6.x at its own pressure
+    /// (IP, else IP_NOM, else --pressure): NOMPRES = INFLPRES = that pressure, every pressure
+    /// term 0, camber scalings folded, PHY3 as camber stiffness PKY6/PKY7, the relaxation laws
+    /// as structural stiffnesses (notes on stderr).
     Convert(TirConvertArgs),
     /// Score a .tir model on a store's measured samples: RMSE of Fx, Fy, Mz per source file and
     /// nominal pressure.
@@ -490,8 +540,8 @@ pub enum TirCommand {
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum EvalMode {
     /// Like MFeval useMode 111: inputs clipped to the file's ranges (KPUMIN..KPUMAX,
-    /// ALPMIN..ALPMAX, CAMMIN..CAMMAX, Fz <= FZMAX), every curvature factor E <= 1,
-    /// low-speed blending below VXLOW.
+    /// ALPMIN..ALPMAX, CAMMIN..CAMMAX, Fz <= FZMAX, MF 6.x: PRESMIN..PRESMAX), every
+    /// curvature factor E <= 1, low-speed blending below VXLOW.
     Limits,
     /// Like MFeval useMode 211: the equations as they stand, no clipping, no E clamp.
     Raw,
@@ -500,11 +550,11 @@ pub enum EvalMode {
 /// Arguments of `tir eval`.
 #[derive(Debug, Args)]
 pub struct TirEvalArgs {
-    /// The .tir property file (PAC2002 / MF 5.2).
+    /// The .tir property file (PAC2002 / MF 5.2, MF 6.1, MF 6.2).
     #[arg(long, value_name = "FILE")]
     pub tir: PathBuf,
     /// Operating points: CSV with header columns Fz_N, kappa, alpha_rad, gamma_rad, Vx_mps
-    /// (SI, ISO-W).
+    /// (SI, ISO-W) and optionally P_Pa (inflation pressure, Pa; MF 6.x).
     #[arg(long, value_name = "IN.csv")]
     pub input: PathBuf,
     /// Where to write the input columns plus Fx_N, Fy_N, Mx_Nm, My_Nm, Mz_Nm (SI, ISO-W).
@@ -575,13 +625,56 @@ pub struct TirConvertArgs {
     /// Any accepted .tir file.
     #[arg(long, value_name = "F")]
     pub input: PathBuf,
-    /// Where to write the normalised PAC2002 file.
+    /// Where to write the converted file.
     #[arg(long, value_name = "G")]
     pub output: PathBuf,
+    /// The Magic Formula to write: pac2002, mf61 or mf62 (default: the input's own).
+    #[arg(long, value_name = "MODEL", value_parser = parse_model_version)]
+    pub to: Option<tirebase_core::tire_model::Version>,
+    /// Inflation pressure of the conversion, with its unit: e.g. 83kPa, 12psi, 0.83bar,
+    /// 83000Pa (a plain number is kPa). MF 6.x -> PAC2002: the pressure the PAC2002 model is
+    /// made at; PAC2002 -> MF 6.x: the pressure of a file that states none.
+    #[arg(long, value_name = "P", value_parser = parse_pressure_pa)]
+    pub pressure: Option<f64>,
     /// Convert even a file whose lint errors leave the model undefined (see `tir eval
     /// --force`); refused by default, as the output would read as a complete model.
     #[arg(long)]
     pub force: bool,
+}
+
+/// `pac2002`, `mf61`, `mf62` (also `mf52`, `MF 6.1`, ...).
+fn parse_model_version(s: &str) -> Result<tirebase_core::tire_model::Version, String> {
+    tirebase_core::tire_model::Version::from_id(s)
+        .ok_or_else(|| format!("'{s}': expected pac2002, mf61 or mf62"))
+}
+
+/// A pressure with its unit (`83kPa`, `12 psi`, `0.83bar`, `83000Pa`; a plain number is kPa),
+/// in Pa.
+pub fn parse_pressure_pa(s: &str) -> Result<f64, String> {
+    let t = s.trim();
+    let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
+    let (number, unit) = t.split_at(split);
+    let value: f64 = number
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}': expected a number with a unit, e.g. 83kPa or 12psi"))?;
+    let factor = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "kpa" => 1e3,
+        "pa" => 1.0,
+        "bar" => 1e5,
+        "psi" => 6_894.757_293_168_361,
+        other => {
+            return Err(format!(
+                "'{s}': unknown pressure unit '{other}' (Pa, kPa, bar, psi)"
+            ));
+        }
+    };
+    let p = value * factor;
+    if p.is_finite() && p > 0.0 {
+        Ok(p)
+    } else {
+        Err(format!("'{s}': the pressure must be positive"))
+    }
 }
 
 /// The nightly run: ingest, segment, fit, inertia, report, publish a version (incremental).

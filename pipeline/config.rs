@@ -9,6 +9,7 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
+use tirebase_core::fit::mf61::{CollapseConfig, Mf61Config};
 use tirebase_core::fit::pac2002::{FitConfig, MxForm};
 use tirebase_core::fit::relaxation::RelaxationConfig;
 use tirebase_core::fit::spring_rate::SpringRateConfig;
@@ -80,10 +81,32 @@ pub enum MxFormSetting {
     Auto,
 }
 
+/// A model `tirebase fit` writes.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FitModel {
+    /// PAC2002 (Magic Formula 5.2), one per tire, rim and tested pressure.
+    Pac2002,
+    /// Magic Formula 6.1, one per tire and rim across every tested pressure.
+    Mf61,
+}
+
+impl FitModel {
+    /// The name in `[fit] models` and in the tables' `model` column.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            FitModel::Pac2002 => "pac2002",
+            FitModel::Mf61 => "mf61",
+        }
+    }
+}
+
 /// `[fit]`: the PAC2002 fitting stage's knobs; the other stages' knobs in its sub-tables.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FitSettings {
+    /// Models written: pac2002 (one per tire, rim and tested pressure), mf61 (one per tire and rim across every tested pressure, built on the PAC2002 fits, which run either way).
+    pub models: Vec<FitModel>,
     /// Slip-angle grid for collapsing up/down cornering sweeps, deg.
     pub alpha_bin_deg: f64,
     /// Longitudinal-slip grid for collapsing drive/brake and combined sweeps, -.
@@ -135,6 +158,7 @@ impl Default for FitSettings {
             RobustLoss::Cauchy { k } => (LossKind::Cauchy, k),
         };
         FitSettings {
+            models: vec![FitModel::Pac2002, FitModel::Mf61],
             alpha_bin_deg: core.alpha_bin_rad.to_degrees(),
             kappa_bin: core.kappa_bin,
             max_points_per_sweep: core.max_points_per_sweep,
@@ -163,6 +187,25 @@ impl Default for FitSettings {
 }
 
 impl FitSettings {
+    /// `model` is in `[fit] models`.
+    pub fn writes(&self, model: FitModel) -> bool {
+        self.models.contains(&model)
+    }
+
+    /// The MF 6.1 stage's configuration: the sweep grid and robust loss of `[fit]`.
+    pub fn mf61(&self) -> Mf61Config {
+        let pac = self.pac2002();
+        Mf61Config {
+            collapse: CollapseConfig {
+                alpha_bin_rad: pac.alpha_bin_rad,
+                kappa_bin: pac.kappa_bin,
+                max_points_per_sweep: pac.max_points_per_sweep,
+            },
+            loss: pac.loss,
+            ..Mf61Config::default()
+        }
+    }
+
     /// The core stage's configuration.
     pub fn pac2002(&self) -> FitConfig {
         FitConfig {
@@ -199,6 +242,12 @@ impl FitSettings {
                 reason: reason.to_string(),
             })
         };
+        if self.models.is_empty() {
+            return bad("models", "must name at least one model (pac2002, mf61)");
+        }
+        if (1..self.models.len()).any(|i| self.models[..i].contains(&self.models[i])) {
+            return bad("models", "names a model twice");
+        }
         if !(self.alpha_bin_deg > 0.0 && self.alpha_bin_deg < 5.0) {
             return bad("alpha_bin_deg", "must be in (0, 5) deg");
         }

@@ -6,7 +6,10 @@
 //! order), PAC2002 coefficients that changed (read from the `.tir` files, so every published
 //! coefficient counts), the change in the forces a user feels (max and RMS of |dFx|, |dFy|,
 //! |dMz| between the two models over the tested envelope) and stage-result changes (spring
-//! rate, thermal fit, relaxation, inertia). Two identical versions give no rows.
+//! rate, thermal fit, relaxation, inertia). Two identical versions give no rows. MF 6.1 models
+//! (one per tire and rim, keyed at their `NOMPRES`) are compared the same way, their forces at
+//! every tested pressure of the tire and rim (either version's) and at the midpoint between each
+//! two neighbouring ones (`at_pressure_kpa`).
 //!
 //! Deliberately not here: printing (the command layer) and any tolerance a user should tune:
 //! values are "changed" when they differ by more than 1e-12 relative (the round-trip precision
@@ -16,9 +19,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
 use polars::prelude::*;
-use tirebase_core::naming::tir_file_name;
+use tirebase_core::naming::{mf61_tir_file_name, tir_file_name};
 use tirebase_core::tire_model::tir::TirFile;
-use tirebase_core::tire_model::{Coef, Evaluation, Mode, Pac2002, SlipInput};
+use tirebase_core::tire_model::{Coef, Evaluation, Mode, Pac2002, Pressures, SlipInput};
 
 use crate::manifest::{Manifest, ManifestError};
 use crate::schema::TableName;
@@ -73,10 +76,14 @@ pub struct DiffRow {
     pub tire: String,
     /// Rim width, in.
     pub rim_in: Option<i64>,
-    /// Nominal pressure, kPa.
+    /// Nominal pressure, kPa (an MF 6.1 model's: its `NOMPRES`).
     pub pressure_kpa: Option<i64>,
+    /// `pac2002` or `mf61` for model, coefficient and force rows.
+    pub model: Option<&'static str>,
     /// `model`, `coefficient`, `force`, `quality`, `stage` or `inertia`.
     pub kind: &'static str,
+    /// MF 6.1 force rows: the inflation pressure the two models were compared at, kPa.
+    pub at_pressure_kpa: Option<f64>,
     /// What differs (coefficient name, `Fy_N`, `table.column (key)`, `added`/`removed`).
     pub item: String,
     /// Value in A.
@@ -107,6 +114,7 @@ pub fn diff_versions(a: &Path, b: &Path, tire: Option<&str>) -> Result<Vec<DiffR
     {
         model_rows(a, b, key, &mut rows)?;
     }
+    mf61_rows(a, b, (&ma, &mb), tire, &mut rows)?;
     for (table, kind) in TABLES {
         table_rows(a, b, table, kind, tire, &mut rows)?;
     }
@@ -140,7 +148,9 @@ fn row(key: &GroupKey, kind: &'static str, item: impl Into<String>) -> DiffRow {
         tire: key.0.clone(),
         rim_in: Some(key.1),
         pressure_kpa: Some(key.2),
+        model: None,
         kind,
+        at_pressure_kpa: None,
         item: item.into(),
         old: None,
         new: None,
@@ -177,31 +187,153 @@ fn model_rows(a: &Path, b: &Path, key: &GroupKey, out: &mut Vec<DiffRow>) -> Res
     let (old, new) = match (old, new) {
         (None, None) => return Ok(()),
         (Some(_), None) => {
-            out.push(row(key, "model", format!("removed {name}")));
+            out.push(model_row(key, PAC2002, format!("removed {name}")));
             return Ok(());
         }
         (None, Some(_)) => {
-            out.push(row(key, "model", format!("added {name}")));
+            out.push(model_row(key, PAC2002, format!("added {name}")));
             return Ok(());
         }
         (Some(o), Some(n)) => (o, n),
     };
+    coefficient_rows(key, PAC2002, &old, &new, out);
+    for (item, max_abs, rms) in force_deltas(&old, &new, None) {
+        push_force(out, key, PAC2002, None, item, max_abs, rms);
+    }
+    Ok(())
+}
+
+/// `model` values of the rows.
+const PAC2002: &str = "pac2002";
+const MF61: &str = "mf61";
+
+fn model_row(key: &GroupKey, model: &'static str, item: String) -> DiffRow {
+    let mut r = row(key, "model", item);
+    r.model = Some(model);
+    r
+}
+
+/// One row per coefficient that differs.
+fn coefficient_rows(
+    key: &GroupKey,
+    model: &'static str,
+    old: &TirFile,
+    new: &TirFile,
+    out: &mut Vec<DiffRow>,
+) {
     for &c in Coef::ALL.iter() {
         let (x, y) = (old.coefs[c], new.coefs[c]);
         if !same(x, y) {
             let mut r = row(key, "coefficient", c.name());
+            r.model = Some(model);
             r.old = Some(x);
             r.new = Some(y);
             r.rel_change = rel_change(x, y);
             out.push(r);
         }
     }
-    for (item, max_abs, rms) in force_deltas(&old, &new) {
-        if max_abs > SAME_FORCE {
-            let mut r = row(key, "force", item);
-            r.max_abs = Some(max_abs);
-            r.rms = Some(rms);
-            out.push(r);
+}
+
+/// A force row when the models differ by more than [`SAME_FORCE`].
+fn push_force(
+    out: &mut Vec<DiffRow>,
+    key: &GroupKey,
+    model: &'static str,
+    at_pressure_kpa: Option<f64>,
+    item: &str,
+    max_abs: f64,
+    rms: f64,
+) {
+    if max_abs > SAME_FORCE {
+        let mut r = row(key, "force", item);
+        r.model = Some(model);
+        r.at_pressure_kpa = at_pressure_kpa;
+        r.max_abs = Some(max_abs);
+        r.rms = Some(rms);
+        out.push(r);
+    }
+}
+
+/// The pressures two MF 6.1 models of a tire and rim are compared at, kPa: every tested
+/// pressure (the groups of either manifest) and the midpoint between each two neighbouring ones;
+/// the models' `NOMPRES` when no group is known.
+pub fn mf61_pressures_kpa(tested_kpa: &[i64], nominal_kpa: &[i64]) -> Vec<f64> {
+    let mut tested: Vec<i64> = if tested_kpa.is_empty() {
+        nominal_kpa.to_vec()
+    } else {
+        tested_kpa.to_vec()
+    };
+    tested.sort_unstable();
+    tested.dedup();
+    let mut out = Vec::new();
+    for (i, p) in tested.iter().enumerate() {
+        if i > 0 {
+            out.push(0.5 * (tested[i - 1] + p) as f64);
+        }
+        out.push(*p as f64);
+    }
+    out
+}
+
+/// Model added/removed, coefficient changes and force deltas (at each tested pressure and
+/// between them) of every tire and rim's MF 6.1 model.
+fn mf61_rows(
+    a: &Path,
+    b: &Path,
+    (ma, mb): (&Manifest, &Manifest),
+    tire: Option<&str>,
+    out: &mut Vec<DiffRow>,
+) -> Result<(), DiffError> {
+    // (tire, rim) -> (key at NOMPRES, file name) in one version.
+    let models_in = |dir: &Path| -> BTreeMap<(String, i64), (GroupKey, String)> {
+        let (names, _) = results::mf61_names(&results::mf61_groups(dir));
+        names
+            .into_iter()
+            .map(|(k, name)| ((k.0.clone(), k.1), (k, name)))
+            .collect()
+    };
+    let (in_a, in_b) = (models_in(a), models_in(b));
+    let combos: BTreeSet<&(String, i64)> = in_a.keys().chain(in_b.keys()).collect();
+    for combo in combos
+        .into_iter()
+        .filter(|c| tire.is_none_or(|t| t == c.0.as_str()))
+    {
+        let file_of = |dir: &Path, m: Option<&(GroupKey, String)>| -> Result<_, DiffError> {
+            let name = m.map_or_else(
+                || mf61_tir_file_name(&combo.0, combo.1 as f64),
+                |(_, n)| n.clone(),
+            );
+            Ok((read_tir(&dir.join("tir").join(&name))?, name))
+        };
+        let (ka, kb) = (in_a.get(combo), in_b.get(combo));
+        let ((old, _), (new, name)) = (file_of(a, ka)?, file_of(b, kb)?);
+        let key = kb.or(ka).map(|(k, _)| k.clone()).unwrap_or_default();
+        let (old, new) = match (old, new) {
+            (None, None) => continue,
+            (Some(_), None) => {
+                let (k, n) = ka.cloned().unwrap_or_default();
+                out.push(model_row(&k, MF61, format!("removed {n}")));
+                continue;
+            }
+            (None, Some(_)) => {
+                out.push(model_row(&key, MF61, format!("added {name}")));
+                continue;
+            }
+            (Some(o), Some(n)) => (o, n),
+        };
+        coefficient_rows(&key, MF61, &old, &new, out);
+        let tested: Vec<i64> = ma
+            .groups
+            .iter()
+            .chain(&mb.groups)
+            .filter(|g| g.tire == combo.0 && g.rim_in == combo.1)
+            .map(|g| g.pressure_kpa)
+            .collect();
+        let nominal: Vec<i64> = ka.iter().chain(kb.iter()).map(|(k, _)| k.2).collect();
+        for p_kpa in mf61_pressures_kpa(&tested, &nominal) {
+            for (item, max_abs, rms) in force_deltas(&old, &new, Some(p_kpa * 1e3)) {
+                push_force(out, &key, MF61, Some(p_kpa), item, max_abs, rms);
+            }
         }
     }
     Ok(())
@@ -248,8 +380,9 @@ fn grid(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 
 /// (item, max |delta|, RMS delta) of Fx, Fy and Mz between two models over their common
 /// envelope: 5 loads x 9 slip angles x 9 slip ratios x 3 inclinations, combined slip, at the
-/// new file's measurement speed LONGVL, inputs limited as MFeval useMode 111.
-fn force_deltas(old: &TirFile, new: &TirFile) -> [(&'static str, f64, f64); 3] {
+/// new file's measurement speed LONGVL, inputs limited as MFeval useMode 111; at the inflation
+/// pressure `p_pa` (MF 6.x; `None`: each file's own, and PAC2002 ignores it).
+fn force_deltas(old: &TirFile, new: &TirFile, p_pa: Option<f64>) -> [(&'static str, f64, f64); 3] {
     let [fz, alpha, kappa, gamma] = envelope(old, new);
     let vx = if new.coefs[Coef::LONGVL] > 0.0 {
         new.coefs[Coef::LONGVL]
@@ -274,7 +407,10 @@ fn force_deltas(old: &TirFile, new: &TirFile) -> [(&'static str, f64, f64); 3] {
     }
     let eval = |m: Pac2002| {
         let mut out = vec![Evaluation::default(); points.len()];
-        m.eval_batch(&points, Mode::Limits, &mut out);
+        match p_pa {
+            Some(p) => m.eval_batch_at(&points, Pressures::Uniform(p), Mode::Limits, &mut out),
+            None => m.eval_batch(&points, Mode::Limits, &mut out),
+        }
         out
     };
     let (eo, en) = (eval(old.model()), eval(new.model()));
@@ -477,16 +613,18 @@ fn table_rows(
     Ok(())
 }
 
-/// The rows as a table (columns tire, rim_in, pressure_kpa, kind, item, old, new, rel_change,
-/// max_abs, rms).
+/// The rows as a table (columns tire, rim_in, pressure_kpa, model, kind, item, at_pressure_kpa,
+/// old, new, rel_change, max_abs, rms).
 pub fn to_frame(rows: &[DiffRow]) -> PolarsResult<DataFrame> {
     let f = |g: fn(&DiffRow) -> Option<f64>| rows.iter().map(g).collect::<Vec<_>>();
     df!(
         "tire" => rows.iter().map(|r| r.tire.as_str()).collect::<Vec<_>>(),
         "rim_in" => rows.iter().map(|r| r.rim_in).collect::<Vec<_>>(),
         "pressure_kpa" => rows.iter().map(|r| r.pressure_kpa).collect::<Vec<_>>(),
+        "model" => rows.iter().map(|r| r.model).collect::<Vec<_>>(),
         "kind" => rows.iter().map(|r| r.kind).collect::<Vec<_>>(),
         "item" => rows.iter().map(|r| r.item.as_str()).collect::<Vec<_>>(),
+        "at_pressure_kpa" => f(|r| r.at_pressure_kpa),
         "old" => f(|r| r.old),
         "new" => f(|r| r.new),
         "rel_change" => f(|r| r.rel_change),
@@ -528,9 +666,9 @@ mod tests {
 
     #[test]
     fn same_model_has_no_force_delta_and_peak_friction_change_moves_fy() {
-        let [fy_same, ..] = [force_deltas(&tire(2.0), &tire(2.0))[1]];
+        let [fy_same, ..] = [force_deltas(&tire(2.0), &tire(2.0), None)[1]];
         assert!(fy_same.1 <= SAME_FORCE, "{fy_same:?}");
-        let d = force_deltas(&tire(2.0), &tire(2.2));
+        let d = force_deltas(&tire(2.0), &tire(2.2), None);
         let (_, fy_max, fy_rms) = d[1];
         // 10 % more peak friction at up to 2000 N: the lateral force changes by up to ~400 N.
         assert!(fy_max > 50.0 && fy_max < 450.0, "{d:?}");
@@ -557,6 +695,30 @@ mod tests {
         assert!(keyed(&inertia, Some("T")).rows.is_empty());
         let per_tire = df!("tire" => ["T", "U"], "value" => [1.0, 2.0]).unwrap();
         assert_eq!(keyed(&per_tire, Some("T")).rows.len(), 1);
+    }
+
+    #[test]
+    fn mf61_models_are_compared_at_tested_pressures_and_between() {
+        assert_eq!(
+            mf61_pressures_kpa(&[83, 69, 97, 83], &[83]),
+            [69.0, 76.0, 83.0, 90.0, 97.0]
+        );
+        assert_eq!(mf61_pressures_kpa(&[], &[83, 83]), [83.0]);
+    }
+
+    #[test]
+    fn mf61_force_deltas_depend_on_the_pressure() {
+        let mut a = tire(2.0);
+        a.coefs[Coef::NOMPRES] = 83e3;
+        let mut a = TirFile::from_coefs_as(a.coefs, tirebase_core::tire_model::Version::Mf61);
+        a.coefs[Coef::PPY3] = 0.0;
+        let mut b = a.clone();
+        b.coefs[Coef::PPY3] = -0.5;
+        // Same at NOMPRES, different below it.
+        let at_nominal = force_deltas(&a, &b, Some(83e3))[1];
+        let below = force_deltas(&a, &b, Some(69e3))[1];
+        assert!(at_nominal.1 <= SAME_FORCE, "{at_nominal:?}");
+        assert!(below.1 > 1.0, "{below:?}");
     }
 
     #[test]

@@ -8,13 +8,19 @@
 //!               load samples ─▶ spring rate ─▶ PAC2002 (forces) ─▶ relaxation ─▶ PAC2002
 //!               on de-lagged sweeps ─▶ relaxation ; thermal          (fit::group)
 //!               ─▶ .tir text + lint (an error is a fit_failures row)   (fit::tir)
+//!               ─▶ the group's sweeps collapsed for MF 6.1 (no samples kept)
+//!               then, same pool, one (tire, rim) per task: MF 6.1 across its pressures
+//!               ─▶ .tir text + lint                                   (fit::mf61)
 //!               ─▶ tables in group order          (fit::tables)
 //! write_outcome: OUT/<table>.parquet, OUT/tir/*.tir (atomic writes)
 //! ```
 //!
 //! A failed group or stage is a row of `fit_failures` (and of [`FitOutcome::failures`]), never an
 //! `Err`: `Err` is reserved for a store that cannot be read or an output that cannot be written.
-//! Output is deterministic: groups are sorted by key, every stage is single-threaded and
+//! With MF 6.1 on (`[fit] models`), the groups of one tire and rim are planned as one unit: each
+//! group's input hash covers its siblings', so a change at one pressure refits them all and the
+//! MF 6.1 model (keyed at its `NOMPRES`, one of the tested pressures) is carried over or refit
+//! with them. Output is deterministic: groups are sorted by key, every stage is single-threaded and
 //! deterministic within its group, so any `jobs` gives the same tables (the `seconds` column of
 //! `fit_quality` and [`FitOutcome::stage_seconds`] are wall time and excepted).
 //!
@@ -23,6 +29,7 @@
 
 mod group;
 mod load;
+mod mf61;
 mod tables;
 mod tir;
 
@@ -32,15 +39,16 @@ use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
 use rayon::prelude::*;
+use tirebase_core::fit::mf61::Mf61Config;
 use tirebase_core::fit::segment_data::TireKey;
-use tirebase_core::naming::{sanitize_tire, unique_tir_names};
+use tirebase_core::naming::{sanitize_tire, unique_mf61_names, unique_tir_names};
 use tirebase_core::tire_model::tir::lint::Severity;
 
 pub use crate::store::results::FitFailure;
 pub use group::StageConfigs;
 pub use load::{LoadedSegment, SegmentRow, judge_qc, live_segments, parse_qc_flag};
 
-use crate::config::Config;
+use crate::config::{Config, FitModel};
 use crate::progress::Progress;
 use crate::store::StoreError;
 use crate::store::files::{ensure_dir, sha256_bytes, write_bytes_atomic};
@@ -275,10 +283,13 @@ pub struct FitOutcome {
     /// conformed to `schemas/<name>.toml`.
     pub tables: BTreeMap<String, DataFrame>,
     /// `.tir` files: (file name from `tirebase_core::naming::unique_tir_names` over the fitted
-    /// groups, text).
+    /// groups, or `unique_mf61_names` over the fitted tires and rims, text): the PAC2002 files
+    /// in group order, then the MF 6.1 files in (tire, rim) order.
     pub tir_files: Vec<(String, String)>,
-    /// The group of each entry of `tir_files`.
+    /// The group of each entry of `tir_files` (an MF 6.1 file's: its tire, rim and `NOMPRES`).
     pub tir_keys: Vec<TireKey>,
+    /// The model of each entry of `tir_files`.
+    pub tir_models: Vec<FitModel>,
     /// One line per `.tir` whose name was disambiguated (tires whose names sanitise alike).
     pub tir_name_notes: Vec<String>,
     /// Failures, fatal and partial, in group order.
@@ -304,8 +315,13 @@ impl FitOutcome {
     /// A one-line summary.
     pub fn summary(&self) -> String {
         let rows = |t: &str| self.tables.get(t).map_or(0, DataFrame::height);
+        let mf61 = self
+            .tir_models
+            .iter()
+            .filter(|m| **m == FitModel::Mf61)
+            .count();
         format!(
-            "{} groups: {} .tir files, {} spring-rate rows, {} relaxation rows, {} thermal fits; \
+            "{} groups: {} .tir files ({mf61} MF 6.1), {} spring-rate rows, {} relaxation rows, {} thermal fits; \
              {} groups with failed stages ({} fatal failures, {} partial)",
             self.groups,
             self.tir_files.len(),
@@ -363,7 +379,7 @@ pub fn plan_groups(
         opts.stages,
         env!("CARGO_PKG_VERSION")
     );
-    Ok(groups
+    let plans: Vec<GroupPlan> = groups
         .into_iter()
         .map(|(key, segs)| {
             let mut lines: Vec<String> = segs
@@ -383,14 +399,67 @@ pub fn plan_groups(
                 n_segments: segs.len(),
             }
         })
-        .collect())
+        .collect();
+    Ok(
+        if opts.stages.pac2002 && config.fit.writes(FitModel::Mf61) {
+            with_sibling_hashes(plans)
+        } else {
+            plans
+        },
+    )
+}
+
+/// Each group's hash extended by those of every group of its tire and rim (the MF 6.1 model
+/// reads them all): a change at one pressure refits the tire and rim's every group.
+fn with_sibling_hashes(plans: Vec<GroupPlan>) -> Vec<GroupPlan> {
+    let mut siblings: BTreeMap<(String, i64), String> = BTreeMap::new();
+    for p in &plans {
+        siblings
+            .entry((p.key.tire.clone(), p.key.rim_in))
+            .or_default()
+            .push_str(&format!("{} {}\n", p.key, p.input_sha256));
+    }
+    plans
+        .into_iter()
+        .map(|mut p| {
+            let all = &siblings[&(p.key.tire.clone(), p.key.rim_in)];
+            p.input_sha256 =
+                sha256_bytes(format!("{}\nmf61 over\n{all}", p.input_sha256).as_bytes());
+            p
+        })
+        .collect()
 }
 
 /// What one group produced, before the tables are assembled.
 struct GroupOutput {
     result: group::GroupResult,
     model: Option<tir::WrittenModel>,
+    mf61: Option<mf61::Mf61Part>,
     cpu_seconds: Option<f64>,
+}
+
+/// One group's stages: its result, its PAC2002 file (when written) and its MF 6.1 part (when
+/// MF 6.1 is fitted).
+struct GroupRun {
+    result: group::GroupResult,
+    model: Option<tir::WrittenModel>,
+    mf61: Option<mf61::Mf61Part>,
+}
+
+/// Which models are written.
+#[derive(Clone, Debug)]
+struct Models {
+    pac2002: bool,
+    mf61: Option<Mf61Config>,
+}
+
+impl Models {
+    fn of(config: &Config, stages: &StageSet) -> Models {
+        Models {
+            pac2002: config.fit.writes(FitModel::Pac2002),
+            mf61: (stages.pac2002 && config.fit.writes(FitModel::Mf61)).then(|| config.fit.mf61()),
+        }
+    }
 }
 
 fn fit_one(
@@ -399,6 +468,7 @@ fn fit_one(
     plan: &GroupPlan,
     opts: &FitOptions,
     cfg: &StageConfigs,
+    models: &Models,
 ) -> Result<GroupOutput, FitError> {
     let started = std::time::Instant::now();
     let mine: Vec<&SegmentRow> = rows
@@ -422,7 +492,11 @@ fn fit_one(
     })?;
     let load_seconds = started.elapsed().as_secs_f64();
     let cpu0 = thread_cpu_seconds();
-    let (mut result, model) = guarded(&plan.key, || {
+    let GroupRun {
+        mut result,
+        model,
+        mf61,
+    } = guarded(&plan.key, || {
         let mut result = group::run(&plan.key, &segments, &opts.stages, cfg);
         let mut model = None;
         if opts.stages.pac2002
@@ -436,7 +510,7 @@ fn fit_one(
                         .lint
                         .findings
                         .iter()
-                        .filter(|f| f.severity == Severity::Error)
+                        .filter(|f| models.pac2002 && f.severity == Severity::Error)
                     {
                         result.failures.push(FitFailure::new(
                             &plan.key,
@@ -453,7 +527,21 @@ fn fit_one(
                 )),
             }
         }
-        (result, model)
+        let mf61 = models.mf61.as_ref().map(|c| {
+            let vertical = result.spring_rate.as_ref().and_then(|s| s.vertical.first());
+            mf61::Mf61Part::new(
+                &plan.key,
+                &group::mf61_sweeps(&segments, &result, cfg),
+                model.as_ref(),
+                vertical,
+                c,
+            )
+        });
+        GroupRun {
+            result,
+            model: model.filter(|_| models.pac2002),
+            mf61,
+        }
     });
     let cpu_seconds = cpu0.zip(thread_cpu_seconds()).map(|(a, b)| b - a);
     result
@@ -462,31 +550,68 @@ fn fit_one(
     Ok(GroupOutput {
         result,
         model,
+        mf61,
         cpu_seconds,
     })
 }
 
 /// Run one group's stages; a bug in a stage must not take the other groups down, so a panic
 /// becomes a fatal failure of this group (the default hook also prints the panic message).
-fn guarded(
-    key: &TireKey,
-    stages: impl FnOnce() -> (group::GroupResult, Option<tir::WrittenModel>),
-) -> (group::GroupResult, Option<tir::WrittenModel>) {
+fn guarded(key: &TireKey, stages: impl FnOnce() -> GroupRun) -> GroupRun {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(stages)).unwrap_or_else(|panic| {
-        let message = panic
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| panic.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "unknown panic".to_string());
         let mut result = group::GroupResult::new(key);
-        result.failures.push(FitFailure::new(
+        result
+            .failures
+            .push(panic_failure(key, "fit", panic.as_ref()));
+        GroupRun {
+            result,
+            model: None,
+            mf61: None,
+        }
+    })
+}
+
+/// A panic of a stage as a fatal failure (the default hook also prints the panic message).
+fn panic_failure(key: &TireKey, stage: &str, panic: &(dyn std::any::Any + Send)) -> FitFailure {
+    let message = panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".to_string());
+    FitFailure::new(
+        key,
+        stage,
+        "panic",
+        true,
+        format!("internal error (a bug; please report): {message}"),
+    )
+}
+
+/// The MF 6.1 stage of one tire and rim; a panic becomes a fatal failure of it.
+fn fit_mf61(
+    tire: &str,
+    rim_in: i64,
+    parts: &[mf61::Mf61Part],
+    cfg: &Mf61Config,
+) -> mf61::Mf61Outcome {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        mf61::run(tire, rim_in, parts, cfg)
+    }))
+    .unwrap_or_else(|panic| {
+        let pressures: Vec<i64> = parts.iter().map(|p| p.key.pressure_kpa_nom).collect();
+        let key = TireKey {
+            tire: tire.to_string(),
+            rim_in,
+            pressure_kpa_nom: (tirebase_core::fit::mf61::Mf61Input::nominal_for(&pressures) / 1e3)
+                .round() as i64,
+        };
+        mf61::Mf61Outcome {
+            failures: vec![panic_failure(&key, mf61::STAGE, panic.as_ref())],
             key,
-            "fit",
-            "panic",
-            true,
-            format!("internal error (a bug; please report): {message}"),
-        ));
-        (result, None)
+            model: None,
+            fit: None,
+            seconds: 0.0,
+        }
     })
 }
 
@@ -502,6 +627,7 @@ pub fn fit_groups(
 ) -> Result<FitOutcome, FitError> {
     let rows = live_segments(store)?;
     let cfg = stage_configs(config);
+    let models = Models::of(config, &opts.stages);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.jobs)
         .stack_size(crate::WORKER_STACK_BYTES)
@@ -515,14 +641,15 @@ pub fn fit_groups(
         groups
             .par_iter()
             .map(|plan| {
-                let out = fit_one(store, &rows, plan, opts, &cfg);
+                let out = fit_one(store, &rows, plan, opts, &cfg, &models);
                 bar.inc(1);
                 out
             })
             .collect()
     });
     let mut results = Vec::with_capacity(outputs.len());
-    let mut models = Vec::new();
+    let mut written = Vec::new();
+    let mut parts: BTreeMap<(String, i64), Vec<mf61::Mf61Part>> = BTreeMap::new();
     let mut outcome = FitOutcome {
         groups: groups.len(),
         ..FitOutcome::default()
@@ -531,8 +658,15 @@ pub fn fit_groups(
         let GroupOutput {
             result,
             model,
+            mf61,
             cpu_seconds,
         } = out?;
+        if let Some(part) = mf61 {
+            parts
+                .entry((result.key.tire.clone(), result.key.rim_in))
+                .or_default()
+                .push(part);
+        }
         for (stage, s) in &result.stage_seconds {
             *outcome.stage_seconds.entry(stage.clone()).or_default() += s;
         }
@@ -554,18 +688,22 @@ pub fn fit_groups(
                 .relaxation
                 .as_ref()
                 .is_some_and(|r| !r.rows.is_empty());
-        if result.failures.iter().any(|f| f.fatal) {
-            outcome.groups_failed += 1;
-        }
         if !produced {
             outcome.groups_empty += 1;
         }
         outcome.failures.extend(result.failures.iter().cloned());
         if let Some(m) = model {
-            models.push((result.key.clone(), m));
+            written.push((result.key.clone(), m));
         }
         results.push(result);
     }
+    bar.finish(&format!("{} groups", outcome.groups));
+    let write_pac2002 = models.pac2002;
+    let mf61_outcomes = match &models.mf61 {
+        Some(c) if !parts.is_empty() => fit_combinations(&pool, parts, c, progress),
+        _ => Vec::new(),
+    };
+    let mut models = written;
     // File names unique over the groups (tires whose names differ only in case or punctuation
     // would overwrite each other's `.tir`).
     let keys: Vec<(&str, f64, f64)> = models
@@ -577,17 +715,49 @@ pub fn fit_groups(
         m.file_name = name;
         outcome.tir_name_notes.extend(note);
     }
+    let mut mf61_models: Vec<(TireKey, tir::WrittenModel)> = mf61_outcomes
+        .iter()
+        .filter_map(|o| o.model.clone().map(|m| (o.key.clone(), m)))
+        .collect();
+    let tires: Vec<(&str, f64)> = mf61_models
+        .iter()
+        .map(|(k, _)| (k.tire.as_str(), k.rim_in as f64))
+        .collect();
+    let mf61_names = unique_mf61_names(&tires);
+    for ((_, m), (name, note)) in mf61_models.iter_mut().zip(mf61_names) {
+        m.file_name = name;
+        outcome.tir_name_notes.extend(note);
+    }
+    for o in &mf61_outcomes {
+        outcome.failures.extend(o.failures.iter().cloned());
+        *outcome
+            .stage_seconds
+            .entry(mf61::STAGE.to_string())
+            .or_default() += o.seconds;
+    }
+    let fatal: std::collections::BTreeSet<(&str, i64, i64)> = outcome
+        .fatal()
+        .map(|f| (f.tire.as_str(), f.rim_in, f.pressure_kpa))
+        .collect();
+    outcome.groups_failed = fatal.len();
+    models.extend(mf61_models);
     outcome.tir_files = models
         .iter()
         .map(|(_, m)| (m.file_name.clone(), m.text.clone()))
         .collect();
     outcome.tir_keys = models.iter().map(|(k, _)| k.clone()).collect();
+    outcome.tir_models = models.iter().map(|(_, m)| m.model).collect();
     let mut tables = BTreeMap::new();
     if opts.stages.pac2002 {
         tables.insert("coefficients".to_string(), tables::coefficients(&models)?);
         tables.insert(
             "fit_quality".to_string(),
-            tables::fit_quality(&results, cfg.pac2002.oos_ratio_limit)?,
+            tables::fit_quality(
+                &results,
+                write_pac2002,
+                &mf61_outcomes,
+                cfg.pac2002.oos_ratio_limit,
+            )?,
         );
         tables.insert("lint".to_string(), tables::lint(&models)?);
     }
@@ -606,9 +776,31 @@ pub fn fit_groups(
         tables::fit_failures(&outcome.failures)?,
     );
     outcome.tables = tables;
-    // The caller reports the outcome; the bar only closes its line.
-    bar.finish(&format!("{} groups", outcome.groups));
     Ok(outcome)
+}
+
+/// The MF 6.1 stage of every tire and rim, in parallel on `pool`, in (tire, rim) order.
+fn fit_combinations(
+    pool: &rayon::ThreadPool,
+    parts: BTreeMap<(String, i64), Vec<mf61::Mf61Part>>,
+    cfg: &Mf61Config,
+    progress: &dyn Progress,
+) -> Vec<mf61::Mf61Outcome> {
+    let combos: Vec<((String, i64), Vec<mf61::Mf61Part>)> = parts.into_iter().collect();
+    let bar = progress.stage("mf61", "tires", combos.len() as u64);
+    let out: Vec<mf61::Mf61Outcome> = pool.install(|| {
+        combos
+            .par_iter()
+            .map(|((tire, rim), parts)| {
+                let o = fit_mf61(tire, *rim, parts, cfg);
+                bar.inc(1);
+                o
+            })
+            .collect()
+    });
+    let written = out.iter().filter(|o| o.model.is_some()).count();
+    bar.finish(&format!("{written} MF 6.1 models"));
+    out
 }
 
 /// Writes OUT/<table>.parquet for every table and OUT/tir/*.tir (atomic writes). Files of
@@ -640,7 +832,7 @@ mod tests {
             rim_in: 7,
             pressure_kpa_nom: 83,
         };
-        let (result, model) = guarded(&key, || panic!("index out of bounds"));
+        let GroupRun { result, model, .. } = guarded(&key, || panic!("index out of bounds"));
         assert!(model.is_none());
         assert_eq!(result.failures.len(), 1);
         let f = &result.failures[0];

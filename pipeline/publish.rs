@@ -20,6 +20,7 @@ use std::time::Instant;
 
 use polars::prelude::*;
 
+use crate::config::FitModel;
 use crate::fit::{FitFailure, FitOutcome, GroupPlan};
 use crate::inertia::{InertiaRun, process_sessions};
 use crate::ingest::{FileStatus, IngestReport};
@@ -32,8 +33,8 @@ use crate::run::{Fingerprint, RunError, RunOptions, count_duplicates};
 use crate::schema::TableName;
 use crate::store::StoreError;
 use crate::store::results::{
-    self, GROUP_COLUMNS, INERTIA_TABLE, Results, TirNames, has_group_columns, model_groups,
-    rows_of_groups, tir_names,
+    self, GROUP_COLUMNS, INERTIA_TABLE, MF61, Results, TirNames, has_group_columns, is_model,
+    mf61_groups, mf61_names, model_groups, rows_of_groups, tir_names,
 };
 use crate::store::tables::{self, RunStatus};
 use crate::store::versions::VersionBuilder;
@@ -124,12 +125,13 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
 
     let t = Instant::now();
     let (tir_names, tir_notes) = publish_tir(&outcome, prev_dir, &reused_keys, &staging)?;
+    let (mf61_names, mf61_notes) = publish_mf61_tir(&outcome, prev_dir, &reused_keys, &staging)?;
     let tir_files = crate::store::files::files_in(&staging.join("tir"))?.len();
     let merged = merge_tables(
         &outcome,
         prev_dir,
         &reused_keys,
-        &tir_names,
+        (&tir_names, &mf61_names),
         &staging,
         progress,
     )?;
@@ -158,13 +160,18 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
     timings.insert("report".to_string(), t.elapsed().as_secs_f64());
 
     let mut problems = file_problems;
-    problems.extend(tir_notes.into_iter().map(|((t, r, p), note)| {
-        Problem::new(
-            ProblemKind::TirName,
-            format!("{t} on {r} in rim at {p} kPa"),
-            note,
-        )
-    }));
+    problems.extend(
+        tir_notes
+            .into_iter()
+            .chain(mf61_notes)
+            .map(|((t, r, p), note)| {
+                Problem::new(
+                    ProblemKind::TirName,
+                    format!("{t} on {r} in rim at {p} kPa"),
+                    note,
+                )
+            }),
+    );
     let mut failures: Vec<&FitFailure> = outcome.failures.iter().chain(&reused_failures).collect();
     failures.sort();
     problems.extend(failures.iter().map(|f| fit_problem(f)));
@@ -286,7 +293,7 @@ fn merge_tables(
     outcome: &FitOutcome,
     prev_dir: Option<&Path>,
     reused: &BTreeSet<GroupKey>,
-    tir_names: &BTreeMap<GroupKey, String>,
+    tir_names: (&BTreeMap<GroupKey, String>, &BTreeMap<GroupKey, String>),
     staging: &Path,
     progress: &dyn Progress,
 ) -> Result<BTreeMap<String, DataFrame>, RunError> {
@@ -356,10 +363,13 @@ fn publish_tir(
 ) -> Result<TirNames, StoreError> {
     let dir = staging.join("tir");
     crate::store::files::ensure_dir(&dir)?;
-    let fitted: Vec<GroupKey> = outcome
+    let fitted: Vec<(GroupKey, &String)> = outcome
         .tir_keys
         .iter()
-        .map(|k| (k.tire.clone(), k.rim_in, k.pressure_kpa_nom))
+        .zip(&outcome.tir_models)
+        .zip(&outcome.tir_files)
+        .filter(|((_, m), _)| **m == FitModel::Pac2002)
+        .map(|((k, _), (_, text))| ((k.tire.clone(), k.rim_in, k.pressure_kpa_nom), text))
         .collect();
     let (prev_models, prev_names) = match prev_dir {
         Some(prev) => {
@@ -373,11 +383,11 @@ fn publish_tir(
         reused.iter().filter(|k| prev_models.contains(*k)).collect();
     let all: BTreeSet<GroupKey> = fitted
         .iter()
-        .cloned()
+        .map(|(k, _)| k.clone())
         .chain(reused_models.iter().map(|k| (*k).clone()))
         .collect();
     let (names, notes) = tir_names(&all);
-    for (key, (_, text)) in fitted.iter().zip(&outcome.tir_files) {
+    for (key, text) in &fitted {
         crate::store::files::write_bytes_atomic(&dir.join(&names[key]), text.as_bytes())?;
     }
     if let Some(prev) = prev_dir {
@@ -392,10 +402,62 @@ fn publish_tir(
     Ok((names, notes))
 }
 
-/// Point the `lint` table's `file` column at each group's file name in this version.
+/// Write this run's MF 6.1 `.tir` files and link the reused tires' and rims' files from the
+/// previous version, each under its name among all the version's MF 6.1 models (as
+/// [`publish_tir`] does for the PAC2002 files). Returns the names by (tire, rim, `NOMPRES`)
+/// and the disambiguation notes.
+fn publish_mf61_tir(
+    outcome: &FitOutcome,
+    prev_dir: Option<&Path>,
+    reused: &BTreeSet<GroupKey>,
+    staging: &Path,
+) -> Result<TirNames, StoreError> {
+    let dir = staging.join("tir");
+    crate::store::files::ensure_dir(&dir)?;
+    let fitted: Vec<(GroupKey, &String)> = outcome
+        .tir_keys
+        .iter()
+        .zip(&outcome.tir_models)
+        .zip(&outcome.tir_files)
+        .filter(|((_, m), _)| **m == FitModel::Mf61)
+        .map(|((k, _), (_, text))| ((k.tire.clone(), k.rim_in, k.pressure_kpa_nom), text))
+        .collect();
+    let (prev_models, prev_names) = match prev_dir {
+        Some(prev) => {
+            let groups = mf61_groups(prev);
+            let (names, _) = mf61_names(&groups);
+            (groups, names)
+        }
+        None => Default::default(),
+    };
+    let reused_models: Vec<&GroupKey> =
+        reused.iter().filter(|k| prev_models.contains(*k)).collect();
+    let all: BTreeSet<GroupKey> = fitted
+        .iter()
+        .map(|(k, _)| k.clone())
+        .chain(reused_models.iter().map(|k| (*k).clone()))
+        .collect();
+    let (names, notes) = mf61_names(&all);
+    for (key, text) in &fitted {
+        crate::store::files::write_bytes_atomic(&dir.join(&names[key]), text.as_bytes())?;
+    }
+    if let Some(prev) = prev_dir {
+        for key in reused_models {
+            let from = prev.join("tir").join(&prev_names[key]);
+            let to = dir.join(&names[key]);
+            if from.is_file() && !to.exists() && fs::hard_link(&from, &to).is_err() {
+                fs::copy(&from, &to).map_err(|e| StoreError::io(&to, e))?;
+            }
+        }
+    }
+    Ok((names, notes))
+}
+
+/// Point the `lint` table's `file` column at each model's file name in this version (PAC2002
+/// rows by group, MF 6.1 rows by tire, rim and `NOMPRES`).
 fn rename_lint_files(
     df: &DataFrame,
-    names: &BTreeMap<GroupKey, String>,
+    (names, mf61_names): (&BTreeMap<GroupKey, String>, &BTreeMap<GroupKey, String>),
 ) -> PolarsResult<DataFrame> {
     if df.column("file").is_err() || !has_group_columns(df) {
         return Ok(df.clone());
@@ -404,13 +466,24 @@ fn rename_lint_files(
     let rim = df.column("rim_in")?.i64()?;
     let p = df.column("pressure_kpa")?.i64()?;
     let old = df.column("file")?.str()?;
+    let model = match df.column("model") {
+        Ok(c) => Some(c.str()?.clone()),
+        Err(_) => None,
+    };
     let files: Vec<Option<String>> = (0..df.height())
-        .map(|i| match (tire.get(i), rim.get(i), p.get(i)) {
-            (Some(t), Some(r), Some(p)) => names
-                .get(&(t.to_string(), r, p))
-                .cloned()
-                .or_else(|| old.get(i).map(str::to_string)),
-            _ => old.get(i).map(str::to_string),
+        .map(|i| {
+            let mf61 = model
+                .as_ref()
+                .and_then(|m| m.get(i))
+                .is_some_and(|m| is_model(m, MF61));
+            let names = if mf61 { mf61_names } else { names };
+            match (tire.get(i), rim.get(i), p.get(i)) {
+                (Some(t), Some(r), Some(p)) => names
+                    .get(&(t.to_string(), r, p))
+                    .cloned()
+                    .or_else(|| old.get(i).map(str::to_string)),
+                _ => old.get(i).map(str::to_string),
+            }
         })
         .collect();
     let mut out = df.clone();
@@ -510,8 +583,8 @@ fn worst_fit(results: &Results) -> Option<String> {
         "rmse_pct_of_peak"
     };
     Some(format!(
-        "{what} = {pct:.4} (tire={}, rim_in={}, pressure_kpa={}, channel={})",
-        q.tire, q.rim_in, q.pressure_kpa, q.channel
+        "{what} = {pct:.4} (tire={}, rim_in={}, pressure_kpa={}, model={}, channel={})",
+        q.tire, q.rim_in, q.pressure_kpa, q.model, q.channel
     ))
 }
 

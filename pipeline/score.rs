@@ -11,15 +11,16 @@
 //!
 //! Every sample of a run counts, whatever its segment (sweeps, transitions, warm-up): the score
 //! says how well the model predicts the measurement, not how well it fits the sweeps it was
-//! fitted on. Deliberately not here: fitting, and any MF 6.x evaluation (the reader refuses MF
-//! 6.x files; [`evaluate`] is the one place a version-aware evaluator plugs in).
+//! fitted on. An MF 6.x model is evaluated at each sample's measured inflation pressure (its
+//! default pressure where none was measured); PAC2002 has no pressure terms. Deliberately not
+//! here: fitting.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
 use polars::prelude::*;
 use tirebase_core::tire_model::tir::TirFile;
-use tirebase_core::tire_model::{Evaluation, Mode, SlipInput};
+use tirebase_core::tire_model::{Evaluation, Mode, Pressures, SlipInput};
 
 use crate::query::{self, QueryError};
 
@@ -166,17 +167,28 @@ pub fn score(
     Ok(rows)
 }
 
-/// The model's forces and moments at `points` (measured inflation pressure beside, kPa, for
-/// models with pressure terms). PAC2002 / MF 5.2 has none, so `pressures_kpa` is unused until
-/// an MF 6.x evaluator exists.
+/// The model's forces and moments at `points`, each at its measured inflation pressure (kPa;
+/// MF 6.x only, the model's default pressure where not finite).
 fn evaluate(
     tir: &TirFile,
     points: &[SlipInput],
-    _pressures_kpa: &[f64],
+    pressures_kpa: &[f64],
     mode: Mode,
 ) -> Vec<Evaluation<f64>> {
+    let model = tir.model();
+    let fallback = model.default_pressure_pa();
+    let pressures_pa: Vec<f64> = pressures_kpa
+        .iter()
+        .map(|p| {
+            if p.is_finite() && *p > 0.0 {
+                p * 1e3
+            } else {
+                fallback
+            }
+        })
+        .collect();
     let mut out = vec![Evaluation::default(); points.len()];
-    tir.model().eval_batch(points, mode, &mut out);
+    model.eval_batch_at(points, Pressures::PerPoint(&pressures_pa), mode, &mut out);
     out
 }
 

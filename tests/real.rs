@@ -187,3 +187,321 @@ fn real_data_cornering_fit_against_mf61() {
         misses.join("\n")
     );
 }
+
+/// One tire's sweeps and per-pressure PAC2002 fits read from `cornering.mat` in process, through
+/// the code ingest and `fit` call: the TTC reader, the segmenter (default `[segment]`; segments
+/// whose QC flags spoil the forces left out), the spring-rate stage and the PAC2002 stage
+/// (default configuration, no de-lagging) per nominal pressure. Not the store: ingest's Parquet
+/// round trip and catalog are not exercised.
+fn cornering_mf61_groups(
+    real: &Path,
+) -> (String, f64, Vec<tirebase::core::fit::mf61::PressureGroup>) {
+    use std::collections::BTreeMap;
+    use tirebase::core::fit::mf61::{Mf61Sweep, PressureGroup, PressureModel};
+    use tirebase::core::fit::pac2002::{self, FitConfig, FitContext, FitInput, Sweep};
+    use tirebase::core::fit::segment_data::{Channels, MeasuredSegment, NominalLevels, TireKey};
+    use tirebase::core::fit::spring_rate::{self, SpringRateConfig};
+    use tirebase::core::segment::{self, RunSignals, SegmentConfig};
+
+    let path = real.join("cornering.mat");
+    let bytes = std::fs::read(&path).unwrap();
+    let table = tirebase::core::ttc::read_run(&bytes, "cornering.mat").expect("read");
+    let empty: Vec<f64> = Vec::new();
+    let signals = RunSignals::from_iso_w(
+        &table.tire,
+        &table.et_s,
+        &table.speed_kph,
+        &table.pressure_kpa,
+        table.loaded_radius_m.as_ref().unwrap_or(&empty),
+    );
+    let (segs, _) = segment::run(&signals, &SegmentConfig::default()).expect("segment");
+    let (tire, rim) = ("cornering".to_string(), 7.0);
+    let mut by_pressure: BTreeMap<i64, Vec<MeasuredSegment>> = BTreeMap::new();
+    for seg in segs {
+        let Some(p) = seg.nominal.pressure_kpa else {
+            continue;
+        };
+        if seg.qc.iter().any(|f| f.spoils_forces()) {
+            continue;
+        }
+        let r = seg.samples.clone();
+        let cut = |v: &[f64]| v[r.clone()].to_vec();
+        let opt = |v: &Option<Vec<f64>>| v.as_ref().map(|v| cut(v));
+        let key = TireKey {
+            tire: tire.clone(),
+            rim_in: rim as i64,
+            pressure_kpa_nom: i64::from(p),
+        };
+        by_pressure
+            .entry(i64::from(p))
+            .or_default()
+            .push(MeasuredSegment {
+                segment_id: format!("cornering.mat-{}", seg.index),
+                kind: seg.kind,
+                source_file: "cornering.mat".into(),
+                segment_index: seg.index as i64,
+                key,
+                nominal: NominalLevels {
+                    ia_deg: seg.nominal.ia_deg.map(i64::from),
+                    fz_n: seg.nominal.fz_n.map(i64::from),
+                    alpha_deg: seg.nominal.alpha_deg.map(i64::from),
+                    speed_kph: seg.nominal.speed_kph.map(i64::from),
+                },
+                channels: Channels {
+                    et_s: cut(&table.et_s),
+                    speed_kph: cut(&table.speed_kph),
+                    fz_n: cut(&table.tire.fz_n),
+                    fx_n: cut(&table.tire.fx_n),
+                    fy_n: cut(&table.tire.fy_n),
+                    mz_nm: cut(&table.tire.mz_nm),
+                    alpha_rad: cut(&table.tire.alpha_rad),
+                    gamma_rad: cut(&table.tire.gamma_rad),
+                    kappa: cut(&table.tire.kappa),
+                    pressure_kpa: cut(&table.pressure_kpa),
+                    loaded_radius_m: opt(&table.loaded_radius_m),
+                    effective_radius_m: opt(&table.effective_radius_m),
+                    wheel_speed_rpm: opt(&table.wheel_speed_rpm),
+                    tread_inner_c: opt(&table.tread_inner_temp_c),
+                    tread_centre_c: opt(&table.tread_centre_temp_c),
+                    tread_outer_c: opt(&table.tread_outer_temp_c),
+                    ambient_c: opt(&table.ambient_temp_c),
+                },
+            });
+    }
+    let median = |mut v: Vec<f64>| {
+        v.retain(|x| x.is_finite());
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+    };
+    let mut groups = Vec::new();
+    for (p, segs) in &by_pressure {
+        let sr = spring_rate::run(segs, &BTreeMap::new(), &SpringRateConfig::default());
+        let vertical = sr.vertical.first();
+        let sweeps: Vec<&MeasuredSegment> = segs
+            .iter()
+            .filter(|s| Sweep::from_segment(s, None, true).is_some())
+            .collect();
+        if sweeps.is_empty() {
+            continue;
+        }
+        let speed_kph = median(
+            sweeps
+                .iter()
+                .flat_map(|s| s.channels.speed_kph.clone())
+                .collect(),
+        );
+        let input = FitInput {
+            context: FitContext {
+                tire: tire.clone(),
+                rim_in: rim,
+                pressure_kpa_nom: *p as f64,
+                test_speed_mps: speed_kph / 3.6,
+                vertical_stiffness_n_per_m: vertical.map(|v| v.vertical_stiffness_n_per_m),
+                unloaded_radius_m: vertical.map(|v| v.unloaded_radius_m),
+                relaxation: None,
+            },
+            sweeps: sweeps
+                .iter()
+                .filter_map(|s| Sweep::from_segment(s, None, true))
+                .collect(),
+        };
+        let pac = pac2002::fit(&input, &FitConfig::default());
+        if let Err(e) = &pac {
+            eprintln!("  {p} kPa: PAC2002 fit failed: {e}");
+        }
+        let p_pa = 1e3
+            * median(
+                sweeps
+                    .iter()
+                    .flat_map(|s| s.channels.pressure_kpa.clone())
+                    .collect(),
+            );
+        eprintln!(
+            "  {p} kPa: {} sweeps, measured {:.1} kPa, Cz {:?}, R0 {:?}",
+            sweeps.len(),
+            p_pa / 1e3,
+            vertical.map(|v| v.vertical_stiffness_n_per_m),
+            vertical.map(|v| v.unloaded_radius_m)
+        );
+        groups.push(PressureGroup {
+            pressure_kpa_nom: *p,
+            sweeps: sweeps
+                .iter()
+                .filter_map(|s| Mf61Sweep::from_segment(s, None))
+                .collect(),
+            pac2002: pac.ok().map(|f| PressureModel {
+                p_pa,
+                model: f.model,
+                vertical_stiffness_n_per_m: vertical.map(|v| v.vertical_stiffness_n_per_m),
+                unloaded_radius_m: vertical.map(|v| v.unloaded_radius_m),
+            }),
+        });
+    }
+    (tire, rim, groups)
+}
+
+/// Issue 19 opt-in real-data check: one MF 6.1 model fitted by `fit::mf61` on every pressure of
+/// `cornering.mat` ([`cornering_mf61_groups`]), scored with `tirebase tir score` on the measured
+/// samples (the README's selection, each sample at its measured pressure) per pressure beside the
+/// file author's MF 6.1 fit (`obfuscated_mf61.tir`); the same for the MF 6.1 model `tirebase fit`
+/// writes (the pipeline's sweeps: QC, despiked, de-lagged); then `fit::mf61` fitted on 69 and
+/// 97 kPa only and scored on the 83 kPa samples. Asserts the issue's target: every figure no
+/// larger than the author's.
+/// Run: `cargo test --test integration real_data_mf61 -- --ignored --nocapture`.
+#[test]
+#[ignore = "needs the real files of shared/real/ (development only); run with --ignored"]
+fn real_data_mf61_fit_against_the_authors_mf61() {
+    use tirebase::core::fit::mf61::{Mf61Config, Mf61Input, fit};
+    use tirebase::core::tire_model::Version;
+    use tirebase::core::tire_model::tir::TirFile;
+
+    let Some(real) = real_dir() else {
+        eprintln!("real-data check skipped: no shared/real/cornering.mat (set TIREBASE_REAL_DIR)");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let store = dir.path().join("store");
+    ok(
+        &tirebase(&[
+            "ingest",
+            p(&real.join("cornering.mat")),
+            "--store",
+            p(&store),
+        ]),
+        "ingest",
+    );
+    let stored = tirebase(&[
+        "query",
+        "--store",
+        p(&store),
+        "--format",
+        "csv",
+        "SELECT DISTINCT tire FROM segments WHERE source_file = 'cornering.mat'",
+    ]);
+    ok(&stored, "query tire");
+    let store_tire = csv_rows(&stored)[0][0].clone();
+
+    let (tire, rim, groups) = cornering_mf61_groups(&real);
+    let pressures: Vec<i64> = groups.iter().map(|g| g.pressure_kpa_nom).collect();
+    eprintln!("tested pressures {pressures:?}");
+    let cfg = Mf61Config::default();
+    let write = |name: &str, input: &Mf61Input| {
+        let f = fit(input, &cfg).expect("MF 6.1 fit");
+        for fam in &f.families {
+            eprintln!(
+                "  {name} {}: n {} free {} rmse {:.2} (start {:.2}) {:?}",
+                fam.family.name(),
+                fam.n,
+                fam.free.len(),
+                fam.rmse,
+                fam.initial_rmse,
+                fam.termination
+            );
+        }
+        for n in &f.notes {
+            eprintln!("  {name} note: {n}");
+        }
+        let path = dir.path().join(format!("{name}.tir"));
+        let text = TirFile::from_coefs_as(f.model.coefs.clone(), Version::Mf61)
+            .render()
+            .unwrap();
+        std::fs::write(&path, text).unwrap();
+        (path, f.seconds)
+    };
+    let all = Mf61Input {
+        tire: tire.clone(),
+        rim_in: rim,
+        nominal_pa: Mf61Input::nominal_for(&pressures),
+        groups: groups.clone(),
+    };
+    let (all_tir, secs) = write("all", &all);
+    eprintln!("MF 6.1 fit on every pressure: {secs:.1} s (with leave-one-pressure-out refits)");
+    let outer: Vec<i64> = pressures
+        .iter()
+        .copied()
+        .filter(|p| *p == pressures[0] || *p == pressures[pressures.len() - 1])
+        .collect();
+    let held = Mf61Input {
+        groups: groups
+            .iter()
+            .filter(|g| outer.contains(&g.pressure_kpa_nom))
+            .cloned()
+            .collect(),
+        nominal_pa: Mf61Input::nominal_for(&outer),
+        ..all.clone()
+    };
+    let (held_tir, _) = write("outer", &held);
+    let mf61 = real.join("obfuscated_mf61.tir");
+    // The pipeline's own MF 6.1 model (`tirebase fit`, default `[fit] models`), scored too.
+    let out = dir.path().join("fit");
+    let fitted = tirebase(&["fit", "--store", p(&store), "--out", p(&out)]);
+    let pipeline_tir = std::fs::read_dir(out.join("tir")).ok().and_then(|d| {
+        d.filter_map(|e| e.ok().map(|e| e.path()))
+            .find(|f| f.to_string_lossy().ends_with("__mf61.tir"))
+    });
+    if pipeline_tir.is_none() {
+        eprintln!(
+            "tirebase fit wrote no MF 6.1 model: {}",
+            String::from_utf8_lossy(&fitted.stderr)
+        );
+    }
+
+    eprintln!(
+        "pressure | MF 6.1 (tirebase) Fy RMSE | author's (README / evaluated) | Mz RMSE | author's | samples"
+    );
+    let mut misses = Vec::new();
+    let show = |r: &Result<(f64, f64, f64, usize), String>, k: usize| match r {
+        Ok(v) => format!("{:.1}", [v.0, v.1][k]),
+        Err(e) => format!("({e})"),
+    };
+    let mut row = |label: &str, pressure: i64, tir: &Path| {
+        let ours = score(&store, tir, &store_tire, pressure);
+        let theirs = score(&store, &mf61, &store_tire, pressure);
+        let readme = MF61_README.iter().find(|r| r.0 == pressure);
+        eprintln!(
+            "{pressure:>4} kPa {label} | {} N | {} / {} N | {} N m | {} / {} N m | {}",
+            show(&ours, 0),
+            readme.map_or("-".into(), |r| format!("{}", r.1)),
+            show(&theirs, 0),
+            show(&ours, 1),
+            readme.map_or("-".into(), |r| format!("{}", r.2)),
+            show(&theirs, 1),
+            ours.as_ref().map_or(0, |v| v.3)
+        );
+        match (ours, readme) {
+            (Ok((fy, mz, _, _)), Some(&(_, fy_t, mz_t))) => {
+                if fy > fy_t {
+                    misses.push(format!(
+                        "{pressure} kPa {label}: Fy RMSE {fy:.1} N > {fy_t} N"
+                    ));
+                }
+                if mz > mz_t {
+                    misses.push(format!(
+                        "{pressure} kPa {label}: Mz RMSE {mz:.2} N m > {mz_t} N m"
+                    ));
+                }
+            }
+            (Err(e), _) => misses.push(format!("{pressure} kPa {label}: not scored: {e}")),
+            (_, None) => misses.push(format!("{pressure} kPa: no author's figure")),
+        }
+    };
+    for &pressure in &pressures {
+        row("all pressures", pressure, &all_tir);
+    }
+    if let Some(tir) = &pipeline_tir {
+        for &pressure in &pressures {
+            row("tirebase fit", pressure, tir);
+        }
+    }
+    for &pressure in pressures.iter().filter(|p| !outer.contains(p)) {
+        row("fitted on the others", pressure, &held_tir);
+    }
+    if pipeline_tir.is_none() {
+        misses.push("tirebase fit wrote no MF 6.1 model".to_string());
+    }
+    assert!(
+        misses.is_empty(),
+        "issue 19 real-data targets missed:\n{}",
+        misses.join("\n")
+    );
+}

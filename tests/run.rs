@@ -82,7 +82,19 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
     let m1 = Manifest::read(&v1).unwrap();
     // 4 tire/rim combinations x 2 pressures.
     assert_eq!(m1.counts.groups, 8, "{:?}", m1.counts);
-    assert_eq!(m1.counts.tir_files, m1.counts.groups, "{:?}", m1.counts);
+    // One PAC2002 file per group and one MF 6.1 file per tire and rim.
+    let combos: std::collections::BTreeSet<(&str, i64)> = m1
+        .groups
+        .iter()
+        .map(|g| (g.tire.as_str(), g.rim_in))
+        .collect();
+    assert_eq!(combos.len(), 4);
+    assert_eq!(
+        m1.counts.tir_files,
+        m1.counts.groups + combos.len() as u64,
+        "{:?}",
+        m1.counts
+    );
     assert!(m1.groups.iter().all(|g| g.from_version == 1));
     // The embedded round carries the demo car's rig sessions: inertia.parquet from the start,
     // with the car's yaw inertia within its session's stated tolerance.
@@ -124,11 +136,24 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
         "outputs/store",
         "--format",
         "csv",
-        "SELECT tire, pressure_kpa, value FROM coefficients WHERE name = 'PDY1' AND version = 1",
+        "SELECT tire, pressure_kpa, value FROM coefficients WHERE name = 'PDY1' AND version = 1 \
+         AND model = 'pac2002'",
     ]);
     ok(&q, "query");
     let rows: Vec<String> = text(&q.stdout).lines().skip(1).map(String::from).collect();
     assert_eq!(rows.len() as u64, m1.counts.groups, "{rows:?}");
+    // ... and one MF 6.1 PDY1 per tire and rim.
+    let q61 = tb(&[
+        "query",
+        "--store",
+        "outputs/store",
+        "--format",
+        "csv",
+        "SELECT tire, pressure_kpa, value FROM coefficients WHERE name = 'PDY1' AND version = 1 \
+         AND model = 'mf61'",
+    ]);
+    ok(&q61, "query mf61");
+    assert_eq!(text(&q61.stdout).lines().skip(1).count(), 4);
     for r in &rows {
         let v: f64 = r.rsplit(',').next().unwrap().parse().unwrap();
         // |mu_y| of a racing tire; the sign follows the fit's ISO-W convention.
@@ -263,6 +288,51 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
             !max_abs.is_empty() && max_abs.iter().all(|v| *v > 0.0 && v.is_finite()),
             "{}: force deltas {max_abs:?}",
             g.tire
+        );
+    }
+    // Issue 19: the MF 6.1 models (one per tire and rim) are compared in force space at each
+    // tested pressure and at the midpoint between neighbouring ones.
+    let strings = |name: &str| -> Vec<String> {
+        df.column(name)
+            .unwrap()
+            .cast(&DataType::String)
+            .unwrap()
+            .str()
+            .unwrap()
+            .iter()
+            .map(|v| v.unwrap_or_default().to_string())
+            .collect()
+    };
+    let (tires, rims, models, kinds, at) = (
+        strings("tire"),
+        strings("rim_in"),
+        strings("model"),
+        strings("kind"),
+        strings("at_pressure_kpa"),
+    );
+    let mut combos: BTreeMap<(String, String), Vec<f64>> = BTreeMap::new();
+    for g in &m3.groups {
+        combos
+            .entry((g.tire.clone(), g.rim_in.to_string()))
+            .or_default()
+            .push(g.pressure_kpa as f64);
+    }
+    for ((tire, rim), mut tested) in combos {
+        tested.sort_by(f64::total_cmp);
+        let mut want: Vec<f64> = tested.clone();
+        want.extend(tested.windows(2).map(|w| 0.5 * (w[0] + w[1])));
+        want.sort_by(f64::total_cmp);
+        let mut got: Vec<f64> = (0..df.height())
+            .filter(|&i| {
+                tires[i] == tire && rims[i] == rim && models[i] == "mf61" && kinds[i] == "force"
+            })
+            .map(|i| at[i].parse::<f64>().unwrap())
+            .collect();
+        got.sort_by(f64::total_cmp);
+        got.dedup();
+        assert_eq!(
+            got, want,
+            "{tire} on {rim} in: MF 6.1 force rows at {got:?}"
         );
     }
     // --tire limits the rows to one tire.
@@ -443,4 +513,137 @@ fn jobs_one_and_two_publish_identical_tables() {
         );
     }
     assert_eq!(tree(&v1.join("tir")), tree(&v2.join("tir")));
+    issue19_mf61_models_lint_and_evaluate(&v1);
+}
+
+/// The columns of a CSV `tir eval` wrote: (header, rows).
+fn csv_rows(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let body = std::fs::read_to_string(path).unwrap();
+    let mut lines = body.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    (header, rows)
+}
+
+/// Issue 19: a version holds one MF 6.1 `.tir` per tire and rim beside the per-pressure PAC2002
+/// files; each passes `tir lint` (exit 0), `tir eval` with a `P_Pa` column gives forces that
+/// change with the pressure and agree with the PAC2002 file of each tested pressure (Fy within
+/// 3 % at 5 deg slip angle and the file's FNOMIN), and `fit_quality` has `model = mf61` rows at
+/// every tested pressure of its tire and rim.
+fn issue19_mf61_models_lint_and_evaluate(dir: &Path) {
+    use tirebase::core::naming::{mf61_tir_file_name, tir_file_name};
+    let m = Manifest::read(dir).unwrap();
+    let mut combos: BTreeMap<(String, i64), Vec<i64>> = BTreeMap::new();
+    for g in &m.groups {
+        combos
+            .entry((g.tire.clone(), g.rim_in))
+            .or_default()
+            .push(g.pressure_kpa);
+    }
+    let q = read_table(&dir.join("fit_quality.parquet"));
+    let col = |name: &str| -> Vec<String> {
+        q.column(name)
+            .unwrap()
+            .cast(&DataType::String)
+            .unwrap()
+            .str()
+            .unwrap()
+            .iter()
+            .map(|v| v.unwrap_or_default().to_string())
+            .collect()
+    };
+    let (tires, rims, ps, models) = (
+        col("tire"),
+        col("rim_in"),
+        col("pressure_kpa"),
+        col("model"),
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    for ((tire, rim), pressures) in &combos {
+        let mf61 = dir.join("tir").join(mf61_tir_file_name(tire, *rim as f64));
+        assert!(mf61.is_file(), "{} missing", mf61.display());
+        let lint = bin().args(["tir", "lint"]).arg(&mf61).output().unwrap();
+        ok(&lint, &format!("tir lint {}", mf61.display()));
+        for p in pressures {
+            assert!(
+                (0..q.height()).any(|i| tires[i] == *tire
+                    && rims[i] == rim.to_string()
+                    && ps[i] == p.to_string()
+                    && models[i] == "mf61"),
+                "no mf61 fit_quality row for {tire} on {rim} in at {p} kPa"
+            );
+            let pac = dir
+                .join("tir")
+                .join(tir_file_name(tire, *rim as f64, *p as f64));
+            let (pac_file, _) = tirebase::core::tire_model::tir::TirFile::parse_bytes(
+                &std::fs::read(&pac).unwrap(),
+            )
+            .unwrap();
+            let fz = pac_file.coefs[tirebase::core::tire_model::Coef::FNOMIN];
+            let input = tmp.path().join("points.csv");
+            std::fs::write(
+                &input,
+                format!(
+                    "Fz_N,kappa,alpha_rad,gamma_rad,Vx_mps,P_Pa\n{fz},0,0.0872665,0,11.1,{}\n",
+                    *p as f64 * 1e3
+                ),
+            )
+            .unwrap();
+            let fy_of = |tir: &Path, out: &str| -> f64 {
+                let output = tmp.path().join(out);
+                let o = bin()
+                    .args(["tir", "eval", "--tir"])
+                    .arg(tir)
+                    .arg("--input")
+                    .arg(&input)
+                    .arg("--output")
+                    .arg(&output)
+                    .output()
+                    .unwrap();
+                ok(&o, &format!("tir eval {}", tir.display()));
+                let (h, rows) = csv_rows(&output);
+                let k = h.iter().position(|c| c == "Fy_N").unwrap();
+                rows[0][k]
+            };
+            let (fy61, fy52) = (fy_of(&mf61, "mf61.csv"), fy_of(&pac, "pac.csv"));
+            assert!(
+                fy61.is_finite() && (fy61 - fy52).abs() <= 0.03 * fy52.abs(),
+                "{tire} on {rim} in at {p} kPa: MF 6.1 Fy {fy61} N, PAC2002 {fy52} N"
+            );
+        }
+    }
+    // The pressure moves the MF 6.1 forces.
+    let ((tire, rim), pressures) = combos.iter().next().unwrap();
+    let mf61 = dir.join("tir").join(mf61_tir_file_name(tire, *rim as f64));
+    let input = tmp.path().join("two.csv");
+    let (lo, hi) = (
+        pressures[0] as f64 * 1e3,
+        *pressures.last().unwrap() as f64 * 1e3,
+    );
+    std::fs::write(
+        &input,
+        format!(
+            "Fz_N,kappa,alpha_rad,gamma_rad,Vx_mps,P_Pa\n1000,0.05,0.0872665,0,11.1,{lo}\n1000,0.05,0.0872665,0,11.1,{hi}\n"
+        ),
+    )
+    .unwrap();
+    let output = tmp.path().join("two_out.csv");
+    let o = bin()
+        .args(["tir", "eval", "--tir"])
+        .arg(&mf61)
+        .arg("--input")
+        .arg(&input)
+        .arg("--output")
+        .arg(&output)
+        .output()
+        .unwrap();
+    ok(&o, "tir eval at two pressures");
+    let (h, rows) = csv_rows(&output);
+    let k = h.iter().position(|c| c == "Fy_N").unwrap();
+    assert!(
+        (rows[0][k] - rows[1][k]).abs() > 1.0,
+        "Fy does not move with the pressure: {rows:?}"
+    );
 }

@@ -581,9 +581,21 @@ fn issue20_tir_names_stay_unique_per_group() {
             .map(|g| (g.rim_in, g.pressure_kpa))
             .collect()
     };
-    let colliding = 2 * rim_pressures(a).intersection(&rim_pressures(b)).count();
+    let rims = |tire: &str| -> std::collections::BTreeSet<i64> {
+        rim_pressures(tire).into_iter().map(|(r, _)| r).collect()
+    };
+    // ... and their MF 6.1 files (one per tire and rim) at a shared rim.
+    let colliding = 2 * rim_pressures(a).intersection(&rim_pressures(b)).count()
+        + 2 * rims(a).intersection(&rims(b)).count();
     assert!(colliding > 0, "{a} and {b} share no rim and pressure");
     let n_groups = before.groups.len();
+    let n_models = n_groups
+        + before
+            .groups
+            .iter()
+            .map(|g| (g.tire.as_str(), g.rim_in))
+            .collect::<std::collections::BTreeSet<_>>()
+            .len();
 
     let out = run(&input, &store, &[]);
     let log = text(&out.stderr);
@@ -592,9 +604,9 @@ fn issue20_tir_names_stay_unique_per_group() {
     let (_, dir) = latest(&store);
     let m = Manifest::read(&dir).unwrap();
     assert_eq!(m.counts.groups as usize, n_groups, "{:?}", m.groups);
-    assert_eq!(m.counts.tir_files as usize, n_groups, "{:?}", m.counts);
+    assert_eq!(m.counts.tir_files as usize, n_models, "{:?}", m.counts);
     let files = files_below(&dir.join("tir"));
-    assert_eq!(files.len(), n_groups, "{:?}", files.keys());
+    assert_eq!(files.len(), n_models, "{:?}", files.keys());
     assert_eq!(
         m.problems
             .iter()
@@ -604,7 +616,10 @@ fn issue20_tir_names_stay_unique_per_group() {
     );
     // Each group's file holds that group's tire.
     let groups = tirebase::store::results::model_groups(&dir);
-    let (names, _) = tirebase::store::results::tir_names(&groups);
+    let (mut names, _) = tirebase::store::results::tir_names(&groups);
+    names.extend(
+        tirebase::store::results::mf61_names(&tirebase::store::results::mf61_groups(&dir)).0,
+    );
     for ((tire, _, p), name) in &names {
         let body = text(&files[name]);
         assert!(

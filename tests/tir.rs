@@ -136,6 +136,205 @@ fn eval_reproduces_every_reference_grid() {
     }
 }
 
+/// Issue 19: the MF 6.1 / 6.2 grids (input column P_Pa per row) through the CLI, both modes.
+#[test]
+fn eval_reproduces_the_mf6_grids() {
+    let dir = tempfile::tempdir().unwrap();
+    for stem in [
+        "MagicFormula61_Parameters",
+        "MagicFormula62_Parameters",
+        "PacejkaBook_Defaults",
+    ] {
+        for (mode, suffix) in [("limits", "111"), ("raw", "211")] {
+            let tir = fixture(&format!("reference/mfeval-mf6/{stem}.tir"));
+            let csv = fixture(&format!("reference/mfeval-mf6/{stem}_mode{suffix}.csv"));
+            let out = eval(dir.path(), &tir, &csv, mode);
+            let worst = compare(&out, &csv);
+            let worst: Vec<String> = worst.iter().map(|w| format!("{w:.2e}")).collect();
+            println!(
+                "{stem} ({mode}): max relative error Fx Fy Mx My Mz = {}",
+                worst.join(" ")
+            );
+        }
+    }
+}
+
+/// P_Pa: an MF 6.x file evaluates at it (default INFLPRES), a PAC2002 file ignores it (with a
+/// note); a bad pressure is a one-line error naming the line.
+#[test]
+fn eval_pressure_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows = "Fz_N,kappa,alpha_rad,gamma_rad,Vx_mps,P_Pa\n\
+                6000,0.05,0.1,0.02,16.6,220000\n\
+                6000,0.05,0.1,0.02,16.6,260000\n";
+    let input = dir.path().join("p.csv");
+    std::fs::write(&input, rows).unwrap();
+    let mf61 = fixture("reference/mfeval-mf6/MagicFormula61_Parameters.tir");
+    let out = eval(dir.path(), &mf61, &input, "raw");
+    let (h, r) = read_csv(&out);
+    let fy = column(&h, "Fy_N");
+    assert_ne!(r[0][fy], r[1][fy], "the pressure changes Fy");
+    // Without the column: INFLPRES (260 kPa), the second row.
+    let no_p = dir.path().join("no_p.csv");
+    std::fs::write(
+        &no_p,
+        "Fz_N,kappa,alpha_rad,gamma_rad,Vx_mps\n6000,0.05,0.1,0.02,16.6\n",
+    )
+    .unwrap();
+    let (h2, r2) = read_csv(&eval(dir.path(), &mf61, &no_p, "raw"));
+    assert_eq!(r2[0][column(&h2, "Fy_N")], r[1][fy]);
+    // PAC2002 ignores it and says so.
+    let o = tirebase(&[
+        "tir",
+        "eval",
+        "--tir",
+        fixture(FSAE_TIR).to_str().unwrap(),
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        dir.path().join("pac.csv").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("P_Pa is ignored"),
+        "{}",
+        text(&o.stderr)
+    );
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(
+        &bad,
+        "Fz_N,kappa,alpha_rad,gamma_rad,Vx_mps,P_Pa\n6000,0,0,0,16.6,-1\n",
+    )
+    .unwrap();
+    let o = tirebase(&[
+        "tir",
+        "eval",
+        "--tir",
+        mf61.to_str().unwrap(),
+        "--input",
+        bad.to_str().unwrap(),
+        "--output",
+        dir.path().join("bad_out.csv").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    let err = text(&o.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("line 2: column P_Pa"), "{err}");
+}
+
+/// `convert --to`: MF 6.1 -> PAC2002 at a pressure (notes on stderr), PAC2002 -> MF 6.1 at a
+/// pressure; both outputs read back, lint without errors and evaluate.
+#[test]
+fn convert_between_versions() {
+    let dir = tempfile::tempdir().unwrap();
+    let mf61 = fixture("reference/mfeval-mf6/MagicFormula61_Parameters.tir");
+    let pac = dir.path().join("mf61_at_230kpa.tir");
+    let o = tirebase(&[
+        "tir",
+        "convert",
+        "--input",
+        mf61.to_str().unwrap(),
+        "--output",
+        pac.to_str().unwrap(),
+        "--to",
+        "pac2002",
+        "--pressure",
+        "230kPa",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let notes = text(&o.stderr);
+    assert!(notes.contains("MF 6.1 -> PAC2002: PKY4"), "{notes}");
+    assert!(notes.contains("largest difference"), "{notes}");
+    let written = std::fs::read_to_string(&pac).unwrap();
+    assert!(written.contains("FITTYP                   =  6"));
+    assert!(
+        written.contains("IP                       =  230000"),
+        "{written}"
+    );
+    let lifted = dir.path().join("fsae_mf61.tir");
+    let o = tirebase(&[
+        "tir",
+        "convert",
+        "--input",
+        fixture(FSAE_TIR).to_str().unwrap(),
+        "--output",
+        lifted.to_str().unwrap(),
+        "--to",
+        "mf61",
+        "--pressure",
+        "12psi",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let written = std::fs::read_to_string(&lifted).unwrap();
+    assert!(
+        written.contains("FITTYP                   =  61"),
+        "{written}"
+    );
+    assert!(
+        written.contains("NOMPRES                  =  82737.08"),
+        "{written}"
+    );
+    for f in [&pac, &lifted] {
+        let o = tirebase(&["tir", "lint", f.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o.stdout));
+    }
+    let o = tirebase(&[
+        "tir",
+        "convert",
+        "--input",
+        fixture(FSAE_TIR).to_str().unwrap(),
+        "--output",
+        dir.path().join("x.tir").to_str().unwrap(),
+        "--to",
+        "mf61",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("no inflation pressure"),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
+/// The real files' directory (`../shared/real` of the main checkout), if present.
+fn real_dir() -> Option<PathBuf> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    [root.join("../shared/real"), root.join("../../shared/real")]
+        .into_iter()
+        .find(|d| d.join("obfuscated_mf61.tir").exists())
+}
+
+/// Opt-in (the file is not in the repository): the de-identified TTC author's MF 6.1 fit, with
+/// its blank values (`WIDTH =`, `INFLPRES =`, ranges), reads, lints and evaluates at 69, 83 and
+/// 97 kPa. `cargo test --test integration tir::real_mf61_file -- --ignored`.
+#[test]
+#[ignore = "needs ../shared/real/obfuscated_mf61.tir"]
+fn real_mf61_file_reads_and_evaluates() {
+    let Some(real) = real_dir() else {
+        panic!("../shared/real/obfuscated_mf61.tir not found");
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let tir = real.join("obfuscated_mf61.tir");
+    let input = dir.path().join("in.csv");
+    let mut rows = String::from("Fz_N,kappa,alpha_rad,gamma_rad,Vx_mps,P_Pa\n");
+    for p in [69e3, 83e3, 97e3] {
+        for a in [-0.15, -0.05, 0.0, 0.05, 0.15] {
+            rows.push_str(&format!("1500,0,{a},0.02,11.1,{p}\n"));
+        }
+    }
+    std::fs::write(&input, rows).unwrap();
+    let out = eval(dir.path(), &tir, &input, "limits");
+    let (h, r) = read_csv(&out);
+    let fy = column(&h, "Fy_N");
+    for row in &r {
+        let v: f64 = row[fy].parse().unwrap();
+        assert!(v.is_finite() && v.abs() < 5000.0, "{row:?}");
+    }
+    let o = tirebase(&["tir", "lint", tir.to_str().unwrap()]);
+    println!("{}", text(&o.stdout));
+    assert!(o.status.code() == Some(0) || o.status.code() == Some(1));
+}
+
 #[test]
 fn limits_and_raw_modes_differ_on_the_mfeval_211_grid() {
     let dir = tempfile::tempdir().unwrap();
@@ -272,7 +471,7 @@ fn lint_exit_codes() {
     for bad in [
         "unterminated_section",
         "non_numeric_value",
-        "fittyp62",
+        "fittyp7",
         "missing_fnomin",
         "missing_unloaded_radius",
         "unknown_unit",

@@ -16,9 +16,10 @@ use std::time::Instant;
 use anyhow::Context;
 use rayon::prelude::*;
 
-use crate::cli::{SynthCommand, SynthInertiaArgs, SynthRoundArgs, SynthSize};
+use crate::cli::{SynthCommand, SynthInertiaArgs, SynthRoundArgs, SynthSize, SynthTruth};
 use crate::config::Config;
 use tirebase_core::synth::inertia::{SyntheticSession, demo_car_sessions, validation_sessions};
+use tirebase_core::synth::tires::TruthForm;
 
 use crate::core::synth::round::{
     OutFile, RunSummary, Size, SynthConfig, plan_round, render_run, render_truth,
@@ -46,6 +47,12 @@ pub fn resolve_config(args: &SynthRoundArgs) -> anyhow::Result<SynthConfig> {
     }
     if args.defects {
         cfg.defects = true;
+    }
+    if let Some(truth) = args.truth {
+        cfg.truth = match truth {
+            SynthTruth::Pac2002 => TruthForm::Pac2002,
+            SynthTruth::Mf61 => TruthForm::Mf61,
+        };
     }
     if args.ideal || args.no_noise {
         cfg.realism.noise_scale = 0.0;

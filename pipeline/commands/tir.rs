@@ -1,7 +1,8 @@
 //! `tirebase tir eval | lint | convert | score`: the `.tir` file commands.
 //!
 //! In: paths from the command line. Out: files (`eval`: a CSV of forces and moments, `convert`:
-//! a normalised `.tir`), findings on stdout (`lint`), reader warnings on stderr, and the exit
+//! a normalised or converted `.tir`), findings on stdout (`lint`), reader warnings and conversion
+//! notes on stderr, and the exit
 //! code (`lint`: 0 clean or warnings only, 1 lint errors; any command: 2 via `main` when a file
 //! cannot be read). The model, reader, writer and lint are `tirebase_core::tire_model`; this
 //! module only moves bytes and prints. Deliberately not here: any physics.
@@ -11,8 +12,8 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
-use tirebase_core::tire_model::tir::{ReadWarning, TirFile, format_f64, lint};
-use tirebase_core::tire_model::{Coef, Evaluation, Mode, SlipInput};
+use tirebase_core::tire_model::tir::{ReadWarning, TirFile, convert, format_f64, lint};
+use tirebase_core::tire_model::{Coef, Evaluation, Mode, Pressures, SlipInput};
 
 use crate::cli::{EvalMode, TirCommand, TirConvertArgs, TirEvalArgs, TirLintArgs, TirScoreArgs};
 
@@ -70,6 +71,8 @@ fn print_read_warnings(path: &Path, warnings: &[ReadWarning]) {
 
 /// The input columns `tir eval` needs, in [`SlipInput`] order.
 const INPUT_COLUMNS: [&str; 5] = ["Fz_N", "kappa", "alpha_rad", "gamma_rad", "Vx_mps"];
+/// The optional inflation-pressure column of `tir eval`, Pa.
+const PRESSURE_COLUMN: &str = "P_Pa";
 /// The columns `tir eval` adds.
 const OUTPUT_COLUMNS: [&str; 5] = ["Fx_N", "Fy_N", "Mx_Nm", "My_Nm", "Mz_Nm"];
 
@@ -87,7 +90,19 @@ fn eval(args: &TirEvalArgs) -> anyhow::Result<ExitCode> {
     let table = read_points(&args.input)?;
     let mode = eval_mode(args.mode);
     let mut results = vec![Evaluation::default(); table.points.len()];
-    file.model().eval_batch(&table.points, mode, &mut results);
+    let model = file.model();
+    let pressures = match &table.pressures {
+        Some(p) if model.version.is_mf6() => Pressures::PerPoint(p),
+        Some(_) => {
+            eprintln!(
+                "note: {} is a PAC2002 / MF 5.2 file without pressure terms; column {PRESSURE_COLUMN} is ignored",
+                args.tir.display()
+            );
+            Pressures::Uniform(model.default_pressure_pa())
+        }
+        None => Pressures::Uniform(model.default_pressure_pa()),
+    };
+    model.eval_batch_at(&table.points, pressures, mode, &mut results);
     write_results(&args.output, &table, &results)?;
     Ok(ExitCode::SUCCESS)
 }
@@ -97,6 +112,8 @@ struct PointTable {
     header: csv::StringRecord,
     records: Vec<csv::StringRecord>,
     points: Vec<SlipInput>,
+    /// Inflation pressures, Pa, when the CSV has a `P_Pa` column.
+    pressures: Option<Vec<f64>>,
 }
 
 fn read_points(path: &Path) -> anyhow::Result<PointTable> {
@@ -121,8 +138,12 @@ fn read_points(path: &Path) -> anyhow::Result<PointTable> {
                 )
             })?;
     }
+    let pressure_index = header
+        .iter()
+        .position(|h| h.trim_start_matches('\u{feff}').trim() == PRESSURE_COLUMN);
     let mut records = Vec::new();
     let mut points = Vec::new();
+    let mut pressures = Vec::new();
     for record in reader.records() {
         let record = record.map_err(|e| anyhow::anyhow!("{shown}: {e}"))?;
         let line = record.position().map_or(0, csv::Position::line);
@@ -135,6 +156,20 @@ fn read_points(path: &Path) -> anyhow::Result<PointTable> {
             if !f64::is_finite(*x) {
                 bail!("{shown}: line {line}: column {name}: '{text}' is not a finite number");
             }
+        }
+        if let Some(i) = pressure_index {
+            let text = record.get(i).unwrap_or("").trim();
+            let p: f64 = text.parse().map_err(|_| {
+                anyhow::anyhow!(
+                    "{shown}: line {line}: column {PRESSURE_COLUMN}: '{text}' is not a number"
+                )
+            })?;
+            if !(p.is_finite() && p > 0.0) {
+                bail!(
+                    "{shown}: line {line}: column {PRESSURE_COLUMN}: {p} Pa is not a positive inflation pressure"
+                );
+            }
+            pressures.push(p);
         }
         points.push(SlipInput {
             fz_n: v[0],
@@ -149,6 +184,7 @@ fn read_points(path: &Path) -> anyhow::Result<PointTable> {
         header,
         records,
         points,
+        pressures: pressure_index.map(|_| pressures),
     })
 }
 
@@ -192,8 +228,19 @@ fn lint_file(args: &TirLintArgs) -> anyhow::Result<ExitCode> {
     let envelope = report.envelope.map_or_else(
         || "not sampled".to_string(),
         |e| {
+            let pressures: Vec<String> = e
+                .pressures_pa
+                .iter()
+                .flatten()
+                .map(|p| format!("{:.1}", p / 1e3))
+                .collect();
+            let pressures = if pressures.is_empty() {
+                String::new()
+            } else {
+                format!(", pressure {} kPa", pressures.join(" / "))
+            };
             format!(
-                "Fz {:.0}..{:.0} N, inclination {:.2}..{:.2} deg, kappa {}..{}, alpha {:.2}..{:.2} deg, {} points",
+                "Fz {:.0}..{:.0} N, inclination {:.2}..{:.2} deg, kappa {}..{}, alpha {:.2}..{:.2} deg{pressures}, {} points",
                 e.fz_n.0,
                 e.fz_n.1,
                 e.gamma_rad.0.to_degrees(),
@@ -222,9 +269,21 @@ fn convert(args: &TirConvertArgs) -> anyhow::Result<ExitCode> {
     let (file, warnings) = read_tir(&args.input)?;
     print_read_warnings(&args.input, &warnings);
     refuse_undefined(&args.input, &file, args.force)?;
-    let text = file
+    let to = args.to.unwrap_or(file.version);
+    let shown = args.input.display();
+    let conversion = convert::convert(&file, to, args.pressure)
+        .map_err(|e| anyhow::anyhow!("{shown}: cannot convert to {}: {e}", to.label()))?;
+    for note in &conversion.notes {
+        eprintln!(
+            "{shown}: note: {} -> {}: {note}",
+            file.version.label(),
+            to.label()
+        );
+    }
+    let text = conversion
+        .file
         .render()
-        .map_err(|e| anyhow::anyhow!("{}: cannot write as PAC2002: {e}", args.input.display()))?;
+        .map_err(|e| anyhow::anyhow!("{shown}: cannot write as {}: {e}", to.label()))?;
     fs::write(&args.output, text)
         .with_context(|| format!("{}: cannot write", args.output.display()))?;
     Ok(ExitCode::SUCCESS)

@@ -433,6 +433,7 @@ mod tests {
                 tire: tires[i].clone(),
                 rim_in: 7,
                 pressure_kpa: p[i],
+                model: "pac2002".into(),
                 channel: ch[i].to_string(),
                 n: None,
                 rmse: None,

@@ -44,6 +44,9 @@ pub struct RoundResults {
 impl RoundResults {
     /// A round of `results` and its `models` (by `.tir` file name).
     pub fn new(label: &str, results: Results, models: BTreeMap<String, TirModel>) -> RoundResults {
+        // The selection ranks per-pressure PAC2002 models; MF 6.1 rows are not its channels.
+        let mut results = results;
+        results.fit_quality = results.pac2002_quality();
         RoundResults {
             label: label.to_string(),
             tir_names: tir_names(&results.model_groups()).0,
@@ -297,6 +300,7 @@ mod tests {
             tire: tire.into(),
             rim_in: 7,
             pressure_kpa: 83,
+            model: "pac2002".into(),
             channel: channel.into(),
             n: None,
             rmse: None,

@@ -83,6 +83,84 @@ pub fn tir_file_name(tire: &str, rim_in: f64, pressure_kpa: f64) -> String {
     )
 }
 
+/// The `.tir` file name of the MF 6.1 model of one tire and rim (one model across every tested
+/// pressure): `<tire>__<rim>in__mf61.tir`.
+///
+/// ```
+/// use tirebase_core::naming::mf61_tir_file_name;
+/// assert_eq!(
+///     mf61_tir_file_name("Hoosier 20.5x7.0-13 R25B", 7.0),
+///     "hoosier_20.5x7.0-13_r25b__7in__mf61.tir"
+/// );
+/// ```
+pub fn mf61_tir_file_name(tire: &str, rim_in: f64) -> String {
+    format!("{}__mf61.tir", tire_rim_stem(tire, rim_in))
+}
+
+/// The MF 6.1 `.tir` file names of a set of (tire, rim in inches), all different, as
+/// [`unique_tir_names`] names the per-pressure files: tires whose names sanitise alike at the
+/// same rim each get the hash of their exact name after the tire part.
+///
+/// ```
+/// use tirebase_core::naming::unique_mf61_names;
+/// let names = unique_mf61_names(&[("Hoosier R25B", 7.0), ("hoosier r25b", 7.0), ("X", 8.0)]);
+/// assert_ne!(names[0].0, names[1].0);
+/// assert!(names[0].0.ends_with("__7in__mf61.tir") && names[0].1.is_some());
+/// assert_eq!(names[2], ("x__8in__mf61.tir".to_string(), None));
+/// ```
+pub fn unique_mf61_names(groups: &[(&str, f64)]) -> Vec<(String, Option<String>)> {
+    let plain: Vec<String> = groups
+        .iter()
+        .map(|(t, r)| mf61_tir_file_name(t, *r))
+        .collect();
+    disambiguate(&plain, groups.iter().map(|(t, _)| *t), |tire, i| {
+        format!(
+            "{}-{}__{}in__mf61.tir",
+            sanitize_tire(tire),
+            name_hash(tire),
+            rim_label(groups[i].1)
+        )
+    })
+}
+
+/// Per name: itself, or, where tires share it, `unique(tire, index)` and a note.
+fn disambiguate<'a>(
+    plain: &[String],
+    tires: impl Iterator<Item = &'a str>,
+    unique: impl Fn(&str, usize) -> String,
+) -> Vec<(String, Option<String>)> {
+    let tires: Vec<&str> = tires.collect();
+    let mut tires_of: std::collections::BTreeMap<String, Vec<&str>> = Default::default();
+    for (name, tire) in plain.iter().zip(&tires) {
+        let sharing = tires_of.entry(name.to_lowercase()).or_default();
+        if !sharing.contains(tire) {
+            sharing.push(tire);
+        }
+    }
+    plain
+        .iter()
+        .zip(&tires)
+        .enumerate()
+        .map(|(i, (name, tire))| {
+            let sharing = &tires_of[&name.to_lowercase()];
+            if sharing.len() < 2 {
+                return (name.clone(), None);
+            }
+            let unique = unique(tire, i);
+            let others: Vec<String> = sharing
+                .iter()
+                .filter(|t| *t != tire)
+                .map(|t| format!("{t:?}"))
+                .collect();
+            let note = format!(
+                "tire {tire:?} shares the file name {name} with {}: written as {unique}",
+                others.join(", ")
+            );
+            (unique, Some(note))
+        })
+        .collect()
+}
+
 /// A short stable hash of an exact tire name (FNV-1a 64, 8 hex digits): what tells apart two
 /// tires whose names sanitise alike.
 fn name_hash(tire: &str) -> String {
@@ -120,40 +198,16 @@ pub fn unique_tir_names(groups: &[(&str, f64, f64)]) -> Vec<(String, Option<Stri
         .iter()
         .map(|(t, r, p)| tir_file_name(t, *r, *p))
         .collect();
-    let mut tires_of: std::collections::BTreeMap<String, Vec<&str>> = Default::default();
-    for (name, (tire, _, _)) in plain.iter().zip(groups) {
-        let tires = tires_of.entry(name.to_lowercase()).or_default();
-        if !tires.contains(tire) {
-            tires.push(tire);
-        }
-    }
-    plain
-        .iter()
-        .zip(groups)
-        .map(|(name, (tire, rim, p))| {
-            let sharing = &tires_of[&name.to_lowercase()];
-            if sharing.len() < 2 {
-                return (name.clone(), None);
-            }
-            let unique = format!(
-                "{}-{}__{}in__{}kPa.tir",
-                sanitize_tire(tire),
-                name_hash(tire),
-                rim_label(*rim),
-                p.round() as i64
-            );
-            let others: Vec<String> = sharing
-                .iter()
-                .filter(|t| *t != tire)
-                .map(|t| format!("{t:?}"))
-                .collect();
-            let note = format!(
-                "tire {tire:?} shares the file name {name} with {}: written as {unique}",
-                others.join(", ")
-            );
-            (unique, Some(note))
-        })
-        .collect()
+    disambiguate(&plain, groups.iter().map(|(t, _, _)| *t), |tire, i| {
+        let (_, rim, p) = groups[i];
+        format!(
+            "{}-{}__{}in__{}kPa.tir",
+            sanitize_tire(tire),
+            name_hash(tire),
+            rim_label(rim),
+            p.round() as i64
+        )
+    })
 }
 
 #[cfg(test)]

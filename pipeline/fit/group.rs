@@ -19,6 +19,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
+use tirebase_core::fit::mf61::{Mf61Sample, Mf61Sweep};
 use tirebase_core::fit::pac2002::{
     self, FitConfig, FitContext, FitInput, Pac2002Fit, RelaxationLaw as DelagLaw,
     RelaxationLengths, Sweep,
@@ -63,6 +64,9 @@ pub struct GroupResult {
     pub thermal: Option<ThermalOutput>,
     /// Mean measured inflation pressure of the PAC2002 sweeps, kPa.
     pub pressure_kpa_mean: f64,
+    /// The relaxation lengths the final PAC2002 fit de-lagged its sweeps with (`None`: not
+    /// de-lagged); the MF 6.1 stage de-lags the same way.
+    pub delag: Option<RelaxationLengths>,
     /// Force-clean segments the PAC2002 stage was given.
     pub n_pac2002_segments: usize,
     /// PAC2002 fits run (2 when the sweeps were refitted de-lagged).
@@ -85,6 +89,7 @@ impl GroupResult {
             relaxation: None,
             thermal: None,
             pressure_kpa_mean: f64::NAN,
+            delag: None,
             n_pac2002_segments: 0,
             pac2002_fits: 0,
             pac2002_evaluations: 0,
@@ -234,6 +239,59 @@ fn pac2002_input(
         },
         sweeps,
     })
+}
+
+/// The sweeps the MF 6.1 stage reads from one group: the PAC2002 stage's (force-clean cornering,
+/// and drive/brake and combined sweeps with a slip ratio), cleaned as it cleans them (despiked,
+/// de-lagged with the group's relaxation lengths when it de-lagged), each sample with its
+/// measured inflation pressure.
+pub fn mf61_sweeps(
+    segments: &[LoadedSegment],
+    result: &GroupResult,
+    cfg: &StageConfigs,
+) -> Vec<Mf61Sweep> {
+    let delag = if cfg.pac2002.delag {
+        result.delag.as_ref()
+    } else {
+        None
+    };
+    segments
+        .iter()
+        .filter(|s| pac2002_segment(s))
+        .filter(|s| s.segment.kind == SegmentKind::Cornering || has_kappa(s))
+        .filter_map(|s| {
+            let sweep = sweep_of(s)?;
+            let c = &s.segment.channels;
+            // Cleaning keeps samples by time: their pressure is found by it.
+            let pressure_at = |et: f64| {
+                c.et_s
+                    .binary_search_by(|t| t.total_cmp(&et))
+                    .ok()
+                    .and_then(|i| c.pressure_kpa.get(i))
+                    .map_or(f64::NAN, |p| p * 1e3)
+            };
+            let samples = pac2002::cleaned_samples(&sweep, cfg.pac2002.despike_sigmas, delag);
+            Some(Mf61Sweep {
+                id: sweep.id,
+                kind: sweep.kind,
+                samples: samples
+                    .iter()
+                    .map(|x| Mf61Sample {
+                        fz_n: x.fz_n,
+                        kappa: x.kappa,
+                        alpha_rad: x.alpha_rad,
+                        gamma_rad: x.gamma_rad,
+                        vx_mps: x.vx_mps,
+                        p_pa: pressure_at(x.et_s),
+                        fx_n: x.fx_n,
+                        fy_n: x.fy_n,
+                        mz_nm: x.mz_nm,
+                        mx_nm: x.mx_nm,
+                    })
+                    .collect(),
+            })
+        })
+        .collect()
 }
 
 /// The segment's kappa is a slip (measured SL, or derived from N and V), not an assumed zero.
@@ -474,6 +532,7 @@ fn run_pac2002_and_relaxation(
     let refit = lengths.is_some();
     let fit = if forces_first || refit {
         input.context.relaxation = lengths;
+        out.delag = input.context.relaxation.clone();
         let second_input = if stages.pac2002 {
             input
         } else {
@@ -490,7 +549,11 @@ fn run_pac2002_and_relaxation(
             }
             // the forces-only first pass is not a model to write
             None if forces_first => None,
-            None => Some(first),
+            None => {
+                // the first (not de-lagged) fit is written
+                out.delag = None;
+                Some(first)
+            }
         }
     } else {
         Some(first)

@@ -13,8 +13,10 @@ use polars::prelude::*;
 use tirebase_core::fit::segment_data::TireKey;
 
 use super::group::GroupResult;
+use super::mf61::Mf61Outcome;
 use super::tir::WrittenModel;
 use super::{FitError, FitFailure};
+use crate::config::FitModel;
 use crate::schema;
 
 /// A column being built.
@@ -23,6 +25,7 @@ enum Data {
     OptStr(Vec<Option<String>>),
     F64(Vec<f64>),
     I64(Vec<i64>),
+    OptI64(Vec<Option<i64>>),
     Bool(Vec<bool>),
 }
 
@@ -79,6 +82,13 @@ impl Frame {
         self
     }
 
+    fn oi(&mut self, col: &'static str, v: Option<i64>) -> &mut Self {
+        if let Data::OptI64(x) = self.slot(col, || Data::OptI64(Vec::new())) {
+            x.push(v);
+        }
+        self
+    }
+
     fn b(&mut self, col: &'static str, v: bool) -> &mut Self {
         if let Data::Bool(x) = self.slot(col, || Data::Bool(Vec::new())) {
             x.push(v);
@@ -106,6 +116,7 @@ impl Frame {
                 Data::Str(v) => Column::new(name.into(), v),
                 Data::OptStr(v) => Column::new(name.into(), v),
                 Data::I64(v) => Column::new(name.into(), v),
+                Data::OptI64(v) => Column::new(name.into(), v),
                 Data::Bool(v) => Column::new(name.into(), v),
                 Data::F64(v) if nullable(name) => Column::new(
                     name.into(),
@@ -131,7 +142,7 @@ pub fn coefficients(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, Fit
     for (key, m) in models {
         for c in &m.coefficients {
             f.key(key)
-                .s("model", "PAC2002")
+                .s("model", m.model.as_str())
                 .s("family", c.family.clone())
                 .s("name", c.coef.name())
                 .f("value", c.value)
@@ -150,6 +161,7 @@ pub fn lint(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, FitError> {
     for (key, m) in models {
         for finding in &m.lint.findings {
             f.key(key)
+                .s("model", m.model.as_str())
                 .s("file", m.file_name.clone())
                 .s("severity", finding.severity.to_string())
                 .s("code", finding.code)
@@ -159,18 +171,27 @@ pub fn lint(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, FitError> {
     f.finish()
 }
 
-/// `fit_quality`: one row per fitted family of every written model; `oos_ratio_limit` decides
-/// `oos_flag` ([`tirebase_core::fit::pac2002::FitConfig::oos_ratio_limit`]).
-pub fn fit_quality(results: &[GroupResult], oos_ratio_limit: f64) -> Result<DataFrame, FitError> {
-    let mut f = Frame::new("fit_quality");
-    for r in results {
+/// `fit_quality`: one row per fitted family of every written PAC2002 model (`pac2002`: the
+/// PAC2002 models are written), then per tested pressure and family of every MF 6.1 model; rows
+/// sorted by group, PAC2002 before MF 6.1 within a group. `oos_ratio_limit` decides `oos_flag`
+/// ([`tirebase_core::fit::pac2002::FitConfig::oos_ratio_limit`]).
+pub fn fit_quality(
+    results: &[GroupResult],
+    pac2002: bool,
+    mf61: &[Mf61Outcome],
+    oos_ratio_limit: f64,
+) -> Result<DataFrame, FitError> {
+    let mut rows: Vec<(TireKey, u8, Frame)> = Vec::new();
+    for r in results.iter().filter(|_| pac2002) {
         let Some(fit) = &r.pac2002 else { continue };
+        let mut f = Frame::new("fit_quality");
         for fam in &fit.families {
             let Some(q) = &fam.quality else { continue };
             let oos = q.out_of_sample.as_ref();
             let trend = q.trend.as_ref();
             let id = &q.identifiability;
             f.key(&r.key)
+                .s("model", FitModel::Pac2002.as_str())
                 .s("channel", fam.family.as_str())
                 .f("oos_rmse", oos.map_or(f64::NAN, |o| o.rmse))
                 .f("rmse", q.rmse)
@@ -189,13 +210,13 @@ pub fn fit_quality(results: &[GroupResult], oos_ratio_limit: f64) -> Result<Data
                     "oos_deficient_folds",
                     oos.map_or(0, |o| o.deficient_folds as i64),
                 )
-                .i("n_free", id.n_free as i64)
-                .i("jacobian_rank", id.rank as i64)
+                .oi("n_free", Some(id.n_free as i64))
+                .oi("jacobian_rank", Some(id.rank as i64))
                 .f("condition_number", id.condition)
                 .i("n", q.n as i64)
                 .f("rmse_pct_of_peak", q.rmse_pct_of_peak)
                 .f("r2", q.r2)
-                .i("n_samples", q.n_samples as i64)
+                .oi("n_samples", Some(q.n_samples as i64))
                 .f("sample_rmse", q.sample_rmse)
                 .f("initial_rmse", q.initial_rmse)
                 .i("iterations", q.iterations as i64)
@@ -203,8 +224,96 @@ pub fn fit_quality(results: &[GroupResult], oos_ratio_limit: f64) -> Result<Data
                 .i("evaluations", q.evaluations as i64)
                 .f("seconds", q.seconds);
         }
+        rows.push((r.key.clone(), 0, f));
     }
-    f.finish()
+    for o in mf61 {
+        let Some(fit) = &o.fit else { continue };
+        let mut by_pressure: std::collections::BTreeMap<i64, Frame> = Default::default();
+        // The out-of-sample check of an MF 6.1 model holds out one tested pressure at a time:
+        // its folds are the tested pressures.
+        let folds = fit
+            .family_quality
+            .iter()
+            .map(|q| q.pressure_kpa_nom)
+            .collect::<std::collections::BTreeSet<_>>()
+            .len() as i64;
+        for q in &fit.family_quality {
+            let key = TireKey {
+                pressure_kpa_nom: q.pressure_kpa_nom,
+                ..o.key.clone()
+            };
+            let family = fit.families.iter().find(|x| x.family == q.family);
+            let oos = q.oos_rmse.unwrap_or(f64::NAN);
+            let peak = if q.rmse_pct_of_peak > 0.0 {
+                100.0 * q.rmse / q.rmse_pct_of_peak
+            } else {
+                0.0
+            };
+            by_pressure
+                .entry(q.pressure_kpa_nom)
+                .or_insert_with(|| Frame::new("fit_quality"))
+                .key(&key)
+                .s("model", FitModel::Mf61.as_str())
+                .s("channel", q.family.name())
+                .f("oos_rmse", oos)
+                .f("rmse", q.rmse)
+                .f(
+                    "oos_ratio",
+                    if q.rmse > 0.0 { oos / q.rmse } else { f64::NAN },
+                )
+                .b(
+                    "oos_flag",
+                    q.oos_rmse
+                        .is_some_and(|o| o > oos_ratio_limit * q.rmse + 1e-3 * peak.max(0.0)),
+                )
+                .f("trend_dev_max", f64::NAN)
+                .f("trend_dev_pct_of_peak", f64::NAN)
+                .o("trend_dev_sweep", None)
+                .f("trend_dev_slip", f64::NAN)
+                .i("oos_folds", if q.oos_rmse.is_some() { folds } else { 0 })
+                .i("oos_n", if q.oos_rmse.is_some() { q.n as i64 } else { 0 })
+                .i("oos_deficient_folds", 0)
+                .oi("n_free", None)
+                .oi("jacobian_rank", None)
+                .f("condition_number", f64::NAN)
+                .i("n", q.n as i64)
+                .f("rmse_pct_of_peak", q.rmse_pct_of_peak)
+                .f("r2", q.r2)
+                .oi("n_samples", None)
+                .f("sample_rmse", f64::NAN)
+                .f("initial_rmse", f64::NAN)
+                .i("iterations", family.map_or(0, |x| x.iterations as i64))
+                .s(
+                    "termination",
+                    family.map_or("not_refined", |x| x.termination.as_str()),
+                )
+                .i("evaluations", family.map_or(0, |x| x.evaluations as i64))
+                .f("seconds", family.map_or(0.0, |x| x.seconds));
+        }
+        for (p, f) in by_pressure {
+            let key = TireKey {
+                pressure_kpa_nom: p,
+                ..o.key.clone()
+            };
+            rows.push((key, 1, f));
+        }
+    }
+    rows.sort_by(|a, b| (&a.0, a.1).cmp(&(&b.0, b.1)));
+    let mut out: Option<DataFrame> = None;
+    for (_, _, f) in rows {
+        let df = f.finish()?;
+        out = Some(match out {
+            None => df,
+            Some(acc) => acc.vstack(&df).map_err(|e| FitError::Table {
+                table: "fit_quality".to_string(),
+                message: e.to_string(),
+            })?,
+        });
+    }
+    match out {
+        Some(df) => Ok(df),
+        None => Frame::new("fit_quality").finish(),
+    }
 }
 
 /// `fit_failures`.
@@ -384,7 +493,7 @@ mod tests {
 
         let mut f = Frame::new("coefficients");
         f.key(&key)
-            .s("model", "PAC2002")
+            .s("model", "pac2002")
             .s("family", "Fy0")
             .s("name", "PDY1")
             .f("value", -2.5)

@@ -25,6 +25,7 @@ use tirebase_core::tire_model::tir::lint::{self, LintReport};
 use tirebase_core::tire_model::tir::{TirFile, TyrePressure};
 
 use super::group::GroupResult;
+use crate::config::FitModel;
 
 /// One row of the `coefficients` table (without the group columns).
 #[derive(Clone, Debug, PartialEq)]
@@ -48,6 +49,10 @@ pub struct CoefficientRow {
 /// A model ready to write.
 #[derive(Clone, Debug)]
 pub struct WrittenModel {
+    /// Which model it is (the tables' `model` column).
+    pub model: FitModel,
+    /// The file as read back from `text`.
+    pub file: TirFile,
     /// File name under `OUT/tir/`.
     pub file_name: String,
     /// File text.
@@ -76,7 +81,7 @@ fn rows_of(fit: &Pac2002Fit) -> Vec<CoefficientRow> {
 }
 
 /// Put `value` into both the coefficients and the rows.
-fn set(
+pub(super) fn set(
     file: &mut TirFile,
     rows: &mut Vec<CoefficientRow>,
     coef: Coef,
@@ -231,8 +236,10 @@ pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, Str
     let (read_back, _) =
         TirFile::parse(&text).map_err(|e| format!("the rendered .tir does not read back: {e}"))?;
     Ok(WrittenModel {
+        model: FitModel::Pac2002,
         file_name: tir_file_name(&key.tire, key.rim_in as f64, key.pressure_kpa_nom as f64),
         lint: lint::lint(&read_back),
+        file: read_back,
         text,
         coefficients: rows,
     })
@@ -242,14 +249,14 @@ pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, Str
 /// also `16x7.5R10`), `7.0/20.0-13` (width / overall diameter - rim diameter, in) or
 /// `205/55R16` (width mm / aspect ratio % R rim diameter in).
 #[derive(Copy, Clone, Debug, PartialEq)]
-struct TireSize {
-    width_m: f64,
-    aspect_ratio: f64,
-    rim_radius_m: f64,
+pub(super) struct TireSize {
+    pub(super) width_m: f64,
+    pub(super) aspect_ratio: f64,
+    pub(super) rim_radius_m: f64,
 }
 
 impl TireSize {
-    fn from_name(name: &str) -> Option<TireSize> {
+    pub(super) fn from_name(name: &str) -> Option<TireSize> {
         const IN: f64 = 0.0254;
         name.split_whitespace().find_map(|token| {
             let t = token.to_ascii_lowercase();

@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
 use tirebase_core::inertia::InertiaResult;
-use tirebase_core::naming::unique_tir_names;
+use tirebase_core::naming::{unique_mf61_names, unique_tir_names};
 use tirebase_core::tire_model::Pac2002;
 use tirebase_core::tire_model::tir::{TirFile, TirReadError};
 
@@ -144,8 +144,11 @@ pub struct QualityRow {
     pub tire: String,
     pub rim_in: i64,
     pub pressure_kpa: i64,
+    /// `pac2002` or `mf61` (`pac2002` in a table written before the column existed).
+    pub model: String,
     pub channel: String,
-    /// Out-of-sample (k-fold by sweep) RMSE, and its ratio to the in-sample one.
+    /// Out-of-sample RMSE (k-fold by sweep; mf61 rows: leave one pressure out), and its ratio
+    /// to the in-sample one.
     pub oos_rmse: Option<f64>,
     pub oos_ratio: Option<f64>,
     pub oos_flag: Option<bool>,
@@ -241,6 +244,8 @@ pub struct LintRow {
     pub tire: String,
     pub rim_in: i64,
     pub pressure_kpa: i64,
+    /// `pac2002` or `mf61` (`pac2002` in a table written before the column existed).
+    pub model: String,
     pub file: String,
     pub severity: String,
     pub code: String,
@@ -387,15 +392,48 @@ impl Results {
             .collect()
     }
 
-    /// The groups with a model: those of the `coefficients` rows.
+    /// The groups with a PAC2002 model: those of the `coefficients` rows of model `pac2002`.
     pub fn model_groups(&self) -> BTreeSet<GroupKey> {
+        self.groups_of_model(PAC2002)
+    }
+
+    /// The tires and rims with an MF 6.1 model, keyed at its `NOMPRES` (kPa).
+    pub fn mf61_groups(&self) -> BTreeSet<GroupKey> {
+        self.groups_of_model(MF61)
+    }
+
+    fn groups_of_model(&self, model: &str) -> BTreeSet<GroupKey> {
         self.coefficients
             .iter()
             .flatten()
+            .filter(|c| is_model(&c.model, model))
             .map(|c| (c.tire.clone(), c.rim_in, c.pressure_kpa))
             .collect()
     }
+
+    /// The `fit_quality` rows of PAC2002 models (the per-pressure models the report and the
+    /// tire selection rank).
+    pub fn pac2002_quality(&self) -> Option<Vec<QualityRow>> {
+        self.fit_quality.as_ref().map(|rows| {
+            rows.iter()
+                .filter(|q| is_model(&q.model, PAC2002))
+                .cloned()
+                .collect()
+        })
+    }
 }
+
+/// The `model` value of PAC2002 rows.
+pub const PAC2002: &str = "pac2002";
+/// The `model` value of MF 6.1 rows.
+pub const MF61: &str = "mf61";
+
+/// `value` names `model` (case-insensitive: tables of earlier versions wrote `PAC2002`).
+pub fn is_model(value: &str, model: &str) -> bool {
+    value.eq_ignore_ascii_case(model)
+}
+
+impl Results {}
 
 /// The three group columns of a table.
 type Keys = (Vec<String>, Vec<i64>, Vec<i64>);
@@ -455,6 +493,7 @@ fn quality_rows(df: &DataFrame, path: &Path) -> Result<Vec<QualityRow>, StoreErr
         Ok(opt_i64(df, n, path)?.unwrap_or_else(|| vec![None; h]))
     };
     let termination = opt_str(df, "termination", path)?.unwrap_or_else(|| vec![None; h]);
+    let model = opt_str(df, "model", path)?.unwrap_or_else(|| vec![None; h]);
     let (n, iterations) = (i("n")?, i("iterations")?);
     let (n_free, rank) = (i("n_free")?, i("jacobian_rank")?);
     let (oos_rmse, oos_ratio, trend, trend_pct, condition) = (
@@ -477,6 +516,7 @@ fn quality_rows(df: &DataFrame, path: &Path) -> Result<Vec<QualityRow>, StoreErr
             tire: tire[k].clone(),
             rim_in: rim[k],
             pressure_kpa: p[k],
+            model: model[k].clone().unwrap_or_else(|| PAC2002.to_string()),
             channel: channel[k].clone(),
             oos_rmse: oos_rmse[k],
             oos_ratio: oos_ratio[k],
@@ -591,11 +631,13 @@ fn lint_rows(df: &DataFrame, path: &Path) -> Result<Vec<LintRow>, StoreError> {
     let (tire, rim, p) = group_keys(df, path)?;
     let s = |n: &str| req_str(df, n, path).map(strings);
     let (file, severity, code, message) = (s("file")?, s("severity")?, s("code")?, s("message")?);
+    let model = opt_str(df, "model", path)?.unwrap_or_else(|| vec![None; df.height()]);
     Ok((0..df.height())
         .map(|i| LintRow {
             tire: tire[i].clone(),
             rim_in: rim[i],
             pressure_kpa: p[i],
+            model: model[i].clone().unwrap_or_else(|| PAC2002.to_string()),
             file: file[i].clone(),
             severity: severity[i].clone(),
             code: code[i].clone(),
@@ -675,25 +717,59 @@ pub fn read_fit_failures(
     )
 }
 
-/// The groups of a result directory that have a `.tir`: those of its `coefficients` table
-/// (empty when it has none or it cannot be read).
+/// The groups of a result directory that have a PAC2002 `.tir`: those of its `coefficients`
+/// rows of model `pac2002` (every row of a table without the column; empty when it has none or
+/// it cannot be read).
 pub fn model_groups(dir: &Path) -> BTreeSet<GroupKey> {
+    groups_with_model(dir, PAC2002)
+}
+
+/// The tires and rims of a result directory that have an MF 6.1 `.tir`, keyed at its `NOMPRES`
+/// (kPa): its `coefficients` rows of model `mf61`.
+pub fn mf61_groups(dir: &Path) -> BTreeSet<GroupKey> {
+    groups_with_model(dir, MF61)
+}
+
+fn groups_with_model(dir: &Path, model: &str) -> BTreeSet<GroupKey> {
     let Ok(Some(df)) = read_table(dir, TableName::Coefficients) else {
         return BTreeSet::new();
     };
     let path = table_path(dir, TableName::Coefficients);
-    let (Ok(tire), Ok(rim), Ok(p)) = (
+    let (Ok(tire), Ok(rim), Ok(p), Ok(models)) = (
         req_str(&df, "tire", &path),
         req_i64(&df, "rim_in", &path),
         req_i64(&df, "pressure_kpa", &path),
+        opt_str(&df, "model", &path),
     ) else {
         return BTreeSet::new();
     };
+    let models = models.unwrap_or_else(|| vec![Some(PAC2002.to_string()); df.height()]);
     tire.into_iter()
         .zip(rim)
         .zip(p)
-        .filter_map(|((t, r), p)| Some((t?, r?, p?)))
+        .zip(models)
+        .filter(|(_, m)| m.as_deref().is_some_and(|m| is_model(m, model)))
+        .filter_map(|(((t, r), p), _)| Some((t?, r?, p?)))
         .collect()
+}
+
+/// The MF 6.1 `.tir` file name of every tire and rim of a set (keyed at `NOMPRES`:
+/// `naming::unique_mf61_names`), with the notes of the disambiguated ones.
+pub fn mf61_names(groups: &BTreeSet<GroupKey>) -> TirNames {
+    let keys: Vec<&GroupKey> = groups.iter().collect();
+    let args: Vec<(&str, f64)> = keys
+        .iter()
+        .map(|(t, r, _)| (t.as_str(), *r as f64))
+        .collect();
+    let mut names = BTreeMap::new();
+    let mut notes = Vec::new();
+    for (key, (name, note)) in keys.into_iter().zip(unique_mf61_names(&args)) {
+        if let Some(n) = note {
+            notes.push((key.clone(), n));
+        }
+        names.insert(key.clone(), name);
+    }
+    (names, notes)
 }
 
 /// A fitted model as a result directory's `tir/` holds it.

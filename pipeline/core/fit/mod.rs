@@ -4,7 +4,10 @@
 //! file system, no Parquet (the `tirebase` crate reads the store and writes the tables).
 //! [`pac2002`] fits the steady-state model; [`spring_rate`], [`thermal`] and [`relaxation`] are
 //! the other fan-out stages, reading [`segment_data`] and sharing the 1-D minimiser [`scalar`].
+//! [`mf61`] fits one MF 6.1 model per (tire, rim) across the tested pressures, starting from the
+//! per-pressure PAC2002 fits.
 
+pub mod mf61;
 pub mod pac2002;
 pub mod relaxation;
 pub mod scalar;

@@ -5,8 +5,9 @@
 //! quantities in ISO-W, one value per sample at the file's rate, plus for each sample whether it
 //! is a dwell and which piece it belongs to.
 //!
-//! Per sample: commanded state (+ load-servo wander) -> steady-state PAC2002 at the tread
-//! temperature's grip scalings (`LMUX`, `LMUY` = `mu_rel(T)/mu_rel(T_ref)`) -> first-order lag
+//! Per sample: commanded state (+ load-servo wander) -> steady-state truth model (PAC2002, or
+//! MF 6.1 at the true inflation pressure: commanded + servo wander) at the tread temperature's
+//! grip scalings (`LMUX`, `LMUY` = `mu_rel(T)/mu_rel(T_ref)`) -> first-order lag
 //! (`Fy`, `Mz`, `Mx` with `sigma_alpha`; `Fx` with `sigma_kappa`) -> slip power heats the tread ->
 //! radii, wheel speed, slips -> sensors (the load cell's channels through the rig's measurement
 //! chain: a pure delay and a first-order filter in time, both off by default; noise, IR phase
@@ -168,6 +169,7 @@ pub fn simulate(
     let n = (program.duration_s() * rate_hz).floor() as usize + 1;
     let ns = realism.noise_scale;
     let mut model = truth.model.clone();
+    let mf6 = model.version.is_mf6();
     let mut out = RunSamples::default();
     reserve(&mut out, n);
 
@@ -207,7 +209,12 @@ pub fn simulate(
         };
         model.coefs[Coef::LMUX] = grip_x;
         model.coefs[Coef::LMUY] = grip_y;
-        let ss = model.eval(
+        // An MF 6.x truth sees the true inflation pressure, so the servo's wander is drawn before
+        // the forces; a PAC2002 truth has no pressure term and keeps the draw order of older
+        // rounds (wander drawn with the pressure channel below).
+        let early_wander = mf6.then(|| ns * pressure_wander.step(rng));
+        let p_true_pa = (program.pressure_kpa() + early_wander.unwrap_or(0.0)) * 1e3;
+        let ss = model.eval_at(
             &SlipInput {
                 fz_n: fz,
                 kappa: cmd.kappa,
@@ -215,9 +222,10 @@ pub fn simulate(
                 gamma_rad: cmd.gamma_rad,
                 vx_mps: v,
             },
+            p_true_pa,
             Mode::Limits,
         );
-        let (sigma_kappa, sigma_alpha) = model.relaxation_lengths(fz, cmd.gamma_rad);
+        let (sigma_kappa, sigma_alpha) = model.relaxation_lengths_at(fz, cmd.gamma_rad, p_true_pa);
         let (tau_x, tau_y) = if realism.lag && v > STANDSTILL_MPS {
             (sigma_kappa / v, sigma_alpha / v)
         } else {
@@ -260,11 +268,12 @@ pub fn simulate(
         } else {
             0.0
         });
-        out.p_kpa.push(
-            program.pressure_kpa()
-                + ns * pressure_wander.step(rng)
-                + rng.gauss(ns * NOISE.pressure_kpa),
-        );
+        let wander = match early_wander {
+            Some(w) => w,
+            None => ns * pressure_wander.step(rng),
+        };
+        out.p_kpa
+            .push(program.pressure_kpa() + wander + rng.gauss(ns * NOISE.pressure_kpa));
         let [fx_m, fy_m, fz_m, mx_m, mz_m] = [
             chain[0].step(fx),
             chain[1].step(fy),

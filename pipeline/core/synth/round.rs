@@ -11,7 +11,9 @@
 //! Layout of a round directory: `raw/<files>`, `catalog.toml`, `truth/segments.csv`,
 //! `truth/defects.csv`, `truth/round.toml`, `truth/<tire>__<rim>in.toml`, `truth/unit_errors.csv`
 //! (only with the older-round quirk, [`super::quirks`]),
-//! `truth/tir/<tire>__<rim>in__<P>kPa.tir` (names from [`crate::naming`]).
+//! `truth/tir/<tire>__<rim>in__<P>kPa.tir` (names from [`crate::naming`]), and with
+//! `truth = "mf61"` ([`TruthForm::Mf61`]) `truth/tir/<tire>__<rim>in__mf61.tir` (the one MF 6.1
+//! model of every pressure; the per-pressure files are the same model with `INFLPRES` set).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -38,8 +40,8 @@ use super::schedule::{
     nominal_n,
 };
 use super::tires::{
-    CATALOGUE, KPA_PER_PSI, P_REF_KPA, ThermalTruth, TruthModel, V_REF_MPS, base_coefs,
-    thermal_truth, truth_model,
+    CATALOGUE, KPA_PER_PSI, P_REF_KPA, ThermalTruth, TruthForm, TruthModel, V_REF_MPS, base_coefs,
+    mf61_truth, thermal_truth, truth_model, truth_model_mf61,
 };
 
 /// Why a round cannot be planned or a file not rendered.
@@ -90,6 +92,11 @@ pub struct SynthConfig {
     pub project: u32,
     /// Inject the defects of a real round (recorded in `truth/defects.csv`).
     pub defects: bool,
+    /// Truth model: `pac2002` (one PAC2002 set per pressure with the pressure effects folded in;
+    /// not exactly one MF 6.1 model across pressures) or `mf61` (one MF 6.1 model per tire and
+    /// rim with pressure terms, evaluated at each sample's true pressure; written as
+    /// `truth/tir/<tire>__<rim>in__mf61.tir` too).
+    pub truth: TruthForm,
     /// Realism knobs.
     pub realism: RealismConfig,
     /// Schedule knobs.
@@ -105,6 +112,7 @@ impl Default for SynthConfig {
             size: Size::Demo,
             project: 2410,
             defects: false,
+            truth: TruthForm::Pac2002,
             realism: RealismConfig::default(),
             schedule: ScheduleSettings::default(),
             quirks: QuirksConfig::default(),
@@ -381,8 +389,15 @@ pub fn plan_round(config: &SynthConfig) -> Result<RoundPlan, RoundError> {
         let mut distinct: Vec<f64> = pressures.to_vec();
         distinct.sort_by(f64::total_cmp);
         distinct.dedup();
+        let mf61 = match config.truth {
+            TruthForm::Pac2002 => None,
+            TruthForm::Mf61 => Some(mf61_truth(&base, combo.tire_index, combo.rim_in)?),
+        };
         for &p in &distinct {
-            truths.push(truth_model(&base, combo.tire_index, combo.rim_in, p));
+            truths.push(match &mf61 {
+                None => truth_model(&base, combo.tire_index, combo.rim_in, p),
+                Some(m) => truth_model_mf61(m, combo.tire_index, combo.rim_in, p),
+            });
         }
         thermal.push(thermal_truth(INITIAL_T_PEAK_C, config.realism.ambient_c));
         for &p in pressures {
@@ -790,6 +805,12 @@ struct TruthToml {
     generator: &'static str,
     reference_speed_mps: f64,
     reference_pressure_kpa: f64,
+    /// `mf61` under [`TruthForm::Mf61`] (absent for the default PAC2002 truth).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    truth: Option<&'static str>,
+    /// The MF 6.1 truth file of every pressure (`tir/<tire>__<rim>in__mf61.tir`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mf61_tir: Option<String>,
     pressure: Vec<PressureTruthToml>,
     relaxation: RelaxationLawToml,
     thermal: ThermalToml,
@@ -806,12 +827,20 @@ struct PressureTruthToml {
     unloaded_radius_static_m: f64,
     unloaded_radius_dynamic_m: f64,
     fnomin_n: f64,
-    pty1: f64,
-    pty2: f64,
-    pky3: f64,
-    ptx1: f64,
-    ptx2: f64,
-    ptx3: f64,
+    /// PAC2002 relaxation coefficients (absent for an MF 6.1 truth: its lengths are `|Kx/Cx|`,
+    /// `|Ky/Cy|`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pty1: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pty2: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pky3: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ptx1: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ptx2: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ptx3: Option<f64>,
     /// sigma_alpha at the nominal loads, IA 0, m.
     sigma_alpha_m: BTreeMap<String, f64>,
     /// sigma_kappa at the nominal loads, m.
@@ -859,23 +888,27 @@ pub fn render_truth(plan: &RoundPlan, runs: &[RunSummary]) -> Result<Vec<OutFile
     for t in &plan.truths {
         let combo_name = CATALOGUE[t.tire_index].name;
         let name = tir_file_name(combo_name, t.rim_in, t.pressure_kpa());
-        let mut file = TirFile::from_coefs(t.model.coefs.clone());
-        file.pressure = TyrePressure {
-            inflation_pa: Some(t.pressure_kpa() * 1000.0),
-            nominal_pa: Some(P_REF_KPA * 1000.0),
-        };
-        file.header_comments = vec![
-            format!("! : COMMENT :       {combo_name} on a {} in rim at {:.1} psi ({:.0} kPa)", t.rim_in, t.pressure_psi, t.pressure_kpa()),
-            "! : COMMENT :       TRUTH model of the tirebase virtual test machine (synthetic, not measured)".to_string(),
-        ];
-        let text = file.render().map_err(|e| RoundError::Tir {
-            file: name.clone(),
-            message: e.to_string(),
-        })?;
-        out.push(OutFile {
-            path: format!("truth/tir/{name}"),
-            bytes: text.into_bytes(),
-        });
+        let file = truth_tir(
+            t,
+            &format!("at {:.1} psi ({:.0} kPa)", t.pressure_psi, t.pressure_kpa()),
+        );
+        out.push(render_tir(&file, &name)?);
+    }
+    if plan.config.truth == TruthForm::Mf61 {
+        for combo in &plan.combos {
+            let t = plan
+                .truths
+                .iter()
+                .find(|t| {
+                    t.tire_index == combo.tire_index && (t.rim_in - combo.rim_in).abs() < 1e-9
+                })
+                .expect("every combination has a truth");
+            let mut model = t.clone();
+            model.model.coefs[Coef::INFLPRES] = model.model.coefs[Coef::NOMPRES];
+            let name = mf61_tir_file_name(combo.tire(), combo.rim_in);
+            let file = truth_tir(&model, "at every pressure (MF 6.1, INFLPRES = NOMPRES)");
+            out.push(render_tir(&file, &name)?);
+        }
     }
     for (ci, combo) in plan.combos.iter().enumerate() {
         let path = format!("truth/{}.toml", tire_rim_stem(combo.tire(), combo.rim_in));
@@ -911,10 +944,7 @@ pub fn render_truth(plan: &RoundPlan, runs: &[RunSummary]) -> Result<Vec<OutFile
             bytes: quirks::unit_errors_csv(&unit_errors).into_bytes(),
         });
     }
-    let round = toml::to_string(&RoundToml {
-        synth: plan.config.clone(),
-    })
-    .map_err(|e| RoundError::Toml {
+    let round = toml::to_string(&RoundToml::of(&plan.config)).map_err(|e| RoundError::Toml {
         file: "truth/round.toml".to_string(),
         message: e.to_string(),
     })?;
@@ -926,13 +956,96 @@ pub fn render_truth(plan: &RoundPlan, runs: &[RunSummary]) -> Result<Vec<OutFile
     Ok(out)
 }
 
+/// The truth `.tir` of `t`; `at` says which pressure(s) it describes.
+fn truth_tir(t: &TruthModel, at: &str) -> TirFile {
+    let combo_name = CATALOGUE[t.tire_index].name;
+    let mut file = if t.model.version.is_mf6() {
+        // MF 6.x carries NOMPRES and INFLPRES as coefficients.
+        TirFile::from_coefs_as(t.model.coefs.clone(), t.model.version)
+    } else {
+        let mut file = TirFile::from_coefs(t.model.coefs.clone());
+        file.pressure = TyrePressure {
+            inflation_pa: Some(t.pressure_kpa() * 1000.0),
+            nominal_pa: Some(P_REF_KPA * 1000.0),
+        };
+        file
+    };
+    file.header_comments = vec![
+        format!(
+            "! : COMMENT :       {combo_name} on a {} in rim {at}",
+            t.rim_in
+        ),
+        "! : COMMENT :       TRUTH model of the tirebase virtual test machine (synthetic, not measured)".to_string(),
+    ];
+    file
+}
+
+fn render_tir(file: &TirFile, name: &str) -> Result<OutFile, RoundError> {
+    let text = file.render().map_err(|e| RoundError::Tir {
+        file: name.to_string(),
+        message: e.to_string(),
+    })?;
+    Ok(OutFile {
+        path: format!("truth/tir/{name}"),
+        bytes: text.into_bytes(),
+    })
+}
+
+/// The file name of a tire's MF 6.1 truth: `<tire>__<rim>in__mf61.tir`.
+pub fn mf61_tir_file_name(tire: &str, rim_in: f64) -> String {
+    format!("{}__mf61.tir", tire_rim_stem(tire, rim_in))
+}
+
+/// `round.toml`: the resolved `[synth]` table. `truth` is written only when it is not the default
+/// `pac2002`, so a default round's files keep the bytes they had before the option existed.
 #[derive(Serialize)]
-struct RoundToml {
-    synth: SynthConfig,
+struct RoundToml<'a> {
+    synth: RoundSynthToml<'a>,
+}
+
+#[derive(Serialize)]
+struct RoundSynthToml<'a> {
+    seed: u64,
+    size: Size,
+    project: u32,
+    defects: bool,
+    #[serde(skip_serializing_if = "TruthForm::is_pac2002")]
+    truth: TruthForm,
+    realism: &'a RealismConfig,
+    schedule: &'a ScheduleSettings,
+    quirks: &'a QuirksConfig,
+}
+
+impl<'a> RoundToml<'a> {
+    fn of(c: &'a SynthConfig) -> RoundToml<'a> {
+        let SynthConfig {
+            seed,
+            size,
+            project,
+            defects,
+            truth,
+            realism,
+            schedule,
+            quirks,
+        } = c;
+        RoundToml {
+            synth: RoundSynthToml {
+                seed: *seed,
+                size: *size,
+                project: *project,
+                defects: *defects,
+                truth: *truth,
+                realism,
+                schedule,
+                quirks,
+            },
+        }
+    }
 }
 
 fn truth_toml(plan: &RoundPlan, ci: usize) -> TruthToml {
     let combo = plan.combos[ci];
+    let mf61 = plan.config.truth == TruthForm::Mf61;
     let th = plan.thermal[ci];
     let p = plan.realism.thermal;
     let ten = CATALOGUE[combo.tire_index].ten_inch();
@@ -955,6 +1068,8 @@ fn truth_toml(plan: &RoundPlan, ci: usize) -> TruthToml {
                 sa.insert(format!("{fz:.0}"), a);
                 sk.insert(format!("{fz:.0}"), k);
             }
+            let pac = !t.model.version.is_mf6();
+            let pac_coef = |k: Coef| pac.then_some(c[k]);
             PressureTruthToml {
                 pressure_kpa_nom: t.pressure_kpa().round(),
                 pressure_psi: t.pressure_psi,
@@ -967,12 +1082,12 @@ fn truth_toml(plan: &RoundPlan, ci: usize) -> TruthToml {
                 unloaded_radius_static_m: t.vertical.r0_static_m,
                 unloaded_radius_dynamic_m: t.vertical.r0_dynamic_m,
                 fnomin_n: c[Coef::FNOMIN],
-                pty1: c[Coef::PTY1],
-                pty2: c[Coef::PTY2],
-                pky3: c[Coef::PKY3],
-                ptx1: c[Coef::PTX1],
-                ptx2: c[Coef::PTX2],
-                ptx3: c[Coef::PTX3],
+                pty1: pac_coef(Coef::PTY1),
+                pty2: pac_coef(Coef::PTY2),
+                pky3: pac_coef(Coef::PKY3),
+                ptx1: pac_coef(Coef::PTX1),
+                ptx2: pac_coef(Coef::PTX2),
+                ptx3: pac_coef(Coef::PTX3),
                 sigma_alpha_m: sa,
                 sigma_kappa_m: sk,
             }
@@ -984,10 +1099,20 @@ fn truth_toml(plan: &RoundPlan, ci: usize) -> TruthToml {
         generator: "tirebase synth (virtual TTC test machine)",
         reference_speed_mps: V_REF_MPS,
         reference_pressure_kpa: P_REF_KPA,
+        truth: mf61.then_some(TruthForm::Mf61.as_str()),
+        mf61_tir: mf61.then(|| format!("tir/{}", mf61_tir_file_name(combo.tire(), combo.rim_in))),
         pressure,
         relaxation: RelaxationLawToml {
-            lateral: "sigma_alpha = PTY1 sin(2 atan(Fz/(PTY2 FNOMIN))) (1 - PKY3 |gamma|) R0, R0 = unloaded_radius_dynamic_m (PAC2002, as in the truth .tir)",
-            longitudinal: "sigma_kappa = Fz (PTX1 + PTX2 dfz) exp(-PTX3 dfz) R0/FNOMIN, dfz = (Fz - FNOMIN)/FNOMIN (PAC2002)",
+            lateral: if mf61 {
+                "sigma_alpha = |Ky/Cy|, Cy = LATERAL_STIFFNESS (1 + PCFY1 dfz + PCFY2 dfz^2)(1 + PCFY3 dpi) (MF 6.1, as in the truth .tir, at the sample's true pressure)"
+            } else {
+                "sigma_alpha = PTY1 sin(2 atan(Fz/(PTY2 FNOMIN))) (1 - PKY3 |gamma|) R0, R0 = unloaded_radius_dynamic_m (PAC2002, as in the truth .tir)"
+            },
+            longitudinal: if mf61 {
+                "sigma_kappa = |Kx/Cx|, Cx = LONGITUDINAL_STIFFNESS (1 + PCFX1 dfz + PCFX2 dfz^2)(1 + PCFX3 dpi) (MF 6.1)"
+            } else {
+                "sigma_kappa = Fz (PTX1 + PTX2 dfz) exp(-PTX3 dfz) R0/FNOMIN, dfz = (Fz - FNOMIN)/FNOMIN (PAC2002)"
+            },
             lag: "dF/dt = V/sigma (F_ss - F), exact first-order-hold steps; Fy, Mz and Mx with sigma_alpha, Fx with sigma_kappa",
             dynamic_radius: "RL = R0(V) - Fz/Cz(V); R0(V) = r0_static + (r0_dynamic - r0_static)(V/V_ref)^2; Cz(V) = cz_static + (cz_dynamic - cz_static) V/V_ref",
             effective_radius: "RE = R0(V) - (FNOMIN/Cz(V)) (DREFF atan(BREFF Fz/FNOMIN) + FREFF Fz/FNOMIN); SL = kappa; SR = Omega RL/V - 1, Omega = V (1 + kappa)/RE",

@@ -538,3 +538,121 @@ fn ideal_realism_holds_the_truth_model() {
     assert!(ey < 1e-12, "{ey}");
     assert_eq!(plan.config.size, Size::Demo);
 }
+
+/// `truth = "mf61"`: every pressure of a tire is the same MF 6.1 model (only `INFLPRES` differs),
+/// the machine's forces are that model at the sample's pressure (ideal realism: exactly the
+/// commanded one), the model equals the PAC2002 truth at the reference pressure and zero camber
+/// (the lift is exact there), its pressure terms change the tire, and the truth files read back
+/// as the same model.
+#[test]
+fn mf61_truth_is_one_mf61_model_across_pressures() {
+    use super::round::{mf61_tir_file_name, render_truth};
+    use super::tires::{P_REF_PSI, TruthForm, truth_model};
+    use crate::tire_model::tir::TirFile;
+    use crate::tire_model::{Coef, Version};
+    let plan = plan_round(&SynthConfig {
+        realism: RealismConfig::ideal(),
+        truth: TruthForm::Mf61,
+        ..SynthConfig::default()
+    })
+    .unwrap();
+    let (lo, hi) = (&plan.truths[0], &plan.truths[1]);
+    assert_eq!(lo.model.version, Version::Mf61);
+    assert!(lo.pressure_psi < hi.pressure_psi);
+    for c in Coef::ALL {
+        if *c != Coef::INFLPRES {
+            assert_eq!(lo.model.coefs[*c], hi.model.coefs[*c], "{}", c.name());
+        }
+    }
+    assert_eq!(lo.model.coefs[Coef::INFLPRES], lo.pressure_kpa() * 1e3);
+    assert!(lo.model.coefs[Coef::PPY1] != 0.0 && lo.model.coefs[Coef::PFZ1] != 0.0);
+
+    // The machine evaluates the model at the run's pressure.
+    for index in [
+        first_run(&plan, 0, RunKind::Cornering),
+        first_run(&plan, 1, RunKind::DriveBrake),
+    ] {
+        let spec = &plan.runs[index];
+        let (program, s) = run_of(&plan, index, plan.realism());
+        let truth = plan.truth(spec.combo, spec.pressure_psi);
+        let (ex, ey) = grip_error_vs_truth(
+            truth,
+            &program,
+            &s,
+            &[SegmentKind::Cornering, SegmentKind::DriveBrake],
+        );
+        assert!(ex < 1e-12 && ey < 1e-12, "{ex} {ey}");
+    }
+
+    // At the reference pressure and zero camber it is the PAC2002 truth.
+    let base = super::tires::base_coefs().unwrap();
+    let pac = truth_model(&base, 0, 7.0, P_REF_PSI);
+    let mf = &lo.model;
+    let p_ref = mf.coefs[Coef::NOMPRES];
+    let mut worst = [0.0_f64; 3];
+    for fz in [300.0, 700.0, 1100.0, 1500.0] {
+        for i in -12..=12 {
+            for kappa in [-0.1, 0.0, 0.05] {
+                let input = SlipInput {
+                    fz_n: fz,
+                    kappa,
+                    alpha_rad: f64::to_radians(i as f64),
+                    gamma_rad: 0.0,
+                    vx_mps: super::tires::V_REF_MPS,
+                };
+                let a = mf.eval_at(&input, p_ref, Mode::Limits);
+                let b = pac.model.eval(&input, Mode::Limits);
+                for (w, (x, y)) in
+                    worst
+                        .iter_mut()
+                        .zip([(a.fx_n, b.fx_n), (a.fy_n, b.fy_n), (a.mz_nm, b.mz_nm)])
+                {
+                    *w = w.max((x - y).abs() / y.abs().max(1.0));
+                }
+            }
+        }
+    }
+    println!("MF 6.1 truth at NOMPRES vs PAC2002 truth, zero camber: {worst:?}");
+    assert!(worst.iter().all(|w| *w < 1e-9), "{worst:?}");
+    let at = |p_kpa: f64| {
+        let input = SlipInput {
+            fz_n: 1100.0,
+            alpha_rad: 0.5_f64.to_radians(),
+            vx_mps: super::tires::V_REF_MPS,
+            ..SlipInput::default()
+        };
+        mf.eval_at(&input, p_kpa * 1e3, Mode::Limits).fy_n
+    };
+    assert!(
+        at(97.0) / at(69.0) > 1.1,
+        "cornering stiffness rises with pressure"
+    );
+
+    // The truth files: one per pressure and one for every pressure, reading back as the model.
+    let files = render_truth(&plan, &[]).unwrap();
+    let name = mf61_tir_file_name(plan.combos[0].tire(), plan.combos[0].rim_in);
+    let file = files
+        .iter()
+        .find(|f| f.path == format!("truth/tir/{name}"))
+        .expect("the MF 6.1 truth file");
+    let (read, _) = TirFile::parse(std::str::from_utf8(&file.bytes).unwrap()).unwrap();
+    assert_eq!(read.version, Version::Mf61);
+    assert_eq!(read.coefs[Coef::INFLPRES], read.coefs[Coef::NOMPRES]);
+    for c in Coef::ALL.iter().filter(|c| c.carried_by(Version::Mf61)) {
+        if *c != Coef::INFLPRES {
+            assert_eq!(read.coefs[*c], mf.coefs[*c], "{}", c.name());
+        }
+    }
+    let per_pressure = files.iter().filter(|f| f.path.ends_with("kPa.tir")).count();
+    assert_eq!(per_pressure, plan.truths.len());
+    let toml = files
+        .iter()
+        .find(|f| f.path.ends_with("in.toml"))
+        .map(|f| String::from_utf8_lossy(&f.bytes).into_owned())
+        .unwrap();
+    assert!(
+        toml.contains("truth = \"mf61\"") && toml.contains("__mf61.tir"),
+        "{toml}"
+    );
+    assert!(!toml.contains("pty1"), "{toml}");
+}

@@ -15,21 +15,35 @@
 //! - `PTY1 *= 1 + PPTY dp`, `PTX1, PTX2 *= 1 + PPTX dp` (relaxation lengths),
 //! - vertical stiffness `Cz *= 1 + PFZ1 dp`, unloaded radius `R0 *= 1 + PPR0 dp`.
 //!
-//! Each factor multiplies whole terms of the MF 6.1 equations, so the result is *exactly* the MF
-//! 6.1 model at that pressure and at the same time an ordinary PAC2002 coefficient set: the fitter
-//! can reproduce it to round-off. Deliberately not here: the thermal and transient behaviour (see
-//! `physics.rs`), file formats.
+//! Each factor multiplies whole terms of the MF 6.1 equations, so at one pressure the result is an
+//! ordinary PAC2002 coefficient set the PAC2002 fitter can reproduce to round-off. Across pressures
+//! it is not one MF 6.1 model: PAC2002's constant camber shift `PHY3`, its `Mz` trail term and the
+//! `PTY*`/`PTX*` relaxation laws have no exact MF 6.1 form, and the radius changes with pressure.
+//!
+//! [`TruthForm::Mf61`] (`[synth] truth = "mf61"`) replaces this by one MF 6.1 model per tire and
+//! rim ([`mf61_truth`]): the reference-pressure PAC2002 set above lifted into MF 6.1
+//! (`tir::convert`), with the sensitivities as MF 6.1 pressure terms (`PPX1-4`, `PPY1-4` as above,
+//! plus [`MF61_PRESSURE_TERMS`]: `PPY5`, `PPZ1-2`, `PPMX1`, `PFZ1`, `PCFX3`, `PCFY3`), `NOMPRES`
+//! the reference pressure, and a radius that does not change with pressure. The machine evaluates
+//! it at each sample's true inflation pressure, so a fit of MF 6.1 can recover it exactly.
+//!
+//! Deliberately not here: the thermal and transient behaviour (see `physics.rs`), file formats.
 
-use crate::tire_model::tir::TirFile;
-use crate::tire_model::{Coef, Coefs, Pac2002};
+use serde::{Deserialize, Serialize};
+
+use crate::tire_model::tir::{TirFile, convert};
+use crate::tire_model::{Coef, Coefs, MagicFormula, Pac2002, Version};
 
 use super::round::RoundError;
 
 /// The committed base property file every synthetic tire is derived from.
 pub const BASE_TIR: &str = include_str!("tires/fsae_demo_pac2002.tir");
 
+/// Reference pressure of the base coefficients, psi.
+pub const P_REF_PSI: f64 = 12.0;
+
 /// Reference pressure of the base coefficients, kPa (12 psi).
-pub const P_REF_KPA: f64 = 12.0 * KPA_PER_PSI;
+pub const P_REF_KPA: f64 = P_REF_PSI * KPA_PER_PSI;
 
 /// Reference (test) speed of the truth models: `LONGVL`, m/s (25 mph).
 pub const V_REF_MPS: f64 = 11.176;
@@ -87,6 +101,49 @@ pub const PRESSURE_SENSITIVITY: PressureSensitivity = PressureSensitivity {
     pfz1: 0.75,
     ppr0: 0.0045,
 };
+
+/// Which model the virtual machine's truth is (`[synth] truth`).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TruthForm {
+    /// One PAC2002 set per tested pressure with the pressure sensitivities folded in (the
+    /// default; not exactly one MF 6.1 model across pressures).
+    #[default]
+    Pac2002,
+    /// One MF 6.1 model per tire and rim with pressure terms, evaluated at each sample's true
+    /// inflation pressure.
+    Mf61,
+}
+
+impl TruthForm {
+    /// `pac2002` or `mf61`.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            TruthForm::Pac2002 => "pac2002",
+            TruthForm::Mf61 => "mf61",
+        }
+    }
+
+    /// The default form (what older rounds were generated with).
+    pub fn is_pac2002(&self) -> bool {
+        *self == TruthForm::Pac2002
+    }
+}
+
+/// The MF 6.1 pressure terms of [`TruthForm::Mf61`] that have no counterpart in
+/// [`PressureSensitivity`] (camber stiffness, residual torque, overturning couple, carcass
+/// stiffnesses: the relaxation lengths `|Kx/Cx|`, `|Ky/Cy|` follow from them).
+pub const MF61_PRESSURE_TERMS: [(Coef, f64); 5] = [
+    (Coef::PPY5, -0.2),
+    (Coef::PPZ2, -0.15),
+    (Coef::PPMX1, 0.1),
+    (Coef::PCFX3, 0.2),
+    (Coef::PCFY3, 0.4),
+];
+
+/// `PRESMIN`, `PRESMAX` of the MF 6.1 truth relative to `NOMPRES`: wide enough that no tested
+/// pressure (8-16 psi around 12 psi, plus the servo's wander) is clipped in limits mode.
+pub const MF61_PRESSURE_RANGE: (f64, f64) = (0.5, 1.6);
 
 /// The per-tire thermal law: grip multiplier `mu_rel(T)` of the tread surface temperature.
 ///
@@ -331,7 +388,8 @@ pub struct TruthModel {
     pub rim_in: f64,
     /// Nominal pressure, psi (as commanded).
     pub pressure_psi: f64,
-    /// The PAC2002 model at `t_matrix_ref` (the truth `.tir`).
+    /// The model at `t_matrix_ref` (the truth `.tir`): PAC2002, or under [`TruthForm::Mf61`] the
+    /// tire's MF 6.1 model with `INFLPRES` at this pressure.
     pub model: Pac2002,
     /// Vertical truth.
     pub vertical: VerticalTruth,
@@ -419,14 +477,7 @@ pub fn truth_model(
     c[PTX1] *= 1.0 + s.pptx * dp;
     c[PTX2] *= 1.0 + s.pptx * dp;
 
-    let r0_static = tire.r0_m * (1.0 + s.ppr0 * dp);
-    let cz_static = tire.cz_n_per_m * (1.0 + s.pfz1 * dp) * (1.0 + 0.03 * rim);
-    let vertical = VerticalTruth {
-        cz_static_n_per_m: cz_static,
-        cz_dynamic_n_per_m: cz_static * (1.0 + CZ_DYNAMIC_GAIN),
-        r0_static_m: r0_static,
-        r0_dynamic_m: r0_static + R0_GROWTH_AT_VREF_M,
-    };
+    let vertical = vertical_truth(tire, rim, dp, s.ppr0);
     // The truth file describes the rolling tire at LONGVL.
     c[UNLOADED_RADIUS] = vertical.r0_dynamic_m;
     c[VERTICAL_STIFFNESS] = vertical.cz_dynamic_n_per_m;
@@ -437,6 +488,83 @@ pub fn truth_model(
         pressure_psi,
         model: Pac2002::new(c),
         vertical,
+    }
+}
+
+/// The vertical truth of `tire` at `rim` in off its nominal rim and relative pressure `dp`, with
+/// the unloaded radius changing by `ppr0 dp`.
+fn vertical_truth(tire: &BaseTire, rim: f64, dp: f64, ppr0: f64) -> VerticalTruth {
+    let r0_static = tire.r0_m * (1.0 + ppr0 * dp);
+    let cz_static = tire.cz_n_per_m * (1.0 + PRESSURE_SENSITIVITY.pfz1 * dp) * (1.0 + 0.03 * rim);
+    VerticalTruth {
+        cz_static_n_per_m: cz_static,
+        cz_dynamic_n_per_m: cz_static * (1.0 + CZ_DYNAMIC_GAIN),
+        r0_static_m: r0_static,
+        r0_dynamic_m: r0_static + R0_GROWTH_AT_VREF_M,
+    }
+}
+
+/// The MF 6.1 truth of catalogue tire `tire_index` on rim `rim_in` ([`TruthForm::Mf61`]): the
+/// reference-pressure PAC2002 truth lifted into MF 6.1 with the pressure terms of
+/// [`PRESSURE_SENSITIVITY`] and [`MF61_PRESSURE_TERMS`]; `NOMPRES = INFLPRES` = [`P_REF_KPA`],
+/// `PRESMIN`/`PRESMAX` from [`MF61_PRESSURE_RANGE`].
+pub fn mf61_truth(
+    base: &Coefs<f64>,
+    tire_index: usize,
+    rim_in: f64,
+) -> Result<MagicFormula, RoundError> {
+    use Coef::*;
+    let reference = truth_model(base, tire_index, rim_in, P_REF_PSI);
+    let p_ref = P_REF_KPA * 1e3;
+    let file = TirFile::from_coefs(reference.model.coefs);
+    let mut c = convert::convert(&file, Version::Mf61, Some(p_ref))
+        .map_err(|e| RoundError::BaseTire {
+            message: format!("lifting into MF 6.1: {e}"),
+        })?
+        .file
+        .coefs;
+    let s = PRESSURE_SENSITIVITY;
+    for (k, v) in [
+        (PPX1, s.ppx1),
+        (PPX2, s.ppx2),
+        (PPX3, s.ppx3),
+        (PPX4, s.ppx4),
+        (PPY1, s.ppy1),
+        (PPY2, s.ppy2),
+        (PPY3, s.ppy3),
+        (PPY4, s.ppy4),
+        (PPZ1, s.ppz1),
+        (PFZ1, s.pfz1),
+    ]
+    .into_iter()
+    .chain(MF61_PRESSURE_TERMS)
+    {
+        c[k] = v;
+    }
+    c[PRESMIN] = MF61_PRESSURE_RANGE.0 * p_ref;
+    c[PRESMAX] = MF61_PRESSURE_RANGE.1 * p_ref;
+    Ok(MagicFormula::with_version(c, Version::Mf61))
+}
+
+/// The truth of one tire, rim and nominal pressure under [`TruthForm::Mf61`]: `model` (the
+/// tire's [`mf61_truth`]) with `INFLPRES` at `pressure_psi`; the vertical stiffness follows
+/// `PFZ1`, the unloaded radius does not change with pressure (MF 6.1 has no term for it).
+pub fn truth_model_mf61(
+    model: &MagicFormula,
+    tire_index: usize,
+    rim_in: f64,
+    pressure_psi: f64,
+) -> TruthModel {
+    let tire = &CATALOGUE[tire_index];
+    let dp = (pressure_psi * KPA_PER_PSI - P_REF_KPA) / P_REF_KPA;
+    let mut model = model.clone();
+    model.coefs[Coef::INFLPRES] = pressure_psi * KPA_PER_PSI * 1e3;
+    TruthModel {
+        tire_index,
+        rim_in,
+        pressure_psi,
+        model,
+        vertical: vertical_truth(tire, rim_in - tire.rim_nominal_in, dp, 0.0),
     }
 }
 

@@ -1,7 +1,8 @@
 //! The intermediate Magic Formula factors (B, C, D, E, shifts, combined-slip weights) at one
 //! operating point, for diagnostics such as `tir lint`.
 //!
-//! In: coefficients and a [`Load`] from [`super::pac2002::load`]. Out: [`SlipFactors`]: the
+//! In: coefficients and a [`Load`] from [`super::pac2002::load_with`] (its version selects the
+//! PAC2002 or MF 6.x forms, its pressure the MF 6.x pressure terms). Out: [`SlipFactors`]: the
 //! pure-slip factors of `Fx0` and `Fy0`, the combined-slip weighting factors and the weights
 //! `Gxa`, `Gyk` themselves, with every curvature factor `E` BEFORE the `E <= 1` clamp.
 //! The formulas are those of `pac2002.rs` (`docs/pac2002-equations.md` sections 5, 6, 8);
@@ -85,15 +86,25 @@ pub fn slip_factors(c: &Coefs<f64>, l: &Load<f64>) -> SlipFactors {
     let dfz = l.dfz;
     let clamp = |e: f64| if l.clamp_e { e.min(1.0) } else { e };
 
+    let mf6 = l.version.is_mf6();
+    let dpi = l.dpi;
+    let poly = |a: f64, b: f64| {
+        if mf6 {
+            1.0 + a * dpi + b * dpi * dpi
+        } else {
+            1.0
+        }
+    };
     let gx = l.gamma * c[LGAX];
     let cx = c[PCX1] * c[LCX];
     let mux = if l.fz == 0.0 {
         0.0
     } else {
-        (c[PDX1] + c[PDX2] * dfz) * (1.0 - c[PDX3] * gx * gx) * c[LMUX]
+        (c[PDX1] + c[PDX2] * dfz) * poly(c[PPX3], c[PPX4]) * (1.0 - c[PDX3] * gx * gx) * c[LMUX]
     };
     let dx = mux * l.fz;
-    let kxk = l.fz * (c[PKX1] + c[PKX2] * dfz) * (c[PKX3] * dfz).exp() * c[LKX];
+    let kxk =
+        l.fz * (c[PKX1] + c[PKX2] * dfz) * (c[PKX3] * dfz).exp() * poly(c[PPX1], c[PPX2]) * c[LKX];
     let bx = kxk / (cx * dx + EPS * sgn_pos(dx));
     let shx = (c[PHX1] + c[PHX2] * dfz) * c[LHX] * l.low_speed;
     let svx = l.fz * (c[PVX1] + c[PVX2] * dfz) * c[LVX] * c[LMUX] * l.low_speed;
@@ -106,33 +117,59 @@ pub fn slip_factors(c: &Coefs<f64>, l: &Load<f64>) -> SlipFactors {
     let muy = if l.fz == 0.0 {
         0.0
     } else {
-        (c[PDY1] + c[PDY2] * dfz) * (1.0 - c[PDY3] * gy * gy) * c[LMUY]
+        (c[PDY1] + c[PDY2] * dfz) * poly(c[PPY3], c[PPY4]) * (1.0 - c[PDY3] * gy * gy) * c[LMUY]
     };
     let dy = muy * l.fz;
-    let load_ratio = l.fz / (c[PKY2] * l.fz0_scaled);
-    let kya = c[PKY1]
-        * l.fz0_scaled
-        * (2.0 * load_ratio.atan()).sin()
-        * (1.0 - c[PKY3] * gy.abs())
-        * c[LKY];
+    let (kya, shy, svy, ey) = if mf6 {
+        let g = l.gamma;
+        let kya = c[PKY1]
+            * l.fz0_scaled
+            * (1.0 + c[PPY1] * dpi)
+            * (1.0 - c[PKY3] * g.abs())
+            * (c[PKY4]
+                * ((l.fz / l.fz0_scaled) / ((c[PKY2] + c[PKY5] * g * g) * (1.0 + c[PPY2] * dpi)))
+                    .atan())
+            .sin()
+            * c[LKY];
+        let svyg = l.fz * (c[PVY3] + c[PVY4] * dfz) * g * c[LKYC] * c[LMUY];
+        let kyg0 = l.fz * (c[PKY6] + c[PKY7] * dfz) * (1.0 + c[PPY5] * dpi) * c[LKYC];
+        let shy = ((c[PHY1] + c[PHY2] * dfz) * c[LHY]
+            + (kyg0 * g - svyg) / (kya + EPS * sgn_pos(kya)))
+            * l.low_speed;
+        let svy = (l.fz * (c[PVY1] + c[PVY2] * dfz) * c[LVY] * c[LMUY] + svyg) * l.low_speed;
+        let ey = (c[PEY1] + c[PEY2] * dfz)
+            * (1.0 + c[PEY5] * g * g - (c[PEY3] + c[PEY4] * g) * sgn_pos(l.alpha + shy))
+            * c[LEY];
+        (kya, shy, svy, ey)
+    } else {
+        let load_ratio = l.fz / (c[PKY2] * l.fz0_scaled);
+        let kya = c[PKY1]
+            * l.fz0_scaled
+            * (2.0 * load_ratio.atan()).sin()
+            * (1.0 - c[PKY3] * gy.abs())
+            * c[LKY];
+        let shy = ((c[PHY1] + c[PHY2] * dfz) * c[LHY] + c[PHY3] * gy) * l.low_speed;
+        let svy = l.fz
+            * ((c[PVY1] + c[PVY2] * dfz) * c[LVY] + (c[PVY3] + c[PVY4] * dfz) * gy)
+            * c[LMUY]
+            * l.low_speed;
+        let ey = (c[PEY1] + c[PEY2] * dfz)
+            * (1.0 - (c[PEY3] + c[PEY4] * gy) * sgn_pos(l.alpha + shy))
+            * c[LEY];
+        (kya, shy, svy, ey)
+    };
     let by = kya / (cy * dy + EPS * sgn_pos(dy));
-    let shy = ((c[PHY1] + c[PHY2] * dfz) * c[LHY] + c[PHY3] * gy) * l.low_speed;
-    let svy = l.fz
-        * ((c[PVY1] + c[PVY2] * dfz) * c[LVY] + (c[PVY3] + c[PVY4] * dfz) * gy)
-        * c[LMUY]
-        * l.low_speed;
-    let ey = (c[PEY1] + c[PEY2] * dfz)
-        * (1.0 - (c[PEY3] + c[PEY4] * gy) * sgn_pos(l.alpha + shy))
-        * c[LEY];
 
-    let bxa = c[RBX1] * (c[RBX2] * l.kappa).atan().cos() * c[LXAL];
+    let camber_sq = if mf6 { l.gamma * l.gamma } else { 0.0 };
+    let bxa = (c[RBX1] + c[RBX3] * camber_sq) * (c[RBX2] * l.kappa).atan().cos() * c[LXAL];
     let cxa = c[RCX1];
     let exa = c[REX1] + c[REX2] * dfz;
     let shxa = c[RHX1];
     let gxa =
         weighting(bxa, cxa, clamp(exa), l.alpha + shxa) / weighting(bxa, cxa, clamp(exa), shxa);
 
-    let byk = c[RBY1] * (c[RBY2] * (l.alpha - c[RBY3])).atan().cos() * c[LYKA];
+    let byk =
+        (c[RBY1] + c[RBY4] * camber_sq) * (c[RBY2] * (l.alpha - c[RBY3])).atan().cos() * c[LYKA];
     let cyk = c[RCY1];
     let eyk = c[REY1] + c[REY2] * dfz;
     let shyk = c[RHY1] + c[RHY2] * dfz;
@@ -188,7 +225,7 @@ impl CurveFactors {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tire_model::pac2002::{combined_fy, gxa, load, pure_fx0, pure_fy0};
+    use crate::tire_model::pac2002::{combined_fy, gxa, load_with, pure_fx0, pure_fy0};
     use crate::tire_model::tir::TirFile;
     use crate::tire_model::{Mode, SlipInput};
 
@@ -197,14 +234,18 @@ mod tests {
     const MFEVAL: &str = include_str!(
         "../../../tests/fixtures/reference/mfeval-sample/MagicFormula52_Parameters.tir"
     );
+    const MF61: &str =
+        include_str!("../../../tests/fixtures/reference/mfeval-mf6/MagicFormula61_Parameters.tir");
 
     /// The factors rebuild the evaluator's Fx0, Fy0 and combined Fy (both modes, E > 1 cases
     /// included: the MFeval sample reaches Ex = 1.31).
     #[test]
     fn factors_rebuild_the_evaluator() {
-        for tir in [FSAE, MFEVAL] {
+        for tir in [FSAE, MFEVAL, MF61] {
             let (file, _) = TirFile::parse(tir).unwrap();
             let c = &file.coefs;
+            // MF 6.1 away from its nominal pressure, so the pressure terms count.
+            let p = 0.8 * c[NOMPRES];
             let fz0 = c[FNOMIN];
             for mode in [Mode::Limits, Mode::Raw] {
                 for fz in [0.3 * fz0, fz0, 2.0 * fz0] {
@@ -218,7 +259,7 @@ mod tests {
                                     gamma_rad: gamma,
                                     vx_mps: 11.0,
                                 };
-                                let l = load(c, &input, mode);
+                                let l = load_with(c, &input, mode, file.version, p);
                                 let f = slip_factors(c, &l);
                                 let clamp = mode == Mode::Limits;
                                 let fx0 = pure_fx0(c, &l).fx0;

@@ -1,12 +1,24 @@
-//! Steady-state PAC2002 / Magic Formula 5.2 evaluation in ISO-W axes, as MFeval 4.3.1 evaluates
-//! it (`docs/pac2002-equations.md` sections 3-10).
+//! Steady-state Magic Formula evaluation in ISO-W axes, PAC2002 / MF 5.2 and MF 6.1 / 6.2, as
+//! MFeval 4.3.1 evaluates them (`docs/pac2002-equations.md` sections 3-10 for PAC2002; MFeval's
+//! `Solver.m` for the MF 6.x forms).
 //!
-//! In: a coefficient vector ([`Coefs`]) and operating points ([`SlipInput`]: `Fz` N, `kappa`,
-//! `alpha` rad, `gamma` rad, `Vx` m/s, all ISO-W). Out: forces and moments ([`Evaluation`]: `Fx`,
-//! `Fy`, `Mx`, `My`, `Mz` plus the diagnostics MFeval reports). Every equation is generic over
-//! [`Real`], so the same code gives values (`f64`) and exact coefficient derivatives
-//! ([`super::real::Dual`]); the per-family functions ([`pure_fy0`], [`combined_fx`], ...) let a
-//! fitter evaluate only what it fits.
+//! In: a coefficient vector ([`Coefs`]), the model [`Version`] (data, not a second copy of the
+//! code: the few equations whose form differs branch on it), operating points ([`SlipInput`]:
+//! `Fz` N, `kappa`, `alpha` rad, `gamma` rad, `Vx` m/s, all ISO-W) and, for MF 6.x, the
+//! inflation pressure (Pa). Out: forces and moments ([`Evaluation`]: `Fx`, `Fy`, `Mx`, `My`, `Mz`
+//! plus the diagnostics MFeval reports). Every equation is generic over [`Real`], so the same
+//! code gives values (`f64`) and exact coefficient derivatives ([`super::real::Dual`]); the
+//! per-family functions ([`pure_fy0`], [`combined_fx`], ...) let a fitter evaluate only what it
+//! fits. [`load`] and [`evaluate`] are the PAC2002 entry points; [`load_with`] and
+//! [`evaluate_with`] take the version and pressure.
+//!
+//! MF 6.x differs from PAC2002 in: pressure `dpi = (p - NOMPRES)/NOMPRES` in `mu_x`, `Kx`
+//! (`PPX1..4`), `mu_y`, `Ky_alpha`, camber stiffness (`PPY1..5`), `Dt` (`PPZ1`), `Dr` (`PPZ2`),
+//! `Mx` (`PPMX1`) and `My` (`(p/p0)^QSY8`); `Ky_alpha` with `PKY4`, `PKY5`; the camber shift
+//! `SHy` from the camber stiffness `Kyg0` (`PKY6`, `PKY7`) instead of `PHY3`; `PEY5`; `RBX3`,
+//! `RBY4`; `QDZ10/11` in `Dr`; `QSX12..14` in `Mx`; `QSY5..8` in `My`; `LKYC`/`LKZC` on the
+//! camber terms; and `Mz` with `Fy' = Gyk Fy0(gamma = 0)` in place of `Fy - SVyk`. In limits mode
+//! the pressure is clipped to `[PRESMIN, PRESMAX]`. No turn slip (MFeval useMode xx1).
 //!
 //! Choices (all MFeval's, so results match it to round-off):
 //! - `alpha* = alpha`, `gamma* = gamma` (MFeval useMode 1x1, TNO); no turn slip.
@@ -20,13 +32,18 @@
 //!   in `mu_x`, `gamma_y` in `Fy0` and `SVyk`, `gamma_z` in `Mz`); MFeval ignores them, so results
 //!   are identical whenever they are 1 (every reference file).
 //!
-//! Deliberately not here: MFeval's near-locked-wheel fade of `My` (`kappa` within `VXLOW/|Vx|`
-//! of -1; no TTC test comes near a locked wheel), transient dynamics, loaded/effective radius.
+//! - MF 6.x relaxation lengths are `|Kx / Cx|` and `|Ky / Cy|` with the structural stiffnesses
+//!   (`LONGITUDINAL_STIFFNESS`, `PCFX1..3`, ...), as MFeval reports them.
+//!
+//! Deliberately not here: turn slip, MFeval's near-locked-wheel fade of `My` (`kappa` within
+//! `VXLOW/|Vx|` of -1; no TTC test comes near a locked wheel), transient dynamics,
+//! loaded/effective radius.
 
 use std::f64::consts::{FRAC_2_PI, PI};
 
 use super::params::{Coef, Coef::*, Coefs};
 use super::real::Real;
+use super::version::Version;
 
 /// MFeval's `epsilon` guarding divisions (`epsx = epsy = epsk = epsv = 1e-6`).
 pub const EPS: f64 = 1e-6;
@@ -120,6 +137,12 @@ pub struct Load<T> {
     pub low_speed: f64,
     /// Curvature factors clamped to `<= 1`?
     pub clamp_e: bool,
+    /// The equation forms to follow.
+    pub version: Version,
+    /// Normalised inflation pressure change `(p - NOMPRES)/NOMPRES` (MF 6.x; 0 for PAC2002).
+    pub dpi: f64,
+    /// `p / NOMPRES` (MF 6.x; 1 for PAC2002).
+    pub p_ratio: f64,
 }
 
 /// Sign with `sgn(0) = 0`.
@@ -160,9 +183,38 @@ pub fn weighting<T: Real>(b: T, c: T, e: T, x: T) -> T {
     (c * (bx - e * (bx - bx.atan())).atan()).cos()
 }
 
-/// Input limiting and the load quantities (`docs` sections 3-4).
+/// Input limiting and the load quantities (`docs` sections 3-4), PAC2002.
 #[inline(always)]
 pub fn load<T: Real>(c: &Coefs<T>, input: &SlipInput, mode: Mode) -> Load<T> {
+    load_with(c, input, mode, Version::Pac2002, f64::NAN)
+}
+
+/// The inflation pressure the equations see: clipped to `[PRESMIN, PRESMAX]` in limits mode
+/// (NaN limits, MFeval's reading of a blank value, clip nothing).
+#[inline]
+pub fn limited_pressure(c_presmin: f64, c_presmax: f64, p_pa: f64, mode: Mode) -> f64 {
+    let mut p = p_pa;
+    if mode == Mode::Limits {
+        if p < c_presmin {
+            p = c_presmin;
+        }
+        if p > c_presmax {
+            p = c_presmax;
+        }
+    }
+    p
+}
+
+/// Input limiting and the load quantities for `version` at inflation pressure `p_pa` (ignored by
+/// PAC2002).
+#[inline(always)]
+pub fn load_with<T: Real>(
+    c: &Coefs<T>,
+    input: &SlipInput,
+    mode: Mode,
+    version: Version,
+    p_pa: f64,
+) -> Load<T> {
     let limits = mode == Mode::Limits;
     let v = |k: Coef| Real::value(c[k]);
     let fz_unlimited = input.fz_n.max(0.0);
@@ -198,6 +250,13 @@ pub fn load<T: Real>(c: &Coefs<T>, input: &SlipInput, mode: Mode) -> Load<T> {
     }
     let fz0_scaled = c[FNOMIN] * c[LFZO];
     let fz_t = T::cst(fz);
+    let (dpi, p_ratio) = if version.is_mf6() {
+        let p = limited_pressure(v(PRESMIN), v(PRESMAX), p_pa, mode);
+        let p0 = v(NOMPRES);
+        ((p - p0) / p0, p / p0)
+    } else {
+        (0.0, 1.0)
+    };
     Load {
         fz: fz_t,
         fz_low: T::cst(fz_low),
@@ -210,7 +269,16 @@ pub fn load<T: Real>(c: &Coefs<T>, input: &SlipInput, mode: Mode) -> Load<T> {
         vx,
         low_speed,
         clamp_e: limits,
+        version,
+        dpi,
+        p_ratio,
     }
+}
+
+/// `1 + a dpi + b dpi^2` (a pressure factor of MF 6.x).
+#[inline(always)]
+fn pressure_poly<T: Real>(a: T, b: T, dpi: f64) -> T {
+    a * dpi + b * (dpi * dpi) + 1.0
 }
 
 /// Pure longitudinal force and its factors (`docs` section 5).
@@ -230,13 +298,22 @@ pub fn pure_fx0<T: Real>(c: &Coefs<T>, l: &Load<T>) -> PureFx<T> {
     let dfz = l.dfz;
     let gx = l.gamma * c[LGAX];
     let cx = c[PCX1] * c[LCX];
+    let mf6 = l.version.is_mf6();
     let mux = if l.fz.value() == 0.0 {
         T::cst(0.0)
     } else {
-        (c[PDX1] + c[PDX2] * dfz) * (-(c[PDX3] * gx.sq()) + 1.0) * c[LMUX]
+        let mut base = c[PDX1] + c[PDX2] * dfz;
+        if mf6 {
+            base *= pressure_poly(c[PPX3], c[PPX4], l.dpi);
+        }
+        base * (-(c[PDX3] * gx.sq()) + 1.0) * c[LMUX]
     };
     let dx = mux * l.fz;
-    let kxk = l.fz * (c[PKX1] + c[PKX2] * dfz) * (c[PKX3] * dfz).exp() * c[LKX];
+    let mut kxk = l.fz * (c[PKX1] + c[PKX2] * dfz) * (c[PKX3] * dfz).exp();
+    if mf6 {
+        kxk *= pressure_poly(c[PPX1], c[PPX2], l.dpi);
+    }
+    let kxk = kxk * c[LKX];
     let bx = kxk / (cx * dx + EPS * sgn_pos(dx.value()));
     let shx = (c[PHX1] + c[PHX2] * dfz) * c[LHX] * l.low_speed;
     let svx = l.fz * (c[PVX1] + c[PVX2] * dfz) * c[LVX] * c[LMUX] * l.low_speed;
@@ -274,6 +351,9 @@ pub struct PureFy<T> {
 /// `Fy0(alpha)` at the load `l`.
 #[inline(always)]
 pub fn pure_fy0<T: Real>(c: &Coefs<T>, l: &Load<T>) -> PureFy<T> {
+    if l.version.is_mf6() {
+        return pure_fy0_mf6(c, l);
+    }
     let dfz = l.dfz;
     let gy = l.gamma * c[LGAY];
     let cy = c[PCY1] * c[LCY];
@@ -308,6 +388,63 @@ pub fn pure_fy0<T: Real>(c: &Coefs<T>, l: &Load<T>) -> PureFy<T> {
         cy,
         shy,
         svy,
+    }
+}
+
+/// MF 6.x `Fy0(alpha)`: pressure terms, `Ky_alpha` with `PKY4`/`PKY5`, the camber shift from
+/// the camber stiffness `Kyg0 = Fz (PKY6 + PKY7 dfz)(1 + PPY5 dpi) LKYC`, `PEY5`.
+#[inline(always)]
+fn pure_fy0_mf6<T: Real>(c: &Coefs<T>, l: &Load<T>) -> PureFy<T> {
+    let dfz = l.dfz;
+    let g = l.gamma;
+    let cy = c[PCY1] * c[LCY];
+    let muy = if l.fz.value() == 0.0 {
+        T::cst(0.0)
+    } else {
+        (c[PDY1] + c[PDY2] * dfz)
+            * pressure_poly(c[PPY3], c[PPY4], l.dpi)
+            * (-(c[PDY3] * g.sq()) + 1.0)
+            * c[LMUY]
+    };
+    let dy = muy * l.fz;
+    let kya = c[PKY1]
+        * l.fz0_scaled
+        * (c[PPY1] * l.dpi + 1.0)
+        * (-(c[PKY3] * g.abs()) + 1.0)
+        * (c[PKY4]
+            * ((l.fz / l.fz0_scaled) / ((c[PKY2] + c[PKY5] * g.sq()) * (c[PPY2] * l.dpi + 1.0)))
+                .atan())
+        .sin()
+        * c[LKY];
+    let svyg = l.fz * (c[PVY3] + c[PVY4] * dfz) * g * c[LKYC] * c[LMUY];
+    let kyg0 = l.fz * (c[PKY6] + c[PKY7] * dfz) * (c[PPY5] * l.dpi + 1.0) * c[LKYC];
+    let kya_prime = kya + EPS * sgn_pos(kya.value());
+    let shy = ((c[PHY1] + c[PHY2] * dfz) * c[LHY] + (kyg0 * g - svyg) / kya_prime) * l.low_speed;
+    let svy = (l.fz * (c[PVY1] + c[PVY2] * dfz) * c[LVY] * c[LMUY] + svyg) * l.low_speed;
+    let ay = l.alpha + shy;
+    let ey = (c[PEY1] + c[PEY2] * dfz)
+        * (c[PEY5] * g.sq() + 1.0 - (c[PEY3] + c[PEY4] * g) * sgn_pos(ay.value()))
+        * c[LEY];
+    let ey = clamp_e(ey, l.clamp_e);
+    let by = kya / (cy * dy + EPS * sgn_pos(dy.value()));
+    let fy0 = magic_formula(by, cy, dy, ey, ay) + svy;
+    PureFy {
+        fy0,
+        muy,
+        kya,
+        by,
+        cy,
+        shy,
+        svy,
+    }
+}
+
+/// The same load with zero inclination (MF 6.x evaluates `Mz`'s lateral force at `gamma = 0`).
+#[inline(always)]
+fn without_camber<T: Real>(l: &Load<T>) -> Load<T> {
+    Load {
+        gamma: T::cst(0.0),
+        ..*l
     }
 }
 
@@ -354,10 +491,12 @@ pub fn trail_terms<T: Real>(
         * c[LKY]
         / c[LMUY];
     let ct = c[QCZ1];
-    let peak = (c[QDZ1] + c[QDZ2] * dfz)
-        * (c[QDZ3] * gz + c[QDZ4] * gz.sq() + 1.0)
-        * (r0 / l.fz0_scaled)
-        * c[LTR];
+    let mf6 = l.version.is_mf6();
+    let mut peak = c[QDZ1] + c[QDZ2] * dfz;
+    if mf6 {
+        peak *= -(c[PPZ1] * l.dpi) + 1.0;
+    }
+    let peak = peak * (c[QDZ3] * gz + c[QDZ4] * gz.sq() + 1.0) * (r0 / l.fz0_scaled) * c[LTR];
     let dt = match trail_peak {
         TrailPeak::Standard => l.fz_low * peak,
         TrailPeak::ThesisWithoutFz => peak,
@@ -372,9 +511,17 @@ pub fn trail_terms<T: Real>(
     let kya_prime = fy.kya + EPS * sgn_pos(fy.kya.value());
     let alpha_r = l.alpha + fy.shy + fy.svy / kya_prime;
     let br = c[QBZ9] * c[LKY] / c[LMUY] + c[QBZ10] * fy.by * fy.cy;
+    let camber_peak = if mf6 {
+        ((c[QDZ8] + c[QDZ9] * dfz) * (c[PPZ2] * l.dpi + 1.0)
+            + (c[QDZ10] + c[QDZ11] * dfz) * gz.abs())
+            * gz
+            * c[LKZC]
+    } else {
+        (c[QDZ8] + c[QDZ9] * dfz) * gz
+    };
     let dr = l.fz_low
         * r0
-        * ((c[QDZ6] + c[QDZ7] * dfz) * c[LRES] + (c[QDZ8] + c[QDZ9] * dfz) * gz)
+        * ((c[QDZ6] + c[QDZ7] * dfz) * c[LRES] + camber_peak)
         * c[LMUY]
         * (sgn(l.vx) * alpha.cos());
     TrailTerms {
@@ -406,6 +553,19 @@ pub fn pure_mz0<T: Real>(l: &Load<T>, fy: &PureFy<T>, tt: &TrailTerms<T>) -> T {
     -(t0 * fy.fy0) + mzr0
 }
 
+/// Pure aligning moment of any version: PAC2002's [`pure_mz0`]; MF 6.x takes the trail's
+/// lateral force at zero inclination, `Mz0 = -t0 Fy0(gamma = 0) + Mzr0`.
+#[inline(always)]
+pub fn pure_mz0_with<T: Real>(c: &Coefs<T>, l: &Load<T>, fy: &PureFy<T>, tt: &TrailTerms<T>) -> T {
+    if !l.version.is_mf6() {
+        return pure_mz0(l, fy, tt);
+    }
+    let fy0_flat = pure_fy0(c, &without_camber(l)).fy0;
+    let t0 = trail(tt, tt.alpha_t) * l.low_speed;
+    let mzr0 = tt.dr * (tt.br * tt.alpha_r).cos_atan() * l.low_speed;
+    -(t0 * fy0_flat) + mzr0
+}
+
 /// Combined-slip longitudinal force `Fx = Gxa Fx0` (`docs` section 8.1), N.
 #[inline(always)]
 pub fn combined_fx<T: Real>(c: &Coefs<T>, l: &Load<T>, fx0: T) -> T {
@@ -415,7 +575,12 @@ pub fn combined_fx<T: Real>(c: &Coefs<T>, l: &Load<T>, fx0: T) -> T {
 /// The combined-slip reduction `Gxa` of `Fx0` by slip angle.
 #[inline(always)]
 pub fn gxa<T: Real>(c: &Coefs<T>, l: &Load<T>) -> T {
-    let bxa = c[RBX1] * (c[RBX2] * l.kappa).cos_atan() * c[LXAL];
+    let rbx = if l.version.is_mf6() {
+        c[RBX1] + c[RBX3] * l.gamma.sq()
+    } else {
+        c[RBX1]
+    };
+    let bxa = rbx * (c[RBX2] * l.kappa).cos_atan() * c[LXAL];
     let cxa = c[RCX1];
     let exa = clamp_e(c[REX1] + c[REX2] * l.dfz, l.clamp_e);
     let shxa = c[RHX1];
@@ -431,16 +596,27 @@ pub struct CombinedFy<T> {
     pub svyk: T,
 }
 
+/// The combined-slip reduction `Gyk` of `Fy0` by longitudinal slip.
+#[inline(always)]
+pub fn gyk<T: Real>(c: &Coefs<T>, l: &Load<T>) -> T {
+    let rby = if l.version.is_mf6() {
+        c[RBY1] + c[RBY4] * l.gamma.sq()
+    } else {
+        c[RBY1]
+    };
+    let byk = rby * (c[RBY2] * (l.alpha - c[RBY3])).cos_atan() * c[LYKA];
+    let cyk = c[RCY1];
+    let eyk = clamp_e(c[REY1] + c[REY2] * l.dfz, l.clamp_e);
+    let shyk = c[RHY1] + c[RHY2] * l.dfz;
+    weighting(byk, cyk, eyk, l.kappa + shyk) / weighting(byk, cyk, eyk, shyk)
+}
+
 /// Combined-slip lateral force at the load `l`, given the pure lateral force factors.
 #[inline(always)]
 pub fn combined_fy<T: Real>(c: &Coefs<T>, l: &Load<T>, fy: &PureFy<T>) -> CombinedFy<T> {
     let dfz = l.dfz;
     let gy = l.gamma * c[LGAY];
-    let byk = c[RBY1] * (c[RBY2] * (l.alpha - c[RBY3])).cos_atan() * c[LYKA];
-    let cyk = c[RCY1];
-    let eyk = clamp_e(c[REY1] + c[REY2] * dfz, l.clamp_e);
-    let shyk = c[RHY1] + c[RHY2] * dfz;
-    let gyk = weighting(byk, cyk, eyk, l.kappa + shyk) / weighting(byk, cyk, eyk, shyk);
+    let gyk = gyk(c, l);
     let dvyk =
         fy.muy * l.fz * (c[RVY1] + c[RVY2] * dfz + c[RVY3] * gy) * (c[RVY4] * l.alpha).cos_atan();
     let svyk = dvyk * (c[RVY5] * (c[RVY6] * l.kappa).atan()).sin() * c[LVYKA] * l.low_speed;
@@ -461,7 +637,8 @@ pub struct CombinedMz<T> {
     pub mzr: T,
 }
 
-/// Combined-slip aligning moment, given the combined forces and the trail terms.
+/// Combined-slip aligning moment, given the combined forces and the trail terms. MF 6.x
+/// replaces PAC2002's `Fy - SVyk` by `Fy' = Gyk Fy0(gamma = 0)` (evaluated here).
 #[inline(always)]
 pub fn combined_mz<T: Real>(
     c: &Coefs<T>,
@@ -486,8 +663,13 @@ pub fn combined_mz<T: Real>(
     let s = c[UNLOADED_RADIUS]
         * (c[SSZ1] + c[SSZ2] * (fy.fy / c[FNOMIN]) + (c[SSZ3] + c[SSZ4] * l.dfz) * gz)
         * c[LS];
+    let fy_trail = if l.version.is_mf6() {
+        gyk(c, l) * pure_fy0(c, &without_camber(l)).fy0
+    } else {
+        fy.fy - fy.svyk
+    };
     CombinedMz {
-        mz: -(t * (fy.fy - fy.svyk)) + mzr + s * fx,
+        mz: -(t * fy_trail) + mzr + s * fx,
         trail: t,
         mzr,
     }
@@ -511,7 +693,15 @@ pub fn overturning_mx<T: Real>(c: &Coefs<T>, l: &Load<T>, fy: T) -> T {
             * (c[QSX5] * (c[QSX6] * fz_rel).sq().atan()).cos()
             * (c[QSX7] * gamma + c[QSX8] * (c[QSX9] * fy_rel).atan()).sin()
         + c[QSX10] * (c[QSX11] * fz_rel).atan() * gamma;
+    if !l.version.is_mf6() {
+        return c[UNLOADED_RADIUS] * fz * c[LMX] * inner;
+    }
+    // MF 6.x (TNO equation manual): the camber term scales with pressure, plus QSX12..14.
+    let inner = inner - c[QSX2] * gamma * (c[PPMX1] * l.dpi);
     c[UNLOADED_RADIUS] * fz * c[LMX] * inner
+        + c[UNLOADED_RADIUS]
+            * c[LMX]
+            * (fy * (c[QSX13] + c[QSX14] * gamma.abs()) - fz * c[QSX12] * gamma * gamma.abs())
 }
 
 /// Rolling resistance moment (`docs` section 9), N m, given combined `Fx`.
@@ -526,32 +716,73 @@ pub fn rolling_my<T: Real>(c: &Coefs<T>, l: &Load<T>, fx: T) -> T {
         fz = fz.sq() / fzmin;
     }
     let v_rel = l.vx / c[LONGVL].value();
-    let my = -(c[UNLOADED_RADIUS]
-        * fz
-        * (c[QSY1] + c[QSY2] * fx / c[FNOMIN] + c[QSY3] * v_rel.abs() + c[QSY4] * v_rel.powi(4))
-        * c[LMY]);
+    let my = if l.version.is_mf6() {
+        // MF 6.x (Besselink et al. 2010, A48): Fz0 outside, load and pressure as powers.
+        let fz0 = c[FNOMIN];
+        let fz_rel = fz / fz0;
+        let load_power = if fz_rel.value() > 0.0 {
+            fz_rel.powf(c[QSY7])
+        } else {
+            T::cst(0.0)
+        };
+        -(c[UNLOADED_RADIUS]
+            * fz0
+            * c[LMY]
+            * (c[QSY1]
+                + c[QSY2] * fx / fz0
+                + c[QSY3] * v_rel.abs()
+                + c[QSY4] * v_rel.powi(4)
+                + (c[QSY5] + c[QSY6] * fz_rel) * l.gamma.sq())
+            * (load_power * T::cst(l.p_ratio).powf(c[QSY8])))
+    } else {
+        -(c[UNLOADED_RADIUS]
+            * fz
+            * (c[QSY1]
+                + c[QSY2] * fx / c[FNOMIN]
+                + c[QSY3] * v_rel.abs()
+                + c[QSY4] * v_rel.powi(4))
+            * c[LMY])
+    };
     if l.vx < 0.0 { -my } else { my }
 }
 
-/// Everything at one operating point: combined forces and moments plus diagnostics.
+/// Everything at one operating point: combined forces and moments plus diagnostics (PAC2002).
 pub fn evaluate<T: Real>(
     c: &Coefs<T>,
     input: &SlipInput,
     mode: Mode,
     trail_peak: TrailPeak,
 ) -> Evaluation<T> {
-    let l = load(c, input, mode);
-    let px = pure_fx0(c, &l);
-    let py = pure_fy0(c, &l);
-    let tt = trail_terms(c, &l, &py, trail_peak);
-    let fx = combined_fx(c, &l, px.fx0);
-    let fy = combined_fy(c, &l, &py);
-    let mz = combined_mz(c, &l, px.kxk, &tt, fx, &fy);
+    evaluate_loaded(c, &load(c, input, mode), trail_peak)
+}
+
+/// Everything at one operating point of a `version` model at inflation pressure `p_pa`
+/// (ignored by PAC2002).
+pub fn evaluate_with<T: Real>(
+    c: &Coefs<T>,
+    input: &SlipInput,
+    mode: Mode,
+    trail_peak: TrailPeak,
+    version: Version,
+    p_pa: f64,
+) -> Evaluation<T> {
+    evaluate_loaded(c, &load_with(c, input, mode, version, p_pa), trail_peak)
+}
+
+/// Every output at a prepared load.
+#[inline(always)]
+fn evaluate_loaded<T: Real>(c: &Coefs<T>, l: &Load<T>, trail_peak: TrailPeak) -> Evaluation<T> {
+    let px = pure_fx0(c, l);
+    let py = pure_fy0(c, l);
+    let tt = trail_terms(c, l, &py, trail_peak);
+    let fx = combined_fx(c, l, px.fx0);
+    let fy = combined_fy(c, l, &py);
+    let mz = combined_mz(c, l, px.kxk, &tt, fx, &fy);
     Evaluation {
         fx_n: fx,
         fy_n: fy.fy,
-        mx_nm: overturning_mx(c, &l, fy.fy),
-        my_nm: rolling_my(c, &l, fx),
+        mx_nm: overturning_mx(c, l, fy.fy),
+        my_nm: rolling_my(c, l, fx),
         mz_nm: mz.mz,
         mux: px.mux,
         muy: py.muy.abs(),
@@ -581,44 +812,189 @@ pub fn relaxation_lengths(c: &Coefs<f64>, fz_n: f64, gamma_rad: f64) -> (f64, f6
     (sigma_kappa, sigma_alpha)
 }
 
-/// A PAC2002 tire: coefficients plus the trail-peak variant they were fitted with.
+/// MF 6.x relaxation lengths `(|Kx_kappa / Cx|, |Ky_alpha / Cy|)` in m, with the structural
+/// stiffnesses `Cx = LONGITUDINAL_STIFFNESS (1 + PCFX1 dfz + PCFX2 dfz^2)(1 + PCFX3 dpi)` (and
+/// `Cy` likewise), at load `fz_n`, inclination `gamma_rad` and pressure `p_pa` (no limiting).
+pub fn relaxation_lengths_mf6(c: &Coefs<f64>, fz_n: f64, gamma_rad: f64, p_pa: f64) -> (f64, f64) {
+    let input = SlipInput {
+        fz_n,
+        kappa: 0.0,
+        alpha_rad: 0.0,
+        gamma_rad,
+        vx_mps: c[LONGVL],
+    };
+    let l = load_with(c, &input, Mode::Raw, Version::Mf61, p_pa);
+    let kxk = pure_fx0(c, &l).kxk;
+    let kya = pure_fy0(c, &l).kya;
+    let dfz = l.dfz;
+    let cx = c[LONGITUDINAL_STIFFNESS]
+        * (1.0 + c[PCFX1] * dfz + c[PCFX2] * dfz * dfz)
+        * (1.0 + c[PCFX3] * l.dpi);
+    let cy = c[LATERAL_STIFFNESS]
+        * (1.0 + c[PCFY1] * dfz + c[PCFY2] * dfz * dfz)
+        * (1.0 + c[PCFY3] * l.dpi);
+    ((kxk / cx).abs(), (kya / cy).abs())
+}
+
+/// Which inflation pressure `MagicFormula` evaluates at.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum Pressures<'a> {
+    /// The same pressure (Pa) at every point.
+    Uniform(f64),
+    /// One pressure (Pa) per point (as long as the points).
+    PerPoint(&'a [f64]),
+}
+
+impl Pressures<'_> {
+    /// The pressure of point `i`.
+    #[inline]
+    pub fn at(&self, i: usize) -> f64 {
+        match self {
+            Pressures::Uniform(p) => *p,
+            Pressures::PerPoint(p) => p[i],
+        }
+    }
+}
+
+/// A Magic Formula tire: coefficients, the model version they belong to, and the trail-peak
+/// variant they were fitted with (PAC2002 only).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Pac2002 {
-    /// Every coefficient (see [`super::params::Coef`]).
+pub struct MagicFormula {
+    /// Every coefficient (see [`super::params::Coef`]); keys the version does not carry hold
+    /// their defaults.
     pub coefs: Coefs<f64>,
+    /// PAC2002 / MF 5.2, MF 6.1 or MF 6.2.
+    pub version: Version,
     /// Standard PAC2002 unless deliberately fitted with the thesis variant.
     pub trail_peak: TrailPeak,
 }
 
-impl Pac2002 {
+/// The PAC2002 name of [`MagicFormula`] (what PAC2002 code builds with [`MagicFormula::new`]).
+pub type Pac2002 = MagicFormula;
+
+impl MagicFormula {
     /// A standard PAC2002 tire from its coefficients.
     pub fn new(coefs: Coefs<f64>) -> Self {
-        Pac2002 {
+        MagicFormula {
             coefs,
+            version: Version::Pac2002,
             trail_peak: TrailPeak::Standard,
         }
     }
 
-    /// Forces, moments and diagnostics at one point.
-    pub fn eval(&self, input: &SlipInput, mode: Mode) -> Evaluation<f64> {
-        evaluate(&self.coefs, input, mode, self.trail_peak)
+    /// A `version` tire; keys the version does not carry are reset to their defaults.
+    pub fn with_version(coefs: Coefs<f64>, version: Version) -> Self {
+        MagicFormula {
+            coefs: coefs.restricted_to(version),
+            version,
+            trail_peak: TrailPeak::Standard,
+        }
     }
 
-    /// Evaluate many points; `out` must be as long as `inputs`.
+    /// The pressure used when none is given, Pa: `INFLPRES`, else `NOMPRES` (MF 6.x); NaN for
+    /// PAC2002, which has no pressure terms.
+    pub fn default_pressure_pa(&self) -> f64 {
+        if !self.version.is_mf6() {
+            return f64::NAN;
+        }
+        let p = self.coefs[INFLPRES];
+        if p > 0.0 { p } else { self.coefs[NOMPRES] }
+    }
+
+    /// Forces, moments and diagnostics at one point, at the default pressure.
+    pub fn eval(&self, input: &SlipInput, mode: Mode) -> Evaluation<f64> {
+        self.eval_at(input, self.default_pressure_pa(), mode)
+    }
+
+    /// Forces, moments and diagnostics at one point and inflation pressure `p_pa` (PAC2002
+    /// ignores it).
+    pub fn eval_at(&self, input: &SlipInput, p_pa: f64, mode: Mode) -> Evaluation<f64> {
+        evaluate_with(
+            &self.coefs,
+            input,
+            mode,
+            self.trail_peak,
+            self.version,
+            p_pa,
+        )
+    }
+
+    /// Combined-slip forces and moments at a vertical load (N), slip angle (rad), longitudinal
+    /// slip, inclination (rad) and inflation pressure (Pa), rolling at the reference speed
+    /// `LONGVL`, limits mode: the call for "what does this tire do at 11 psi".
+    pub fn forces(
+        &self,
+        fz_n: f64,
+        alpha_rad: f64,
+        kappa: f64,
+        gamma_rad: f64,
+        p_pa: f64,
+    ) -> Evaluation<f64> {
+        let input = SlipInput {
+            fz_n,
+            kappa,
+            alpha_rad,
+            gamma_rad,
+            vx_mps: self.coefs[LONGVL],
+        };
+        self.eval_at(&input, p_pa, Mode::Limits)
+    }
+
+    /// Evaluate many points at the default pressure; `out` must be as long as `inputs`.
     ///
     /// Runs the structure-of-arrays evaluator (`batch.rs`): several points at a time with
-    /// polynomial elementary functions. Every output equals [`Pac2002::eval`]'s to within
+    /// polynomial elementary functions. Every output equals [`MagicFormula::eval`]'s to within
     /// `1e-12` relative to `max(|value|, 1)` (measured: a few `1e-15`), not bit for bit.
     ///
     /// # Panics
     /// If `out.len() != inputs.len()`.
     pub fn eval_batch(&self, inputs: &[SlipInput], mode: Mode, out: &mut [Evaluation<f64>]) {
-        assert_eq!(inputs.len(), out.len(), "eval_batch: output length");
-        super::batch::eval_batch(&self.coefs, self.trail_peak, inputs, mode, out);
+        self.eval_batch_at(
+            inputs,
+            Pressures::Uniform(self.default_pressure_pa()),
+            mode,
+            out,
+        );
     }
 
-    /// Relaxation lengths `(sigma_kappa, sigma_alpha)`, m.
+    /// [`MagicFormula::eval_batch`] at the given pressures (PAC2002 ignores them).
+    ///
+    /// # Panics
+    /// If `out.len() != inputs.len()`, or per-point pressures are not as long as `inputs`.
+    pub fn eval_batch_at(
+        &self,
+        inputs: &[SlipInput],
+        pressures: Pressures<'_>,
+        mode: Mode,
+        out: &mut [Evaluation<f64>],
+    ) {
+        assert_eq!(inputs.len(), out.len(), "eval_batch: output length");
+        if let Pressures::PerPoint(p) = pressures {
+            assert_eq!(p.len(), inputs.len(), "eval_batch: pressures length");
+        }
+        super::batch::eval_batch(
+            &self.coefs,
+            self.trail_peak,
+            self.version,
+            inputs,
+            pressures,
+            mode,
+            out,
+        );
+    }
+
+    /// Relaxation lengths `(sigma_kappa, sigma_alpha)`, m, at the default pressure.
     pub fn relaxation_lengths(&self, fz_n: f64, gamma_rad: f64) -> (f64, f64) {
-        relaxation_lengths(&self.coefs, fz_n, gamma_rad)
+        self.relaxation_lengths_at(fz_n, gamma_rad, self.default_pressure_pa())
+    }
+
+    /// Relaxation lengths `(sigma_kappa, sigma_alpha)`, m, at pressure `p_pa` (PAC2002's
+    /// `PTX*`/`PTY*` laws ignore it).
+    pub fn relaxation_lengths_at(&self, fz_n: f64, gamma_rad: f64, p_pa: f64) -> (f64, f64) {
+        if self.version.is_mf6() {
+            relaxation_lengths_mf6(&self.coefs, fz_n, gamma_rad, p_pa)
+        } else {
+            relaxation_lengths(&self.coefs, fz_n, gamma_rad)
+        }
     }
 }

@@ -40,6 +40,9 @@ pub trait Real:
     fn exp(self) -> Self;
     /// Square root (derivative undefined at 0; callers keep the argument positive).
     fn sqrt(self) -> Self;
+    /// `self` to the power `y` (`pow`; callers keep `self >= 0`, and the derivative with
+    /// respect to `y` is taken as 0 at `self == 0`).
+    fn powf(self, y: Self) -> Self;
 
     /// Absolute value (derivative `sgn(x)`, 0 at 0 taken as +).
     #[inline]
@@ -109,6 +112,10 @@ impl Real for f64 {
     #[inline]
     fn sqrt(self) -> Self {
         f64::sqrt(self)
+    }
+    #[inline]
+    fn powf(self, y: Self) -> Self {
+        f64::powf(self, y)
     }
 }
 
@@ -282,6 +289,18 @@ impl<const N: usize> Real for Dual<N> {
         let r = self.v.sqrt();
         self.chain(r, 0.5 / r)
     }
+    #[inline]
+    fn powf(self, y: Self) -> Self {
+        let v = self.v.powf(y.v);
+        // d(x^y) = y x^(y-1) dx + x^y ln(x) dy
+        let dx = if self.v == 0.0 { 0.0 } else { y.v * v / self.v };
+        let dy = if self.v > 0.0 { v * self.v.ln() } else { 0.0 };
+        let mut d = [0.0; N];
+        for ((r, a), b) in d.iter_mut().zip(self.d).zip(y.d) {
+            *r = a * dx + b * dy;
+        }
+        Dual { v, d }
+    }
 }
 
 #[cfg(test)]
@@ -289,7 +308,9 @@ mod tests {
     use super::*;
 
     fn f<T: Real>(x: T, y: T) -> T {
-        (x * y).sin() + (x / y).atan() * x.exp() - (y.sq() + 1.0).sqrt() * x.tan() + x.cos_atan()
+        (x * y).sin() + (x / y).atan() * x.exp() - (y.sq() + 1.0).sqrt() * x.tan()
+            + x.cos_atan()
+            + y.powf(x)
     }
 
     #[test]

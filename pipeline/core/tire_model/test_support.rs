@@ -32,9 +32,29 @@ pub const MFEVAL_SAMPLE_COMBINED_211: &str = include_str!(
     "../../../tests/fixtures/reference/mfeval-sample/mfeval_pac2002_combined_mode211.csv"
 );
 
+/// MFeval's MF 6.1 sample tire (passenger-car size, NOMPRES 260 kPa).
+pub const MF61_SAMPLE_TIR: &str =
+    include_str!("../../../tests/fixtures/reference/mfeval-mf6/MagicFormula61_Parameters.tir");
+/// MFeval's MF 6.1 file with the coefficient values of Pacejka's book.
+pub const MF61_BOOK_TIR: &str =
+    include_str!("../../../tests/fixtures/reference/mfeval-mf6/PacejkaBook_Defaults.tir");
+
 /// The coefficients of a bundled `.tir` file (panics if it cannot be read: fixtures are fixed).
 pub fn coefs_from_tir(text: &str) -> Coefs<f64> {
     TirFile::parse(text).expect("bundled .tir reads").0.coefs
+}
+
+/// The model of a bundled `.tir` file, its own version.
+pub fn model_from_tir(text: &str) -> super::MagicFormula {
+    TirFile::parse(text).expect("bundled .tir reads").0.model()
+}
+
+/// `n` pressures drawn uniformly in `[lo, hi]` times `nominal_pa`.
+pub fn random_pressures(n: usize, seed: u64, nominal_pa: f64, lo: f64, hi: f64) -> Vec<f64> {
+    let mut rng = SplitMix64::new(seed);
+    (0..n)
+        .map(|_| rng.uniform_in(lo, hi) * nominal_pa)
+        .collect()
 }
 
 /// One reference row: the input point and MFeval's `[Fx, Fy, Mx, My, Mz]`.

@@ -61,6 +61,24 @@ pub use family::Family;
 pub use quality::{OutOfSample, TREND_SUBDIVISIONS, TrendDeviation};
 pub use stage::fit;
 
+/// A sweep's samples as this stage fits them: finite, in time order, despiked and, with
+/// `relaxation`, de-lagged (the MF 6.1 stage reads the same cleaned samples).
+pub fn cleaned_samples(
+    sweep: &Sweep,
+    despike_sigmas: f64,
+    relaxation: Option<&RelaxationLengths>,
+) -> Vec<Sample> {
+    let settings = collapse::CollapseSettings {
+        bin: match sweep.kind {
+            SweepKind::Cornering => 0.25_f64.to_radians(),
+            _ => 0.0025,
+        },
+        despike_sigmas,
+        relaxation,
+    };
+    collapse::collapse(sweep, &settings).samples
+}
+
 /// What a sweep holds fixed and what it sweeps.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum SweepKind {

@@ -1,4 +1,5 @@
-//! Physical plausibility of a PAC2002 file over its own operating envelope.
+//! Physical plausibility of a Magic Formula file (PAC2002 / MF 5.2, MF 6.1 / 6.2) over its own
+//! operating envelope.
 //!
 //! In: a [`TirFile`]. Out: a [`LintReport`]: findings with a [`Severity`], a stable kebab-case
 //! code and a one-line message naming the worst value and where it occurs, plus the envelope
@@ -7,10 +8,14 @@
 //! The envelope comes from the range sections: `Fz` in `[max(FZMIN, 0.05 FNOMIN),
 //! min(FZMAX, 4 FNOMIN)]`, inclination in `[CAMMIN, CAMMAX]` (at most 15 deg), `kappa` in
 //! `[KPUMIN, KPUMAX]` (at most |1|), `alpha` in `[ALPMIN, ALPMAX]` (at most 45 deg): the caps
-//! keep "no limit" defaults from sampling meaningless states. Checks run only for the force
+//! keep "no limit" defaults from sampling meaningless states. MF 6.x files are sampled at three
+//! inflation pressures: `PRESMIN`, `NOMPRES`, `PRESMAX` (0.75 and 1.25 `NOMPRES` where the range
+//! is unlimited), each point evaluated by the file's own equations. Checks run only for the force
 //! families the declared `USE_MODE` uses (1 Fx, 2 Fy + Mz, 3 both uncombined, 4 combined,
 //! +10 relaxation; 4 when absent). Two kinds:
 //! - [`dense`]: every channel evaluated through the model's batch API along dense slip sweeps
+//!   (MF 6.x: at each sampled pressure; a finding already made at another pressure is not
+//!   repeated)
 //!   (fine grids around zero slip and the force's zero crossing): spikes and discontinuities,
 //!   friction above 4 and moments out of range, the force's sign against the slip (so the
 //!   supplier's `PDX1 < 0` with `PKX1 > 0`, which evaluates correctly, passes), non-finite
@@ -29,7 +34,8 @@
 //!     above 1.05 (combined slip raises the force); `FZMAX < FNOMIN`; an inflation pressure
 //!     outside 20..1600 kPa (not in Pa?), an `UNLOADED_RADIUS` outside 0.1..1 m, a
 //!     `VERTICAL_STIFFNESS` that deflects the tire by less than 1 % or more than 25 % of its
-//!     radius at `FNOMIN` (a radius or a stiffness in another unit).
+//!     radius at `FNOMIN` (a radius or a stiffness in another unit); for MF 6.x also
+//!     `NOMPRES <= 0` (error: the pressure terms divide by it).
 //!
 //! [`UNDEFINED_MODEL_CODES`] marks the errors that leave the model undefined rather than
 //! doubtful.
@@ -44,9 +50,9 @@ mod dense;
 use super::TirFile;
 use super::units::PLACEHOLDER;
 use crate::tire_model::factors::slip_factors;
-use crate::tire_model::pac2002::{Pac2002, load};
+use crate::tire_model::pac2002::{MagicFormula, load_with};
 use crate::tire_model::params::{Coef, Coef::*, Coefs};
-use crate::tire_model::{Mode, SlipInput};
+use crate::tire_model::{Mode, Pressures, SlipInput, Version};
 
 /// How bad a finding is.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -116,6 +122,8 @@ pub struct Envelope {
     pub gamma_rad: (f64, f64),
     /// Speed used, m/s.
     pub vx_mps: f64,
+    /// Inflation pressures sampled, Pa (MF 6.x; empty for PAC2002).
+    pub pressures_pa: [Option<f64>; 3],
 }
 
 /// Everything `lint` found.
@@ -153,15 +161,33 @@ struct Families {
     relaxation: bool,
 }
 
-/// A family and the coefficients without which it is no model at all.
-const FAMILY_KEYS: [(&str, &[Coef]); 6] = [
-    ("pure Fx", &[PCX1, PDX1, PKX1]),
-    ("pure Fy", &[PCY1, PDY1, PKY1, PKY2]),
-    ("pure Mz", &[QBZ1, QCZ1, QDZ1]),
-    ("combined Fx", &[RBX1, RCX1]),
-    ("combined Fy", &[RBY1, RCY1]),
-    ("relaxation", &[PTX1, PTY1, PTY2]),
-];
+/// A family and the coefficients without which it is no model at all, per version (MF 6.x's
+/// `Ky_alpha` also needs `PKY4`; its relaxation lengths come from the structural stiffnesses).
+fn family_keys(version: Version) -> [(&'static str, &'static [Coef]); 6] {
+    let mf6 = version.is_mf6();
+    [
+        ("pure Fx", &[PCX1, PDX1, PKX1]),
+        (
+            "pure Fy",
+            if mf6 {
+                &[PCY1, PDY1, PKY1, PKY2, PKY4]
+            } else {
+                &[PCY1, PDY1, PKY1, PKY2]
+            },
+        ),
+        ("pure Mz", &[QBZ1, QCZ1, QDZ1]),
+        ("combined Fx", &[RBX1, RCX1]),
+        ("combined Fy", &[RBY1, RCY1]),
+        (
+            "relaxation",
+            if mf6 {
+                &[LONGITUDINAL_STIFFNESS, LATERAL_STIFFNESS]
+            } else {
+                &[PTX1, PTY1, PTY2]
+            },
+        ),
+    ]
+}
 
 /// Lint a file over its envelope.
 pub fn lint(file: &TirFile) -> LintReport {
@@ -171,11 +197,11 @@ pub fn lint(file: &TirFile) -> LintReport {
     let c = &file.coefs;
     let families = l.use_mode(file.use_mode);
     l.missing_families(file, families);
-    let basic_ok = l.basics(c);
+    let basic_ok = l.basics(c, file.version);
     l.scalars(file, families);
     let (envelope, points) = if basic_ok {
-        let env = envelope(c);
-        let points = Grid::new(c, env, families).run(&mut l);
+        let env = envelope(c, file.version);
+        let points = Grid::new(c, file.version, env, families).run(&mut l);
         (Some(env), points)
     } else {
         (None, 0)
@@ -190,7 +216,7 @@ pub fn lint(file: &TirFile) -> LintReport {
 }
 
 /// The envelope to sample (see the module docs for the caps).
-fn envelope(c: &Coefs<f64>) -> Envelope {
+fn envelope(c: &Coefs<f64>, version: Version) -> Envelope {
     let fz0 = c[FNOMIN];
     let fz_hi = if c[FZMAX].abs() < PLACEHOLDER {
         c[FZMAX].min(4.0 * fz0)
@@ -210,6 +236,23 @@ fn envelope(c: &Coefs<f64>) -> Envelope {
         alpha_rad: cap(c[ALPMIN], c[ALPMAX], PI / 4.0),
         gamma_rad: cap(c[CAMMIN], c[CAMMAX], PI / 12.0),
         vx_mps: vx,
+        pressures_pa: if version.is_mf6() {
+            let p0 = c[NOMPRES];
+            let finite = |p: f64| p > 0.0 && p < PLACEHOLDER;
+            let lo = if finite(c[PRESMIN]) {
+                c[PRESMIN]
+            } else {
+                0.75 * p0
+            };
+            let hi = if finite(c[PRESMAX]) {
+                c[PRESMAX]
+            } else {
+                1.25 * p0
+            };
+            [Some(lo), Some(p0), Some(hi)]
+        } else {
+            [None; 3]
+        },
     }
 }
 
@@ -261,7 +304,7 @@ impl Linter {
             families.combined && families.fy_mz,
             families.relaxation,
         ];
-        for ((name, keys), used) in FAMILY_KEYS.iter().zip(used) {
+        for ((name, keys), used) in family_keys(file.version).iter().zip(used) {
             if !used {
                 continue;
             }
@@ -286,8 +329,20 @@ impl Linter {
     }
 
     /// Checks without which nothing can be evaluated; false when one fails.
-    fn basics(&mut self, c: &Coefs<f64>) -> bool {
+    fn basics(&mut self, c: &Coefs<f64>, version: Version) -> bool {
         let mut ok = true;
+        if version.is_mf6() && (c[NOMPRES].is_nan() || c[NOMPRES] <= 0.0) {
+            self.push(
+                Severity::Error,
+                "not-positive",
+                format!(
+                    "NOMPRES = {} Pa (nominal inflation pressure) must be positive: the {version} \
+                     pressure terms divide by it",
+                    c[NOMPRES]
+                ),
+            );
+            ok = false;
+        }
         for (k, what) in [
             (FNOMIN, "nominal load"),
             (UNLOADED_RADIUS, "unloaded radius"),
@@ -402,10 +457,16 @@ impl Linter {
                 ),
             );
         }
-        for (name, p) in [
-            ("IP", file.pressure.inflation_pa),
-            ("IP_NOM", file.pressure.nominal_pa),
-        ] {
+        let pressures = file.pressures();
+        let names = if file.version.is_mf6() {
+            ["INFLPRES", "NOMPRES"]
+        } else {
+            ["IP", "IP_NOM"]
+        };
+        for (name, p) in names
+            .into_iter()
+            .zip([pressures.inflation_pa, pressures.nominal_pa])
+        {
             if let Some(p) = p.filter(|p| !(PRESSURE_PA.0..=PRESSURE_PA.1).contains(p)) {
                 self.push(
                     Severity::Warning,
@@ -496,6 +557,7 @@ fn describe(p: &SlipInput) -> String {
 /// The sampled grid and its accumulators.
 struct Grid<'a> {
     c: &'a Coefs<f64>,
+    version: Version,
     env: Envelope,
     fam: Families,
 }
@@ -510,8 +572,13 @@ fn linspace(range: (f64, f64), n: usize) -> impl Iterator<Item = f64> {
 }
 
 impl<'a> Grid<'a> {
-    fn new(c: &'a Coefs<f64>, env: Envelope, fam: Families) -> Self {
-        Grid { c, env, fam }
+    fn new(c: &'a Coefs<f64>, version: Version, env: Envelope, fam: Families) -> Self {
+        Grid {
+            c,
+            version,
+            env,
+            fam,
+        }
     }
 
     fn input(&self, fz: f64, gamma: f64, kappa: f64, alpha: f64) -> SlipInput {
@@ -526,38 +593,64 @@ impl<'a> Grid<'a> {
 
     /// Run every grid check; returns the number of points evaluated.
     fn run(&self, l: &mut Linter) -> usize {
-        let model = Pac2002::new(self.c.clone());
+        let model = MagicFormula::with_version(self.c.clone(), self.version);
         let mut acc = Accumulators::default();
         let mut points = 0;
-        for fz in linspace(self.env.fz_n, N_FZ) {
-            for gamma in linspace(self.env.gamma_rad, N_GAMMA) {
-                points += self.factors_at(fz, gamma, &mut acc);
-                points += self.sweeps_at(&model, fz, gamma, &mut acc);
+        // PAC2002 has no pressure: one pass (the pressure is ignored).
+        let pressures: Vec<f64> = if self.version.is_mf6() {
+            self.env.pressures_pa.iter().flatten().copied().collect()
+        } else {
+            vec![f64::NAN]
+        };
+        for &p in &pressures {
+            for fz in linspace(self.env.fz_n, N_FZ) {
+                for gamma in linspace(self.env.gamma_rad, N_GAMMA) {
+                    points += self.factors_at(fz, gamma, p, &mut acc);
+                    points += self.sweeps_at(&model, fz, gamma, p, &mut acc);
+                }
             }
         }
         acc.report(l, self.fam);
-        let eval = |inputs: &[SlipInput], out: &mut [crate::tire_model::Evaluation<f64>]| {
-            model.eval_batch(inputs, Mode::Limits, out)
-        };
-        points += dense::run(
-            &eval,
-            &self.env,
-            self.fam,
-            self.c[UNLOADED_RADIUS],
-            N_FZ,
-            N_GAMMA,
-            l,
-        );
+        let dense_start = l.findings.len();
+        for &p in &pressures {
+            let eval = |inputs: &[SlipInput], out: &mut [crate::tire_model::Evaluation<f64>]| {
+                model.eval_batch_at(inputs, Pressures::Uniform(p), Mode::Limits, out)
+            };
+            let before = l.findings.len();
+            points += dense::run(
+                &eval,
+                &self.env,
+                self.fam,
+                self.c[UNLOADED_RADIUS],
+                N_FZ,
+                N_GAMMA,
+                l,
+            );
+            if self.version.is_mf6() {
+                // One finding per code: the first pressure that shows it, named.
+                let mut new: Vec<Finding> = l.findings.drain(before..).collect();
+                new.retain(|f| {
+                    !l.findings[dense_start..before]
+                        .iter()
+                        .any(|g| g.code == f.code)
+                });
+                for f in &mut new {
+                    f.message = format!("{} (at {:.1} kPa)", f.message, p / 1e3);
+                }
+                l.findings.extend(new);
+            }
+        }
         points
     }
 
     /// Factor checks over the combined (kappa, alpha) grid at one load and inclination.
-    fn factors_at(&self, fz: f64, gamma: f64, acc: &mut Accumulators) -> usize {
+    fn factors_at(&self, fz: f64, gamma: f64, pressure: f64, acc: &mut Accumulators) -> usize {
         let mut n = 0;
         for kappa in linspace(self.env.kappa, N_COMBINED) {
             for alpha in linspace(self.env.alpha_rad, N_COMBINED) {
                 let p = self.input(fz, gamma, kappa, alpha);
-                let f = slip_factors(self.c, &load(self.c, &p, Mode::Raw));
+                let l = load_with(self.c, &p, Mode::Raw, self.version, pressure);
+                let f = slip_factors(self.c, &l);
                 acc.point(&p, &f);
                 n += 1;
             }
@@ -566,7 +659,14 @@ impl<'a> Grid<'a> {
     }
 
     /// Slip sweeps at one load and inclination: pure and combined, oscillation.
-    fn sweeps_at(&self, model: &Pac2002, fz: f64, gamma: f64, acc: &mut Accumulators) -> usize {
+    fn sweeps_at(
+        &self,
+        model: &MagicFormula,
+        fz: f64,
+        gamma: f64,
+        pressure: f64,
+        acc: &mut Accumulators,
+    ) -> usize {
         let (k_lo, k_hi) = self.env.kappa;
         let (a_lo, a_hi) = self.env.alpha_rad;
         let mut n = 0;
@@ -585,7 +685,7 @@ impl<'a> Grid<'a> {
                     self.input(fz, gamma, other, s)
                 };
                 first.get_or_insert(p);
-                let e = model.eval(&p, Mode::Limits);
+                let e = model.eval_at(&p, pressure, Mode::Limits);
                 values.push(if along_kappa { e.fx_n } else { e.fy_n });
             }
             n += values.len();
@@ -878,6 +978,46 @@ mod tests {
             .filter(|f| f.severity == severity)
             .map(|f| f.code)
             .collect()
+    }
+
+    const MF61: &str = include_str!(
+        "../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula61_Parameters.tir"
+    );
+
+    /// Issue 19: an MF 6.1 file is linted by its own equations at three pressures; MFeval's
+    /// sample has no errors; a missing PKY4 (Ky = 0 in MF 6.x) and NOMPRES = 0 are errors.
+    #[test]
+    fn mf61_sample_lints_at_three_pressures() {
+        let r = lint_text(MF61);
+        let env = r.envelope.unwrap();
+        assert_eq!(
+            env.pressures_pa,
+            [Some(200_000.0), Some(260_000.0), Some(400_000.0)]
+        );
+        assert_eq!(r.errors(), 0, "{:#?}", r.findings);
+        let no_pky4 = MF61.replace(
+            "PKY4                     =    2.7364",
+            "PKY4                     =    0",
+        );
+        let r = lint_text(&no_pky4);
+        assert!(
+            r.findings
+                .iter()
+                .any(|f| f.code == "missing-family" && f.message.contains("PKY4")),
+            "{:#?}",
+            r.findings
+        );
+        let no_nompres = MF61.replace(
+            "NOMPRES                  =    260000",
+            "NOMPRES                  =    0",
+        );
+        let r = lint_text(&no_nompres);
+        assert!(
+            r.findings.iter().any(|f| f.message.contains("NOMPRES")),
+            "{:#?}",
+            r.findings
+        );
+        assert!(r.envelope.is_none());
     }
 
     #[test]

@@ -1,16 +1,21 @@
-//! The `.tir` tire property file (Adams / MF-Tyre "TeimOrbit" layout) for PAC2002 / MF 5.2.
+//! The `.tir` tire property file (Adams / MF-Tyre "TeimOrbit" layout) for PAC2002 / MF 5.2 and
+//! MF 6.1 / 6.2.
 //!
 //! In: the text of a `.tir` file ([`TirFile::parse`], or [`TirFile::parse_bytes`] for raw bytes
-//! that may be Latin-1). Out: a [`TirFile`] (every PAC2002 coefficient converted to SI, which
-//! keys the file carried, its string keys, pressures, `[SHAPE]` table, and everything it did not
-//! understand kept in order), warnings about what was tolerated, and [`TirFile::model`]. The
-//! other way: [`TirFile::render`] writes a complete PAC2002 file in the Adams layout, so that
-//! `parse(render(x)) == x` exactly. [`lint`] reports physical problems over the file's envelope.
+//! that may be Latin-1). Out: a [`TirFile`] (its model [`Version`], every coefficient of that
+//! version converted to SI, which keys the file carried, its string keys, pressures, `[SHAPE]`
+//! table, and everything it did not understand kept in order), warnings about what was
+//! tolerated, and [`TirFile::model`]. The other way: [`TirFile::render`] writes a complete file
+//! of the same version (PAC2002 in the Adams layout, MF 6.x in the MF-Tyre 6.1 layout), so that
+//! `parse(render(x)) == x` exactly; [`convert`] moves a model between versions.
+//! [`lint`] reports physical problems over the file's envelope.
 //!
-//! Deliberately not here: reading from disk (callers pass text), MF 6.x files (rejected with a
-//! clear message), and any unit handling beyond `[UNITS]` (see [`units`] for which keys carry a
-//! dimension; Magic Formula coefficients are dimensionless and never converted).
+//! Deliberately not here: reading from disk (callers pass text), turn-slip, inertia and
+//! contact-patch parameters beyond keeping them, and any unit handling beyond `[UNITS]` (see
+//! [`units`] for which keys carry a dimension; Magic Formula coefficients are dimensionless and
+//! never converted).
 
+pub mod convert;
 mod lexer;
 pub mod lint;
 mod read;
@@ -21,8 +26,9 @@ pub use read::{ReadWarning, TirReadError};
 pub use units::Units;
 pub use write::{TirWriteError, format_f64};
 
-use super::pac2002::Pac2002;
-use super::params::{Coefs, N_COEFS};
+use super::pac2002::MagicFormula;
+use super::params::{Coef, Coefs, N_COEFS};
+use super::version::Version;
 
 /// A value of a key this module does not interpret (kept as read, written back as is).
 #[derive(Clone, Debug, PartialEq)]
@@ -81,8 +87,10 @@ pub struct ShapeTable {
     pub rows: Vec<Vec<f64>>,
 }
 
-/// Inflation pressures, Pa. Read from `[TYRE_CONDITIONS] IP / IP_NOM` (Adams PAC2002) or
-/// `[OPERATING_CONDITIONS] INFLPRES / NOMPRES` (MF 6.x style); written as the former.
+/// Inflation pressures of a PAC2002 file, Pa. Read from `[TYRE_CONDITIONS] IP / IP_NOM`
+/// (Adams PAC2002) or `[OPERATING_CONDITIONS] INFLPRES / NOMPRES` (MF 6.x style); written as
+/// the former. An MF 6.x file keeps its pressures as the coefficients `INFLPRES` and `NOMPRES`
+/// instead (see [`TirFile::pressures`] for either).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct TyrePressure {
     /// Inflation pressure of the test, Pa.
@@ -91,7 +99,7 @@ pub struct TyrePressure {
     pub nominal_pa: Option<f64>,
 }
 
-/// How the file declared its model (as read; the writer always declares PAC2002, FITTYP 6).
+/// How the file declared its model (as read; the writer declares its version's `FITTYP`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Declaration {
     /// `[MODEL] PROPERTY_FILE_FORMAT`, as written (e.g. `PAC2002`, `MF_05`, `USER`).
@@ -100,14 +108,17 @@ pub struct Declaration {
     pub fittyp: Option<i64>,
 }
 
-/// A PAC2002 / MF 5.2 tire property file in memory. All coefficient values are SI (m, N, rad,
+/// A Magic Formula tire property file in memory. All coefficient values are SI (m, N, rad,
 /// kg, s, Pa), whatever `[UNITS]` the source file declared.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TirFile {
-    /// Every coefficient; keys the file did not carry hold [`super::params::Coef::default_value`].
+    /// Every coefficient; keys the file did not carry (and keys its version does not carry) hold
+    /// [`super::params::Coef::default_value`].
     pub coefs: Coefs<f64>,
     /// Which coefficients the file carried (with a non-empty value).
     pub present: Coefs<bool>,
+    /// The model version (from `FITTYP`, else `PROPERTY_FILE_FORMAT`).
+    pub version: Version,
     /// The model declaration of the source file.
     pub declaration: Declaration,
     /// `[MODEL] USE_MODE` (Adams: 1 Fx, 2 Fy+Mz, 3 uncombined, 4 combined, +10 relaxation,
@@ -115,7 +126,7 @@ pub struct TirFile {
     pub use_mode: Option<i64>,
     /// `[MODEL] TYRESIDE` as written (`Left`, `Right`, ...).
     pub tyre_side: Option<String>,
-    /// Inflation pressures.
+    /// Inflation pressures of a PAC2002 file (an MF 6.x file keeps them as coefficients).
     pub pressure: TyrePressure,
     /// The units the source file was written in (values here are already SI).
     pub source_units: Units,
@@ -132,14 +143,28 @@ pub struct TirFile {
 }
 
 impl TirFile {
-    /// A file holding `coefs` (all marked present) and nothing else: what a fitter writes.
+    /// A PAC2002 file holding `coefs` (all marked present) and nothing else: what a fitter
+    /// writes.
     pub fn from_coefs(coefs: Coefs<f64>) -> TirFile {
+        TirFile::from_coefs_as(coefs, Version::Pac2002)
+    }
+
+    /// A `version` file holding `coefs` (keys the version does not carry reset to their
+    /// defaults; the others marked present) and nothing else.
+    pub fn from_coefs_as(coefs: Coefs<f64>, version: Version) -> TirFile {
+        let mut present = Coefs([true; N_COEFS]);
+        for c in Coef::ALL {
+            present[*c] = c.carried_by(version);
+        }
         TirFile {
-            coefs,
-            present: Coefs([true; N_COEFS]),
+            coefs: coefs.restricted_to(version),
+            present,
+            version,
             declaration: Declaration {
-                property_file_format: Some("PAC2002".to_string()),
-                fittyp: Some(6),
+                property_file_format: Some(
+                    if version.is_mf6() { "USER" } else { "PAC2002" }.to_string(),
+                ),
+                fittyp: Some(version.fittyp()),
             },
             use_mode: Some(4),
             tyre_side: None,
@@ -171,14 +196,28 @@ impl TirFile {
         }
     }
 
-    /// Render as a complete PAC2002 file (Adams layout, LF endings, SI units).
+    /// Render as a complete file of its version (LF endings, SI units).
     pub fn render(&self) -> Result<String, TirWriteError> {
         write::render(self)
     }
 
-    /// The standard PAC2002 model of these coefficients.
-    pub fn model(&self) -> Pac2002 {
-        Pac2002::new(self.coefs.clone())
+    /// The model of these coefficients (its version's equations).
+    pub fn model(&self) -> MagicFormula {
+        MagicFormula::with_version(self.coefs.clone(), self.version)
+    }
+
+    /// The inflation pressures, Pa, whichever version: `[TYRE_CONDITIONS]` of a PAC2002 file,
+    /// the `INFLPRES` / `NOMPRES` coefficients of an MF 6.x file (`None` when not carried).
+    pub fn pressures(&self) -> TyrePressure {
+        if self.version.is_mf6() {
+            let get = |c: Coef| self.present[c].then_some(self.coefs[c]);
+            TyrePressure {
+                inflation_pa: get(Coef::INFLPRES),
+                nominal_pa: get(Coef::NOMPRES),
+            }
+        } else {
+            self.pressure
+        }
     }
 }
 

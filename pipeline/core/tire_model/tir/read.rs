@@ -3,14 +3,21 @@
 //! In: the whole text (LF, CRLF or CR line endings). Out: a [`TirFile`] with every coefficient
 //! in SI plus [`ReadWarning`]s, or one [`TirReadError`] whose message is one line starting with
 //! `line N:`. Two passes: the first lexes every line and collects raw values per section; the
-//! second resolves `[UNITS]`, checks the model declaration and converts.
+//! second resolves `[UNITS]`, checks the model declaration (PAC2002 / MF 5.2, MF 6.1 or MF 6.2:
+//! `FITTYP` decides, else `PROPERTY_FILE_FORMAT`) and converts. A known coefficient the declared
+//! version does not carry (`PHY3` in an MF 6.1 file, `PPY1` in a PAC2002 file) is kept as an
+//! uninterpreted key, in file order, and written back as read (with a warning when its value is
+//! not the default the version assumes). MF 6.x pressures
+//! (`[OPERATING_CONDITIONS] INFLPRES / NOMPRES`) are coefficients; a missing or blank `INFLPRES`
+//! takes `NOMPRES` (with a warning), a missing `NOMPRES` MFeval's 220 kPa (with a warning).
 //!
 //! Tolerated (with a warning): a text line without `=` inside a key/value section (taken as the
 //! wrapped tail of the previous line's comment; real files have them), empty values (the default
 //! is used), repeated keys (the later value wins, as in MFeval), quoted numbers, coefficients in
 //! an unexpected known section, content before the first section. Refused: binary data,
 //! unterminated `[`/`{`/quotes, a coefficient whose value is not a finite number, unknown unit
-//! names, MF 6.x and other non-MF-5.2 models, and files without `FNOMIN` or `UNLOADED_RADIUS`.
+//! names, non-Magic-Formula models and Magic Formula versions other than 5.2 / 6.1 / 6.2, and
+//! files without `FNOMIN` or `UNLOADED_RADIUS`.
 //! Deliberately not here: physical plausibility (see `lint.rs`).
 
 use super::lexer::{self, LexError, Line, RawValue, parse_number};
@@ -19,6 +26,7 @@ use super::{
     Declaration, Entry, ExtraKey, ExtraLine, ExtraSection, ShapeTable, TirFile, TyrePressure, Value,
 };
 use crate::tire_model::params::{Coef, Coefs, N_COEFS, Section};
+use crate::tire_model::version::Version;
 
 /// A `.tir` file that cannot be read. Every message is one line naming the line number.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -67,10 +75,10 @@ pub enum TirReadError {
         /// What is unknown and what is accepted.
         reason: units::UnknownUnit,
     },
-    /// A model other than PAC2002 / MF 5.2.
+    /// A model other than PAC2002 / MF 5.2 / MF 6.1 / MF 6.2.
     #[error(
-        "line {line}: {what}: not supported; tirebase reads PAC2002 / MF 5.2 files \
-         (FITTYP 6 or 21, or PROPERTY_FILE_FORMAT 'PAC2002' / 'MF_05')"
+        "line {line}: {what}: not supported; tirebase reads PAC2002 / MF 5.2 (FITTYP 6 or 21, or \
+         PROPERTY_FILE_FORMAT 'PAC2002' / 'MF_05'), MF 6.1 (FITTYP 61) and MF 6.2 (FITTYP 62) files"
     )]
     Unsupported {
         /// 1-based line number.
@@ -182,10 +190,20 @@ struct Raw {
     line: usize,
 }
 
+/// A coefficient as read, before units and the model version are known.
+#[derive(Clone, Debug)]
+struct RawCoef {
+    /// `None`: `KEY =` with nothing after it.
+    value: Option<f64>,
+    line: usize,
+    /// The section it was found in.
+    section: Section,
+}
+
 /// Everything collected by the first pass.
 #[derive(Default)]
 struct Collected {
-    coefs: Vec<Option<Raw>>,
+    coefs: Vec<Option<RawCoef>>,
     units: Units,
     unit_lines: Vec<(usize, String)>,
     property_file_format: Option<(String, usize)>,
@@ -515,17 +533,34 @@ impl Collected {
                 ),
             );
         }
-        let Some(v) = number(key, value, line, &mut self.warnings)? else {
+        let slot = &mut self.coefs[c.index()];
+        if matches!(value, RawValue::Empty) {
+            // Whether the default is used or the key is kept uninterpreted is decided once the
+            // model version is known (`finish`).
+            if slot.is_none() {
+                *slot = Some(RawCoef {
+                    value: None,
+                    line,
+                    section,
+                });
+            }
             return Ok(());
-        };
-        if let Some(prev) = &self.coefs[c.index()] {
+        }
+        let v = number(key, value, line, &mut self.warnings)?;
+        if let Some(prev) = &self.coefs[c.index()]
+            && prev.value.is_some()
+        {
             let first = prev.line;
             self.warn(
                 line,
                 format!("{key} repeated (first at line {first}); this later value is used"),
             );
         }
-        self.coefs[c.index()] = Some(Raw { value: v, line });
+        self.coefs[c.index()] = Some(RawCoef {
+            value: v,
+            line,
+            section,
+        });
         Ok(())
     }
 
@@ -567,7 +602,11 @@ impl Collected {
 
     /// Second pass: declaration, units, required keys.
     fn finish(mut self) -> Result<(TirFile, Vec<ReadWarning>), TirReadError> {
-        let declaration = self.check_declaration()?;
+        let (declaration, version) = self.check_declaration()?;
+        self.set_aside_foreign_keys(version);
+        if version.is_mf6() {
+            self.pressures_as_coefficients(version);
+        }
         for (c, section_kind) in [
             (Coef::FNOMIN, Kind::Coefficients(Section::Vertical)),
             (
@@ -575,7 +614,11 @@ impl Collected {
                 Kind::Coefficients(Section::Dimension),
             ),
         ] {
-            if self.coefs[c.index()].is_none() {
+            if self.coefs[c.index()]
+                .as_ref()
+                .and_then(|r| r.value)
+                .is_none()
+            {
                 return Err(TirReadError::Missing {
                     line: self.section_line(section_kind),
                     key: c.name(),
@@ -589,10 +632,22 @@ impl Collected {
         let mut coefs = Coefs::defaults();
         let mut present = Coefs([false; N_COEFS]);
         for c in Coef::ALL {
-            if let Some(raw) = &self.coefs[c.index()] {
-                coefs[*c] = units.to_si(raw.value, units::dimension(*c));
-                present[*c] = true;
+            let Some(raw) = &self.coefs[c.index()] else {
+                continue;
+            };
+            match raw.value {
+                Some(v) => {
+                    coefs[*c] = units.to_si(v, units::dimension(*c));
+                    present[*c] = true;
+                }
+                None => self.warnings.push(ReadWarning {
+                    line: raw.line,
+                    message: format!("{} has no value; the default is used", c.name()),
+                }),
             }
+        }
+        if version.is_mf6() && !present[Coef::INFLPRES] {
+            coefs[Coef::INFLPRES] = coefs[Coef::NOMPRES];
         }
         let pressure = TyrePressure {
             inflation_pa: self
@@ -607,6 +662,7 @@ impl Collected {
         let file = TirFile {
             coefs,
             present,
+            version,
             declaration,
             use_mode: self.use_mode.map(|(v, _)| v),
             tyre_side: self.tyre_side,
@@ -652,27 +708,28 @@ impl Collected {
         }
     }
 
-    /// Is this a PAC2002 / MF 5.2 file? `FITTYP` decides when present (it is the version
-    /// switch MFeval and MF-Tyre use); `PROPERTY_FILE_FORMAT` otherwise.
-    fn check_declaration(&mut self) -> Result<Declaration, TirReadError> {
+    /// Which Magic Formula is this? `FITTYP` decides when present (it is the version switch
+    /// MFeval and MF-Tyre use); `PROPERTY_FILE_FORMAT` otherwise.
+    fn check_declaration(&mut self) -> Result<(Declaration, Version), TirReadError> {
         let pff = self.property_file_format.clone();
         let fittyp = self.fittyp;
-        match fittyp {
-            Some((6 | 21, _)) => {}
-            Some((v @ (5 | 52), line)) => self.warn(
-                line,
-                format!("FITTYP {v} (MF-Tyre 5.x export) read as MF 5.2 (FITTYP 6)"),
-            ),
-            Some((v @ (61 | 62), line)) => {
-                return Err(TirReadError::Unsupported {
+        let mut version = match fittyp {
+            Some((6 | 21, _)) => Some(Version::Pac2002),
+            Some((v @ (5 | 52), line)) => {
+                self.warn(
                     line,
-                    what: format!("FITTYP {v} (MF 6.{})", v % 10),
-                });
+                    format!("FITTYP {v} (MF-Tyre 5.x export) read as MF 5.2 (FITTYP 6)"),
+                );
+                Some(Version::Pac2002)
             }
+            Some((61, _)) => Some(Version::Mf61),
+            Some((62, _)) => Some(Version::Mf62),
             Some((v, line)) => {
                 return Err(TirReadError::Unsupported {
                     line,
-                    what: format!("FITTYP {v} (not a Magic Formula 5.2 version number)"),
+                    what: format!(
+                        "FITTYP {v} (not a Magic Formula 5.2, 6.1 or 6.2 version number)"
+                    ),
                 });
             }
             None if pff.is_none() => {
@@ -681,42 +738,138 @@ impl Collected {
                     line,
                     "neither FITTYP nor PROPERTY_FILE_FORMAT; read as PAC2002",
                 );
+                None
             }
-            None => {}
-        }
+            None => None,
+        };
         if let Some((name, line)) = &pff {
+            let line = *line;
             let norm: String = name
                 .to_ascii_uppercase()
                 .chars()
                 .filter(|c| c.is_ascii_alphanumeric())
                 .collect();
             let rejected = [
-                "MF61", "MF62", "MF6", "MFTYRE61", "MFTYRE62", "PAC89", "PAC94", "PACMC",
-                "PACTIME", "FIALA", "UA", "UATIRE", "FTIRE", "SWIFT", "MFSWIFT", "5PT",
+                "PAC89", "PAC94", "PACMC", "PACTIME", "FIALA", "UA", "UATIRE", "FTIRE", "SWIFT",
+                "MFSWIFT", "5PT",
             ];
             if rejected.contains(&norm.as_str()) {
                 return Err(TirReadError::Unsupported {
-                    line: *line,
+                    line,
                     what: format!("PROPERTY_FILE_FORMAT '{name}'"),
                 });
             }
-            let accepted = [
-                "PAC2002", "MF05", "MF5", "MF52", "MFTYRE", "MFTYRE52", "MFTYRE5",
-            ];
-            if !accepted.contains(&norm.as_str()) && fittyp.is_none() {
-                let line = *line;
-                self.warn(
+            let declared = match norm.as_str() {
+                "PAC2002" | "MF05" | "MF5" | "MF52" | "MFTYRE" | "MFTYRE52" | "MFTYRE5" => {
+                    Some(Version::Pac2002)
+                }
+                "MF61" | "MF6" | "MFTYRE61" | "MFTYRE6" => Some(Version::Mf61),
+                "MF62" | "MFTYRE62" => Some(Version::Mf62),
+                _ => None,
+            };
+            match (version, declared) {
+                (Some(v), Some(d)) if v != d => self.warn(
+                    line,
+                    format!(
+                        "PROPERTY_FILE_FORMAT '{name}' says {d}, FITTYP says {v}; FITTYP decides"
+                    ),
+                ),
+                (None, Some(d)) => version = Some(d),
+                (None, None) => self.warn(
                     line,
                     format!(
                         "PROPERTY_FILE_FORMAT '{name}' is not known and there is no FITTYP; read as PAC2002"
                     ),
-                );
+                ),
+                _ => {}
             }
         }
-        Ok(Declaration {
+        let declaration = Declaration {
             property_file_format: pff.map(|(s, _)| s),
             fittyp: fittyp.map(|(v, _)| v),
-        })
+        };
+        Ok((declaration, version.unwrap_or(Version::Pac2002)))
+    }
+
+    /// Known coefficients the version does not carry become uninterpreted keys of the section
+    /// they were found in, in file order (written back as read, not used).
+    fn set_aside_foreign_keys(&mut self, version: Version) {
+        let mut moved = Vec::new();
+        for c in Coef::ALL {
+            if c.carried_by(version) {
+                continue;
+            }
+            let Some(raw) = self.coefs[c.index()].take() else {
+                continue;
+            };
+            let value = raw.value.map_or(Value::Empty, Value::Number);
+            moved.push((
+                ExtraKey {
+                    section: raw.section.tir_name().to_string(),
+                    entry: Entry {
+                        key: c.name().to_string(),
+                        value,
+                    },
+                },
+                raw.line,
+            ));
+            // A value that differs from what the version would assume matters; a default one
+            // (LGAY = 1 in an MF 6.x file, QSX12 = 0 in a PAC2002 file) does not.
+            if raw.value.is_some_and(|v| v != c.default_value()) {
+                self.warnings.push(ReadWarning {
+                    line: raw.line,
+                    message: format!(
+                        "{} is not a key of {version}: kept as written, not used",
+                        c.name()
+                    ),
+                });
+            }
+        }
+        if moved.is_empty() {
+            return;
+        }
+        self.extra_keys.extend(moved);
+        self.extra_keys.sort_by_key(|(_, line)| *line);
+    }
+
+    /// MF 6.x keeps its pressures as the coefficients `INFLPRES` and `NOMPRES`.
+    fn pressures_as_coefficients(&mut self, version: Version) {
+        let conditions = self.section_line(Kind::Conditions);
+        for (slot, coef) in [
+            (self.inflation.take(), Coef::INFLPRES),
+            (self.nominal.take(), Coef::NOMPRES),
+        ] {
+            if let Some(raw) = slot {
+                self.coefs[coef.index()] = Some(RawCoef {
+                    value: Some(raw.value),
+                    line: raw.line,
+                    section: Section::OperatingConditions,
+                });
+            }
+        }
+        if self.coefs[Coef::NOMPRES.index()]
+            .as_ref()
+            .and_then(|r| r.value)
+            .is_none()
+        {
+            self.warn(
+                conditions,
+                format!(
+                    "no NOMPRES (nominal inflation pressure) for {version}; MFeval's default \
+                     220000 Pa is used"
+                ),
+            );
+        }
+        if self.coefs[Coef::INFLPRES.index()]
+            .as_ref()
+            .and_then(|r| r.value)
+            .is_none()
+        {
+            self.warn(
+                conditions,
+                "no INFLPRES (inflation pressure); NOMPRES is the default pressure",
+            );
+        }
     }
 }
 

@@ -157,3 +157,162 @@ fn converted_reference_files_evaluate_identically() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// MF 6.1 / 6.2: MFeval's samples and the book defaults, per-row inflation pressure, both modes.
+
+const MF61_TIR: &str =
+    include_str!("../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula61_Parameters.tir");
+const MF61_111: &str = include_str!(
+    "../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula61_Parameters_mode111.csv"
+);
+const MF61_211: &str = include_str!(
+    "../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula61_Parameters_mode211.csv"
+);
+const MF62_TIR: &str =
+    include_str!("../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula62_Parameters.tir");
+const MF62_111: &str = include_str!(
+    "../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula62_Parameters_mode111.csv"
+);
+const MF62_211: &str = include_str!(
+    "../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula62_Parameters_mode211.csv"
+);
+const BOOK_TIR: &str =
+    include_str!("../../../../tests/fixtures/reference/mfeval-mf6/PacejkaBook_Defaults.tir");
+const BOOK_111: &str = include_str!(
+    "../../../../tests/fixtures/reference/mfeval-mf6/PacejkaBook_Defaults_mode111.csv"
+);
+const BOOK_211: &str = include_str!(
+    "../../../../tests/fixtures/reference/mfeval-mf6/PacejkaBook_Defaults_mode211.csv"
+);
+
+/// Every row of an MF 6.x grid (inputs with `P_Pa`), scalar and batch paths, against MFeval's
+/// five outputs; returns the worst relative error per output (scalar, batch).
+fn check_mf6(name: &str, tir: &str, csv: &str, mode: Mode) -> [f64; 5] {
+    use crate::tire_model::{Pressures, Version};
+    let (file, _warnings) = TirFile::parse(tir).expect("reference .tir reads");
+    assert!(file.version.is_mf6(), "{name}: read as {}", file.version);
+    assert_ne!(file.version, Version::Pac2002);
+    let model = file.model();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    let col = |n: &str| {
+        header
+            .iter()
+            .position(|h| *h == n)
+            .unwrap_or_else(|| panic!("{name}: no column {n}"))
+    };
+    let inputs = ["Fz_N", "kappa", "alpha_rad", "gamma_rad", "Vx_mps", "P_Pa"].map(col);
+    let outputs = ["Fx_N", "Fy_N", "Mx_Nm", "My_Nm", "Mz_Nm"].map(col);
+    let mut points = Vec::new();
+    let mut pressures = Vec::new();
+    let mut reference = Vec::new();
+    for line in lines.filter(|l| !l.trim().is_empty()) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let num = |j: usize| -> f64 { cells[j].parse().expect("number") };
+        points.push(SlipInput {
+            fz_n: num(inputs[0]),
+            kappa: num(inputs[1]),
+            alpha_rad: num(inputs[2]),
+            gamma_rad: num(inputs[3]),
+            vx_mps: num(inputs[4]),
+        });
+        pressures.push(num(inputs[5]));
+        reference.push(outputs.map(num));
+    }
+    assert!(points.len() >= 400, "{name}: only {} rows", points.len());
+    let mut batch = vec![Evaluation::default(); points.len()];
+    model.eval_batch_at(&points, Pressures::PerPoint(&pressures), mode, &mut batch);
+    let mut worst = [0.0_f64; 5];
+    for (i, ((p, pa), r)) in points.iter().zip(&pressures).zip(&reference).enumerate() {
+        let s = model.eval_at(p, *pa, mode);
+        let b = &batch[i];
+        let ours = [
+            [s.fx_n, s.fy_n, s.mx_nm, s.my_nm, s.mz_nm],
+            [b.fx_n, b.fy_n, b.mx_nm, b.my_nm, b.mz_nm],
+        ];
+        for path in ours {
+            for (k, (o, rf)) in path.iter().zip(r).enumerate() {
+                let rel = (o - rf).abs() / rf.abs().max(1.0);
+                assert!(
+                    rel <= TOL,
+                    "{name} row {} ({p:?}, {pa} Pa): {} ours {o:.17e} reference {rf:.17e} \
+                     relative error {rel:.3e} > {TOL:e}",
+                    i + 2,
+                    ["Fx", "Fy", "Mx", "My", "Mz"][k]
+                );
+                worst[k] = worst[k].max(rel);
+            }
+        }
+    }
+    let shown: Vec<String> = worst.iter().map(|w| format!("{w:.1e}")).collect();
+    println!(
+        "{name} ({} rows) max relative error Fx, Fy, Mx, My, Mz: {shown:?}",
+        points.len()
+    );
+    worst
+}
+
+/// Issue 19: MF 6.1 (MFeval's sample), limits mode (pressure clipped to PRESMIN).
+#[test]
+fn mf61_sample_matches_usemode_111() {
+    check_mf6("mf61 111", MF61_TIR, MF61_111, Mode::Limits);
+}
+
+#[test]
+fn mf61_sample_matches_usemode_211() {
+    check_mf6("mf61 211", MF61_TIR, MF61_211, Mode::Raw);
+}
+
+#[test]
+fn mf62_sample_matches_usemode_111() {
+    check_mf6("mf62 111", MF62_TIR, MF62_111, Mode::Limits);
+}
+
+#[test]
+fn mf62_sample_matches_usemode_211() {
+    check_mf6("mf62 211", MF62_TIR, MF62_211, Mode::Raw);
+}
+
+#[test]
+fn pacejka_book_defaults_match_usemode_111() {
+    check_mf6("book 111", BOOK_TIR, BOOK_111, Mode::Limits);
+}
+
+#[test]
+fn pacejka_book_defaults_match_usemode_211() {
+    check_mf6("book 211", BOOK_TIR, BOOK_211, Mode::Raw);
+}
+
+/// The pressure really acts (so the grids test the pressure terms), and limits mode clips it.
+#[test]
+fn mf61_pressure_changes_forces_and_is_clipped_in_limits_mode() {
+    let (file, _) = TirFile::parse(MF61_TIR).unwrap();
+    let model = file.model();
+    let input = SlipInput {
+        fz_n: 6752.0,
+        kappa: 0.05,
+        alpha_rad: 0.08,
+        gamma_rad: 0.02,
+        vx_mps: 16.6,
+    };
+    let at = |p: f64, mode| model.eval_at(&input, p, mode);
+    let (lo, hi) = (at(200e3, Mode::Raw), at(320e3, Mode::Raw));
+    assert!(
+        (lo.fy_n - hi.fy_n).abs() > 10.0,
+        "{} vs {}",
+        lo.fy_n,
+        hi.fy_n
+    );
+    assert!(
+        (lo.fx_n - hi.fx_n).abs() > 10.0,
+        "{} vs {}",
+        lo.fx_n,
+        hi.fx_n
+    );
+    // PRESMIN = 200 kPa: 150 kPa evaluates as 200 kPa in limits mode, not in raw mode.
+    assert_eq!(at(150e3, Mode::Limits), at(200e3, Mode::Limits));
+    assert_ne!(at(150e3, Mode::Raw), at(200e3, Mode::Raw));
+    // The default pressure is INFLPRES.
+    assert_eq!(model.eval(&input, Mode::Raw), at(260e3, Mode::Raw));
+}

@@ -9,7 +9,7 @@ use proptest::prelude::*;
 
 use super::{Entry, ExtraKey, ExtraLine, ExtraSection, ShapeTable, TirFile, TyrePressure, Value};
 use crate::tire_model::params::{Coef, Coefs, N_COEFS};
-use crate::tire_model::{Mode, SlipInput};
+use crate::tire_model::{Mode, SlipInput, Version};
 
 macro_rules! fixture {
     ($path:literal) => {
@@ -254,11 +254,11 @@ fn bad_files_give_one_line_errors_naming_the_line() {
         line_of(t, "PKY2 "),
         "PKY2: expected a finite number, found '1,75'",
     );
-    let t = fixture!("tir/bad/fittyp62.tir");
+    let t = fixture!("tir/bad/fittyp7.tir");
     assert_bad(
         t.as_bytes(),
-        line_of(t, "=  62"),
-        "FITTYP 62 (MF 6.2): not supported",
+        line_of(t, "=  7 "),
+        "FITTYP 7 (not a Magic Formula 5.2, 6.1 or 6.2 version number): not supported",
     );
     let t = fixture!("tir/bad/missing_fnomin.tir");
     assert_bad(t.as_bytes(), line_of(t, "[VERTICAL]"), "no FNOMIN");
@@ -283,12 +283,24 @@ fn bad_files_give_one_line_errors_naming_the_line() {
 #[test]
 fn fittyp_decides_the_model_version() {
     let with = |model: &str| FSAE.replace("[MODEL]\n", &format!("[MODEL]\n{model}\n"));
-    let err = TirFile::parse(&with("FITTYP = 61")).unwrap_err();
+    let (f, w) = TirFile::parse(&with("FITTYP = 61")).unwrap();
+    assert_eq!(f.version, Version::Mf61);
+    // The PAC2002-only keys of the FSAE file are kept, not used; PROPERTY_FILE_FORMAT disagrees.
     assert!(
-        err.to_string()
-            .contains("FITTYP 61 (MF 6.1): not supported"),
-        "{err}"
+        w.iter().any(|w| w.message.contains("FITTYP decides")),
+        "{w:?}"
     );
+    assert!(
+        w.iter()
+            .any(|w| w.message == "PHY3 is not a key of MF 6.1: kept as written, not used"),
+        "{w:?}"
+    );
+    assert!(f.extra_keys.iter().any(|k| k.entry.key == "PHY3"));
+    assert_eq!(f.coefs[Coef::PHY3], 0.0);
+    let (f, _) = TirFile::parse(&with("FITTYP = 62")).unwrap();
+    assert_eq!(f.version, Version::Mf62);
+    let mf61 = FSAE.replace("'PAC2002'", "'MF_61'");
+    assert_eq!(TirFile::parse(&mf61).unwrap().0.version, Version::Mf61);
     let err = TirFile::parse(&with("FITTYP = 2")).unwrap_err();
     assert!(err.to_string().contains("FITTYP 2"), "{err}");
     assert!(TirFile::parse(&with("FITTYP = 21")).is_ok());
@@ -389,7 +401,12 @@ fn written_file_layout() {
     keys.dedup();
     assert_eq!(keys.len(), n, "duplicate keys");
     for c in Coef::ALL {
-        assert!(keys.contains(&c.name()), "{} missing", c.name());
+        assert_eq!(
+            keys.contains(&c.name()),
+            c.carried_by(Version::Pac2002),
+            "{}",
+            c.name()
+        );
     }
     assert!(
         text.contains(
@@ -520,22 +537,35 @@ fn tir_file() -> impl Strategy<Value = TirFile> {
         proptest::collection::vec(entry(), 0..3),
         proptest::collection::vec("! : [A-Z]{1,8} : [a-z0-9 ]{0,10}[a-z0-9]", 0..3),
         shape,
-        extra_keys,
+        (extra_keys, proptest::sample::select(Version::ALL.to_vec())),
         extra_sections,
     )
         .prop_map(
-            |(v, fnomin, use_mode, side, (ip, ip_nom), header, comments, shape, keys, sections)| {
+            |(
+                v,
+                fnomin,
+                use_mode,
+                side,
+                (ip, ip_nom),
+                header,
+                comments,
+                shape,
+                (keys, version),
+                sections,
+            )| {
                 let mut coefs = Coefs::defaults();
                 coefs.0.copy_from_slice(&v);
                 coefs[Coef::FNOMIN] = fnomin;
-                let mut f = TirFile::from_coefs(coefs);
+                let mut f = TirFile::from_coefs_as(coefs, version);
                 f.source_units = super::Units::written();
                 f.use_mode = use_mode;
                 f.tyre_side = side;
-                f.pressure = TyrePressure {
-                    inflation_pa: ip,
-                    nominal_pa: ip_nom,
-                };
+                if !version.is_mf6() {
+                    f.pressure = TyrePressure {
+                        inflation_pa: ip,
+                        nominal_pa: ip_nom,
+                    };
+                }
                 let mut seen = Vec::new();
                 f.header = header
                     .into_iter()

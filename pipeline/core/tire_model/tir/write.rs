@@ -1,14 +1,19 @@
-//! Writing a [`TirFile`] as a complete PAC2002 property file in the Adams layout.
+//! Writing a [`TirFile`] as a complete property file of its version.
 //!
-//! In: a [`TirFile`] (SI values). Out: the file text: `[MDI_HEADER]`, `[UNITS]` (SI),
-//! `[MODEL]` with `PROPERTY_FILE_FORMAT = 'PAC2002'` and `FITTYP = 6` (so MFeval reads it too),
-//! `USE_MODE` (4 when unknown), `[DIMENSION]`, `[TYRE_CONDITIONS]` when a pressure is known,
-//! `[SHAPE]` when present, `[VERTICAL]`, the four range sections, `[SCALING_COEFFICIENTS]` and
-//! the five coefficient sections, then the sections the reader did not know, in their order.
-//! Every coefficient is written (defaults where the source had none), once, with its
-//! description as a `$` comment, except the geometry keys no equation uses (`WIDTH`,
-//! `ASPECT_RATIO`, `RIM_RADIUS`, `RIM_WIDTH`), which are written only when present; LF line
-//! endings; numbers in the shortest form that reads back to the same `f64` ([`format_f64`]), so
+//! In: a [`TirFile`] (SI values). Out: the file text. PAC2002 (Adams layout): `[MDI_HEADER]`,
+//! `[UNITS]` (SI), `[MODEL]` with `PROPERTY_FILE_FORMAT = 'PAC2002'` and `FITTYP = 6` (so MFeval
+//! reads it too), `USE_MODE` (4 when unknown), `[DIMENSION]`, `[TYRE_CONDITIONS]` when a pressure
+//! is known, `[SHAPE]` when present, `[VERTICAL]`, the four range sections,
+//! `[SCALING_COEFFICIENTS]` and the five coefficient sections. MF 6.1 / 6.2 (MF-Tyre 6.1 layout,
+//! as MFeval's samples): `[MODEL]` with `FITTYP = 61` / `62`, `[DIMENSION]`,
+//! `[OPERATING_CONDITIONS]` (`INFLPRES`, `NOMPRES`), `[VERTICAL]`, `[STRUCTURAL]`,
+//! `[INFLATION_PRESSURE_RANGE]`, the four range sections, the scaling and coefficient sections.
+//! Then, for both, known sections holding only uninterpreted keys and the sections the reader
+//! did not know, in their order. Every coefficient of the version is written (defaults where the
+//! source had none), once, with its description as a `$` comment, except the geometry keys no
+//! equation uses (`WIDTH`, `ASPECT_RATIO`, `RIM_RADIUS`, `RIM_WIDTH`), which are written only
+//! when present; LF line endings; numbers in the shortest form that reads back to the same
+//! `f64` ([`format_f64`]), so
 //! `parse(render(x)) == x` bit for bit.
 //! Deliberately not here: unit conversion (values are SI already) and any check of physical
 //! sense beyond a positive `FNOMIN` (see `lint.rs`).
@@ -18,6 +23,7 @@ use std::fmt::Write as _;
 use super::units::{UNIT_KEYS, Units};
 use super::{Entry, ExtraLine, TirFile, Value};
 use crate::tire_model::params::{Coef, Section};
+use crate::tire_model::version::Version;
 
 /// Why a [`TirFile`] cannot be written.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -197,22 +203,61 @@ pub fn render(tir: &TirFile) -> Result<String, TirWriteError> {
     extras(&mut out, tir, "UNITS")?;
     model(&mut out, tir)?;
     coefficients(&mut out, tir, Section::Dimension)?;
-    conditions(&mut out, tir)?;
-    shape(&mut out, tir)?;
-    for section in [
-        Section::Vertical,
-        Section::LongSlipRange,
-        Section::SlipAngleRange,
-        Section::InclinationAngleRange,
-        Section::VerticalForceRange,
-        Section::Scaling,
-        Section::Longitudinal,
-        Section::Overturning,
-        Section::Lateral,
-        Section::Rolling,
-        Section::Aligning,
-    ] {
-        coefficients(&mut out, tir, section)?;
+    let mut written = vec!["UNITS", "MODEL", "DIMENSION", "TYRE_CONDITIONS"];
+    let sections: &[Section] = if tir.version.is_mf6() {
+        out.section("OPERATING_CONDITIONS");
+        for c in [Coef::INFLPRES, Coef::NOMPRES] {
+            out.pair(c.name(), &number(c.name(), tir.coefs[c])?, c.description());
+        }
+        extras(&mut out, tir, "TYRE_CONDITIONS")?;
+        shape(&mut out, tir)?;
+        &[
+            Section::Vertical,
+            Section::Structural,
+            Section::InflationPressureRange,
+            Section::VerticalForceRange,
+            Section::LongSlipRange,
+            Section::SlipAngleRange,
+            Section::InclinationAngleRange,
+            Section::Scaling,
+            Section::Longitudinal,
+            Section::Overturning,
+            Section::Lateral,
+            Section::Rolling,
+            Section::Aligning,
+        ]
+    } else {
+        conditions(&mut out, tir)?;
+        shape(&mut out, tir)?;
+        &[
+            Section::Vertical,
+            Section::LongSlipRange,
+            Section::SlipAngleRange,
+            Section::InclinationAngleRange,
+            Section::VerticalForceRange,
+            Section::Scaling,
+            Section::Longitudinal,
+            Section::Overturning,
+            Section::Lateral,
+            Section::Rolling,
+            Section::Aligning,
+        ]
+    };
+    for section in sections {
+        coefficients(&mut out, tir, *section)?;
+        written.push(section.tir_name());
+    }
+    // Known sections this version does not write but whose uninterpreted keys must survive
+    // (e.g. `[STRUCTURAL]` of a PAC2002 file).
+    let mut leftover: Vec<&str> = Vec::new();
+    for k in &tir.extra_keys {
+        if !written.contains(&k.section.as_str()) && !leftover.contains(&k.section.as_str()) {
+            leftover.push(&k.section);
+        }
+    }
+    for name in leftover {
+        out.section(name);
+        extras(&mut out, tir, name)?;
     }
     for s in &tir.extra_sections {
         out.section(&s.name);
@@ -232,7 +277,7 @@ fn header(out: &mut Out, tir: &TirFile) -> Result<(), TirWriteError> {
     out.pair("FILE_VERSION", "3.0", "");
     out.pair("FILE_FORMAT", "'ASCII'", "");
     for e in &tir.header {
-        if reserved(&e.key) {
+        if reserved(&e.key, tir.version) {
             return Err(TirWriteError::Reserved {
                 key: e.key.clone(),
                 section: "MDI_HEADER".to_string(),
@@ -243,19 +288,32 @@ fn header(out: &mut Out, tir: &TirFile) -> Result<(), TirWriteError> {
     for c in &tir.header_comments {
         out.line(c);
     }
-    for l in [
-        "!",
-        "! USE_MODE specifies the type of calculation performed:",
-        "!       0: Fz only, no Magic Formula evaluation",
-        "!       1: Fx,My only",
-        "!       2: Fy,Mx,Mz only",
-        "!       3: Fx,Fy,Mx,My,Mz uncombined force/moment calculation",
-        "!       4: Fx,Fy,Mx,My,Mz combined force/moment calculation",
-        "!     +10: including relaxation behaviour",
-        "!",
-        "! Written by tirebase. Values in SI units, ISO-W (TYDEX W) axes.",
-        "!",
-    ] {
+    let lines: &[&str] = if tir.version.is_mf6() {
+        &[
+            "!",
+            "! Magic Formula 6.x: the force and moment coefficients carry the inflation pressure",
+            "! (PPX*, PPY*, PPZ*, PPMX1, QSY8) relative to NOMPRES; set INFLPRES to evaluate at",
+            "! another pressure.",
+            "!",
+            "! Written by tirebase. Values in SI units, ISO-W (TYDEX W) axes.",
+            "!",
+        ]
+    } else {
+        &[
+            "!",
+            "! USE_MODE specifies the type of calculation performed:",
+            "!       0: Fz only, no Magic Formula evaluation",
+            "!       1: Fx,My only",
+            "!       2: Fy,Mx,Mz only",
+            "!       3: Fx,Fy,Mx,My,Mz uncombined force/moment calculation",
+            "!       4: Fx,Fy,Mx,My,Mz combined force/moment calculation",
+            "!     +10: including relaxation behaviour",
+            "!",
+            "! Written by tirebase. Values in SI units, ISO-W (TYDEX W) axes.",
+            "!",
+        ]
+    };
+    for l in lines {
         out.line(l);
     }
     Ok(())
@@ -263,15 +321,23 @@ fn header(out: &mut Out, tir: &TirFile) -> Result<(), TirWriteError> {
 
 fn model(out: &mut Out, tir: &TirFile) -> Result<(), TirWriteError> {
     out.section("MODEL");
-    out.pair("PROPERTY_FILE_FORMAT", "'PAC2002'", "Tyre model");
-    out.pair("FITTYP", " 6", "Magic Formula version number (6 = MF 5.2)");
+    let (format, fittyp) = match tir.version {
+        Version::Pac2002 => ("'PAC2002'", "Magic Formula version number (6 = MF 5.2)"),
+        Version::Mf61 => ("'USER'", "Magic Formula version number (61 = MF 6.1)"),
+        Version::Mf62 => ("'USER'", "Magic Formula version number (62 = MF 6.2)"),
+    };
+    out.pair("PROPERTY_FILE_FORMAT", format, "Tyre model");
+    out.pair("FITTYP", &format!(" {}", tir.version.fittyp()), fittyp);
     let use_mode = tir.use_mode.unwrap_or(4);
     out.pair(
         "USE_MODE",
         &format!("{}{use_mode}", if use_mode < 0 { "" } else { " " }),
         "Tyre use switch (IUSED)",
     );
-    for c in Coef::ALL.iter().filter(|c| c.section() == Section::Model) {
+    for c in Coef::ALL
+        .iter()
+        .filter(|c| c.section() == Section::Model && c.carried_by(tir.version))
+    {
         out.pair(c.name(), &number(c.name(), tir.coefs[*c])?, c.description());
     }
     if let Some(side) = &tir.tyre_side {
@@ -297,7 +363,7 @@ fn coefficients(out: &mut Out, tir: &TirFile, section: Section) -> Result<(), Ti
     out.section(section.tir_name());
     for c in Coef::ALL
         .iter()
-        .filter(|c| c.section() == section)
+        .filter(|c| c.section() == section && c.carried_by(tir.version))
         .filter(|c| tir.present[**c] || !OPTIONAL_GEOMETRY.contains(c))
     {
         out.pair(c.name(), &number(c.name(), tir.coefs[*c])?, c.description());
@@ -344,9 +410,10 @@ fn shape(out: &mut Out, tir: &TirFile) -> Result<(), TirWriteError> {
     Ok(())
 }
 
-/// Keys the writer writes itself: an uninterpreted key of the same name would be a duplicate.
-fn reserved(key: &str) -> bool {
-    Coef::from_name(key).is_some()
+/// Keys the writer writes itself: an uninterpreted key of the same name would be a duplicate
+/// (a known coefficient of another version is not: it is kept as written).
+fn reserved(key: &str, version: Version) -> bool {
+    Coef::from_name(key).is_some_and(|c| c.carried_by(version))
         || UNIT_KEYS.contains(&key)
         || [
             "PROPERTY_FILE_FORMAT",
@@ -355,6 +422,8 @@ fn reserved(key: &str) -> bool {
             "TYRESIDE",
             "IP",
             "IP_NOM",
+            "INFLPRES",
+            "NOMPRES",
             "FILE_TYPE",
             "FILE_VERSION",
             "FILE_FORMAT",
@@ -364,7 +433,7 @@ fn reserved(key: &str) -> bool {
 
 fn extras(out: &mut Out, tir: &TirFile, section: &str) -> Result<(), TirWriteError> {
     for k in tir.extra_keys.iter().filter(|k| k.section == section) {
-        if reserved(&k.entry.key) {
+        if reserved(&k.entry.key, tir.version) {
             return Err(TirWriteError::Reserved {
                 key: k.entry.key.clone(),
                 section: k.section.clone(),

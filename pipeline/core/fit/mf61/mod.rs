@@ -1,0 +1,865 @@
+//! The MF 6.1 fitting stage: one Magic Formula 6.1 model per (tire, rim) from every tested
+//! inflation pressure, built on the per-pressure PAC2002 fits.
+//!
+//! In: an [`Mf61Input`]: per tested pressure its clean cornering, drive/brake and combined
+//! sweeps (samples with the measured pressure), its PAC2002 fit and its spring-rate results.
+//! Out: an [`Mf61Fit`]: the model (`NOMPRES` = [`Mf61Input::nominal_pa`], pressure range the
+//! tested one), per-coefficient facts, per-pressure fit quality in sample and, with two or more
+//! pressures, out of sample by leaving each pressure out (the whole fit, starting values
+//! included, rerun without it; the left-out pressure is predicted), per-family solver facts and
+//! notes.
+//!
+//! Method:
+//! 1. [`data`]: every sweep collapsed onto a slip grid (up/down branch medians averaged), each
+//!    point at its measured pressure, weighted so every sweep counts the same.
+//! 2. [`initial`]: the PAC2002 model nearest `NOMPRES` lifted into MF 6.1 (exact where the forms
+//!    agree), the pressure terms from the trends of the PAC2002 coefficients across pressures.
+//! 3. [`problem`]: each family refined jointly over all pressures (bounded Levenberg-Marquardt,
+//!    Huber loss), in the PAC2002 stage's order: `Fy0` (cornering `Fy`), `Mz0` (cornering `Mz`),
+//!    `Fx0` (drive/brake `Fx`), combined `Fx`, `Fy`, `Mz`, then `Mx`; its free coefficients are
+//!    the family's MF 6.1 coefficients and their pressure terms (linear terms with two pressures,
+//!    quadratic ones with three), camber terms only where the data vary the camber, load terms
+//!    only where they vary the load. `PKY4 = 2`, `PKY5 = PEY5 = 0`, `RBX3 = RBY4 = 0` are held:
+//!    the PAC2002 fits they start from have no such terms. A family without data keeps its
+//!    lifted values.
+//!
+//! Deliberately not here: reading the store, writing files or tables (the `tirebase` crate),
+//! relaxation and spring-rate fitting (their per-pressure results are inputs; the relaxation
+//! pressure term `PCFX3`/`PCFY3` and `PFZ1` come from their trends in [`initial`]).
+
+pub mod data;
+pub mod initial;
+pub mod problem;
+
+#[cfg(test)]
+mod tests;
+#[cfg(test)]
+pub(crate) mod virtual_input;
+#[cfg(test)]
+mod virtual_round;
+
+use std::time::Instant;
+
+use crate::fit::pac2002::SweepKind;
+use crate::numerics::bounded_least_squares::{Bounds, Options, RobustLoss, Termination, minimize};
+use crate::tire_model::params::{Coef, Coef::*};
+use crate::tire_model::{Channel, Evaluation, MagicFormula, Pressures, Version};
+
+pub use data::{CollapseConfig, Mf61Sample, Mf61Sweep, Output, Point};
+pub use initial::PressureModel;
+use problem::{FIT_MODE, FamilyData, FamilyProblem};
+
+/// One tested pressure.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PressureGroup {
+    /// Nominal pressure of the group, kPa (the key of its PAC2002 file).
+    pub pressure_kpa_nom: i64,
+    /// Its sweeps (clean: QC and force checks passed).
+    pub sweeps: Vec<Mf61Sweep>,
+    /// Its PAC2002 fit and spring-rate results (`None`: the group's PAC2002 fit failed; its
+    /// sweeps still count).
+    pub pac2002: Option<PressureModel>,
+}
+
+/// Everything one MF 6.1 fit needs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mf61Input {
+    /// Tire name (for messages).
+    pub tire: String,
+    /// Rim width, in.
+    pub rim_in: f64,
+    /// `NOMPRES` of the model, Pa.
+    pub nominal_pa: f64,
+    /// The tested pressures, any order.
+    pub groups: Vec<PressureGroup>,
+}
+
+impl Mf61Input {
+    /// The nominal pressure a set of tested pressures (kPa) is referred to: the tested pressure
+    /// nearest their mean (the higher on a tie), in Pa.
+    pub fn nominal_for(pressures_kpa: &[i64]) -> f64 {
+        if pressures_kpa.is_empty() {
+            return f64::NAN;
+        }
+        let mut p: Vec<i64> = pressures_kpa.to_vec();
+        p.sort_unstable();
+        p.dedup();
+        let mean = p.iter().sum::<i64>() as f64 / p.len() as f64;
+        let best = p
+            .iter()
+            .copied()
+            .min_by(|a, b| {
+                let (da, db) = ((*a as f64 - mean).abs(), (*b as f64 - mean).abs());
+                da.total_cmp(&db).then(b.cmp(a))
+            })
+            .unwrap_or(p[0]);
+        best as f64 * 1e3
+    }
+}
+
+/// Knobs of the stage.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Mf61Config {
+    /// How sweeps are collapsed.
+    pub collapse: CollapseConfig,
+    /// Iteration budget per family refinement (per IRLS round).
+    pub max_iterations: usize,
+    /// Robust loss of the refinements.
+    pub loss: RobustLoss,
+    /// Refit with each pressure left out to report out-of-sample quality.
+    pub leave_one_pressure_out: bool,
+}
+
+impl Default for Mf61Config {
+    fn default() -> Self {
+        Mf61Config {
+            collapse: CollapseConfig::default(),
+            max_iterations: 100,
+            loss: RobustLoss::Huber { k: 2.0 },
+            leave_one_pressure_out: true,
+        }
+    }
+}
+
+/// A refined family.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Mf61Family {
+    /// Pure lateral force (cornering sweeps).
+    Fy0,
+    /// Pure aligning moment (cornering sweeps).
+    Mz0,
+    /// Pure longitudinal force (drive/brake sweeps).
+    Fx0,
+    /// Combined-slip longitudinal force.
+    Fx,
+    /// Combined-slip lateral force.
+    Fy,
+    /// Combined-slip aligning moment (`SSZ*`).
+    Mz,
+    /// Overturning moment.
+    Mx,
+}
+
+impl Mf61Family {
+    /// Fit order.
+    pub const ALL: [Mf61Family; 7] = [
+        Mf61Family::Fy0,
+        Mf61Family::Mz0,
+        Mf61Family::Fx0,
+        Mf61Family::Fx,
+        Mf61Family::Fy,
+        Mf61Family::Mz,
+        Mf61Family::Mx,
+    ];
+
+    /// `Fy0`, `Mz0`, ...
+    pub const fn name(self) -> &'static str {
+        match self {
+            Mf61Family::Fy0 => "Fy0",
+            Mf61Family::Mz0 => "Mz0",
+            Mf61Family::Fx0 => "Fx0",
+            Mf61Family::Fx => "Fx",
+            Mf61Family::Fy => "Fy",
+            Mf61Family::Mz => "Mz",
+            Mf61Family::Mx => "Mx",
+        }
+    }
+
+    fn channel(self) -> Channel {
+        match self {
+            Mf61Family::Fy0 => Channel::Fy0,
+            Mf61Family::Mz0 => Channel::Mz0,
+            Mf61Family::Fx0 => Channel::Fx0,
+            Mf61Family::Fx => Channel::Fx,
+            Mf61Family::Fy => Channel::Fy,
+            Mf61Family::Mz => Channel::Mz,
+            Mf61Family::Mx => Channel::Mx,
+        }
+    }
+
+    /// The measured output the family is fitted to, and the sweeps it reads.
+    fn reads(self, kind: SweepKind) -> Option<Output> {
+        use SweepKind::*;
+        match (self, kind) {
+            (Mf61Family::Fy0, Cornering) => Some(Output::Fy),
+            (Mf61Family::Mz0, Cornering) => Some(Output::Mz),
+            (Mf61Family::Fx0, DriveBrake) => Some(Output::Fx),
+            (Mf61Family::Fx, Combined) => Some(Output::Fx),
+            (Mf61Family::Fy, Combined) => Some(Output::Fy),
+            (Mf61Family::Mz, Combined) => Some(Output::Mz),
+            (Mf61Family::Mx, _) => Some(Output::Mx),
+            _ => None,
+        }
+    }
+}
+
+/// What the data vary.
+#[derive(Copy, Clone, Debug, PartialEq)]
+struct Variation {
+    pressures: usize,
+    loads: bool,
+    cambers: usize,
+}
+
+fn distinct(values: impl Iterator<Item = f64>, tol: f64) -> usize {
+    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    v.sort_by(f64::total_cmp);
+    let mut n = 0;
+    let mut last = f64::NEG_INFINITY;
+    for x in v {
+        if x - last > tol {
+            n += 1;
+            last = x;
+        }
+    }
+    n
+}
+
+/// The free coefficients of a family given what the data vary.
+fn free_coefficients(family: Mf61Family, v: Variation) -> Vec<Coef> {
+    let camber = v.cambers >= 2;
+    let camber2 = v.cambers >= 3;
+    let lin = v.pressures >= 2;
+    let quad = v.pressures >= 3;
+    let mut out: Vec<Coef> = Vec::new();
+    let mut add = |cs: &[Coef], when: bool| {
+        if when {
+            out.extend_from_slice(cs);
+        }
+    };
+    match family {
+        Mf61Family::Fy0 => {
+            add(&[PCY1, PDY1, PEY1, PEY3, PKY1, PHY1, PVY1], true);
+            add(&[PDY2, PEY2, PKY2, PHY2, PVY2], v.loads);
+            add(&[PDY3, PEY4, PKY3, PVY3, PKY6], camber);
+            add(&[PVY4, PKY7], camber && v.loads);
+            add(&[PPY1, PPY3], lin);
+            add(&[PPY2, PPY4], quad);
+            add(&[PPY5], lin && camber);
+        }
+        Mf61Family::Mz0 => {
+            add(
+                &[QBZ1, QBZ9, QBZ10, QCZ1, QDZ1, QDZ6, QEZ1, QEZ4, QHZ1],
+                true,
+            );
+            add(&[QBZ2, QBZ3, QDZ2, QDZ7, QEZ2, QEZ3, QHZ2], v.loads);
+            add(&[QBZ4, QBZ5, QDZ3, QDZ4, QDZ8, QEZ5, QHZ3], camber);
+            add(&[QDZ9, QHZ4], camber && v.loads);
+            add(&[QDZ10], camber2);
+            add(&[QDZ11], camber2 && v.loads);
+            add(&[PPZ1], lin);
+            add(&[PPZ2], lin && camber);
+        }
+        Mf61Family::Fx0 => {
+            add(&[PCX1, PDX1, PEX1, PEX4, PKX1, PHX1, PVX1], true);
+            add(&[PDX2, PEX2, PEX3, PKX2, PKX3, PHX2, PVX2], v.loads);
+            add(&[PDX3], camber);
+            add(&[PPX1, PPX3], lin);
+            add(&[PPX2, PPX4], quad);
+        }
+        Mf61Family::Fx => add(&[RBX1, RBX2, RCX1, REX1, RHX1], true),
+        Mf61Family::Fy => {
+            add(
+                &[RBY1, RBY2, RBY3, RCY1, REY1, RHY1, RVY1, RVY4, RVY5, RVY6],
+                true,
+            );
+            add(&[REY2, RHY2, RVY2], v.loads);
+            add(&[RVY3], camber);
+        }
+        Mf61Family::Mz => {
+            add(&[SSZ1, SSZ2], true);
+            add(&[SSZ3], camber);
+            add(&[SSZ4], camber && v.loads);
+        }
+        Mf61Family::Mx => {
+            add(&[QSX1, QSX3], true);
+            add(&[QSX2], camber);
+            add(&[PPMX1], lin && camber);
+        }
+    }
+    out
+}
+
+/// The pressure terms of a family.
+fn pressure_terms(family: Mf61Family) -> &'static [Coef] {
+    match family {
+        Mf61Family::Fy0 => &[PPY1, PPY2, PPY3, PPY4, PPY5],
+        Mf61Family::Mz0 => &[PPZ1, PPZ2],
+        Mf61Family::Fx0 => &[PPX1, PPX2, PPX3, PPX4],
+        Mf61Family::Mx => &[PPMX1],
+        Mf61Family::Fx | Mf61Family::Fy | Mf61Family::Mz => &[],
+    }
+}
+
+/// Box bounds of a coefficient in the refinement.
+fn bounds_of(c: Coef) -> (f64, f64) {
+    match c {
+        PCY1 | PCX1 | QCZ1 | RCX1 | RCY1 => (0.3, 4.0),
+        PPX1 | PPX2 | PPX3 | PPX4 | PPY1 | PPY2 | PPY3 | PPY4 | PPY5 | PPZ1 | PPZ2 | PPMX1 => {
+            (-5.0, 5.0)
+        }
+        _ => (f64::NEG_INFINITY, f64::INFINITY),
+    }
+}
+
+/// Solver facts of one family.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FamilyOutcome {
+    /// The family.
+    pub family: Mf61Family,
+    /// Points it was refined on.
+    pub n: usize,
+    /// Free coefficients.
+    pub free: Vec<Coef>,
+    /// RMSE of the starting values on those points (N or N m).
+    pub initial_rmse: f64,
+    /// RMSE after the refinement.
+    pub rmse: f64,
+    /// Solver trial steps.
+    pub iterations: usize,
+    /// Why the solver stopped.
+    pub termination: Termination,
+    /// Model evaluations.
+    pub evaluations: usize,
+    /// Wall time, s.
+    pub seconds: f64,
+}
+
+/// One coefficient of the written model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mf61Coefficient {
+    /// The coefficient.
+    pub coef: Coef,
+    /// Its family (`None` for scalars, pressures, vertical and relaxation keys).
+    pub family: Option<Mf61Family>,
+    /// Value, SI.
+    pub value: f64,
+    /// Standard error from the joint refinement (`None` unless fitted and off its bounds).
+    pub std_error: Option<f64>,
+    /// On a bound of the refinement.
+    pub at_bound: bool,
+    /// `fitted`, `start` (from the PAC2002 fits: lifted or their pressure trend, not refined).
+    pub origin: &'static str,
+}
+
+/// Fit quality at one tested pressure and output.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PressureQuality {
+    /// The tested pressure, kPa.
+    pub pressure_kpa_nom: i64,
+    /// The output.
+    pub output: Output,
+    /// Collapsed points.
+    pub n: usize,
+    /// In-sample RMSE (N or N m).
+    pub rmse: f64,
+    /// `rmse` relative to the largest `|value|` among the points, %.
+    pub rmse_pct_of_peak: f64,
+    /// Coefficient of determination.
+    pub r2: f64,
+    /// RMSE of the model fitted without this pressure (`None` with one pressure).
+    pub oos_rmse: Option<f64>,
+    /// `oos_rmse` relative to the same peak, %.
+    pub oos_rmse_pct_of_peak: Option<f64>,
+}
+
+/// Fit quality of one family at one tested pressure: the family's channel evaluated on the
+/// collapsed points of that pressure's sweeps the family reads (cornering sweeps for `Fy0` and
+/// `Mz0`, drive/brake for `Fx0`, combined for `Fx`, `Fy`, `Mz`, all for `Mx`), so a row compares
+/// one to one with the PAC2002 fit of that pressure.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FamilyQuality {
+    /// The tested pressure, kPa.
+    pub pressure_kpa_nom: i64,
+    /// The family.
+    pub family: Mf61Family,
+    /// Collapsed points.
+    pub n: usize,
+    /// In-sample RMSE (N or N m).
+    pub rmse: f64,
+    /// `rmse` relative to the largest `|value|` among the points, %.
+    pub rmse_pct_of_peak: f64,
+    /// Coefficient of determination.
+    pub r2: f64,
+    /// RMSE of the model fitted without this pressure (`None` with one pressure).
+    pub oos_rmse: Option<f64>,
+}
+
+/// The stage's result.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mf61Fit {
+    /// The fitted MF 6.1 model (SI).
+    pub model: MagicFormula,
+    /// Every coefficient of the model.
+    pub coefficients: Vec<Mf61Coefficient>,
+    /// Per tested pressure and output.
+    pub quality: Vec<PressureQuality>,
+    /// Per tested pressure and family (in pressure, then fit order).
+    pub family_quality: Vec<FamilyQuality>,
+    /// Per family, in fit order.
+    pub families: Vec<FamilyOutcome>,
+    /// What the model could not carry, what was held.
+    pub notes: Vec<String>,
+    /// Model evaluations over all families (the full fit, not the leave-one-out refits).
+    pub evaluations: usize,
+    /// Wall time of the whole stage including the leave-one-out refits, s.
+    pub seconds: f64,
+}
+
+/// Bad input.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Mf61Error {
+    /// No group has a PAC2002 fit to start from.
+    #[error("{tire} on {rim_in} in rim: no tested pressure has a PAC2002 fit to start from")]
+    NoStart {
+        /// Tire.
+        tire: String,
+        /// Rim, in.
+        rim_in: f64,
+    },
+    /// The nominal pressure is not positive.
+    #[error("{tire}: nominal pressure {value} Pa is not positive")]
+    BadNominal {
+        /// Tire.
+        tire: String,
+        /// The value.
+        value: f64,
+    },
+}
+
+/// The fit of one data set (no quality): start, then every family.
+struct Fitted {
+    model: MagicFormula,
+    families: Vec<FamilyOutcome>,
+    std_errors: Vec<(Coef, Option<f64>, bool, Mf61Family)>,
+    notes: Vec<String>,
+}
+
+fn family_data(points: &[Point], family: Mf61Family) -> FamilyData {
+    let mut d = FamilyData::default();
+    for p in points {
+        let Some(out) = family.reads(p.kind) else {
+            continue;
+        };
+        let k = out as usize;
+        if !p.values[k].is_finite() || p.weights[k] <= 0.0 {
+            continue;
+        }
+        d.inputs.push(p.input);
+        d.pressures.push(p.p_pa);
+        d.measured.push(p.values[k]);
+        d.weights.push(p.weights[k]);
+    }
+    d
+}
+
+fn rmse_of(model: &MagicFormula, channel: Channel, d: &FamilyData) -> f64 {
+    if d.is_empty() {
+        return f64::NAN;
+    }
+    let mut v = vec![0.0; d.len()];
+    model.channel_into_at(
+        channel,
+        &d.inputs,
+        Pressures::PerPoint(&d.pressures),
+        FIT_MODE,
+        &mut v,
+    );
+    (v.iter()
+        .zip(&d.measured)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        / d.len() as f64)
+        .sqrt()
+}
+
+fn fit_points(
+    models: &[PressureModel],
+    points: &[Point],
+    nominal_pa: f64,
+    pressures_pa: (f64, f64),
+    cfg: &Mf61Config,
+) -> Fitted {
+    let start = initial::start(models, nominal_pa);
+    let mut model = MagicFormula::with_version(start.coefs, Version::Mf61);
+    model.coefs[PRESMIN] = pressures_pa.0;
+    model.coefs[PRESMAX] = pressures_pa.1;
+    let mut notes = start.notes;
+    let mut families = Vec::new();
+    let mut std_errors = Vec::new();
+    for family in Mf61Family::ALL {
+        let started = Instant::now();
+        let data = family_data(points, family);
+        if data.len() < 8 {
+            continue;
+        }
+        // Pressure levels are the tested pressures (groups), not the measured values: a group's
+        // measured pressure wanders by a few kPa, which would otherwise count as extra levels
+        // and free the quadratic pressure terms on two tested pressures.
+        let levels: std::collections::BTreeSet<usize> = points
+            .iter()
+            .filter(|p| {
+                family.reads(p.kind).is_some_and(|o| {
+                    p.values[o as usize].is_finite() && p.weights[o as usize] > 0.0
+                })
+            })
+            .map(|p| p.group)
+            .collect();
+        let variation = Variation {
+            pressures: levels.len(),
+            loads: distinct(
+                data.inputs.iter().map(|p| p.fz_n),
+                0.1 * model.coefs[FNOMIN],
+            ) >= 2,
+            cambers: distinct(
+                data.inputs.iter().map(|p| p.gamma_rad),
+                0.25_f64.to_radians(),
+            ),
+        };
+        let free = free_coefficients(family, variation);
+        // A pressure term the family's data cannot determine (its sweeps at fewer tested
+        // pressures than the term needs) is 0, not the start's trend: that trend may come from
+        // a pressure whose PAC2002 fit had no data for the family (its defaults).
+        for term in pressure_terms(family) {
+            if !free.contains(term) && model.coefs[*term] != 0.0 {
+                notes.push(format!(
+                    "{}: {} = 0 ({} tested pressure(s) with data for the family)",
+                    family.name(),
+                    term.name(),
+                    variation.pressures
+                ));
+                model.coefs[*term] = 0.0;
+            }
+        }
+        let channel = family.channel();
+        let initial_rmse = rmse_of(&model, channel, &data);
+        let problem = FamilyProblem {
+            base: &model,
+            free: &free,
+            channel,
+            data: &data,
+        };
+        let bounds = Bounds {
+            lower: free.iter().map(|c| bounds_of(*c).0).collect(),
+            upper: free.iter().map(|c| bounds_of(*c).1).collect(),
+        };
+        let start: Vec<f64> = free.iter().map(|c| model.coefs[*c]).collect();
+        let options = Options {
+            max_iterations: cfg.max_iterations,
+            loss: cfg.loss,
+            ..Options::default()
+        };
+        let outcome = minimize(&problem, &start, &bounds, &options);
+        let candidate = problem.model_at(&outcome.params);
+        let rmse = rmse_of(&candidate, channel, &data);
+        // Keep the refinement only if it did not make the family worse (a diverged or
+        // non-finite start keeps the lifted values).
+        let accepted = rmse.is_finite() && (initial_rmse.is_nan() || rmse <= initial_rmse);
+        if accepted {
+            model = candidate;
+            for (j, c) in free.iter().enumerate() {
+                std_errors.push((*c, outcome.std_errors[j], outcome.at_bounds[j], family));
+            }
+        } else {
+            notes.push(format!(
+                "{}: refinement rejected (RMSE {rmse:.4} vs start {initial_rmse:.4}); the values \
+                 lifted from the PAC2002 fits are kept",
+                family.name()
+            ));
+        }
+        families.push(FamilyOutcome {
+            family,
+            n: data.len(),
+            free,
+            initial_rmse,
+            rmse: if accepted { rmse } else { initial_rmse },
+            iterations: outcome.iterations,
+            termination: outcome.termination,
+            evaluations: outcome.evaluations,
+            seconds: started.elapsed().as_secs_f64(),
+        });
+    }
+    Fitted {
+        model,
+        families,
+        std_errors,
+        notes,
+    }
+}
+
+/// Per output at one group: (n, rmse, peak, r2).
+fn group_quality(
+    model: &MagicFormula,
+    points: &[Point],
+    group: usize,
+) -> Vec<(Output, usize, f64, f64, f64)> {
+    let pts: Vec<&Point> = points.iter().filter(|p| p.group == group).collect();
+    if pts.is_empty() {
+        return Vec::new();
+    }
+    let inputs: Vec<_> = pts.iter().map(|p| p.input).collect();
+    let pressures: Vec<f64> = pts.iter().map(|p| p.p_pa).collect();
+    let mut evals = vec![Evaluation::default(); pts.len()];
+    model.eval_batch_at(
+        &inputs,
+        Pressures::PerPoint(&pressures),
+        FIT_MODE,
+        &mut evals,
+    );
+    let mut out = Vec::new();
+    for o in Output::ALL {
+        let k = o as usize;
+        let pairs: Vec<(f64, f64)> = pts
+            .iter()
+            .zip(&evals)
+            .filter(|(p, _)| p.values[k].is_finite())
+            .map(|(p, e)| {
+                let m = match o {
+                    Output::Fx => e.fx_n,
+                    Output::Fy => e.fy_n,
+                    Output::Mz => e.mz_nm,
+                    Output::Mx => e.mx_nm,
+                };
+                (m, p.values[k])
+            })
+            .collect();
+        if pairs.is_empty() {
+            continue;
+        }
+        let n = pairs.len();
+        let sse: f64 = pairs.iter().map(|(m, y)| (m - y) * (m - y)).sum();
+        let mean_y = pairs.iter().map(|(_, y)| y).sum::<f64>() / n as f64;
+        let sst: f64 = pairs.iter().map(|(_, y)| (y - mean_y) * (y - mean_y)).sum();
+        let peak = pairs.iter().fold(0.0_f64, |m, (_, y)| m.max(y.abs()));
+        let r2 = if sst > 0.0 { 1.0 - sse / sst } else { f64::NAN };
+        out.push((o, n, (sse / n as f64).sqrt(), peak, r2));
+    }
+    out
+}
+
+/// Per family at one group: (family, n, rmse, peak, r2).
+fn group_family_quality(
+    model: &MagicFormula,
+    points: &[Point],
+    group: usize,
+) -> Vec<(Mf61Family, usize, f64, f64, f64)> {
+    let pts: Vec<Point> = points
+        .iter()
+        .filter(|p| p.group == group)
+        .copied()
+        .collect();
+    let mut out = Vec::new();
+    for family in Mf61Family::ALL {
+        let d = family_data(&pts, family);
+        if d.is_empty() {
+            continue;
+        }
+        let mut v = vec![0.0; d.len()];
+        model.channel_into_at(
+            family.channel(),
+            &d.inputs,
+            Pressures::PerPoint(&d.pressures),
+            FIT_MODE,
+            &mut v,
+        );
+        let n = d.len();
+        let sse: f64 = v
+            .iter()
+            .zip(&d.measured)
+            .map(|(m, y)| (m - y) * (m - y))
+            .sum();
+        let mean_y = d.measured.iter().sum::<f64>() / n as f64;
+        let sst: f64 = d.measured.iter().map(|y| (y - mean_y) * (y - mean_y)).sum();
+        let peak = d.measured.iter().fold(0.0_f64, |m, y| m.max(y.abs()));
+        let r2 = if sst > 0.0 { 1.0 - sse / sst } else { f64::NAN };
+        out.push((family, n, (sse / n as f64).sqrt(), peak, r2));
+    }
+    out
+}
+
+/// One tested pressure's sweeps, already collapsed ([`collapse_group`]): what a caller keeps in
+/// memory between the per-pressure fits and the MF 6.1 fit instead of every sample.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CollapsedGroup {
+    /// Nominal pressure of the group, kPa.
+    pub pressure_kpa_nom: i64,
+    /// Its collapsed points.
+    pub points: Vec<Point>,
+    /// Its PAC2002 fit and spring-rate results (`None`: the group's PAC2002 fit failed).
+    pub pac2002: Option<PressureModel>,
+}
+
+/// Collapse one tested pressure's sweeps (as [`fit`] does).
+pub fn collapse_group(sweeps: &[Mf61Sweep], cfg: &CollapseConfig) -> Vec<Point> {
+    data::collapse(&[sweeps], cfg)
+}
+
+/// Fit one (tire, rim) from its sweeps.
+pub fn fit(input: &Mf61Input, cfg: &Mf61Config) -> Result<Mf61Fit, Mf61Error> {
+    let groups: Vec<CollapsedGroup> = input
+        .groups
+        .iter()
+        .map(|g| CollapsedGroup {
+            pressure_kpa_nom: g.pressure_kpa_nom,
+            points: collapse_group(&g.sweeps, &cfg.collapse),
+            pac2002: g.pac2002.clone(),
+        })
+        .collect();
+    fit_collapsed(&input.tire, input.rim_in, input.nominal_pa, &groups, cfg)
+}
+
+/// Fit one (tire, rim) from its tested pressures' collapsed points.
+pub fn fit_collapsed(
+    tire: &str,
+    rim_in: f64,
+    nominal_pa: f64,
+    collapsed: &[CollapsedGroup],
+    cfg: &Mf61Config,
+) -> Result<Mf61Fit, Mf61Error> {
+    let started = Instant::now();
+    if !(nominal_pa.is_finite() && nominal_pa > 0.0) {
+        return Err(Mf61Error::BadNominal {
+            tire: tire.to_string(),
+            value: nominal_pa,
+        });
+    }
+    let mut groups: Vec<&CollapsedGroup> = collapsed.iter().collect();
+    groups.sort_by_key(|g| g.pressure_kpa_nom);
+    if groups.iter().all(|g| g.pac2002.is_none()) {
+        return Err(Mf61Error::NoStart {
+            tire: tire.to_string(),
+            rim_in,
+        });
+    }
+    let mut points = Vec::new();
+    let mut sweep_offset = 0;
+    for (g, group) in groups.iter().enumerate() {
+        let n_sweeps = group.points.iter().map(|p| p.sweep + 1).max().unwrap_or(0);
+        points.extend(group.points.iter().map(|p| Point {
+            group: g,
+            sweep: p.sweep + sweep_offset,
+            ..*p
+        }));
+        sweep_offset += n_sweeps;
+    }
+    let range_of = |gs: &[usize]| {
+        let ps: Vec<f64> = points
+            .iter()
+            .filter(|p| gs.contains(&p.group))
+            .map(|p| p.p_pa)
+            .collect();
+        let lo = ps.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = ps.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if lo.is_finite() && hi.is_finite() {
+            (lo, hi)
+        } else {
+            (PRESMIN.default_value(), PRESMAX.default_value())
+        }
+    };
+    let models_of = |skip: Option<usize>| -> Vec<PressureModel> {
+        groups
+            .iter()
+            .enumerate()
+            .filter(|(g, _)| Some(*g) != skip)
+            .filter_map(|(_, g)| g.pac2002.clone())
+            .collect()
+    };
+    let all: Vec<usize> = (0..groups.len()).collect();
+    let full = fit_points(&models_of(None), &points, nominal_pa, range_of(&all), cfg);
+    let mut quality = Vec::new();
+    for (g, group) in groups.iter().enumerate() {
+        for (o, n, rmse, peak, r2) in group_quality(&full.model, &points, g) {
+            quality.push(PressureQuality {
+                pressure_kpa_nom: group.pressure_kpa_nom,
+                output: o,
+                n,
+                rmse,
+                rmse_pct_of_peak: 100.0 * rmse / peak.max(1e-9),
+                r2,
+                oos_rmse: None,
+                oos_rmse_pct_of_peak: None,
+            });
+        }
+    }
+    let mut family_quality = Vec::new();
+    for (g, group) in groups.iter().enumerate() {
+        for (family, n, rmse, peak, r2) in group_family_quality(&full.model, &points, g) {
+            family_quality.push(FamilyQuality {
+                pressure_kpa_nom: group.pressure_kpa_nom,
+                family,
+                n,
+                rmse,
+                rmse_pct_of_peak: 100.0 * rmse / peak.max(1e-9),
+                r2,
+                oos_rmse: None,
+            });
+        }
+    }
+    let mut notes = full.notes.clone();
+    if cfg.leave_one_pressure_out && groups.len() >= 2 {
+        for (g, group) in groups.iter().enumerate() {
+            let models = models_of(Some(g));
+            if models.is_empty() {
+                continue;
+            }
+            let training: Vec<Point> = points.iter().filter(|p| p.group != g).copied().collect();
+            let rest: Vec<usize> = all.iter().copied().filter(|x| *x != g).collect();
+            // The left-out pressure must be evaluated as such, not clipped to the others' range.
+            let mut held = fit_points(&models, &training, nominal_pa, range_of(&rest), cfg);
+            held.model.coefs[PRESMIN] = PRESMIN.default_value();
+            held.model.coefs[PRESMAX] = PRESMAX.default_value();
+            for (o, _, rmse, peak, _) in group_quality(&held.model, &points, g) {
+                if let Some(q) = quality
+                    .iter_mut()
+                    .find(|q| q.pressure_kpa_nom == group.pressure_kpa_nom && q.output == o)
+                {
+                    q.oos_rmse = Some(rmse);
+                    q.oos_rmse_pct_of_peak = Some(100.0 * rmse / peak.max(1e-9));
+                }
+            }
+            for (family, _, rmse, _, _) in group_family_quality(&held.model, &points, g) {
+                if let Some(q) = family_quality
+                    .iter_mut()
+                    .find(|q| q.pressure_kpa_nom == group.pressure_kpa_nom && q.family == family)
+                {
+                    q.oos_rmse = Some(rmse);
+                }
+            }
+        }
+    } else if groups.len() < 2 {
+        notes.push(
+            "one tested pressure: no pressure terms (all 0) and no leave-one-pressure-out check"
+                .to_string(),
+        );
+    }
+    let coefficients = coefficient_list(&full);
+    Ok(Mf61Fit {
+        evaluations: full.families.iter().map(|f| f.evaluations).sum(),
+        model: full.model,
+        coefficients,
+        quality,
+        family_quality,
+        families: full.families,
+        notes,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// Every MF 6.1 coefficient with its origin.
+fn coefficient_list(f: &Fitted) -> Vec<Mf61Coefficient> {
+    Coef::ALL
+        .iter()
+        .filter(|c| c.carried_by(Version::Mf61))
+        .map(|c| {
+            let fitted = f.std_errors.iter().rev().find(|s| s.0 == *c);
+            Mf61Coefficient {
+                coef: *c,
+                family: fitted.map(|s| s.3),
+                value: f.model.coefs[*c],
+                std_error: fitted.and_then(|s| if s.2 { None } else { s.1 }),
+                at_bound: fitted.is_some_and(|s| s.2),
+                origin: if fitted.is_some() { "fitted" } else { "start" },
+            }
+        })
+        .collect()
+}

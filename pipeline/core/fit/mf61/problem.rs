@@ -1,0 +1,116 @@
+//! One family's joint refinement across every tested pressure as a bounded least-squares
+//! problem.
+//!
+//! In: the current MF 6.1 model, the family's free coefficients, its channel and the collapsed
+//! points of every pressure (each evaluated at its own measured pressure). Out: residuals
+//! `w_i (model_i - measured_i)` and their exact Jacobian, through
+//! [`MagicFormula::jacobian_into_at`] (forward-mode dual numbers, one pressure per point), for
+//! [`crate::numerics::bounded_least_squares::minimize`]. The model is evaluated without input
+//! limiting (`Mode::Raw`), as the PAC2002 stage does.
+//!
+//! Deliberately not here: which points and coefficients a family uses (`mod.rs`).
+
+use crate::numerics::bounded_least_squares::LeastSquaresProblem;
+use crate::tire_model::{Channel, Coef, MagicFormula, Mode, Pressures, SlipInput};
+
+/// Evaluation mode of the fit.
+pub const FIT_MODE: Mode = Mode::Raw;
+
+/// A family's data: operating points, their pressures, measured values and weights.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FamilyData {
+    /// Operating points.
+    pub inputs: Vec<SlipInput>,
+    /// Inflation pressure of each point, Pa.
+    pub pressures: Vec<f64>,
+    /// Measured values (N or N m).
+    pub measured: Vec<f64>,
+    /// Residual weights.
+    pub weights: Vec<f64>,
+}
+
+impl FamilyData {
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.inputs.len()
+    }
+
+    /// No points?
+    pub fn is_empty(&self) -> bool {
+        self.inputs.is_empty()
+    }
+}
+
+/// The problem: `base` with `free` replaced by the parameters.
+pub struct FamilyProblem<'a> {
+    /// The model with every other coefficient fixed.
+    pub base: &'a MagicFormula,
+    /// Free coefficients, in parameter order.
+    pub free: &'a [Coef],
+    /// The channel the data measure.
+    pub channel: Channel,
+    /// The data.
+    pub data: &'a FamilyData,
+}
+
+impl FamilyProblem<'_> {
+    /// The model at parameters `p`.
+    pub fn model_at(&self, p: &[f64]) -> MagicFormula {
+        let mut m = self.base.clone();
+        for (c, v) in self.free.iter().zip(p) {
+            m.coefs[*c] = *v;
+        }
+        m
+    }
+}
+
+impl LeastSquaresProblem for FamilyProblem<'_> {
+    fn n_params(&self) -> usize {
+        self.free.len()
+    }
+
+    fn n_residuals(&self) -> usize {
+        self.data.len()
+    }
+
+    fn residuals(&self, p: &[f64], r: &mut [f64]) {
+        let m = self.model_at(p);
+        m.channel_into_at(
+            self.channel,
+            &self.data.inputs,
+            Pressures::PerPoint(&self.data.pressures),
+            FIT_MODE,
+            r,
+        );
+        for ((x, y), w) in r
+            .iter_mut()
+            .zip(&self.data.measured)
+            .zip(&self.data.weights)
+        {
+            *x = w * (*x - y);
+        }
+    }
+
+    fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
+        let m = self.model_at(p);
+        m.jacobian_into_at(
+            self.channel,
+            self.free,
+            &self.data.inputs,
+            Pressures::PerPoint(&self.data.pressures),
+            FIT_MODE,
+            r,
+            jac,
+        );
+        let n = self.free.len();
+        for (i, ((x, y), w)) in r
+            .iter_mut()
+            .zip(&self.data.measured)
+            .zip(&self.data.weights)
+            .enumerate()
+        {
+            *x = w * (*x - y);
+            jac[i * n..(i + 1) * n].iter_mut().for_each(|v| *v *= w);
+        }
+    }
+}
