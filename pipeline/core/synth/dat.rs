@@ -7,6 +7,7 @@
 //! (the TTC writer in `crate::ttc`), defects (`defects.rs`).
 
 use crate::frame::{IsoW, TireChannels};
+use crate::ttc::dat::RoundStyle;
 
 use super::machine::RunSamples;
 use super::tires::{KPA_PER_PSI, M_PER_IN, N_PER_LBF};
@@ -15,17 +16,6 @@ use super::tires::{KPA_PER_PSI, M_PER_IN, N_PER_LBF};
 pub const NM_PER_FTLB: f64 = 1.355_817_948_331_400_4;
 /// km/h per mph.
 pub const KPH_PER_MPH: f64 = 1.609_344;
-
-/// Which round's header line and unit spellings a file imitates.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum RoundStyle {
-    /// Round 4: `Project 1320; Run 125`, `sec`, `AMBTMP`, `deg F`/`deg C` (+ SI ambient in deg F).
-    R4,
-    /// Round 8: date, time, ISO flag and ID in line 1; `s`, `AmbTmp`, `deg f`/`deg c`, `SAE`.
-    R8,
-    /// Round 9: as R8 plus `Tire_Name=` and `Rim_Width=`.
-    R9,
-}
 
 /// Unit system of a file (the file name's prefix letter).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -54,12 +44,9 @@ pub struct FileStyle {
 }
 
 impl FileStyle {
-    /// Sample rate: 50 Hz for round-4 style, 100 Hz for rounds 6-9.
+    /// Sample rate of the file's round style.
     pub fn rate_hz(&self) -> f64 {
-        match self.round {
-            RoundStyle::R4 => 50.0,
-            RoundStyle::R8 | RoundStyle::R9 => 100.0,
-        }
+        self.round.sample_rate_hz()
     }
 
     /// `<prefix><project>run<N>.<ext>` or `...raw<N>...`.
