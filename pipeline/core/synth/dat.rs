@@ -19,7 +19,7 @@ pub const KPH_PER_MPH: f64 = 1.609_344;
 
 /// Unit system of a file (the file name's prefix letter).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum Units {
+pub enum FileUnits {
     /// Prefix `A`: mph, in, psi, lb, ft-lb, deg F.
     UsCustomary,
     /// Prefix `B`: km/h, cm, kPa, N, N m, deg C.
@@ -37,7 +37,7 @@ pub enum Container {
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub struct FileStyle {
     pub round: RoundStyle,
-    pub units: Units,
+    pub units: FileUnits,
     pub container: Container,
     /// Dwells kept (`raw` in the name) instead of cut (`run`).
     pub raw: bool,
@@ -52,8 +52,8 @@ impl FileStyle {
     /// `<prefix><project>run<N>.<ext>` or `...raw<N>...`.
     pub fn file_name(&self, project: u32, run: u32) -> String {
         let prefix = match self.units {
-            Units::UsCustomary => 'A',
-            Units::Si => 'B',
+            FileUnits::UsCustomary => 'A',
+            FileUnits::Si => 'B',
         };
         let what = if self.raw { "raw" } else { "run" };
         let ext = match self.container {
@@ -68,37 +68,37 @@ impl FileStyle {
 pub const STYLE_CYCLE: [FileStyle; 6] = [
     FileStyle {
         round: RoundStyle::R4,
-        units: Units::UsCustomary,
+        units: FileUnits::UsCustomary,
         container: Container::Dat,
         raw: false,
     },
     FileStyle {
         round: RoundStyle::R9,
-        units: Units::Si,
+        units: FileUnits::Si,
         container: Container::Dat,
         raw: false,
     },
     FileStyle {
         round: RoundStyle::R8,
-        units: Units::Si,
+        units: FileUnits::Si,
         container: Container::Mat,
         raw: false,
     },
     FileStyle {
         round: RoundStyle::R8,
-        units: Units::UsCustomary,
+        units: FileUnits::UsCustomary,
         container: Container::Dat,
         raw: true,
     },
     FileStyle {
         round: RoundStyle::R4,
-        units: Units::Si,
+        units: FileUnits::Si,
         container: Container::Dat,
         raw: false,
     },
     FileStyle {
         round: RoundStyle::R9,
-        units: Units::Si,
+        units: FileUnits::Si,
         container: Container::Mat,
         raw: true,
     },
@@ -161,7 +161,7 @@ pub fn channel_table(
         sel(&s.sl),
     )
     .into_sae();
-    let us = style.units == Units::UsCustomary;
+    let us = style.units == FileUnits::UsCustomary;
     let mat = style.container == Container::Mat;
     let r4 = style.round == RoundStyle::R4 || mat;
     let (force, moment, length, speed, pressure) = if us {
