@@ -246,8 +246,11 @@ dependency order, per group (groups run in parallel; the output does not depend 
                pressure in [MDI_HEADER], IP/IP_NOM in Pa, USE_MODE = families fitted, +10
                with PTY*/PTX*), OUT/coefficients.parquet (long form: name, value SI,
                std_error, at_bound, origin), OUT/fit_quality.parquet (per channel Fy0 Mz0 Fx0
-               Fx Fy Mz Mx: n, rmse N or N m, rmse_pct_of_peak %, r2, iterations, seconds),
-               OUT/lint.parquet (findings of tirebase tir lint on every written file).
+               Fx Fy Mz Mx: oos_rmse N or N m (k-fold by sweep, [fit] kfold) beside rmse (in
+               sample), oos_flag, trend_dev_max N or N m (largest deviation from the data's
+               local trend between the fitted points), Jacobian rank and condition, n,
+               rmse_pct_of_peak %, r2, iterations, seconds), OUT/lint.parquet (findings of
+               tirebase tir lint on every written file; an error is also a fit_failures row).
   relaxation   relaxation length per load, slip rate and direction with the fitted model
                through a first-order lag: each row's own estimate (sigma_row_m, m) and its
                standard error, and sigma_m, partially pooled with the law fitted to the
@@ -271,7 +274,8 @@ stiffnesses) and refined jointly over all pressures; no turn slip.
                nearest the mean, PRESMIN..PRESMAX the measured range, Pa), rows with
                model = mf61 in coefficients (pressure_kpa = NOMPRES in kPa), fit_quality (per
                tested pressure and family: rmse, oos_rmse N or N m from the model refitted
-               without that pressure) and lint.
+               without that pressure, oos_ratio and oos_flag as for PAC2002, oos_folds = the
+               tested pressures; trend and Jacobian columns null) and lint.
 
 Every table starts with tire, rim_in (in), pressure_kpa (nominal, kPa); coefficients,
 fit_quality and lint then name the model (pac2002 or mf61). A stage that fails for
@@ -425,9 +429,10 @@ against load Fz (N) per tire and rim at its design camber, peak mu_y against cam
 nominal load, the thermal window (grip relative to its optimum against tread temperature,
 degC), the friction envelopes (Fx against Fy, N) of the top four tires at the nominal load, and
 the ranked comparison table; then the round overview (tires, rims, nominal pressures, segments
-and models per tire), the rig-inertia results (inertia.parquet), the fit-quality table with the
-three worst fits (largest RMSE in percent of the channel's peak) highlighted, lint warnings,
-failures and every input that was missing or unreadable.
+and models per tire), the rig-inertia results (inertia.parquet), the fit-quality table (out-of-sample
+error first) with the three worst fits (largest out-of-sample RMSE in percent of the channel's
+peak, in-sample where a row has none) highlighted, lint warnings, failures and every input that
+was missing or unreadable.
 
 Each tire page draws, with measured samples of QC-clean segments as markers (decimated) and the
 fitted PAC2002 model of RESULTS/tir/<tire>__<rim>in__<P>kPa.tir as lines (evaluated at the

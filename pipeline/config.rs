@@ -125,12 +125,22 @@ pub struct FitSettings {
     pub max_iterations: usize,
     /// Prior weight pulling the asymmetric combined terms RHX1, RBY3 to zero.
     pub asymmetry_weight: f64,
+    /// Prior weight pulling weakly identified terms (residual torque, trail curvature, load-curvature and combined-slip shape terms; camber terms only through residual torque and trail curvature) to neutral values.
+    pub regularisation_weight: f64,
     /// Weight of the physical-constraint penalties.
     pub constraint_weight: f64,
     /// Overturning moment form: core or auto.
     pub mx_form: MxFormSetting,
     /// QSY1 written as the rolling-resistance placeholder (TTC records no My), -.
     pub rolling_resistance_placeholder: f64,
+    /// Folds of the out-of-sample check (k-fold by sweep, every sweep predicted by a refit that did not see it); below 2 skips it.
+    pub kfold: usize,
+    /// Iteration budget of each fold's refit (warm-started from the full fit, one robust-loss round).
+    pub kfold_iterations: usize,
+    /// Collapsed points per sweep in each fold's refit (the held-out sweeps are predicted at all of theirs).
+    pub kfold_points_per_sweep: usize,
+    /// Flag a family whose out-of-sample RMSE exceeds this multiple of its in-sample RMSE (plus 0.1 % of the channel's peak), -.
+    pub oos_ratio_limit: f64,
     /// `[fit.spring_rate]`: vertical stiffness, unloaded radius, effective rolling radius.
     pub spring_rate: SpringRateConfig,
     /// `[fit.thermal]`: cold-to-warm peaks and the mu(T) curve.
@@ -158,12 +168,17 @@ impl Default for FitSettings {
             loss_k,
             max_iterations: core.max_iterations,
             asymmetry_weight: core.asymmetry_weight,
+            regularisation_weight: core.regularisation_weight,
             constraint_weight: core.constraint_weight,
             mx_form: match core.mx_form {
                 MxForm::Core => MxFormSetting::Core,
                 MxForm::Auto => MxFormSetting::Auto,
             },
             rolling_resistance_placeholder: core.rolling_resistance_placeholder,
+            kfold: core.kfold,
+            kfold_iterations: core.kfold_iterations,
+            kfold_points_per_sweep: core.kfold_points_per_sweep,
+            oos_ratio_limit: core.oos_ratio_limit,
             spring_rate: SpringRateConfig::default(),
             thermal: ThermalConfig::default(),
             relaxation: RelaxationConfig::default(),
@@ -206,12 +221,17 @@ impl FitSettings {
             },
             max_iterations: self.max_iterations,
             asymmetry_weight: self.asymmetry_weight,
+            regularisation_weight: self.regularisation_weight,
             constraint_weight: self.constraint_weight,
             mx_form: match self.mx_form {
                 MxFormSetting::Core => MxForm::Core,
                 MxFormSetting::Auto => MxForm::Auto,
             },
             rolling_resistance_placeholder: self.rolling_resistance_placeholder,
+            kfold: self.kfold,
+            kfold_iterations: self.kfold_iterations,
+            kfold_points_per_sweep: self.kfold_points_per_sweep,
+            oos_ratio_limit: self.oos_ratio_limit,
         }
     }
 
@@ -243,6 +263,18 @@ impl FitSettings {
         if self.max_iterations == 0 {
             return bad("max_iterations", "must be positive");
         }
+        if self.kfold >= 2 && self.kfold_iterations == 0 {
+            return bad("kfold_iterations", "must be positive when kfold >= 2");
+        }
+        if self.kfold >= 2 && self.kfold_points_per_sweep < 8 {
+            return bad("kfold_points_per_sweep", "must be at least 8");
+        }
+        if self.regularisation_weight.is_nan() || self.regularisation_weight < 0.0 {
+            return bad("regularisation_weight", "must be >= 0");
+        }
+        if self.oos_ratio_limit.is_nan() || self.oos_ratio_limit < 1.0 {
+            return bad("oos_ratio_limit", "must be at least 1");
+        }
         let ordered = |r: (f64, f64)| r.0.is_finite() && r.1.is_finite() && r.0 < r.1;
         if !ordered(self.spring_rate.breff_range) || self.spring_rate.breff_range.0 <= 0.0 {
             return bad(
@@ -267,6 +299,18 @@ impl FitSettings {
                 "relaxation.ptx3_range",
                 "must be [low, high] with low < high",
             );
+        }
+        let lag = self.relaxation.measurement_lag_range_s;
+        if !ordered(lag) || lag.0 < 0.0 {
+            return bad(
+                "relaxation.measurement_lag_range_s",
+                "must be [low, high] with 0 <= low < high, s",
+            );
+        }
+        if !(self.relaxation.measurement_lag_s.is_finite()
+            && self.relaxation.measurement_lag_s >= 0.0)
+        {
+            return bad("relaxation.measurement_lag_s", "must be >= 0, s");
         }
         if !(self.relaxation.linear_fraction > 0.0 && self.relaxation.linear_fraction <= 1.0) {
             return bad("relaxation.linear_fraction", "must be in (0, 1]");

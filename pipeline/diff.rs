@@ -1,14 +1,15 @@
 //! Differences between two published versions, per tire, rim and nominal pressure.
 //!
 //! In: two version directories (their manifests, `.tir` files and result tables). Out: one
-//! [`DiffRow`] per difference, sorted: models added or removed, PAC2002 coefficients that changed
-//! (read from the `.tir` files, so every published coefficient counts), the change in the forces
-//! a user feels (max and RMS of |dFx|, |dFy|, |dMz| between the two models over the tested
-//! envelope), fit-quality changes and stage-result changes (spring rate, thermal fit,
-//! relaxation, inertia). Two identical versions give no rows. MF 6.1 models (one per tire and rim,
-//! keyed at their `NOMPRES`) are compared the same way, their forces at every tested pressure of
-//! the tire and rim (either version's) and at the midpoint between each two neighbouring ones
-//! (`at_pressure_kpa`).
+//! [`DiffRow`] per difference, sorted: models added or removed, fit-quality changes (the
+//! out-of-sample RMSE and the deviation between fitted points first, in `fit_quality`'s column
+//! order), PAC2002 coefficients that changed (read from the `.tir` files, so every published
+//! coefficient counts), the change in the forces a user feels (max and RMS of |dFx|, |dFy|,
+//! |dMz| between the two models over the tested envelope) and stage-result changes (spring
+//! rate, thermal fit, relaxation, inertia). Two identical versions give no rows. MF 6.1 models
+//! (one per tire and rim, keyed at their `NOMPRES`) are compared the same way, their forces at
+//! every tested pressure of the tire and rim (either version's) and at the midpoint between each
+//! two neighbouring ones (`at_pressure_kpa`).
 //!
 //! Deliberately not here: printing (the command layer) and any tolerance a user should tune:
 //! values are "changed" when they differ by more than 1e-12 relative (the round-trip precision
@@ -118,11 +119,13 @@ pub fn diff_versions(a: &Path, b: &Path, tire: Option<&str>) -> Result<Vec<DiffR
         table_rows(a, b, table, kind, tire, &mut rows)?;
     }
     let kind_order = |k: &str| {
+        // Fit quality (out-of-sample error first, then the in-sample figures) before the
+        // coefficient and force changes it explains.
         [
             "model",
+            "quality",
             "coefficient",
             "force",
-            "quality",
             "stage",
             "inertia",
         ]

@@ -752,7 +752,12 @@ pub fn fit_groups(
         tables.insert("coefficients".to_string(), tables::coefficients(&models)?);
         tables.insert(
             "fit_quality".to_string(),
-            tables::fit_quality(&results, write_pac2002, &mf61_outcomes)?,
+            tables::fit_quality(
+                &results,
+                write_pac2002,
+                &mf61_outcomes,
+                cfg.pac2002.oos_ratio_limit,
+            )?,
         );
         tables.insert("lint".to_string(), tables::lint(&models)?);
     }

@@ -567,17 +567,23 @@ fn with_pool<T: Send>(jobs: usize, f: impl FnOnce() -> T + Send) -> T {
     }
 }
 
-/// The worst row of `fit_quality` by its RMSE in percent of the channel's peak, as one line
+/// The worst row of `fit_quality` by its out-of-sample RMSE in percent of the channel's peak
+/// (the in-sample one where a row has none: [`results::QualityRow::headline_pct_of_peak`]), as one line
 /// naming the group and channel.
 fn worst_fit(results: &Results) -> Option<String> {
     let (q, pct) = results
         .fit_quality
         .iter()
         .flatten()
-        .filter_map(|q| Some((q, q.rmse_pct_of_peak.filter(|v| v.is_finite())?)))
+        .filter_map(|q| Some((q, q.headline_pct_of_peak()?)))
         .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let what = if q.oos_ratio.is_some_and(f64::is_finite) {
+        "out-of-sample rmse_pct_of_peak"
+    } else {
+        "rmse_pct_of_peak"
+    };
     Some(format!(
-        "rmse_pct_of_peak = {pct:.4} (tire={}, rim_in={}, pressure_kpa={}, model={}, channel={})",
+        "{what} = {pct:.4} (tire={}, rim_in={}, pressure_kpa={}, model={}, channel={})",
         q.tire, q.rim_in, q.pressure_kpa, q.model, q.channel
     ))
 }

@@ -8,6 +8,7 @@ mod harness;
 mod inertia;
 mod ingest;
 mod real;
+mod real_quality;
 mod report;
 mod run;
 mod run_inputs;

@@ -608,3 +608,90 @@ fn issue20_undefined_models_and_non_finite_inputs_are_refused() {
         "{all}"
     );
 }
+
+/// The supplier layout fixture with `key = value` lines replaced (`edits`), written into `dir`.
+fn supplier_variant(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
+    let text = std::fs::read_to_string(fixture("tir/pac2002_supplier_layout.tir")).unwrap();
+    let mut out = String::new();
+    for line in text.lines() {
+        let key = line.split('=').next().map(str::trim);
+        match edits.iter().find(|(k, _)| Some(*k) == key) {
+            Some((k, v)) => out.push_str(&format!("{k} = {v}\n")),
+            None => {
+                out.push_str(line);
+                out.push('\n');
+            }
+        }
+    }
+    for (k, _) in edits {
+        assert!(
+            text.lines()
+                .any(|l| l.split('=').next().map(str::trim) == Some(*k))
+        );
+    }
+    let path = dir.join(name);
+    std::fs::write(&path, out).unwrap();
+    path
+}
+
+/// Issue 18 through the command: `tir lint` passes files in the supplier's sign conventions
+/// (`PDX1 < 0` with `PKX1 > 0`, `PDY1 < 0` with `PKY1 < 0`: the forces evaluate with the right
+/// signs) without errors, and exits 1 naming the defect for a planted residual-torque spike
+/// (the issue's QBZ10 = 3.1e5, QDZ6 = -218, QEZ1..3 of order 100-500), a planted sign flip
+/// (Kx/Fz = PKX1 + PKX2 dfz changing sign inside the load range) and a planted mu of 6.
+#[test]
+fn lint_accepts_supplier_conventions_and_catches_planted_defects_issue_18() {
+    let dir = tempfile::tempdir().unwrap();
+    let lint = |path: &Path| {
+        let o = tirebase(&["tir", "lint", path.to_str().unwrap()]);
+        (o.status.code(), text(&o.stdout), text(&o.stderr))
+    };
+    for (name, edits) in [
+        ("supplier.tir", vec![]),
+        ("pdx1_negative.tir", vec![("PDX1", "-2.35")]),
+        (
+            "both_negative_d.tir",
+            vec![("PDX1", "-2.35"), ("PDY1", "-2.42")],
+        ),
+        ("pdy1_positive.tir", vec![("PDY1", "2.42")]),
+    ] {
+        let path = supplier_variant(dir.path(), name, &edits);
+        let (code, out, err) = lint(&path);
+        assert_eq!(code, Some(0), "{name}: {out}{err}");
+        assert!(!out.contains("error["), "{name}: {out}");
+        assert!(out.contains("0 errors"), "{name}: {out}");
+    }
+    type Planted<'a> = (&'a str, &'a [(&'a str, &'a str)], &'a [&'a str]);
+    let planted: [Planted; 4] = [
+        (
+            "spike.tir",
+            &[
+                ("QBZ10", "3.1e5"),
+                ("QDZ6", "-218"),
+                ("QEZ1", "120"),
+                ("QEZ2", "-480"),
+                ("QEZ3", "310"),
+            ],
+            &["error[spike]: Mz", "error[moment-range]"],
+        ),
+        ("sign_flip.tir", &[("PKX2", "-80")], &["error[force-sign]"]),
+        (
+            "mu6.tir",
+            &[("PDX1", "6.0")],
+            &["error[friction-range]: Fx", "|mu_x| > 4"],
+        ),
+        (
+            "mu6_supplier_sign.tir",
+            &[("PCX1", "0.3"), ("PDX1", "-6.4")],
+            &["error[friction-range]"],
+        ),
+    ];
+    for (name, edits, expected) in planted {
+        let path = supplier_variant(dir.path(), name, edits);
+        let (code, out, err) = lint(&path);
+        assert_eq!(code, Some(1), "{name}: {out}{err}");
+        for e in expected {
+            assert!(out.contains(e), "{name}: expected {e}: {out}");
+        }
+    }
+}

@@ -443,6 +443,7 @@ mod tests {
                 initial_rmse: None,
                 iterations: None,
                 termination: None,
+                ..QualityRow::default()
             })
             .collect()
     }

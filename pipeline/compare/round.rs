@@ -131,17 +131,18 @@ pub struct FitError {
     pub source: String,
 }
 
-/// The fit_quality measure used as a channel's relative error and whether it is out-of-sample.
-/// Today only `rmse_pct_of_peak` exists: in-sample, the error of the fit on the points it was
-/// fitted to, which includes the measurement noise and is therefore a conservative error of a
-/// peak figure. An out-of-sample column, once fit_quality has one, goes first here.
-fn error_measure(row: &QualityRow) -> (&'static str, bool, Option<f64>) {
-    ("rmse_pct_of_peak", false, row.rmse_pct_of_peak)
+/// The fit_quality measure used as a channel's relative error, in percent of the channel's
+/// peak, and whether it is out-of-sample: `rmse_pct_of_peak x oos_ratio` (k-fold by sweep, what
+/// the fit does on sweeps it did not see) where the row has an out-of-sample ratio, else the
+/// in-sample `rmse_pct_of_peak` (the error on the points it was fitted to, noise included).
+fn error_measure(row: &QualityRow) -> (bool, Option<f64>) {
+    let oos = row.oos_ratio.is_some_and(|r| r.is_finite() && r > 0.0);
+    (oos, row.headline_pct_of_peak())
 }
 
 /// The relative error of a figure built from `channels` of the group's fit (their errors
 /// combined in quadrature: a product of forces, like an envelope area, adds relative errors
-/// so).
+/// so); the source names the measure and the channels that had only an in-sample one.
 pub fn fit_error(results: &Results, key: &GroupKey, channels: &[&str]) -> FitError {
     let unknown = |why: &str| FitError {
         relative: f64::NAN,
@@ -155,35 +156,40 @@ pub fn fit_error(results: &Results, key: &GroupKey, channels: &[&str]) -> FitErr
     })
     .collect();
     let mut sum_sq = 0.0;
-    let (mut column, mut out_of_sample) = ("rmse_pct_of_peak", false);
+    let mut in_sample = Vec::new();
     for want in channels {
         let measure = rows
             .iter()
             .find(|q| q.channel == *want)
             .map(|q| error_measure(q));
-        if let Some((c, oos, _)) = measure {
-            (column, out_of_sample) = (c, oos);
-        }
-        match measure.and_then(|m| m.2) {
-            Some(v) if v.is_finite() && v >= 0.0 => sum_sq += (v / 100.0).powi(2),
+        match measure {
+            Some((oos, Some(v))) if v.is_finite() && v >= 0.0 => {
+                sum_sq += (v / 100.0).powi(2);
+                if !oos {
+                    in_sample.push(*want);
+                }
+            }
             _ => {
                 return unknown(&format!(
-                    "unknown: no fit_quality {column} of channel {want}"
+                    "unknown: no fit_quality rmse_pct_of_peak of channel {want}"
                 ));
             }
         }
     }
     FitError {
         relative: sum_sq.sqrt(),
-        source: format!(
-            "fit_quality.{column} {} ({})",
-            channels.join("+"),
-            if out_of_sample {
-                "out-of-sample"
-            } else {
-                "in-sample"
-            }
-        ),
+        source: if in_sample.is_empty() {
+            format!(
+                "fit_quality.rmse_pct_of_peak x oos_ratio {} (out-of-sample)",
+                channels.join("+")
+            )
+        } else {
+            format!(
+                "fit_quality.rmse_pct_of_peak {} (in-sample for {}: no out-of-sample error)",
+                channels.join("+"),
+                in_sample.join("+")
+            )
+        },
     }
 }
 
@@ -304,6 +310,7 @@ mod tests {
             initial_rmse: None,
             iterations: None,
             termination: None,
+            ..QualityRow::default()
         }
     }
 
@@ -377,6 +384,21 @@ mod tests {
             round.model(&a).err().map(|e| e.file).as_deref(),
             Some("a__7in__83kPa.tir")
         );
+        // With the out-of-sample ratio, the out-of-sample error where a row has one.
+        let mut r = results();
+        for q in r.fit_quality.iter_mut().flatten() {
+            q.oos_ratio = match q.channel.as_str() {
+                "Fy0" => Some(2.0),
+                "Fy" => Some(1.0),
+                _ => None,
+            };
+        }
+        let e = fit_error(&r, &a, &["Fy0"]);
+        assert!((e.relative - 0.006).abs() < 1e-12, "{e:?}");
+        assert!(e.source.contains("(out-of-sample)"), "{e:?}");
+        let e = fit_error(&r, &a, &["Fx", "Fy"]);
+        assert!((e.relative - 0.005).abs() < 1e-12, "{e:?}");
+        assert!(e.source.contains("in-sample for Fx"), "{e:?}");
     }
 
     #[test]

@@ -316,6 +316,7 @@ fn delag_lengths(rx: &RelaxationOutput) -> Option<RelaxationLengths> {
     let lengths = RelaxationLengths {
         sigma_alpha: law(Direction::Lateral),
         sigma_kappa: law(Direction::Longitudinal),
+        measurement_lag_s: rx.measurement_lags.first().map_or(0.0, |m| m.lag.lag_s),
     };
     (!lengths.sigma_alpha.by_load.is_empty() || !lengths.sigma_kappa.by_load.is_empty())
         .then_some(lengths)
@@ -464,7 +465,8 @@ fn run_pac2002_and_relaxation(
     } else {
         input.clone()
     };
-    let first = match run_fit(out, &first_input, cfg) {
+    // The forces-only pass is never written: no out-of-sample refits for it.
+    let first = match run_fit(out, &first_input, cfg, !forces_first) {
         Some(f) => f,
         None => {
             if stages.relaxation {
@@ -508,14 +510,14 @@ fn run_pac2002_and_relaxation(
             return;
         }
         let fit = if forces_first {
-            match run_fit(out, &input, cfg) {
+            match run_fit(out, &input, cfg, true) {
                 Some(f) => f,
                 None => return,
             }
         } else {
             first
         };
-        record_fit_notes(out, &fit);
+        record_fit_notes(out, &fit, cfg.pac2002.oos_ratio_limit);
         out.pac2002 = Some(fit);
         return;
     }
@@ -536,7 +538,7 @@ fn run_pac2002_and_relaxation(
         } else {
             forces_only(&input)
         };
-        match run_fit(out, &second_input, cfg) {
+        match run_fit(out, &second_input, cfg, stages.pac2002) {
             Some(second) => {
                 if refit {
                     let started = Instant::now();
@@ -589,7 +591,7 @@ fn run_pac2002_and_relaxation(
         return;
     }
     if let Some(fit) = fit {
-        record_fit_notes(out, &fit);
+        record_fit_notes(out, &fit, cfg.pac2002.oos_ratio_limit);
         out.pac2002 = Some(fit);
     }
 }
@@ -621,8 +623,9 @@ fn record_unusable_sweeps(out: &mut GroupResult, all: &[&LoadedSegment]) {
     }
 }
 
-/// Sweeps the PAC2002 stage skipped and families it could not fit, as partial failures.
-fn record_fit_notes(out: &mut GroupResult, fit: &Pac2002Fit) {
+/// Sweeps the PAC2002 stage skipped, families it could not fit and families flagged out of
+/// sample (`out_of_sample_limit`: [`FitConfig::oos_ratio_limit`]), as partial failures.
+fn record_fit_notes(out: &mut GroupResult, fit: &Pac2002Fit, out_of_sample_limit: f64) {
     for s in &fit.skipped_sweeps {
         out.fail(
             "pac2002",
@@ -631,7 +634,27 @@ fn record_fit_notes(out: &mut GroupResult, fit: &Pac2002Fit) {
             s.reason.clone(),
         );
     }
+    let limit = out_of_sample_limit;
     for f in &fit.families {
+        if let Some(q) = f.quality.as_ref().filter(|q| q.oos_flagged(limit))
+            && let Some(o) = &q.out_of_sample
+        {
+            out.fail(
+                "pac2002",
+                &format!("family {} out of sample", f.family.as_str()),
+                false,
+                format!(
+                    "good in sample, bad out of sample: held-out sweeps RMSE {:.4} vs {:.4} in \
+                     sample ({:.2}x, limit {limit}x; {}-fold by sweep); {} of the folds could not \
+                     determine the coefficients without their held-out sweeps",
+                    o.rmse,
+                    q.rmse,
+                    o.rmse / q.rmse,
+                    o.folds,
+                    o.deficient_folds
+                ),
+            );
+        }
         if let pac2002::FamilyStatus::Failed { reason } = &f.status {
             out.fail(
                 "pac2002",
@@ -656,10 +679,20 @@ fn forces_only(input: &FitInput) -> FitInput {
     input
 }
 
-/// One PAC2002 fit, timed and counted; an error is a fatal failure of the stage.
-fn run_fit(out: &mut GroupResult, input: &FitInput, cfg: &StageConfigs) -> Option<Pac2002Fit> {
+/// One PAC2002 fit, timed and counted; an error is a fatal failure of the stage. Without
+/// `cross_validate` the out-of-sample refits are skipped (a pass that is not written).
+fn run_fit(
+    out: &mut GroupResult,
+    input: &FitInput,
+    cfg: &StageConfigs,
+    cross_validate: bool,
+) -> Option<Pac2002Fit> {
     let started = Instant::now();
-    let fit = pac2002::fit(input, &cfg.pac2002);
+    let mut fit_cfg = cfg.pac2002;
+    if !cross_validate {
+        fit_cfg.kfold = 0;
+    }
+    let fit = pac2002::fit(input, &fit_cfg);
     out.time("pac2002", started);
     out.pac2002_fits += 1;
     match fit {

@@ -230,6 +230,10 @@ fn build(
             std_error: c.std_error,
             at_bound: c.at_bound,
             origin: c.origin.to_string(),
+            note: c
+                .at_bound
+                .then(|| mf61::bound_note(c.coef, c.value))
+                .flatten(),
         })
         .collect();
     for coef in [

@@ -22,6 +22,7 @@ use crate::schema;
 /// A column being built.
 enum Data {
     Str(Vec<String>),
+    OptStr(Vec<Option<String>>),
     F64(Vec<f64>),
     I64(Vec<i64>),
     OptI64(Vec<Option<i64>>),
@@ -56,6 +57,13 @@ impl Frame {
     fn s(&mut self, col: &'static str, v: impl Into<String>) -> &mut Self {
         if let Data::Str(x) = self.slot(col, || Data::Str(Vec::new())) {
             x.push(v.into());
+        }
+        self
+    }
+
+    fn o(&mut self, col: &'static str, v: Option<String>) -> &mut Self {
+        if let Data::OptStr(x) = self.slot(col, || Data::OptStr(Vec::new())) {
+            x.push(v);
         }
         self
     }
@@ -106,6 +114,7 @@ impl Frame {
         for (name, data) in self.columns {
             let col = match data {
                 Data::Str(v) => Column::new(name.into(), v),
+                Data::OptStr(v) => Column::new(name.into(), v),
                 Data::I64(v) => Column::new(name.into(), v),
                 Data::OptI64(v) => Column::new(name.into(), v),
                 Data::Bool(v) => Column::new(name.into(), v),
@@ -139,7 +148,8 @@ pub fn coefficients(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, Fit
                 .f("value", c.value)
                 .f("std_error", c.std_error.unwrap_or(f64::NAN))
                 .b("at_bound", c.at_bound)
-                .s("origin", c.origin.clone());
+                .s("origin", c.origin.clone())
+                .o("note", c.note.clone());
         }
     }
     f.finish()
@@ -163,11 +173,13 @@ pub fn lint(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, FitError> {
 
 /// `fit_quality`: one row per fitted family of every written PAC2002 model (`pac2002`: the
 /// PAC2002 models are written), then per tested pressure and family of every MF 6.1 model; rows
-/// sorted by group, PAC2002 before MF 6.1 within a group.
+/// sorted by group, PAC2002 before MF 6.1 within a group. `oos_ratio_limit` decides `oos_flag`
+/// ([`tirebase_core::fit::pac2002::FitConfig::oos_ratio_limit`]).
 pub fn fit_quality(
     results: &[GroupResult],
     pac2002: bool,
     mf61: &[Mf61Outcome],
+    oos_ratio_limit: f64,
 ) -> Result<DataFrame, FitError> {
     let mut rows: Vec<(TireKey, u8, Frame)> = Vec::new();
     for r in results.iter().filter(|_| pac2002) {
@@ -175,12 +187,32 @@ pub fn fit_quality(
         let mut f = Frame::new("fit_quality");
         for fam in &fit.families {
             let Some(q) = &fam.quality else { continue };
+            let oos = q.out_of_sample.as_ref();
+            let trend = q.trend.as_ref();
+            let id = &q.identifiability;
             f.key(&r.key)
                 .s("model", FitModel::Pac2002.as_str())
                 .s("channel", fam.family.as_str())
-                .f("oos_rmse", f64::NAN)
+                .f("oos_rmse", oos.map_or(f64::NAN, |o| o.rmse))
                 .f("rmse", q.rmse)
-                .f("oos_ratio", f64::NAN)
+                .f("oos_ratio", q.oos_ratio())
+                .b("oos_flag", q.oos_flagged(oos_ratio_limit))
+                .f("trend_dev_max", trend.map_or(f64::NAN, |t| t.max))
+                .f(
+                    "trend_dev_pct_of_peak",
+                    trend.map_or(f64::NAN, |t| 100.0 * t.max / q.peak()),
+                )
+                .o("trend_dev_sweep", trend.map(|t| t.sweep.clone()))
+                .f("trend_dev_slip", trend.map_or(f64::NAN, |t| t.slip))
+                .i("oos_folds", oos.map_or(0, |o| o.folds as i64))
+                .i("oos_n", oos.map_or(0, |o| o.n as i64))
+                .i(
+                    "oos_deficient_folds",
+                    oos.map_or(0, |o| o.deficient_folds as i64),
+                )
+                .oi("n_free", Some(id.n_free as i64))
+                .oi("jacobian_rank", Some(id.rank as i64))
+                .f("condition_number", id.condition)
                 .i("n", q.n as i64)
                 .f("rmse_pct_of_peak", q.rmse_pct_of_peak)
                 .f("r2", q.r2)
@@ -197,6 +229,14 @@ pub fn fit_quality(
     for o in mf61 {
         let Some(fit) = &o.fit else { continue };
         let mut by_pressure: std::collections::BTreeMap<i64, Frame> = Default::default();
+        // The out-of-sample check of an MF 6.1 model holds out one tested pressure at a time:
+        // its folds are the tested pressures.
+        let folds = fit
+            .family_quality
+            .iter()
+            .map(|q| q.pressure_kpa_nom)
+            .collect::<std::collections::BTreeSet<_>>()
+            .len() as i64;
         for q in &fit.family_quality {
             let key = TireKey {
                 pressure_kpa_nom: q.pressure_kpa_nom,
@@ -204,6 +244,11 @@ pub fn fit_quality(
             };
             let family = fit.families.iter().find(|x| x.family == q.family);
             let oos = q.oos_rmse.unwrap_or(f64::NAN);
+            let peak = if q.rmse_pct_of_peak > 0.0 {
+                100.0 * q.rmse / q.rmse_pct_of_peak
+            } else {
+                0.0
+            };
             by_pressure
                 .entry(q.pressure_kpa_nom)
                 .or_insert_with(|| Frame::new("fit_quality"))
@@ -216,6 +261,21 @@ pub fn fit_quality(
                     "oos_ratio",
                     if q.rmse > 0.0 { oos / q.rmse } else { f64::NAN },
                 )
+                .b(
+                    "oos_flag",
+                    q.oos_rmse
+                        .is_some_and(|o| o > oos_ratio_limit * q.rmse + 1e-3 * peak.max(0.0)),
+                )
+                .f("trend_dev_max", f64::NAN)
+                .f("trend_dev_pct_of_peak", f64::NAN)
+                .o("trend_dev_sweep", None)
+                .f("trend_dev_slip", f64::NAN)
+                .i("oos_folds", if q.oos_rmse.is_some() { folds } else { 0 })
+                .i("oos_n", if q.oos_rmse.is_some() { q.n as i64 } else { 0 })
+                .i("oos_deficient_folds", 0)
+                .oi("n_free", None)
+                .oi("jacobian_rank", None)
+                .f("condition_number", f64::NAN)
                 .i("n", q.n as i64)
                 .f("rmse_pct_of_peak", q.rmse_pct_of_peak)
                 .f("r2", q.r2)
@@ -384,7 +444,10 @@ pub fn relaxation(results: &[GroupResult]) -> Result<DataFrame, FitError> {
                 .f("model_scale", row.model_scale)
                 .f("model_offset_n", row.model_offset_n)
                 .b("converged", row.converged)
-                .b("at_bound", row.at_bound);
+                .b("at_bound", row.at_bound)
+                .f("measurement_lag_s", row.measurement_lag_s)
+                .b("lag_separated", row.lag_separated)
+                .s("lag_note", row.lag_note.clone());
         }
     }
     f.finish()
@@ -436,9 +499,11 @@ mod tests {
             .f("value", -2.5)
             .f("std_error", f64::NAN)
             .b("at_bound", false)
-            .s("origin", "fitted");
+            .s("origin", "fitted")
+            .o("note", None);
         let df = f.finish().unwrap();
         assert_eq!(df.column("std_error").unwrap().null_count(), 1);
+        assert_eq!(df.column("note").unwrap().null_count(), 1);
         assert_eq!(df.column("value").unwrap().null_count(), 0);
     }
 

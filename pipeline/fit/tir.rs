@@ -42,6 +42,8 @@ pub struct CoefficientRow {
     pub at_bound: bool,
     /// Where it comes from.
     pub origin: String,
+    /// Why it is held or on a bound (see `FittedCoefficient::note`).
+    pub note: Option<String>,
 }
 
 /// A model ready to write.
@@ -73,6 +75,7 @@ fn rows_of(fit: &Pac2002Fit) -> Vec<CoefficientRow> {
             std_error: c.std_error,
             at_bound: c.at_bound,
             origin: c.origin.as_str().to_string(),
+            note: c.note.clone(),
         })
         .collect()
 }
@@ -94,6 +97,7 @@ pub(super) fn set(
         std_error: None,
         at_bound: false,
         origin: origin.to_string(),
+        note: None,
     };
     match rows.iter_mut().find(|r| r.coef == coef) {
         Some(r) => *r = row,

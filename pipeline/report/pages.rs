@@ -107,15 +107,15 @@ fn head_with(title: &str, css: &str) -> String {
 }
 
 /// Row indices of the fit-quality table flagged as the worst of the round, worst first: the
-/// largest RMSE in percent of the channel's peak, or the lowest R² when no row has that value.
+/// largest out-of-sample RMSE in percent of the channel's peak (the in-sample one where a row
+/// has no out-of-sample figure), or the lowest R² when no row has either.
 fn worst_fit_rows(data: &ReportData) -> Vec<usize> {
     let Some(rows) = &data.results.fit_quality else {
         return Vec::new();
     };
-    let finite = |v: Option<f64>| v.filter(|v| v.is_finite());
-    let badness: Vec<f64> = if rows.iter().any(|q| finite(q.rmse_pct_of_peak).is_some()) {
+    let badness: Vec<f64> = if rows.iter().any(|q| q.headline_pct_of_peak().is_some()) {
         rows.iter()
-            .map(|q| q.rmse_pct_of_peak.unwrap_or(f64::NAN))
+            .map(|q| q.headline_pct_of_peak().unwrap_or(f64::NAN))
             .collect()
     } else {
         rows.iter()
@@ -161,8 +161,9 @@ fn int(v: Option<i64>) -> Cell {
     v.map_or(Cell::Empty, Cell::Int)
 }
 
-/// Fit-quality columns shown. `seconds` (wall time) is left out so the same results give the
-/// same report bytes.
+/// Fit-quality columns shown, the out-of-sample error and the deviation between the fitted
+/// points first. `seconds` (wall time) is left out so the same results give the same report
+/// bytes.
 impl Tabular for QualityRow {
     const COLUMNS: &'static [&'static str] = &[
         "tire",
@@ -170,8 +171,16 @@ impl Tabular for QualityRow {
         "pressure_kpa",
         "model",
         "channel",
-        "n",
+        "oos_rmse",
         "rmse",
+        "oos_ratio",
+        "oos_flag",
+        "trend_dev_max",
+        "trend_dev_pct_of_peak",
+        "n_free",
+        "jacobian_rank",
+        "condition_number",
+        "n",
         "rmse_pct_of_peak",
         "r2",
         "sample_rmse",
@@ -189,8 +198,16 @@ impl Tabular for QualityRow {
             Cell::Int(self.pressure_kpa),
             text(&self.model),
             text(&self.channel),
-            int(self.n),
+            float(self.oos_rmse),
             float(self.rmse),
+            float(self.oos_ratio),
+            self.oos_flag.map_or(Cell::Empty, Cell::Bool),
+            float(self.trend_dev_max),
+            float(self.trend_dev_pct_of_peak),
+            int(self.n_free),
+            int(self.jacobian_rank),
+            float(self.condition_number),
+            int(self.n),
             float(self.rmse_pct_of_peak),
             float(self.r2),
             float(self.sample_rmse),

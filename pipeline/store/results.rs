@@ -139,7 +139,7 @@ pub struct CoefficientRow {
 
 /// A row of `fit_quality` as the report uses it. The measures are `None` where the table holds
 /// null or (a table written before the column existed) does not have the column.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct QualityRow {
     pub tire: String,
     pub rim_in: i64,
@@ -147,6 +147,16 @@ pub struct QualityRow {
     /// `pac2002` or `mf61` (`pac2002` in a table written before the column existed).
     pub model: String,
     pub channel: String,
+    /// Out-of-sample RMSE (k-fold by sweep; mf61 rows: leave one pressure out), and its ratio
+    /// to the in-sample one.
+    pub oos_rmse: Option<f64>,
+    pub oos_ratio: Option<f64>,
+    pub oos_flag: Option<bool>,
+    pub trend_dev_max: Option<f64>,
+    pub trend_dev_pct_of_peak: Option<f64>,
+    pub n_free: Option<i64>,
+    pub jacobian_rank: Option<i64>,
+    pub condition_number: Option<f64>,
     pub n: Option<i64>,
     pub rmse: Option<f64>,
     pub rmse_pct_of_peak: Option<f64>,
@@ -155,6 +165,19 @@ pub struct QualityRow {
     pub initial_rmse: Option<f64>,
     pub iterations: Option<i64>,
     pub termination: Option<String>,
+}
+
+impl QualityRow {
+    /// The error a reader should judge the fit by, in percent of the channel's peak: the
+    /// out-of-sample RMSE where the row has one (`rmse_pct_of_peak x oos_ratio`), else the
+    /// in-sample `rmse_pct_of_peak`; `None` without either.
+    pub fn headline_pct_of_peak(&self) -> Option<f64> {
+        let pct = self.rmse_pct_of_peak.filter(|v| v.is_finite())?;
+        Some(match self.oos_ratio.filter(|r| r.is_finite()) {
+            Some(r) => pct * r,
+            None => pct,
+        })
+    }
 }
 
 /// A row of `spring_rate` as the report uses it.
@@ -472,6 +495,15 @@ fn quality_rows(df: &DataFrame, path: &Path) -> Result<Vec<QualityRow>, StoreErr
     let termination = opt_str(df, "termination", path)?.unwrap_or_else(|| vec![None; h]);
     let model = opt_str(df, "model", path)?.unwrap_or_else(|| vec![None; h]);
     let (n, iterations) = (i("n")?, i("iterations")?);
+    let (n_free, rank) = (i("n_free")?, i("jacobian_rank")?);
+    let (oos_rmse, oos_ratio, trend, trend_pct, condition) = (
+        f("oos_rmse")?,
+        f("oos_ratio")?,
+        f("trend_dev_max")?,
+        f("trend_dev_pct_of_peak")?,
+        f("condition_number")?,
+    );
+    let oos_flag = opt_bool(df, "oos_flag", path)?.unwrap_or_else(|| vec![None; h]);
     let (rmse, pct, r2, sample, initial) = (
         f("rmse")?,
         f("rmse_pct_of_peak")?,
@@ -486,6 +518,14 @@ fn quality_rows(df: &DataFrame, path: &Path) -> Result<Vec<QualityRow>, StoreErr
             pressure_kpa: p[k],
             model: model[k].clone().unwrap_or_else(|| PAC2002.to_string()),
             channel: channel[k].clone(),
+            oos_rmse: oos_rmse[k],
+            oos_ratio: oos_ratio[k],
+            oos_flag: oos_flag[k],
+            trend_dev_max: trend[k],
+            trend_dev_pct_of_peak: trend_pct[k],
+            n_free: n_free[k],
+            jacobian_rank: rank[k],
+            condition_number: condition[k],
             n: n[k],
             rmse: rmse[k],
             rmse_pct_of_peak: pct[k],

@@ -180,6 +180,93 @@ pub struct RelaxationConfig {
     /// The law's prediction of a held-out row is never taken as better than this relative
     /// standard error.
     pub pool_prior_floor: f64,
+    /// Form of the rig's measurement lag (in time, after the tire's lag): `delay` (pure delay)
+    /// or `first_order` (a filter).
+    pub measurement_lag_form: LagForm,
+    /// Search interval of the measurement lag when rows at two or more speeds identify it, s.
+    pub measurement_lag_range_s: (f64, f64),
+    /// Measurement lag assumed when the data cannot separate it (one speed): 0 leaves every
+    /// lag in the relaxation length, s.
+    pub measurement_lag_s: f64,
+}
+
+/// How the rig's measurement chain lags the forces, in time.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LagForm {
+    /// A pure delay.
+    Delay,
+    /// A first-order filter.
+    FirstOrder,
+}
+
+/// The measurement chain applied after the tire's lag.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct MeasurementLag {
+    /// Form.
+    pub form: LagForm,
+    /// Delay or time constant, s (0: none).
+    pub lag_s: f64,
+}
+
+impl MeasurementLag {
+    /// No measurement lag.
+    pub const NONE: MeasurementLag = MeasurementLag {
+        form: LagForm::Delay,
+        lag_s: 0.0,
+    };
+
+    /// `y` through the chain, on the sample times `t_s` (a settled start).
+    pub fn apply(&self, t_s: &[f64], y: Vec<f64>) -> Vec<f64> {
+        if self.lag_s <= 0.0 || y.is_empty() {
+            return y;
+        }
+        match self.form {
+            LagForm::FirstOrder => {
+                let unit = vec![1.0; y.len()];
+                first_order_lag(t_s, &unit, &y, self.lag_s)
+            }
+            LagForm::Delay => {
+                let mut out = Vec::with_capacity(y.len());
+                let mut j = 0usize;
+                for &t in t_s {
+                    let target = t - self.lag_s;
+                    while j + 1 < t_s.len() && t_s[j + 1] <= target {
+                        j += 1;
+                    }
+                    out.push(if target <= t_s[0] {
+                        y[0]
+                    } else if j + 1 >= t_s.len() || t_s[j + 1] <= t_s[j] {
+                        y[j]
+                    } else {
+                        let f = (target - t_s[j]) / (t_s[j + 1] - t_s[j]);
+                        y[j] + f * (y[j + 1] - y[j])
+                    });
+                }
+                out
+            }
+        }
+    }
+}
+
+/// The rig's measurement lag of one tire/rim/pressure, and whether the data separated it from
+/// the relaxation length.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeasurementLagFit {
+    /// Tire, rim, nominal pressure.
+    pub key: TireKey,
+    /// The lag used for every row, s.
+    pub lag: MeasurementLag,
+    /// True when identified from rows at two or more road speeds (at one load); false when
+    /// the configured value was assumed (one speed: the lag is not separable from `sigma`).
+    pub identified: bool,
+    /// Road speeds of the rows it was identified from, km/h.
+    pub speeds_kph: Vec<f64>,
+    /// On a bound of its search interval.
+    pub at_bound: bool,
+    /// Why the lag is what it is: identified (with its test statistic), assumed (one speed),
+    /// or not separated (two speeds, but no lag fits as well as the best one).
+    pub note: String,
 }
 
 impl Default for RelaxationConfig {
@@ -198,6 +285,9 @@ impl Default for RelaxationConfig {
             ptx3_range: (-5.0, 5.0),
             pool_with_law: true,
             pool_prior_floor: 0.01,
+            measurement_lag_form: LagForm::Delay,
+            measurement_lag_range_s: (0.0, 0.1),
+            measurement_lag_s: 0.0,
         }
     }
 }
@@ -281,6 +371,14 @@ pub struct RelaxationRow {
     pub converged: bool,
     /// `sigma` sits on a bound of its search interval.
     pub at_bound: bool,
+    /// The rig's measurement lag removed before `sigma` was fitted, s (see `lag_separated`).
+    pub measurement_lag_s: f64,
+    /// True when that lag was identified from rows at two or more speeds, so `sigma` is the
+    /// tire's alone; false when it was assumed (one speed): `sigma` then carries any rig lag as
+    /// `V lag` of extra length; false with a lag of 0 when two speeds showed no lag.
+    pub lag_separated: bool,
+    /// Why the lag is what it is (see [`MeasurementLagFit::note`]).
+    pub lag_note: String,
 }
 
 /// PAC2002 relaxation coefficients of one tire/rim/pressure, fitted to its rows' `sigma(Fz)`.
@@ -324,6 +422,8 @@ pub struct RelaxationOutput {
     pub rows: Vec<RelaxationRow>,
     /// One per input with at least one row.
     pub laws: Vec<RelaxationLaw>,
+    /// The measurement lag of every input with at least one row.
+    pub measurement_lags: Vec<MeasurementLagFit>,
     /// Parts that could not run.
     pub failures: Vec<StageFailure>,
 }
@@ -344,6 +444,12 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
                     scope: format!("{} segment {}", direction.as_str(), seg.segment_id),
                     reason,
                 }),
+            }
+        }
+        let lag = identify_measurement_lag(&input.key, &groups, cfg);
+        for members in groups.values_mut() {
+            for m in members.iter_mut() {
+                m.problem.measurement = lag.lag;
             }
         }
         let mut rows = Vec::new();
@@ -375,6 +481,9 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
             pool_with_law(input, &mut rows, cfg);
         }
         for r in &mut rows {
+            r.measurement_lag_s = lag.lag.lag_s;
+            r.lag_separated = lag.identified;
+            r.lag_note.clone_from(&lag.note);
             r.sigma_law_m = law.sigma_m(
                 input.model,
                 input.unloaded_radius_m,
@@ -383,6 +492,7 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
             );
         }
         out.laws.push(law);
+        out.measurement_lags.push(lag);
         out.rows.extend(rows);
     }
     out.rows.sort_by(|a, b| {
@@ -394,8 +504,9 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
     out
 }
 
-/// Segments pooled into one row: direction, method, nominal load, slip-rate bin.
-type GroupKey = (Direction, Method, i64, i64);
+/// Segments pooled into one row: direction, method, nominal load, slip-rate bin, speed bin
+/// (4 km/h: a rig lag in time makes the apparent length depend on speed).
+type GroupKey = (Direction, Method, i64, i64, i64);
 
 /// One segment ready to fit.
 struct Prepared {
@@ -423,7 +534,8 @@ impl Prepared {
         } else {
             bin
         };
-        (self.direction, self.method, self.fz_n_nom, bin)
+        let speed = (self.speed_kph / 4.0).round() as i64;
+        (self.direction, self.method, self.fz_n_nom, bin, speed)
     }
 }
 
@@ -472,6 +584,8 @@ pub struct LagProblem {
     pub counted: Vec<bool>,
     /// Nuisance parameters solved in closed form.
     pub nuisance: Nuisance,
+    /// The rig's measurement lag after the tire's.
+    pub measurement: MeasurementLag,
 }
 
 /// `sigma`'s fit on a [`LagProblem`].
@@ -523,7 +637,15 @@ pub fn first_order_lag(t_s: &[f64], v_mps: &[f64], u: &[f64], sigma_m: f64) -> V
 impl LagProblem {
     /// Residual sum of squares at `sigma`, with the nuisance parameters `(s, c)` solved.
     pub fn cost(&self, sigma_m: f64) -> (f64, f64, f64) {
-        let y = first_order_lag(&self.t_s, &self.v_mps, &self.f_ss, sigma_m);
+        self.cost_with(sigma_m, &self.measurement)
+    }
+
+    /// [`LagProblem::cost`] with another measurement lag.
+    pub fn cost_with(&self, sigma_m: f64, lag: &MeasurementLag) -> (f64, f64, f64) {
+        let y = lag.apply(
+            &self.t_s,
+            first_order_lag(&self.t_s, &self.v_mps, &self.f_ss, sigma_m),
+        );
         let pts = || {
             (0..y.len())
                 .filter(|&i| self.counted[i])
@@ -555,6 +677,21 @@ impl LagProblem {
         };
         let rss = pts().map(|(yy, m)| (m - s * yy - c).powi(2)).sum();
         (rss, s, c)
+    }
+
+    /// Residuals of the measured force against `s F_lag + c` at `sigma` and `lag`, the nuisance
+    /// parameters solved; `None` for a sample the cost does not count.
+    pub fn residuals_with(&self, sigma_m: f64, lag: &MeasurementLag) -> Vec<Option<f64>> {
+        let (_, s, c) = self.cost_with(sigma_m, lag);
+        let y = lag.apply(
+            &self.t_s,
+            first_order_lag(&self.t_s, &self.v_mps, &self.f_ss, sigma_m),
+        );
+        y.iter()
+            .zip(&self.f_meas)
+            .zip(&self.counted)
+            .map(|((yy, m), counted)| counted.then(|| m - s * yy - c))
+            .collect()
     }
 
     /// Find `sigma` in `range` by grid + Brent.
@@ -723,7 +860,189 @@ fn group_row(
         model_offset_n: offset / k,
         converged: best.converged,
         at_bound: best.at_bound,
+        measurement_lag_s: first.problem.measurement.lag_s,
+        lag_separated: false,
+        lag_note: String::new(),
     })
+}
+
+/// Likelihood-ratio threshold of the measurement-lag test: an identified lag is kept only when
+/// it lowers the pooled cost by more than this many effective noise variances below no lag,
+/// i.e. the lag is three of its standard errors from 0 (for a quadratic profile the statistic is
+/// `(lag / SE)^2`).
+const LAG_LR_THRESHOLD: f64 = 9.0;
+
+/// Longest residual autocorrelation lag summed for the effective sample count, samples.
+const MAX_AUTOCORRELATION_LAG: usize = 500;
+
+/// The rig's measurement lag of one input: identified by a profile over the lag when some load
+/// has sweep segments at two or more road speeds, else the configured value. At every trial lag
+/// each such load gets one `sigma` shared by all its sweep segments, whatever their speed and
+/// slip rate (a relaxation length does not depend on speed; a lag in time adds `V lag` to the
+/// apparent length, so only the right lag lets one `sigma` fit every speed), and the summed
+/// cost of those loads is minimised over the lag by grid + Brent.
+///
+/// The search starts at 0, so noise alone always finds some small lag. The minimum is kept only
+/// when the data support it over no lag: the drop of the pooled cost from lag 0 to the minimum,
+/// in units of the residual variance per effective sample, must exceed [`LAG_LR_THRESHOLD`].
+/// The effective sample count is the counted samples divided by `1 + 2 sum rho_k`, with `rho_k`
+/// the residuals' autocorrelation at the minimum summed up to its first non-positive value:
+/// the residuals (thermal drift, model error, smoothed noise) are far from independent, and
+/// counting every sample would make any lag look significant. Otherwise the lag is 0 and the
+/// rows say `lag_separated = false` with the statistic in their note.
+fn identify_measurement_lag(
+    key: &TireKey,
+    groups: &BTreeMap<GroupKey, Vec<Prepared>>,
+    cfg: &RelaxationConfig,
+) -> MeasurementLagFit {
+    let assumed = MeasurementLagFit {
+        key: key.clone(),
+        lag: MeasurementLag {
+            form: cfg.measurement_lag_form,
+            lag_s: cfg.measurement_lag_s,
+        },
+        identified: false,
+        speeds_kph: Vec::new(),
+        at_bound: false,
+        note: format!(
+            "assumed {:.1} ms: no load swept at two or more speeds, the lag is not separable \
+             from sigma",
+            1e3 * cfg.measurement_lag_s
+        ),
+    };
+    // Sweep groups by (direction, nominal load): one shared sigma each.
+    let mut by_load: BTreeMap<(Direction, i64), Vec<&GroupKey>> = BTreeMap::new();
+    for k in groups.keys().filter(|k| k.1 == Method::Sweep && k.2 > 0) {
+        by_load.entry((k.0, k.2)).or_default().push(k);
+    }
+    let informative: Vec<Vec<&Prepared>> = by_load
+        .values()
+        .filter(|ks| {
+            let mut speeds: Vec<i64> = ks.iter().map(|k| k.4).collect();
+            speeds.sort_unstable();
+            speeds.dedup();
+            speeds.len() >= 2
+        })
+        .map(|ks| ks.iter().flat_map(|k| groups[*k].iter()).collect())
+        .collect();
+    if informative.is_empty() {
+        return assumed;
+    }
+    let (lo, hi) = cfg.sigma_range_m;
+    let lag_of = |lag_s: f64| MeasurementLag {
+        form: cfg.measurement_lag_form,
+        lag_s,
+    };
+    // Each informative load's shared sigma (at zero inclination) and pooled cost at a lag.
+    let per_load = |lag: &MeasurementLag| -> Vec<(f64, f64)> {
+        informative
+            .iter()
+            .map(|members| {
+                let pooled = |sigma0: f64| -> f64 {
+                    members
+                        .iter()
+                        .map(|m| m.problem.cost_with(sigma0 * m.factor, lag).0)
+                        .sum()
+                };
+                scalar::minimize(&pooled, lo, hi, &ScalarOptions::default())
+                    .map_or((f64::NAN, f64::INFINITY), |b| (b.x, b.cost))
+            })
+            .collect()
+    };
+    let profile = |lag_s: f64| -> f64 { per_load(&lag_of(lag_s)).iter().map(|p| p.1).sum() };
+    let (a, b) = cfg.measurement_lag_range_s;
+    let options = ScalarOptions {
+        grid: 21,
+        log_grid: false,
+        rel_tol: 1e-6,
+        abs_tol: 1e-5,
+        max_iters: 100,
+    };
+    let Ok(best) = scalar::minimize(&profile, a, b, &options) else {
+        return assumed;
+    };
+    let mut speeds_kph: Vec<f64> = informative
+        .iter()
+        .flat_map(|ms| ms.iter().map(|m| (m.speed_kph * 10.0).round() / 10.0))
+        .collect();
+    speeds_kph.sort_by(f64::total_cmp);
+    speeds_kph.dedup_by(|x, y| (*x - *y).abs() < 4.0);
+    // The test against no lag.
+    let best_lag = lag_of(best.x);
+    let residuals: Vec<Vec<Option<f64>>> = informative
+        .iter()
+        .zip(per_load(&best_lag))
+        .flat_map(|(members, (sigma0, _))| {
+            members
+                .iter()
+                .map(move |m| m.problem.residuals_with(sigma0 * m.factor, &best_lag))
+        })
+        .collect();
+    let n: usize = residuals.iter().flatten().filter(|r| r.is_some()).count();
+    let inflation = autocorrelation_inflation(&residuals);
+    let n_eff = n as f64 / inflation;
+    let cost_at_zero = profile(0.0_f64.max(a));
+    let statistic = if best.cost > 0.0 && n > 0 {
+        (cost_at_zero - best.cost).max(0.0) * n_eff / best.cost
+    } else {
+        f64::INFINITY
+    };
+    let summary = format!(
+        "{:.2} ms lowers the pooled cost below no lag by {statistic:.1} effective noise \
+         variances ({n} samples, {n_eff:.0} effective: residual autocorrelation time {inflation:.1} \
+         samples; threshold {LAG_LR_THRESHOLD})",
+        1e3 * best.x
+    );
+    if a > 0.0 || statistic > LAG_LR_THRESHOLD {
+        MeasurementLagFit {
+            key: key.clone(),
+            lag: best_lag,
+            identified: true,
+            speeds_kph,
+            at_bound: best.at_bound,
+            note: format!("identified: {summary}"),
+        }
+    } else {
+        MeasurementLagFit {
+            key: key.clone(),
+            lag: lag_of(0.0),
+            identified: false,
+            speeds_kph,
+            at_bound: false,
+            note: format!("not separated, 0 used: the best lag {summary}"),
+        }
+    }
+}
+
+/// `1 + 2 sum rho_k` of residual sequences (`None`: a sample the cost does not count), the
+/// autocorrelations pooled over the sequences and summed from `k = 1` up to the first
+/// non-positive one (at most [`MAX_AUTOCORRELATION_LAG`]); at least 1.
+fn autocorrelation_inflation(residuals: &[Vec<Option<f64>>]) -> f64 {
+    let autocovariance = |k: usize| -> f64 {
+        let (mut sum, mut pairs) = (0.0, 0usize);
+        for r in residuals {
+            for i in 0..r.len().saturating_sub(k) {
+                if let (Some(x), Some(y)) = (r[i], r[i + k]) {
+                    sum += x * y;
+                    pairs += 1;
+                }
+            }
+        }
+        if pairs > 0 { sum / pairs as f64 } else { 0.0 }
+    };
+    let c0 = autocovariance(0);
+    if c0 <= 0.0 {
+        return 1.0;
+    }
+    let mut total = 1.0;
+    for k in 1..=MAX_AUTOCORRELATION_LAG {
+        let rho = autocovariance(k) / c0;
+        if rho <= 0.0 || !rho.is_finite() {
+            break;
+        }
+        total += 2.0 * rho;
+    }
+    total
 }
 
 /// Build the lag problem of a segment from the model.
@@ -829,6 +1148,7 @@ pub fn lag_problem(
         f_meas,
         counted,
         nuisance: cfg.nuisance,
+        measurement: MeasurementLag::NONE,
     })
 }
 

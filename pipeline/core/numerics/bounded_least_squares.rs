@@ -172,6 +172,8 @@ pub struct FitOutcome {
     pub std_errors: Vec<Option<f64>>,
     /// Which parameters ended on (within 1e-12 relative of) a bound.
     pub at_bounds: Vec<bool>,
+    /// How well the data determine the parameters off their bounds (see [`Identifiability`]).
+    pub identifiability: Identifiability,
     /// Trial steps taken, over all IRLS rounds.
     pub iterations: usize,
     /// Residual evaluations plus Jacobian evaluations.
@@ -186,6 +188,66 @@ pub struct FitOutcome {
     pub rmse: f64,
     /// Final robust weight of each data residual (all 1 without a robust loss).
     pub robust_weights: Vec<f64>,
+}
+
+/// Identifiability of the parameters off their bounds from the data rows of the weighted
+/// Jacobian at the solution (penalty rows excluded), each column scaled to unit length so that
+/// units do not matter: its singular values say how many directions the data fix.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Identifiability {
+    /// Parameters off their bounds (the Jacobian's columns).
+    pub n_free: usize,
+    /// Numerical rank: singular values above `1e-10` of the largest (0 when the Jacobian is
+    /// not finite).
+    pub rank: usize,
+    /// Ratio of the largest to the smallest singular value (infinite when rank-deficient, 1 with
+    /// no free parameter).
+    pub condition: f64,
+}
+
+impl Identifiability {
+    /// From a row-major Jacobian of `n` columns: its first `n_data` rows, columns `free`.
+    pub fn of(jac: &[f64], n: usize, n_data: usize, free: &[usize]) -> Identifiability {
+        let k = free.len();
+        // A non-finite Jacobian (a non-finite start) determines nothing; the SVD would not
+        // converge on it.
+        let finite = jac
+            .chunks_exact(n)
+            .take(n_data)
+            .all(|row| free.iter().all(|&j| row[j].is_finite()));
+        if k == 0 || n_data == 0 || !finite {
+            return Identifiability {
+                n_free: k,
+                rank: 0,
+                condition: if k == 0 { 1.0 } else { f64::INFINITY },
+            };
+        }
+        let mut a = DMatrix::<f64>::zeros(n_data, k);
+        for (i, row) in jac.chunks_exact(n).take(n_data).enumerate() {
+            for (x, &j) in free.iter().enumerate() {
+                a[(i, x)] = row[j];
+            }
+        }
+        for mut col in a.column_iter_mut() {
+            let norm = col.norm();
+            if norm > 0.0 && norm.is_finite() {
+                col /= norm;
+            }
+        }
+        let sv = a.singular_values();
+        let largest = sv.iter().copied().fold(0.0, f64::max);
+        let smallest = sv.iter().copied().fold(f64::INFINITY, f64::min);
+        let rank = sv.iter().filter(|v| **v > 1e-10 * largest).count();
+        Identifiability {
+            n_free: k,
+            rank,
+            condition: if rank < k || smallest <= 0.0 {
+                f64::INFINITY
+            } else {
+                largest / smallest
+            },
+        }
+    }
 }
 
 /// Minimises `0.5 |w . r(p)|^2` over the box from `start` (clipped into the box first).
@@ -430,6 +492,7 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
         let free: Vec<usize> = (0..n).filter(|&j| !at_bounds[j]).collect();
         let weighted_data_ss: f64 = r[..n_data].iter().map(|x| x * x).sum();
         let std_errors = standard_errors(&jac, n, &free, weighted_data_ss, n_data);
+        let identifiability = Identifiability::of(&jac, n, n_data, &free);
         let mut raw = vec![0.0; m];
         self.problem.residuals(&p, &mut raw);
         self.evaluations += 1;
@@ -443,6 +506,7 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
             params: p,
             std_errors,
             at_bounds,
+            identifiability,
             iterations: self.iterations,
             evaluations: self.evaluations,
             jacobian_evaluations: self.jacobian_evaluations,
@@ -692,6 +756,28 @@ mod tests {
     }
 
     #[test]
+    fn identifiability_sees_collinear_columns() {
+        // Columns 0 and 1 orthogonal, column 2 = 3 x column 0 (only their product is determined).
+        let jac = [1.0, 0.0, 3.0, 0.0, 2.0, 0.0, 1.0, 0.0, 3.0, 0.0, 5.0, 0.0];
+        let all = Identifiability::of(&jac, 3, 4, &[0, 1, 2]);
+        assert_eq!((all.n_free, all.rank), (3, 2));
+        assert!(all.condition.is_infinite());
+        let two = Identifiability::of(&jac, 3, 4, &[0, 1]);
+        assert_eq!(two.rank, 2);
+        assert!((two.condition - 1.0).abs() < 1e-12, "{two:?}");
+        // Penalty rows (after n_data) do not count.
+        assert_eq!(Identifiability::of(&jac, 3, 1, &[0, 1]).rank, 1);
+        let out = minimize(
+            &exp_data(false),
+            &[1.0, 0.0, 0.0],
+            &Bounds::unbounded(3),
+            &Options::default(),
+        );
+        assert_eq!(out.identifiability.rank, 3);
+        assert!(out.identifiability.condition.is_finite() && out.identifiability.condition > 1.0);
+    }
+
+    #[test]
     fn active_bound_is_respected_and_reported() {
         let problem = exp_data(false);
         let bounds = Bounds {
@@ -783,5 +869,7 @@ mod tests {
             &Options::default(),
         );
         assert_eq!(out.termination, Termination::NonFiniteStart);
+        assert_eq!(out.identifiability.rank, 0);
+        assert!(out.identifiability.condition.is_infinite());
     }
 }

@@ -9,13 +9,15 @@
 //! MF 6.1 at the true inflation pressure: commanded + servo wander) at the tread temperature's
 //! grip scalings (`LMUX`, `LMUY` = `mu_rel(T)/mu_rel(T_ref)`) -> first-order lag
 //! (`Fy`, `Mz`, `Mx` with `sigma_alpha`; `Fx` with `sigma_kappa`) -> slip power heats the tread ->
-//! radii, wheel speed, slips -> sensors (noise, IR phase lag, IR clipping).
+//! radii, wheel speed, slips -> sensors (the load cell's channels through the rig's measurement
+//! chain: a pure delay and a first-order filter in time, both off by default; noise, IR phase
+//! lag, IR clipping).
 //! Deliberately not here: units, axis conversion to SAE, decimals, file formats (`dat.rs`).
 
 use crate::tire_model::{Coef, Mode, SlipInput};
 
 use super::noise::{Rng, Wander};
-use super::physics::{FirstOrderLag, ThermalParams, Tread, slip_power_w};
+use super::physics::{FirstOrderLag, MeasurementChain, ThermalParams, Tread, slip_power_w};
 use super::schedule::Program;
 use super::tires::{ThermalTruth, TruthModel, V_REF_MPS};
 
@@ -37,6 +39,10 @@ pub struct Realism {
     pub ambient_c: f64,
     /// Road (belt) surface temperature, degC.
     pub road_c: f64,
+    /// Pure delay of the load cell's channels behind the slip and speed channels, s.
+    pub measurement_delay_s: f64,
+    /// First-order filter of the load cell's channels after the delay, s.
+    pub measurement_filter_s: f64,
     /// Loose load control of older rounds (`None`: the servo holds the load).
     pub load_swing: Option<LoadSwing>,
 }
@@ -64,6 +70,8 @@ impl Default for Realism {
             thermal: ThermalParams::default(),
             ambient_c: 24.0,
             road_c: 27.0,
+            measurement_delay_s: 0.0,
+            measurement_filter_s: 0.0,
             load_swing: None,
         }
     }
@@ -175,6 +183,14 @@ pub fn simulate(
     let mut lag_mz = FirstOrderLag::default();
     let mut lag_mx = FirstOrderLag::default();
     let mut tread = Tread::cold(thermal.t_cold_c);
+    // The load cell's chain: fx, fy, fz, mx, mz.
+    let mut chain: [MeasurementChain; 5] = std::array::from_fn(|_| {
+        MeasurementChain::new(
+            realism.measurement_delay_s,
+            realism.measurement_filter_s,
+            dt,
+        )
+    });
     let mut hint = (0usize, 0.0f64);
 
     for k in 0..n {
@@ -258,11 +274,18 @@ pub fn simulate(
         };
         out.p_kpa
             .push(program.pressure_kpa() + wander + rng.gauss(ns * NOISE.pressure_kpa));
-        out.fx_n.push(fx + rng.gauss(ns * NOISE.force_x_n));
-        out.fy_n.push(fy + rng.gauss(ns * NOISE.force_y_n));
-        out.fz_n.push(fz + rng.gauss(ns * NOISE.force_z_n));
-        out.mx_nm.push(mx + rng.gauss(ns * NOISE.moment_x_nm));
-        out.mz_nm.push(mz + rng.gauss(ns * NOISE.moment_z_nm));
+        let [fx_m, fy_m, fz_m, mx_m, mz_m] = [
+            chain[0].step(fx),
+            chain[1].step(fy),
+            chain[2].step(fz),
+            chain[3].step(mx),
+            chain[4].step(mz),
+        ];
+        out.fx_n.push(fx_m + rng.gauss(ns * NOISE.force_x_n));
+        out.fy_n.push(fy_m + rng.gauss(ns * NOISE.force_y_n));
+        out.fz_n.push(fz_m + rng.gauss(ns * NOISE.force_z_n));
+        out.mx_nm.push(mx_m + rng.gauss(ns * NOISE.moment_x_nm));
+        out.mz_nm.push(mz_m + rng.gauss(ns * NOISE.moment_z_nm));
         out.road_c.push(road + rng.gauss(ns * NOISE.temperature_c));
         out.ambient_c
             .push(air + rng.gauss(ns * NOISE.temperature_c));

@@ -46,6 +46,52 @@ impl FirstOrderLag {
     }
 }
 
+/// A measurement chain in time: a pure delay (linear interpolation between samples), then a
+/// first-order filter with exact first-order-hold steps. Both in seconds, so unlike the tire's
+/// relaxation (a length) the lag they add grows with road speed: `V (delay + filter)` of apparent
+/// relaxation length on a slow sweep.
+#[derive(Clone, Debug)]
+pub struct MeasurementChain {
+    delay_samples: f64,
+    filter_s: f64,
+    dt_s: f64,
+    history: std::collections::VecDeque<f64>,
+    filter: FirstOrderLag,
+}
+
+impl MeasurementChain {
+    /// A chain at a fixed sample step `dt_s`; both times 0 passes values through unchanged.
+    pub fn new(delay_s: f64, filter_s: f64, dt_s: f64) -> MeasurementChain {
+        MeasurementChain {
+            delay_samples: (delay_s / dt_s).max(0.0),
+            filter_s: filter_s.max(0.0),
+            dt_s,
+            history: std::collections::VecDeque::new(),
+            filter: FirstOrderLag::default(),
+        }
+    }
+
+    /// The chain's output for the next input sample (a settled start: before the first sample
+    /// the input is taken as constant).
+    pub fn step(&mut self, u: f64) -> f64 {
+        let whole = self.delay_samples.floor() as usize;
+        let frac = self.delay_samples - whole as f64;
+        if self.history.is_empty() {
+            self.history.extend(std::iter::repeat_n(u, whole + 2));
+        }
+        self.history.push_back(u);
+        while self.history.len() > whole + 2 {
+            self.history.pop_front();
+        }
+        // history[len - 1] is now; len - 1 - whole is `whole` samples back.
+        let n = self.history.len();
+        let a = self.history[n - 1 - whole];
+        let b = self.history[n - 2 - whole];
+        let delayed = a + frac * (b - a);
+        self.filter.step(delayed, self.dt_s, self.filter_s)
+    }
+}
+
 /// Constants of the two-temperature tread model (rates per second, gains per joule).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ThermalParams {
@@ -160,6 +206,27 @@ mod tests {
             }
             let t = n as f64 * dt;
             assert!((y - (t - tau)).abs() < 1e-9, "dt {dt}: {y} vs {}", t - tau);
+        }
+    }
+
+    /// The chain delays a ramp by exactly `delay + filter` once settled, and passes values
+    /// through unchanged when off.
+    #[test]
+    fn measurement_chain_lags_a_ramp_by_delay_plus_filter() {
+        let dt = 0.01;
+        for (delay, filter) in [(0.0, 0.0), (0.02, 0.0), (0.025, 0.0), (0.013, 0.017)] {
+            let mut chain = MeasurementChain::new(delay, filter, dt);
+            let mut y = 0.0;
+            let n = 300;
+            for k in 0..=n {
+                y = chain.step(k as f64 * dt);
+            }
+            let t = n as f64 * dt;
+            assert!(
+                (y - (t - delay - filter)).abs() < 1e-9,
+                "delay {delay} filter {filter}: {y} vs {}",
+                t - delay - filter
+            );
         }
     }
 

@@ -134,6 +134,11 @@ pub struct RealismConfig {
     pub ambient_c: f64,
     /// Road (belt) temperature, degC.
     pub road_c: f64,
+    /// Pure delay of the load cell's channels (Fx, Fy, Fz, Mx, Mz) behind the slip and speed
+    /// channels: the rig's measurement chain, in time (0 = off), s.
+    pub measurement_delay_s: f64,
+    /// First-order filter time constant of the same channels after the delay (0 = off), s.
+    pub measurement_filter_s: f64,
 }
 
 impl Default for RealismConfig {
@@ -145,6 +150,8 @@ impl Default for RealismConfig {
             heat: r.heat,
             ambient_c: r.ambient_c,
             road_c: r.road_c,
+            measurement_delay_s: r.measurement_delay_s,
+            measurement_filter_s: r.measurement_filter_s,
         }
     }
 }
@@ -168,6 +175,8 @@ impl RealismConfig {
             thermal: ThermalParams::default(),
             ambient_c: self.ambient_c,
             road_c: self.road_c,
+            measurement_delay_s: self.measurement_delay_s,
+            measurement_filter_s: self.measurement_filter_s,
             load_swing: None,
         }
     }
@@ -236,6 +245,18 @@ impl SynthConfig {
         for (key, v, lo, hi) in [
             ("realism.ambient_c", r.ambient_c, -20.0, 50.0),
             ("realism.road_c", r.road_c, -20.0, 70.0),
+            (
+                "realism.measurement_delay_s",
+                r.measurement_delay_s,
+                0.0,
+                0.5,
+            ),
+            (
+                "realism.measurement_filter_s",
+                r.measurement_filter_s,
+                0.0,
+                0.5,
+            ),
             ("schedule.dwell_s", s.dwell_s, 0.0, 600.0),
             ("schedule.sweep_rate_deg_s", s.sweep_rate_deg_s, 0.5, 20.0),
             (

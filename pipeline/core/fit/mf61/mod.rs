@@ -302,6 +302,25 @@ fn bounds_of(c: Coef) -> (f64, f64) {
     }
 }
 
+/// Why a fitted coefficient sits on its bound of the refinement ([`bounds_of`]) and what that
+/// bound means; `None` for a coefficient without bounds.
+pub fn bound_note(c: Coef, value: f64) -> Option<String> {
+    let (lo, hi) = bounds_of(c);
+    let why = match c {
+        PCY1 | PCX1 | QCZ1 | RCX1 | RCY1 => "shape factor in [0.3, 4], the refinement's box",
+        PPX1 | PPX2 | PPX3 | PPX4 | PPY1 | PPY2 | PPY3 | PPY4 | PPY5 | PPZ1 | PPZ2 | PPMX1 => {
+            "pressure term within 5 per unit of dpi = (P - NOMPRES) / NOMPRES: steeper would \
+             change its factor by more than 100 % over a 20 % pressure change"
+        }
+        _ => return None,
+    };
+    let lower = (value - lo).abs() <= (hi - value).abs();
+    let (side, bound) = if lower { ("lower", lo) } else { ("upper", hi) };
+    Some(format!(
+        "on its {side} bound {bound} (the data pull it further): {why}"
+    ))
+}
+
 /// Solver facts of one family.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FamilyOutcome {

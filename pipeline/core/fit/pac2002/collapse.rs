@@ -13,7 +13,9 @@
 //!    corners of noise-free sweeps, where a running median is not exact, from being touched).
 //! 3. De-lag (optional): the tire's first-order lag `dF/dt = V/sigma (F_ss - F)` is inverted
 //!    exactly, `F_ss = F + sigma/V dF/dt`, with `dF/dt` from a local quadratic regression over
-//!    +-0.06 s. `Fx` uses `sigma_kappa(Fz)`; `Fy`, `Mz` and `Mx` use `sigma_alpha(Fz)`.
+//!    +-0.06 s. `Fx` uses `sigma_kappa(Fz)`; `Fy`, `Mz` and `Mx` use `sigma_alpha(Fz)`. The rig's
+//!    measurement lag (a delay or filter in time, identified by the relaxation stage) adds its
+//!    time to `sigma/V` (to first order both are a time shift on a slow sweep).
 //! 4. Collapse: each sample is an up- or down-branch sample by the sign of the local slope of the
 //!    swept slip; within each grid cell the mean of each branch is taken, then the mean of the
 //!    two branch means (one branch only at the extremes). Up/down lag hysteresis cancels to first
@@ -82,6 +84,8 @@ impl CurvePoint {
 /// A sweep after cleaning and collapsing.
 #[derive(Clone, Debug)]
 pub struct CollapsedSweep {
+    /// The sweep's id ([`Sweep::id`]).
+    pub id: String,
     /// What was swept.
     pub kind: SweepKind,
     /// Nominal levels.
@@ -170,6 +174,7 @@ pub fn collapse(sweep: &Sweep, settings: &CollapseSettings<'_>) -> CollapsedSwee
     }
     let points = branch_average(sweep.kind, &samples, settings.bin);
     CollapsedSweep {
+        id: sweep.id.clone(),
         kind: sweep.kind,
         nominal: sweep.nominal,
         samples,
@@ -292,14 +297,15 @@ fn delag(samples: &mut [Sample], relax: &RelaxationLengths) {
             Output::Fx => &relax.sigma_kappa,
             _ => &relax.sigma_alpha,
         };
-        if law.by_load.is_empty() {
+        let rig = relax.measurement_lag_s.max(0.0);
+        if law.by_load.is_empty() && rig == 0.0 {
             continue;
         }
         let y: Vec<f64> = samples.iter().map(|s| o.of(s)).collect();
         let dy = local_slope(&t, &y, 0.06, 2);
         for (k, s) in samples.iter_mut().enumerate() {
             let sigma = law.at(s.fz_n).unwrap_or(0.0);
-            let tau = sigma / s.vx_mps.abs().max(0.1);
+            let tau = sigma / s.vx_mps.abs().max(0.1) + rig;
             if y[k].is_finite() {
                 o.set(s, y[k] + tau * dy[k]);
             }
@@ -514,6 +520,7 @@ mod tests {
                 by_load: vec![(0.0, tau * 11.0)],
             },
             sigma_kappa: Default::default(),
+            measurement_lag_s: 0.0,
         };
         delag(&mut s, &relax);
         for (k, x) in s.iter().enumerate().skip(50).take(300) {

@@ -95,6 +95,8 @@ pub struct Levels {
     pub camber_both_signs: bool,
     /// Distinct nominal slip angles of the slip-ratio sweeps (0 included).
     pub alphas: usize,
+    /// Slip-ratio sweeps at slip angles of both signs (beyond +-0.25 deg).
+    pub alpha_both_signs: bool,
 }
 
 /// Counts distinct values: sorted, a new level when a value exceeds the previous level by `tol`.
@@ -119,6 +121,7 @@ struct Needs {
     cambers: usize,
     alphas: usize,
     camber_both_signs: bool,
+    alpha_both_signs: bool,
 }
 
 const fn needs(loads: usize, cambers: usize) -> Needs {
@@ -127,6 +130,7 @@ const fn needs(loads: usize, cambers: usize) -> Needs {
         cambers,
         alphas: 0,
         camber_both_signs: false,
+        alpha_both_signs: false,
     }
 }
 
@@ -153,8 +157,11 @@ fn needs_of(c: Coef) -> Needs {
             alphas: 2,
             ..needs(1, 1)
         },
-        RBY3 => Needs {
+        // Shifts of the combined-slip weighting in slip angle: with combined sweeps on one
+        // side of zero slip angle only (TTC's SA -3, -6) a shift trades with the slope.
+        RBY3 | RHX1 => Needs {
             alphas: 3,
+            alpha_both_signs: true,
             ..needs(1, 1)
         },
         SSZ3 => needs(1, 2),
@@ -183,6 +190,13 @@ pub fn unidentifiable(c: Coef, levels: &Levels) -> Option<String> {
     if n.camber_both_signs && !levels.camber_both_signs {
         return Some("inclination of one sign only: not separable from QBZ4".to_string());
     }
+    if n.alpha_both_signs && !levels.alpha_both_signs {
+        return Some(
+            "combined slip at slip angles of one sign only: a shift is not separable from the \
+             weighting's slope"
+                .to_string(),
+        );
+    }
     if levels.alphas < n.alphas {
         return Some(format!(
             "needs {} slip-angle levels in the slip-ratio sweeps, data have {}",
@@ -190,6 +204,14 @@ pub fn unidentifiable(c: Coef, levels: &Levels) -> Option<String> {
         ));
     }
     None
+}
+
+/// True for a camber term: a coefficient that needs two or more inclination levels, or
+/// inclinations of both signs, to be identified.
+#[cfg(test)]
+pub fn is_camber_term(c: Coef) -> bool {
+    let n = needs_of(c);
+    n.cambers >= 2 || n.camber_both_signs
 }
 
 /// The value an unidentifiable coefficient is held at: neutral for load/camber variations,
@@ -235,6 +257,7 @@ mod tests {
             cambers: 5,
             camber_both_signs: false,
             alphas: 3,
+            alpha_both_signs: false,
         };
         assert!(unidentifiable(QBZ5, &levels).is_some());
         assert!(unidentifiable(QBZ4, &levels).is_none());

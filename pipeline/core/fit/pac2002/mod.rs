@@ -44,6 +44,7 @@ mod family;
 mod initial;
 mod linear;
 mod problem;
+mod quality;
 mod stage;
 
 #[cfg(test)]
@@ -55,7 +56,9 @@ use super::segment_data::{MeasuredSegment, SegmentKind};
 use crate::numerics::bounded_least_squares::{RobustLoss, Termination};
 use crate::tire_model::{Coef, Pac2002};
 
+pub use crate::numerics::bounded_least_squares::Identifiability;
 pub use family::Family;
+pub use quality::{OutOfSample, TREND_SUBDIVISIONS, TrendDeviation};
 pub use stage::fit;
 
 /// A sweep's samples as this stage fits them: finite, in time order, despiked and, with
@@ -232,6 +235,9 @@ pub struct RelaxationLengths {
     pub sigma_alpha: RelaxationLaw,
     /// Longitudinal relaxation length `sigma_kappa(Fz)`: de-lags `Fx`.
     pub sigma_kappa: RelaxationLaw,
+    /// The rig's measurement lag in time (every force and moment channel), s: de-lagging
+    /// removes `sigma/V + measurement_lag_s` of lag.
+    pub measurement_lag_s: f64,
 }
 
 /// What the other stages and the catalogue know about the tire and the test.
@@ -294,6 +300,10 @@ pub struct FitConfig {
     /// Weight of the prior pulling `RHX1` and `RBY3` to zero: a shift of 0.01 rad costs as much
     /// as this relative RMS error of the fit.
     pub asymmetry_weight: f64,
+    /// Weight of the priors pulling weakly identified terms (residual torque, trail curvature,
+    /// load-curvature and combined-slip shape terms) to their neutral values: one
+    /// typical departure costs as much as this relative RMS error of the fit.
+    pub regularisation_weight: f64,
     /// Weight of the physical-constraint penalties (per unit of violation, relative to a
     /// normalised residual of 1 = 100 % of a sweep's peak).
     pub constraint_weight: f64,
@@ -301,6 +311,17 @@ pub struct FitConfig {
     pub mx_form: MxForm,
     /// Rolling-resistance coefficient written as the `QSY1` placeholder (TTC records no `My`).
     pub rolling_resistance_placeholder: f64,
+    /// Folds of the out-of-sample check (k-fold by sweep); below 2 the check is skipped.
+    pub kfold: usize,
+    /// Iteration budget of each fold's refit (warm-started from the full fit, one robust-loss
+    /// round).
+    pub kfold_iterations: usize,
+    /// Collapsed points per sweep in each fold's refit (evenly spaced, as
+    /// [`FitConfig::max_points_per_sweep`]); the held-out sweeps are predicted at all of theirs.
+    pub kfold_points_per_sweep: usize,
+    /// A family whose out-of-sample RMSE exceeds this multiple of its in-sample RMSE (plus
+    /// 0.1 % of the channel's peak) is flagged.
+    pub oos_ratio_limit: f64,
 }
 
 impl Default for FitConfig {
@@ -314,9 +335,14 @@ impl Default for FitConfig {
             loss: RobustLoss::Huber { k: 2.0 },
             max_iterations: 300,
             asymmetry_weight: 1e-3,
+            regularisation_weight: 1e-3,
             constraint_weight: 10.0,
             mx_form: MxForm::Auto,
             rolling_resistance_placeholder: 0.0165,
+            kfold: 5,
+            kfold_iterations: 20,
+            kfold_points_per_sweep: 20,
+            oos_ratio_limit: 1.2,
         }
     }
 }
@@ -382,6 +408,41 @@ pub struct FitQuality {
     /// Wall-clock time of the family (initial values + refinement), s. The only
     /// non-deterministic number of the stage.
     pub seconds: f64,
+    /// Rank and condition of the data Jacobian over the free coefficients off their bounds.
+    pub identifiability: Identifiability,
+    /// k-fold-by-sweep prediction error (`None` with fewer than two sweeps or `kfold < 2`).
+    pub out_of_sample: Option<OutOfSample>,
+    /// Largest deviation from the data's local trend between the collapsed points.
+    pub trend: Option<TrendDeviation>,
+}
+
+impl FitQuality {
+    /// Largest `|value|` among the collapsed points (from `rmse` and `rmse_pct_of_peak`).
+    pub fn peak(&self) -> f64 {
+        if self.rmse_pct_of_peak > 0.0 {
+            100.0 * self.rmse / self.rmse_pct_of_peak
+        } else {
+            f64::NAN
+        }
+    }
+
+    /// Out-of-sample RMSE over in-sample RMSE (NaN without the check).
+    pub fn oos_ratio(&self) -> f64 {
+        self.out_of_sample
+            .as_ref()
+            .map_or(f64::NAN, |o| o.rmse / self.rmse)
+    }
+
+    /// Good in sample, bad out of sample: the out-of-sample RMSE exceeds `limit` times the
+    /// in-sample RMSE plus 0.1 % of the channel's peak (a floor for noise-free data), or some
+    /// fold's training sweeps could not determine the coefficients
+    /// ([`OutOfSample::deficient_folds`]: some coefficient rests on the held-out sweeps alone).
+    pub fn oos_flagged(&self, limit: f64) -> bool {
+        let floor = 1e-3 * self.peak();
+        self.out_of_sample
+            .as_ref()
+            .is_some_and(|o| o.rmse > limit * self.rmse + floor.max(0.0) || o.deficient_folds > 0)
+    }
 }
 
 /// One family's result.
@@ -441,6 +502,9 @@ pub struct FittedCoefficient {
     pub at_bound: bool,
     /// Where the value comes from.
     pub origin: CoefficientOrigin,
+    /// Why it is held, or why it sits on a bound and what that bound means (`None` otherwise):
+    /// no coefficient is left on a bound without saying why.
+    pub note: Option<String>,
 }
 
 /// A sweep the stage did not use, and why.

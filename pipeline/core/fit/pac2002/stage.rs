@@ -17,6 +17,7 @@ use super::collapse::{CollapseSettings, CollapsedSweep, Output, collapse};
 use super::family::{Family, Levels, count_levels, held_value, unidentifiable};
 use super::initial::{self, Setup};
 use super::problem::{DataPoint, FamilyProblem, Penalty, Quantity, channel_value};
+use super::quality;
 use super::{
     CoefficientOrigin, FamilyFit, FamilyStatus, FitConfig, FitError, FitInput, FitQuality,
     FittedCoefficient, MxForm, Pac2002Fit, SkippedSweep, SweepKind,
@@ -26,7 +27,7 @@ use crate::tire_model::{Coef, Coef::*, Coefs, Pac2002, SlipInput};
 
 /// The tested envelope: ranges of the data and the nominal load.
 #[derive(Copy, Clone, Debug)]
-struct Envelope {
+pub(super) struct Envelope {
     fz0: f64,
     fz: (f64, f64),
     kappa: (f64, f64),
@@ -97,6 +98,9 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
     let mut evaluations = 0;
     let mut fitted: Vec<Family> = Vec::new();
     let mut free_lists: Vec<(Family, Vec<Coef>)> = Vec::new();
+    // Every family's coefficients as its own stage left them (later families may refit some:
+    // the combined Mz family refits the Mz0 coefficients on every sweep).
+    let mut stage_coefs: Vec<(Family, Coefs<f64>)> = Vec::new();
     for family in Family::FIT_ORDER {
         if family == Family::My {
             families.push(rolling_placeholder(cfg, &mut c, &mut origins, &mut notes));
@@ -132,6 +136,7 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
                     std_errors.push((*coef, outcome.std_errors[k], outcome.at_bounds[k]));
                 }
                 free_lists.push((family, free));
+                stage_coefs.push((family, c.clone()));
                 fitted.push(family);
                 families.push(FamilyFit {
                     family,
@@ -156,6 +161,15 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
             }
         }
     }
+    evaluations += cross_validate(
+        &mut families,
+        &free_lists,
+        &stage_coefs,
+        &sweeps,
+        &env,
+        cfg,
+        &c,
+    );
     let has = |f: Family| fitted.contains(&f);
     let use_mode = match (has(Family::Fx0), has(Family::Fy0)) {
         (true, true) if has(Family::Fx) && has(Family::Fy) => 4,
@@ -164,7 +178,7 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
         (true, false) => 1,
         (false, false) => 0,
     };
-    let coefficients = coefficient_list(&c, &origins, &std_errors);
+    let coefficients = coefficient_list(&c, &origins, &std_errors, &env);
     Ok(Pac2002Fit {
         model: Pac2002::new(c),
         use_mode,
@@ -175,6 +189,52 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
         evaluations,
         seconds: started.elapsed().as_secs_f64(),
     })
+}
+
+/// Out-of-sample and trend-deviation quality of every fitted family (see `quality`): the trend
+/// of the final coefficients (the written model), the out-of-sample refits from the family's
+/// own stage (`stage_coefs`), where its in-sample figure was measured; returns the refits'
+/// evaluations.
+fn cross_validate(
+    families: &mut [FamilyFit],
+    free_lists: &[(Family, Vec<Coef>)],
+    stage_coefs: &[(Family, Coefs<f64>)],
+    sweeps: &[CollapsedSweep],
+    env: &Envelope,
+    cfg: &FitConfig,
+    c: &Coefs<f64>,
+) -> usize {
+    let fitted: Vec<Family> = free_lists.iter().map(|(f, _)| *f).collect();
+    let mut evaluations = 0;
+    for fam in families.iter_mut() {
+        let (Some(q), Some((_, free))) = (
+            fam.quality.as_mut(),
+            free_lists.iter().find(|(f, _)| *f == fam.family),
+        ) else {
+            continue;
+        };
+        let Ok(data) = family_sweeps(fam.family, sweeps, &fitted) else {
+            continue;
+        };
+        q.trend = quality::trend_deviation(fam.family, &data, c);
+        if cfg.kfold >= 2 {
+            let at_stage = stage_coefs
+                .iter()
+                .find(|(f, _)| *f == fam.family)
+                .map_or(c, |(_, s)| s);
+            q.out_of_sample = quality::out_of_sample(
+                fam.family,
+                free,
+                &data,
+                env,
+                cfg,
+                at_stage,
+                &q.identifiability,
+            );
+            evaluations += q.out_of_sample.as_ref().map_or(0, |o| o.evaluations);
+        }
+    }
+    evaluations
 }
 
 /// Sorts, checks and collapses the sweeps; returns the usable ones and the skipped ones.
@@ -447,7 +507,7 @@ fn family_sweeps<'a>(
     Ok(selected)
 }
 
-fn output_of(family: Family) -> Output {
+pub(super) fn output_of(family: Family) -> Output {
     match family {
         Family::Fy0 | Family::Fy => Output::Fy,
         Family::Fx0 | Family::Fx | Family::My => Output::Fx,
@@ -481,6 +541,11 @@ fn levels_of(sweeps: &[&CollapsedSweep]) -> Levels {
                 .map(|s| s.nominal.alpha_rad.abs()),
             tol_angle,
         ),
+        alpha_both_signs: {
+            let combined = || sweeps.iter().filter(|s| s.kind == SweepKind::Combined);
+            combined().any(|s| s.nominal.alpha_rad > tol_angle)
+                && combined().any(|s| s.nominal.alpha_rad < -tol_angle)
+        },
     }
 }
 
@@ -490,7 +555,11 @@ fn levels_of(sweeps: &[&CollapsedSweep]) -> Levels {
 ///
 /// A sweep with more than `max_per_sweep` points contributes that many, evenly spaced along the
 /// curve (a deterministic thinning: the collapsed curves are oversampled for fitting purposes).
-fn data_points(sweeps: &[&CollapsedSweep], output: Output, max_per_sweep: usize) -> Vec<DataPoint> {
+pub(super) fn data_points(
+    sweeps: &[&CollapsedSweep],
+    output: Output,
+    max_per_sweep: usize,
+) -> Vec<DataPoint> {
     let max_peak = sweeps.iter().map(|s| s.peak(output)).fold(0.0, f64::max);
     let mut out = Vec::new();
     for s in sweeps {
@@ -613,41 +682,92 @@ fn fit_family(
     Ok((outcome, free, quality, evals))
 }
 
-/// Bounds of the free coefficients, some depending on the signs found by the starting values
-/// and on the envelope.
-fn bounds_of(free: &[Coef], c: &Coefs<f64>, env: &Envelope) -> Bounds {
+/// The box of one coefficient and what its edges mean: `(lower, upper, why)`; some bounds
+/// depend on the sign found by the starting values and on the envelope. `why` is what a value
+/// on the bound says about the data (the `note` of its coefficient row).
+pub(super) fn bound_of(coef: Coef, c: &Coefs<f64>, env: &Envelope) -> (f64, f64, &'static str) {
     let inf = f64::INFINITY;
     let g = env.gamma_max_abs().max(1e-3);
     let signed = |v: f64, lo: f64, hi: f64| if v < 0.0 { (-hi, -lo) } else { (lo, hi) };
+    let with = |(lo, hi): (f64, f64), why| (lo, hi, why);
+    match coef {
+        PCY1 | PCX1 => with(
+            (1.0, 2.5),
+            "shape factor C in [1, 2.5]; at 1 the sweeps do not reach the friction peak and D \
+             is the force's asymptote (below 1 mu would be unbounded); at 2.5 the force reverses \
+             after its peak",
+        ),
+        QCZ1 => with((0.3, 2.5), "trail shape factor Ct in [0.3, 2.5]"),
+        PDY1 | PDX1 => with(
+            signed(c[coef], 0.02, MU_MAX),
+            "peak friction |mu| at FNOMIN in [0.02, 4]: beyond 4 not physical (the lint's limit)",
+        ),
+        PKY1 | PKX1 => with(
+            signed(c[coef], 0.05, 2000.0),
+            "slip stiffness per load in [0.05, 2000]",
+        ),
+        PKY2 => with(
+            (0.05, 50.0),
+            "load of peak cornering stiffness in [0.05, 50] FNOMIN",
+        ),
+        PKY3 => with(
+            (-50.0, 0.9 / g),
+            "camber reduction of Ky below 90 % over the tested inclination",
+        ),
+        PDY3 | PDX3 => with(
+            (-50.0, 0.9 / (g * g)),
+            "camber reduction of mu below 90 % over the tested inclination",
+        ),
+        PKX3 => with((-10.0, 10.0), "exponent of Kx/Fz with load in [-10, 10]"),
+        QBZ1 => with((0.05, 200.0), "trail slope factor Bt in [0.05, 200]"),
+        QBZ9 => with((0.0, 200.0), "residual torque slope QBZ9 in [0, 200]"),
+        QBZ10 => with(
+            (-20.0, 20.0),
+            "residual torque slope QBZ10 By Cy within 20 By Cy: steeper makes Mzr a spike \
+             narrower than the sweeps' slip grid",
+        ),
+        QDZ6 | QDZ7 => with(
+            (-0.2, 0.2),
+            "residual torque peak within 0.2 Fz R0 (a real tire's is ~0.01)",
+        ),
+        QEZ1 => with((-20.0, 1.0), "trail curvature Et at FNOMIN in [-20, 1]"),
+        RBX1 | RBY1 => with(
+            (0.0, 100.0),
+            "combined-slip weighting slope within 100: steeper drops the force to zero within \
+             0.01 of the other slip",
+        ),
+        RBX2 | RBY2 | RVY4 | RVY6 => with((0.0, 500.0), "combined-slip shape term in [0, 500]"),
+        RCX1 | RCY1 => with((0.3, 2.0), "combined-slip weighting shape in [0.3, 2]"),
+        RHX1 | RBY3 => with((-0.1, 0.1), "combined-slip shift within 0.1 rad"),
+        RHY1 | RHY2 => with((-0.3, 0.3), "combined-slip shift within 0.3"),
+        RVY5 => with((0.0, 3.0), "kappa-induced side force shape in [0, 3]"),
+        QSX5 | QSX6 | QSX9 | QSX11 => with((0.0, 100.0), "Mx shape term in [0, 100]"),
+        _ => (-inf, inf, "unbounded"),
+    }
+}
+
+/// Bounds of the free coefficients ([`bound_of`]).
+pub(super) fn bounds_of(free: &[Coef], c: &Coefs<f64>, env: &Envelope) -> Bounds {
     let (lower, upper) = free
         .iter()
-        .map(|coef| match coef {
-            PCY1 | PCX1 | QCZ1 => (0.3, 2.5),
-            PDY1 => signed(c[PDY1], 0.02, 10.0),
-            PDX1 => signed(c[PDX1], 0.02, 10.0),
-            PKY1 => signed(c[PKY1], 0.05, 2000.0),
-            PKY2 => (0.05, 50.0),
-            PKY3 => (-50.0, 0.9 / g),
-            PDY3 | PDX3 => (-50.0, 0.9 / (g * g)),
-            PKX1 => signed(c[PKX1], 0.05, 2000.0),
-            PKX3 => (-10.0, 10.0),
-            QBZ1 => (0.05, 200.0),
-            QBZ9 => (0.0, 200.0),
-            RBX1 | RBY1 => (0.0, 500.0),
-            RBX2 | RBY2 | RVY4 | RVY6 => (0.0, 500.0),
-            RCX1 | RCY1 => (0.3, 2.0),
-            RHX1 | RBY3 => (-0.1, 0.1),
-            RHY1 | RHY2 => (-0.3, 0.3),
-            RVY5 => (0.0, 3.0),
-            QSX5 | QSX6 | QSX9 | QSX11 => (0.0, 100.0),
-            _ => (-inf, inf),
+        .map(|coef| {
+            let (lo, hi, _) = bound_of(*coef, c, env);
+            (lo, hi)
         })
         .unzip();
     Bounds { lower, upper }
 }
 
+/// Largest peak friction a fit may reach, `|mu|`.
+const MU_MAX: f64 = 4.0;
+
 /// Physical-constraint penalties and asymmetry priors of a family.
-fn penalties_of(family: Family, free: &[Coef], env: &Envelope, cfg: &FitConfig) -> Vec<Penalty> {
+pub(super) fn penalties_of(
+    family: Family,
+    free: &[Coef],
+    env: &Envelope,
+    cfg: &FitConfig,
+) -> Vec<Penalty> {
     let w = cfg.constraint_weight;
     let at_most = |quantity, limit| Penalty::AtMost {
         quantity,
@@ -713,7 +833,53 @@ fn penalties_of(family: Family, free: &[Coef], env: &Envelope, cfg: &FitConfig) 
         }
         Family::Mz0 | Family::Mz | Family::Mx | Family::My => {}
     }
+    if cfg.regularisation_weight > 0.0 {
+        for coef in free {
+            if let Some((centre, scale)) = neutral_prior(*coef) {
+                out.push(Penalty::Prior {
+                    coef: *coef,
+                    centre,
+                    weight: cfg.regularisation_weight / scale,
+                });
+            }
+        }
+    }
     out
+}
+
+/// The neutral value of a weakly identified coefficient and the scale of a typical departure
+/// from it: `(centre, scale)`. A prior `regularisation_weight (c - centre)/scale` settles what
+/// the data leave undetermined (a flat direction of the cost) at the neutral value and moves a
+/// well-determined coefficient by a negligible amount: one scale away costs as much as 0.1 % of
+/// relative RMS error at the default weight. Terms: residual torque, trail curvature (both with
+/// their camber terms), the curvature asymmetry, load curvature terms and the combined-slip
+/// shape terms; the main peak, stiffness and shape factors have none.
+///
+/// The other camber terms have none either: each is free only when the family's data have the
+/// inclination levels that identify it ([`super::family::unidentifiable`]: two inclinations,
+/// three for `QDZ4`'s `gamma^2`, both signs for `QBZ5`'s `|gamma|`, two loads as well for the
+/// `dfz gamma` terms) and is held at its neutral value otherwise (one inclination tested), so
+/// a prior would only pull a determined camber law toward zero.
+fn neutral_prior(coef: Coef) -> Option<(f64, f64)> {
+    Some(match coef {
+        // Residual torque.
+        QBZ10 => (0.0, 2.0),
+        QDZ6 | QDZ7 => (0.0, 0.05),
+        QDZ8 | QDZ9 => (0.0, 0.2),
+        // Trail curvature and its load and camber terms.
+        QEZ1 | QEZ2 | QEZ3 | QEZ4 | QEZ5 => (0.0, 2.0),
+        // Asymmetry of the lateral curvature in slip angle.
+        PEY3 => (0.0, 1.0),
+        // Load curvature.
+        PEX3 | QBZ3 => (0.0, 2.0),
+        // Combined-slip shape.
+        RCX1 | RCY1 => (1.0, 0.5),
+        REX1 | REX2 | REY1 | REY2 => (0.0, 1.0),
+        RBX2 | RBY2 | RVY4 => (0.0, 20.0),
+        RHY1 | RHY2 => (0.0, 0.05),
+        RVY1 | RVY2 => (0.0, 0.1),
+        _ => return None,
+    })
 }
 
 /// Operating points spanning the envelope (for the weighting-function sign constraints).
@@ -849,6 +1015,9 @@ fn quality_of(
         termination: outcome.termination,
         evaluations: outcome.evaluations,
         seconds: 0.0,
+        identifiability: outcome.identifiability,
+        out_of_sample: None,
+        trend: None,
     }
 }
 
@@ -930,6 +1099,7 @@ fn coefficient_list(
     c: &Coefs<f64>,
     origins: &[(Coef, Option<Family>, CoefficientOrigin)],
     std_errors: &[(Coef, Option<f64>, bool)],
+    env: &Envelope,
 ) -> Vec<FittedCoefficient> {
     Coef::ALL
         .iter()
@@ -943,6 +1113,23 @@ fn coefficient_list(
                     .map_or((None, false), |s| (s.1, s.2)),
                 _ => (None, false),
             };
+            let note = match origin {
+                CoefficientOrigin::Fixed { reason } => Some(format!("held: {reason}")),
+                _ if at_bound => {
+                    let (lo, hi, why) = bound_of(*coef, c, env);
+                    let v = c[*coef];
+                    let side = if (v - lo).abs() <= (hi - v).abs() {
+                        "lower"
+                    } else {
+                        "upper"
+                    };
+                    let bound = if side == "lower" { lo } else { hi };
+                    Some(format!(
+                        "on its {side} bound {bound} (the data pull it further): {why}"
+                    ))
+                }
+                _ => None,
+            };
             Some(FittedCoefficient {
                 coef: *coef,
                 family: *family,
@@ -950,7 +1137,49 @@ fn coefficient_list(
                 std_error,
                 at_bound,
                 origin: origin.clone(),
+                note,
             })
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::family::is_camber_term;
+    use super::*;
+
+    /// Camber terms are held when one inclination was tested and carry no prior when the
+    /// inclination levels identify them; those of residual torque and trail curvature keep it.
+    #[test]
+    fn identified_camber_terms_carry_no_prior() {
+        let one_ia = Levels {
+            loads: 5,
+            cambers: 1,
+            camber_both_signs: false,
+            alphas: 3,
+            alpha_both_signs: true,
+        };
+        let tested = Levels {
+            cambers: 5,
+            camber_both_signs: true,
+            ..one_ia.clone()
+        };
+        let mut n = 0;
+        for family in Family::FIT_ORDER {
+            for &c in family.coefficients() {
+                if !is_camber_term(c) {
+                    continue;
+                }
+                n += 1;
+                assert!(
+                    unidentifiable(c, &one_ia).is_some(),
+                    "{c:?} free with one IA"
+                );
+                assert!(unidentifiable(c, &tested).is_none(), "{c:?}");
+                let kept = matches!(c, QDZ8 | QDZ9 | QEZ5);
+                assert_eq!(neutral_prior(c).is_some(), kept, "{c:?}");
+            }
+        }
+        assert!(n >= 19, "{n} camber terms");
+    }
 }

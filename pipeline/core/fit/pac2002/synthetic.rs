@@ -121,6 +121,7 @@ pub fn truth_relaxation() -> RelaxationLengths {
         sigma_kappa: RelaxationLaw {
             by_load: vec![(200.0, 0.12), (1600.0, 0.25)],
         },
+        measurement_lag_s: 0.0,
     }
 }
 

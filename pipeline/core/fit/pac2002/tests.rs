@@ -35,6 +35,19 @@ fn report(name: &str, fit: &Pac2002Fit, e: &EnvelopeErrors) {
             ),
             None => eprintln!("  {:4} {:?}", f.family.as_str(), f.status),
         }
+        if let Some(q) = &f.quality {
+            eprintln!(
+                "       oos {:?} ratio {:.3} trend {:?} ident {:?}",
+                q.out_of_sample
+                    .as_ref()
+                    .map(|o| (o.folds, o.n, o.rmse, o.evaluations)),
+                q.oos_ratio(),
+                q.trend
+                    .as_ref()
+                    .map(|t| (t.max, 100.0 * t.max / q.peak(), t.slip)),
+                q.identifiability
+            );
+        }
     }
     for n in &fit.notes {
         eprintln!("  note: {n}");
@@ -127,6 +140,18 @@ fn fit_noisy_lagged_within_2_percent_forces_5_percent_mz() {
                     e.all[k] <= *limit,
                     "{label}: {channel} RMS error {:.3} % of peak > {limit} %",
                     e.all[k]
+                );
+            }
+            // Issue 18: out of sample (5-fold by sweep) within 20 % of in sample, every family.
+            for f in &fit.families {
+                let Some(q) = &f.quality else { continue };
+                let ratio = q.oos_ratio();
+                assert!(
+                    ratio <= 1.2 && !q.oos_flagged(1.2),
+                    "{label}: {} out-of-sample RMSE {:.4} is {ratio:.3}x in-sample {:.4}",
+                    f.family.as_str(),
+                    q.out_of_sample.as_ref().map_or(f64::NAN, |o| o.rmse),
+                    q.rmse
                 );
             }
         }
@@ -334,4 +359,138 @@ fn bad_input_is_an_error() {
         fit(&input, &FitConfig::default()),
         Err(FitError::NoUnloadedRadius { .. })
     ));
+}
+
+/// Issue 18: a degenerate residual torque (the issue's QBZ10 = 3.1e5, QDZ6 = -218) sits between
+/// the fitted points, where the in-sample RMSE cannot see it; the trend deviation on the dense
+/// grid between the points does.
+#[test]
+fn trend_deviation_sees_a_spike_between_the_points() {
+    let input = ttc_round(&fsae_demo(), &RoundSpec::realistic(5));
+    let fit = fit(&input, &FitConfig::default()).expect("fit");
+    let quality = |f: &Pac2002Fit, family: Family| {
+        f.families
+            .iter()
+            .find(|x| x.family == family)
+            .and_then(|x| x.quality.clone())
+            .unwrap()
+    };
+    let good = quality(&fit, Family::Mz0);
+    let t = good.trend.clone().unwrap();
+    assert!(t.max < 0.05 * good.peak(), "{t:?}, peak {}", good.peak());
+    let sweeps = prepare_for_test(&input);
+    let refs: Vec<&super::collapse::CollapsedSweep> = sweeps
+        .iter()
+        .filter(|s| s.kind == SweepKind::Cornering)
+        .collect();
+    let mut spiky = fit.model.coefs.clone();
+    spiky[QBZ10] = 3.1e5;
+    spiky[QDZ6] = -218.0;
+    let bad = super::quality::trend_deviation(Family::Mz0, &refs, &spiky).unwrap();
+    eprintln!("good {t:?}\nspiky {bad:?}");
+    assert!(bad.max > 20.0 * t.max.max(1.0), "{bad:?}");
+}
+
+fn prepare_for_test(input: &FitInput) -> Vec<super::collapse::CollapsedSweep> {
+    use super::collapse::{CollapseSettings, collapse};
+    let cfg = FitConfig::default();
+    input
+        .sweeps
+        .iter()
+        .map(|s| {
+            collapse(
+                s,
+                &CollapseSettings {
+                    bin: if s.kind == SweepKind::Cornering {
+                        cfg.alpha_bin_rad
+                    } else {
+                        cfg.kappa_bin
+                    },
+                    despike_sigmas: cfg.despike_sigmas,
+                    relaxation: None,
+                },
+            )
+        })
+        .collect()
+}
+
+/// Issue 18: a fit that rests on one sweep is flagged out of sample. Only one of the
+/// cornering sweeps at zero inclination goes past the friction peak; the others stop at 2.5 deg.
+/// In sample the model is fine; the fold that holds the wide sweep out cannot determine the
+/// peak.
+#[test]
+fn fit_resting_on_one_sweep_is_flagged_out_of_sample() {
+    let mut input = ttc_round(&perturbed(3), &RoundSpec::realistic(21));
+    input
+        .sweeps
+        .retain(|s| s.kind == SweepKind::Cornering && s.nominal.gamma_rad.abs() < 1e-3);
+    let wide = input.sweeps.len() / 2;
+    for (i, s) in input.sweeps.iter_mut().enumerate() {
+        if i != wide {
+            s.samples
+                .retain(|p| p.alpha_rad.abs() < 2.5_f64.to_radians());
+        }
+    }
+    let fit = fit(&input, &FitConfig::default()).expect("fit");
+    let q = fit
+        .families
+        .iter()
+        .find(|f| f.family == Family::Fy0)
+        .and_then(|f| f.quality.clone())
+        .unwrap();
+    eprintln!(
+        "{} sweeps: in sample {:.2} N {:?}, out of sample {:?}",
+        input.sweeps.len(),
+        q.rmse,
+        q.identifiability,
+        q.out_of_sample
+    );
+    assert!(q.oos_flagged(1.2), "{q:?}");
+    // The same round with every sweep wide is not flagged.
+    let full = ttc_round(&perturbed(3), &RoundSpec::realistic(21));
+    let mut all = full.clone();
+    all.sweeps
+        .retain(|s| s.kind == SweepKind::Cornering && s.nominal.gamma_rad.abs() < 1e-3);
+    let fit = super::fit(&all, &FitConfig::default()).expect("fit");
+    let q = fit.families[0].quality.clone().unwrap();
+    assert!(!q.oos_flagged(1.2), "{q:?}");
+}
+
+/// Issue 18: no coefficient is left on a bound without a row saying why. A tire whose data
+/// say mu_y = 5 (beyond the fit's |mu| <= 4, the lint's limit) leaves PDY1 on its bound; the
+/// coefficient row says which bound and what it means, and every held coefficient says why.
+#[test]
+fn a_coefficient_on_a_bound_says_why() {
+    let mut truth = fsae_demo();
+    truth[PDY1] = -5.0;
+    let input = ttc_round(&truth, &RoundSpec::realistic(7));
+    let fit = fit(&input, &FitConfig::default()).expect("fit");
+    let on_bound: Vec<&FittedCoefficient> =
+        fit.coefficients.iter().filter(|c| c.at_bound).collect();
+    for c in &on_bound {
+        eprintln!("{}: {} ({:?})", c.coef.name(), c.value, c.note);
+    }
+    let pdy1 = fit.coefficients.iter().find(|c| c.coef == PDY1).unwrap();
+    assert!(pdy1.at_bound, "{pdy1:?}");
+    assert_eq!(pdy1.value, -4.0);
+    assert!(pdy1.std_error.is_none(), "{pdy1:?}");
+    let note = pdy1.note.as_deref().unwrap_or_default();
+    assert!(
+        note.starts_with("on its lower bound -4 ") && note.contains("not physical"),
+        "{note}"
+    );
+    for c in &fit.coefficients {
+        if c.at_bound {
+            assert!(
+                c.note.as_deref().is_some_and(|n| n.starts_with("on its ")),
+                "{c:?}"
+            );
+        }
+        if matches!(c.origin, CoefficientOrigin::Fixed { .. }) {
+            assert!(
+                c.note.as_deref().is_some_and(|n| n.starts_with("held: ")),
+                "{c:?}"
+            );
+        }
+    }
 }
