@@ -1388,10 +1388,10 @@ mod tests {
     /// the file (and the header's project and run when the name does not carry them).
     #[test]
     fn a_tire_without_catalog_or_tireid_is_unknown_and_named_after_the_file() {
-        use tirebase_core::ttc::example::{RoundStyle, example_dat, example_mat};
+        use tirebase_core::ttc::example::{ExampleStyle, example_dat, example_mat};
         use tirebase_core::ttc::mat::Compression;
         let dat = ttc::read_run(
-            &example_dat(RoundStyle::R4Uscs, 20, false),
+            &example_dat(ExampleStyle::R4Uscs, 20, false),
             "in/drivebrake.dat",
         )
         .unwrap();

@@ -1,18 +1,22 @@
-//! tirebase: raw TTC tire-test files in, fitted, versioned, queryable PAC2002 models out.
+//! tirebase: raw TTC tire-test files in, fitted, versioned, queryable tire models (PAC2002 per
+//! tested pressure, MF 6.1 per tire and rim) out.
 //!
 //! ```text
 //! raw .dat/.mat ──ingest──▶ runs (SI, ISO-W) ──segment──▶ samples + segments (hive Parquet)
 //!        │                                                     │
-//!        │                      ┌──────────────fit (rayon fan-out)─────────────┐
-//!        │                      ▼            ▼            ▼             ▼
-//!        │                 PAC2002 .tir   spring rate   thermal     relaxation
-//!        │                      └────────────┴──────┬─────┴─────────────┘
-//! inertia sessions ──inertia──────────────────────▶ publish ──▶ versions/vNNNNNN (immutable)
+//!        │      fit, per (tire, rim, pressure) group (rayon fan-out, fit::group):
+//!        │        spring rate ─▶ PAC2002 ─▶ relaxation [─▶ PAC2002 de-lagged ─▶ relaxation]
+//!        │        thermal (independent)
+//!        │      then per (tire, rim): MF 6.1 across its tested pressures (fit::mf61)
+//!        │                                                     │
+//! inertia sessions ──inertia──────────────────────────────▶ publish ──▶ versions/vNNNNNN (immutable)
 //!                                                           └──▶ query (SQL) · diff · compare · report
 //! ```
 //!
-//! The pure numerics (model, formats, fitting math, inertia math, virtual test machine) live in
-//! the `tirebase-core` crate, re-exported here as [`core`]; this crate owns the command line,
+//! `run` chains them on one store (ingest ─▶ fit the changed groups ─▶ publish, which adds
+//! inertia and the report; see [`run`]); each stage is also a command of its own. The
+//! pure numerics (model, formats, fitting math, inertia math, virtual test machine) live in the
+//! `tirebase-core` crate, re-exported here as [`core`]; this crate owns the command line,
 //! configuration, the on-disk store and the orchestration of stages.
 
 pub use tirebase_core as core;

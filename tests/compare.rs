@@ -26,7 +26,7 @@ use tirebase::core::tire_model::tir::TirFile;
 use tirebase::core::tire_model::{Coef, Evaluation, Mode, Pac2002, SlipInput};
 use tirebase::schema::TableName;
 
-use crate::harness::{bin, demo_published, ok, p, run, synth_round, tirebase};
+use crate::harness::{bin, demo_published, f64s, ok, p, run, strs, synth_round, tirebase};
 
 /// A demo round and its first published version.
 struct Published {
@@ -78,30 +78,6 @@ fn frame(csv: &[u8]) -> DataFrame {
         .into_reader_with_file_handle(std::io::Cursor::new(csv.to_vec()))
         .finish()
         .unwrap()
-}
-
-fn f64s(df: &DataFrame, col: &str) -> Vec<f64> {
-    df.column(col)
-        .unwrap_or_else(|_| panic!("no column {col}"))
-        .cast(&DataType::Float64)
-        .unwrap()
-        .f64()
-        .unwrap()
-        .iter()
-        .map(|v| v.unwrap_or(f64::NAN))
-        .collect()
-}
-
-fn strs(df: &DataFrame, col: &str) -> Vec<String> {
-    df.column(col)
-        .unwrap()
-        .cast(&DataType::String)
-        .unwrap()
-        .str()
-        .unwrap()
-        .iter()
-        .map(|v| v.unwrap_or("").to_string())
-        .collect()
 }
 
 fn read_tir(path: &Path) -> TirFile {

@@ -25,7 +25,7 @@ use tirebase::core::naming::tir_file_name;
 use tirebase::core::tire_model::tir::TirFile;
 use tirebase::core::tire_model::{Coef, Mode, Pac2002, SlipInput};
 
-use crate::harness::{copy_tree, demo_round, ok, p, synth_round, tirebase};
+use crate::harness::{copy_tree, demo_round, f64s, ok, p, strs, synth_round, tirebase};
 
 /// A demo round, its store and one fit of it.
 struct Fitted {
@@ -115,24 +115,6 @@ fn read_table(out: &Path, name: &str) -> DataFrame {
     let path = out.join(format!("{name}.parquet"));
     let file = std::fs::File::open(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     ParquetReader::new(file).finish().unwrap()
-}
-
-fn strs(df: &DataFrame, col: &str) -> Vec<String> {
-    let c = df.column(col).unwrap().cast(&DataType::String).unwrap();
-    c.str()
-        .unwrap()
-        .iter()
-        .map(|v| v.unwrap_or_default().to_string())
-        .collect()
-}
-
-fn f64s(df: &DataFrame, col: &str) -> Vec<f64> {
-    let c = df.column(col).unwrap().cast(&DataType::Float64).unwrap();
-    c.f64()
-        .unwrap()
-        .iter()
-        .map(|v| v.unwrap_or(f64::NAN))
-        .collect()
 }
 
 fn model(path: &Path) -> TirFile {

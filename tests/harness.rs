@@ -14,6 +14,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
 
+use polars::prelude::{DataFrame, DataType};
+
 /// The binary under test, as a command to add arguments to.
 pub fn bin() -> Command {
     let path = std::env::var_os("TIREBASE_TEST_BIN")
@@ -121,9 +123,37 @@ pub fn copy_tree(from: &Path, to: &Path) {
     }
 }
 
-/// Every file below `root` with its bytes, keyed by its `/`-separated relative path.
-pub fn tree(root: &Path) -> BTreeMap<String, Vec<u8>> {
-    let mut out = BTreeMap::new();
+/// Column `col` of `df` as text (cast; null as the empty string).
+pub fn strs(df: &DataFrame, col: &str) -> Vec<String> {
+    let c = df
+        .column(col)
+        .unwrap_or_else(|_| panic!("no column {col}"))
+        .cast(&DataType::String)
+        .unwrap();
+    c.str()
+        .unwrap()
+        .iter()
+        .map(|v| v.unwrap_or_default().to_string())
+        .collect()
+}
+
+/// Column `col` of `df` as numbers (cast; null as NaN).
+pub fn f64s(df: &DataFrame, col: &str) -> Vec<f64> {
+    let c = df
+        .column(col)
+        .unwrap_or_else(|_| panic!("no column {col}"))
+        .cast(&DataType::Float64)
+        .unwrap();
+    c.f64()
+        .unwrap()
+        .iter()
+        .map(|v| v.unwrap_or(f64::NAN))
+        .collect()
+}
+
+/// Every file below `root`: its `/`-separated relative path and its path.
+pub fn files_below(root: &Path) -> Vec<(String, PathBuf)> {
+    let mut out = Vec::new();
     let mut stack = vec![root.to_path_buf()];
     while let Some(dir) = stack.pop() {
         for entry in fs::read_dir(&dir).unwrap() {
@@ -136,9 +166,17 @@ pub fn tree(root: &Path) -> BTreeMap<String, Vec<u8>> {
                     .unwrap()
                     .to_string_lossy()
                     .replace('\\', "/");
-                out.insert(rel, fs::read(&path).unwrap());
+                out.push((rel, path));
             }
         }
     }
     out
+}
+
+/// Every file below `root` with its bytes, keyed by its `/`-separated relative path.
+pub fn tree(root: &Path) -> BTreeMap<String, Vec<u8>> {
+    files_below(root)
+        .into_iter()
+        .map(|(rel, path)| (rel, fs::read(&path).unwrap()))
+        .collect()
 }

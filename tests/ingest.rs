@@ -17,7 +17,7 @@ use std::time::SystemTime;
 
 use polars::prelude::*;
 
-use crate::harness::{bin, demo_round, tirebase};
+use crate::harness::{bin, demo_round, files_below, tirebase};
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -64,21 +64,14 @@ fn query(store: &Path, sql: &str) -> Vec<BTreeMap<String, String>> {
 /// Every file below `root` (except the lock file, which every command touches) with its bytes
 /// and modification time.
 fn tree(root: &Path) -> BTreeMap<String, (Vec<u8>, SystemTime)> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        for entry in fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-            } else if path.file_name().is_some_and(|n| n != "store.lock") {
-                let rel = path.strip_prefix(root).unwrap().to_string_lossy();
-                let mtime = fs::metadata(&path).unwrap().modified().unwrap();
-                out.insert(rel.replace('\\', "/"), (fs::read(&path).unwrap(), mtime));
-            }
-        }
-    }
-    out
+    files_below(root)
+        .into_iter()
+        .filter(|(_, path)| path.file_name().is_some_and(|n| n != "store.lock"))
+        .map(|(rel, path)| {
+            let mtime = fs::metadata(&path).unwrap().modified().unwrap();
+            (rel, (fs::read(&path).unwrap(), mtime))
+        })
+        .collect()
 }
 
 /// One row of `tests/fixtures/bad/README.md`.

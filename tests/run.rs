@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use polars::prelude::*;
 use tirebase::manifest::Manifest;
 
-use crate::harness::{bin, demo_round, ok, run, synth_round, text, tree};
+use crate::harness::{bin, demo_round, ok, run, strs, synth_round, text, tree};
 
 /// Tables every version of a demo round must hold (inertia only with sessions).
 const TIRE_TABLES: [&str; 6] = [
@@ -130,30 +130,25 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
     assert_eq!(versions_of(&store).len(), 1);
 
     // SQL over versions.
-    let q = tb(&[
-        "query",
-        "--store",
-        "outputs/store",
-        "--format",
-        "csv",
-        "SELECT tire, pressure_kpa, value FROM coefficients WHERE name = 'PDY1' AND version = 1 \
-         AND model = 'pac2002'",
-    ]);
-    ok(&q, "query");
-    let rows: Vec<String> = text(&q.stdout).lines().skip(1).map(String::from).collect();
+    let pdy1_rows = |model: &str| -> Vec<String> {
+        let q = tb(&[
+            "query",
+            "--store",
+            "outputs/store",
+            "--format",
+            "csv",
+            &format!(
+                "SELECT tire, pressure_kpa, value FROM coefficients WHERE name = 'PDY1' AND \
+                 version = 1 AND model = '{model}'"
+            ),
+        ]);
+        ok(&q, &format!("query {model}"));
+        text(&q.stdout).lines().skip(1).map(String::from).collect()
+    };
+    let rows = pdy1_rows("pac2002");
     assert_eq!(rows.len() as u64, m1.counts.groups, "{rows:?}");
     // ... and one MF 6.1 PDY1 per tire and rim.
-    let q61 = tb(&[
-        "query",
-        "--store",
-        "outputs/store",
-        "--format",
-        "csv",
-        "SELECT tire, pressure_kpa, value FROM coefficients WHERE name = 'PDY1' AND version = 1 \
-         AND model = 'mf61'",
-    ]);
-    ok(&q61, "query mf61");
-    assert_eq!(text(&q61.stdout).lines().skip(1).count(), 4);
+    assert_eq!(pdy1_rows("mf61").len(), 4);
     for r in &rows {
         let v: f64 = r.rsplit(',').next().unwrap().parse().unwrap();
         // |mu_y| of a racing tire; the sign follows the fit's ISO-W convention.
@@ -235,15 +230,20 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
     ok(&tb(&["run"]), "run on changed data");
     let m3 = Manifest::read(&store.join("versions/v000003")).unwrap();
     assert_eq!(m3.counts.groups_fitted, m3.counts.groups, "{}", m3.summary);
-    let d = tb(&[
-        "diff",
-        "--store",
-        "outputs/store",
-        "2",
-        "3",
-        "--format",
-        "csv",
-    ]);
+    let diff_2_3 = |extra: &[&str]| {
+        let mut args = vec![
+            "diff",
+            "--store",
+            "outputs/store",
+            "2",
+            "3",
+            "--format",
+            "csv",
+        ];
+        args.extend_from_slice(extra);
+        tb(&args)
+    };
+    let d = diff_2_3(&[]);
     ok(&d, "diff 2 3");
     let df = CsvReadOptions::default()
         .with_has_header(true)
@@ -292,17 +292,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
     }
     // Issue 19: the MF 6.1 models (one per tire and rim) are compared in force space at each
     // tested pressure and at the midpoint between neighbouring ones.
-    let strings = |name: &str| -> Vec<String> {
-        df.column(name)
-            .unwrap()
-            .cast(&DataType::String)
-            .unwrap()
-            .str()
-            .unwrap()
-            .iter()
-            .map(|v| v.unwrap_or_default().to_string())
-            .collect()
-    };
+    let strings = |name: &str| strs(&df, name);
     let (tires, rims, models, kinds, at) = (
         strings("tire"),
         strings("rim_in"),
@@ -337,17 +327,7 @@ fn readme_command_publishes_every_table_then_is_up_to_date_and_reuses_groups() {
     }
     // --tire limits the rows to one tire.
     let tire = &m3.groups[0].tire;
-    let one = tb(&[
-        "diff",
-        "--store",
-        "outputs/store",
-        "2",
-        "3",
-        "--format",
-        "csv",
-        "--tire",
-        tire,
-    ]);
+    let one = diff_2_3(&["--tire", tire]);
     ok(&one, "diff --tire");
     let one = text(&one.stdout);
     assert!(
@@ -543,17 +523,7 @@ fn issue19_mf61_models_lint_and_evaluate(dir: &Path) {
             .push(g.pressure_kpa);
     }
     let q = read_table(&dir.join("fit_quality.parquet"));
-    let col = |name: &str| -> Vec<String> {
-        q.column(name)
-            .unwrap()
-            .cast(&DataType::String)
-            .unwrap()
-            .str()
-            .unwrap()
-            .iter()
-            .map(|v| v.unwrap_or_default().to_string())
-            .collect()
-    };
+    let col = |name: &str| strs(&q, name);
     let (tires, rims, ps, models) = (
         col("tire"),
         col("rim_in"),

@@ -68,6 +68,12 @@ fn latest(store: &Path) -> (u32, PathBuf) {
 /// Columns holding wall time, which no two runs share.
 const TIMING_COLUMNS: [&str; 1] = ["seconds"];
 
+/// Make a named pipe at `path` (a file the run must refuse to read, not wait on).
+fn mkfifo(path: &Path) {
+    let status = Command::new("mkfifo").arg(path).status().unwrap();
+    assert!(status.success(), "mkfifo {}", path.display());
+}
+
 fn read_table(path: &Path) -> DataFrame {
     let mut df = tirebase::store::files::read_parquet(path).unwrap();
     for c in TIMING_COLUMNS {
@@ -387,11 +393,7 @@ fn issue20_bad_directory_entries_neither_stop_nor_hang_run_or_ingest() {
     let (_tmp, input, store) = fork();
     let before = Manifest::read(&latest(&store).1).unwrap();
     let raw = input.join("raw");
-    let status = Command::new("mkfifo")
-        .arg(raw.join("pipe.dat"))
-        .status()
-        .unwrap();
-    assert!(status.success());
+    mkfifo(&raw.join("pipe.dat"));
     std::os::unix::fs::symlink("..", raw.join("loop")).unwrap();
     std::os::unix::fs::symlink("self.dat", raw.join("self.dat")).unwrap();
     std::os::unix::fs::symlink("/nonexistent/x.dat", raw.join("dangling.dat")).unwrap();
@@ -855,13 +857,7 @@ fn issue20_rig_session_entries_neither_hang_nor_stop_the_run() {
     assert!(run_file.is_file());
     fs::remove_file(&run_file).unwrap();
     for fifo in [session.join("pipe.csv"), run_file.clone()] {
-        assert!(
-            Command::new("mkfifo")
-                .arg(&fifo)
-                .status()
-                .unwrap()
-                .success()
-        );
+        mkfifo(&fifo);
     }
     std::os::unix::fs::symlink("..", session.join("loop")).unwrap();
     std::os::unix::fs::symlink("../..", session.join("loop2")).unwrap();
@@ -899,13 +895,7 @@ fn issue20_rig_session_entries_neither_hang_nor_stop_the_run() {
 
     // A catalog.toml that is a FIFO is an input error (it used to be silently no catalog, and
     // hung the run when given by --catalog).
-    assert!(
-        Command::new("mkfifo")
-            .arg(input.join("catalog.toml"))
-            .status()
-            .unwrap()
-            .success()
-    );
+    mkfifo(&input.join("catalog.toml"));
     let fourth = run_with_deadline(&input, &store, 600);
     let log = text(&fourth.stderr);
     assert_eq!(fourth.status.code(), Some(2), "{log}");

@@ -7,8 +7,9 @@
 //! Deliberately not here: unit tests of the reader and model (in tirebase-core).
 
 use std::path::{Path, PathBuf};
+use std::process::Output;
 
-use crate::harness::{text, tirebase};
+use crate::harness::{p, text, tirebase};
 
 const TOL: f64 = 1e-9;
 const FORCES: [&str; 5] = ["Fx_N", "Fy_N", "Mx_Nm", "My_Nm", "Mz_Nm"];
@@ -37,6 +38,29 @@ fn column(header: &[String], name: &str) -> usize {
         .unwrap_or_else(|| panic!("no column {name} in {header:?}"))
 }
 
+/// `tirebase tir eval --tir TIR --input INPUT --output OUTPUT [extra]`.
+fn tir_eval(tir: &Path, input: &Path, output: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "tir",
+        "eval",
+        "--tir",
+        p(tir),
+        "--input",
+        p(input),
+        "--output",
+        p(output),
+    ];
+    args.extend_from_slice(extra);
+    tirebase(&args)
+}
+
+/// `tirebase tir convert --input INPUT --output OUTPUT [extra]`.
+fn tir_convert(input: &Path, output: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["tir", "convert", "--input", p(input), "--output", p(output)];
+    args.extend_from_slice(extra);
+    tirebase(&args)
+}
+
 /// Run `tir eval` and return the output CSV's path (inside `dir`).
 fn eval(dir: &Path, tir: &Path, input: &Path, mode: &str) -> PathBuf {
     let out = dir.join(format!(
@@ -44,20 +68,18 @@ fn eval(dir: &Path, tir: &Path, input: &Path, mode: &str) -> PathBuf {
         tir.file_stem().unwrap().to_string_lossy(),
         input.file_stem().unwrap().to_string_lossy()
     ));
-    let o = tirebase(&[
-        "tir",
-        "eval",
-        "--tir",
-        tir.to_str().unwrap(),
-        "--input",
-        input.to_str().unwrap(),
-        "--output",
-        out.to_str().unwrap(),
-        "--mode",
-        mode,
-    ]);
+    let o = tir_eval(tir, input, &out, &["--mode", mode]);
     assert!(o.status.success(), "eval failed: {}", text(&o.stderr));
     out
+}
+
+/// Print the worst relative error per force of one grid.
+fn print_worst(what: &str, worst: [f64; 5]) {
+    let worst: Vec<String> = worst.iter().map(|w| format!("{w:.2e}")).collect();
+    println!(
+        "{what}: max relative error Fx Fy Mx My Mz = {}",
+        worst.join(" ")
+    );
 }
 
 /// Compare the model columns of `out` with the force columns of the reference CSV, row by row;
@@ -127,12 +149,7 @@ fn eval_reproduces_every_reference_grid() {
     ];
     for (tir, csv, mode) in cases {
         let out = eval(dir.path(), &fixture(tir), &fixture(csv), mode);
-        let worst = compare(&out, &fixture(csv));
-        let worst: Vec<String> = worst.iter().map(|w| format!("{w:.2e}")).collect();
-        println!(
-            "{csv} ({mode}): max relative error Fx Fy Mx My Mz = {}",
-            worst.join(" ")
-        );
+        print_worst(&format!("{csv} ({mode})"), compare(&out, &fixture(csv)));
     }
 }
 
@@ -149,12 +166,7 @@ fn eval_reproduces_the_mf6_grids() {
             let tir = fixture(&format!("reference/mfeval-mf6/{stem}.tir"));
             let csv = fixture(&format!("reference/mfeval-mf6/{stem}_mode{suffix}.csv"));
             let out = eval(dir.path(), &tir, &csv, mode);
-            let worst = compare(&out, &csv);
-            let worst: Vec<String> = worst.iter().map(|w| format!("{w:.2e}")).collect();
-            println!(
-                "{stem} ({mode}): max relative error Fx Fy Mx My Mz = {}",
-                worst.join(" ")
-            );
+            print_worst(&format!("{stem} ({mode})"), compare(&out, &csv));
         }
     }
 }
@@ -184,16 +196,7 @@ fn eval_pressure_column() {
     let (h2, r2) = read_csv(&eval(dir.path(), &mf61, &no_p, "raw"));
     assert_eq!(r2[0][column(&h2, "Fy_N")], r[1][fy]);
     // PAC2002 ignores it and says so.
-    let o = tirebase(&[
-        "tir",
-        "eval",
-        "--tir",
-        fixture(FSAE_TIR).to_str().unwrap(),
-        "--input",
-        input.to_str().unwrap(),
-        "--output",
-        dir.path().join("pac.csv").to_str().unwrap(),
-    ]);
+    let o = tir_eval(&fixture(FSAE_TIR), &input, &dir.path().join("pac.csv"), &[]);
     assert!(o.status.success(), "{}", text(&o.stderr));
     assert!(
         text(&o.stderr).contains("P_Pa is ignored"),
@@ -206,16 +209,7 @@ fn eval_pressure_column() {
         "Fz_N,kappa,alpha_rad,gamma_rad,Vx_mps,P_Pa\n6000,0,0,0,16.6,-1\n",
     )
     .unwrap();
-    let o = tirebase(&[
-        "tir",
-        "eval",
-        "--tir",
-        mf61.to_str().unwrap(),
-        "--input",
-        bad.to_str().unwrap(),
-        "--output",
-        dir.path().join("bad_out.csv").to_str().unwrap(),
-    ]);
+    let o = tir_eval(&mf61, &bad, &dir.path().join("bad_out.csv"), &[]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
     let err = text(&o.stderr);
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
@@ -229,18 +223,7 @@ fn convert_between_versions() {
     let dir = tempfile::tempdir().unwrap();
     let mf61 = fixture("reference/mfeval-mf6/MagicFormula61_Parameters.tir");
     let pac = dir.path().join("mf61_at_230kpa.tir");
-    let o = tirebase(&[
-        "tir",
-        "convert",
-        "--input",
-        mf61.to_str().unwrap(),
-        "--output",
-        pac.to_str().unwrap(),
-        "--to",
-        "pac2002",
-        "--pressure",
-        "230kPa",
-    ]);
+    let o = tir_convert(&mf61, &pac, &["--to", "pac2002", "--pressure", "230kPa"]);
     assert!(o.status.success(), "{}", text(&o.stderr));
     let notes = text(&o.stderr);
     assert!(notes.contains("MF 6.1 -> PAC2002: PKY4"), "{notes}");
@@ -252,18 +235,11 @@ fn convert_between_versions() {
         "{written}"
     );
     let lifted = dir.path().join("fsae_mf61.tir");
-    let o = tirebase(&[
-        "tir",
-        "convert",
-        "--input",
-        fixture(FSAE_TIR).to_str().unwrap(),
-        "--output",
-        lifted.to_str().unwrap(),
-        "--to",
-        "mf61",
-        "--pressure",
-        "12psi",
-    ]);
+    let o = tir_convert(
+        &fixture(FSAE_TIR),
+        &lifted,
+        &["--to", "mf61", "--pressure", "12psi"],
+    );
     assert!(o.status.success(), "{}", text(&o.stderr));
     let written = std::fs::read_to_string(&lifted).unwrap();
     assert!(
@@ -278,16 +254,11 @@ fn convert_between_versions() {
         let o = tirebase(&["tir", "lint", f.to_str().unwrap()]);
         assert_eq!(o.status.code(), Some(0), "{}", text(&o.stdout));
     }
-    let o = tirebase(&[
-        "tir",
-        "convert",
-        "--input",
-        fixture(FSAE_TIR).to_str().unwrap(),
-        "--output",
-        dir.path().join("x.tir").to_str().unwrap(),
-        "--to",
-        "mf61",
-    ]);
+    let o = tir_convert(
+        &fixture(FSAE_TIR),
+        &dir.path().join("x.tir"),
+        &["--to", "mf61"],
+    );
     assert_eq!(o.status.code(), Some(2));
     assert!(
         text(&o.stderr).contains("no inflation pressure"),
@@ -417,16 +388,7 @@ fn eval_input_errors_name_the_line() {
         (&missing, "line 1: no column Vx_mps"),
     ] {
         let out = dir.path().join("out.csv");
-        let o = tirebase(&[
-            "tir",
-            "eval",
-            "--tir",
-            tir.to_str().unwrap(),
-            "--input",
-            input.to_str().unwrap(),
-            "--output",
-            out.to_str().unwrap(),
-        ]);
+        let o = tir_eval(&tir, input, &out, &[]);
         assert_eq!(o.status.code(), Some(2));
         let err = text(&o.stderr);
         assert!(err.contains(expected), "{err}");
@@ -512,14 +474,7 @@ fn convert_round_trip_is_exact_and_idempotent() {
         let once = dir.path().join(format!("{stem}.once.tir"));
         let twice = dir.path().join(format!("{stem}.twice.tir"));
         for (from, to) in [(fixture(input), &once), (once.clone(), &twice)] {
-            let o = tirebase(&[
-                "tir",
-                "convert",
-                "--input",
-                from.to_str().unwrap(),
-                "--output",
-                to.to_str().unwrap(),
-            ]);
+            let o = tir_convert(&from, to, &[]);
             assert!(o.status.success(), "{input}: {}", text(&o.stderr));
         }
         let a = std::fs::read(&once).unwrap();
@@ -595,18 +550,7 @@ fn issue20_undefined_models_and_non_finite_inputs_are_refused() {
     });
     let points = fixture("reference/fsae-demo/fsae_demo_pac2002_combined_mode111.csv");
     let out = dir.path().join("out.csv");
-    let (tir, input, output) = (
-        truncated.to_str().unwrap(),
-        points.to_str().unwrap(),
-        out.to_str().unwrap(),
-    );
-    let eval = |extra: &[&str]| {
-        let mut args = vec![
-            "tir", "eval", "--tir", tir, "--input", input, "--output", output,
-        ];
-        args.extend_from_slice(extra);
-        tirebase(&args)
-    };
+    let eval = |extra: &[&str]| tir_eval(&truncated, &points, &out, extra);
     let refused = eval(&[]);
     let err = text(&refused.stderr);
     assert_eq!(refused.status.code(), Some(2), "{err}");
@@ -625,18 +569,7 @@ fn issue20_undefined_models_and_non_finite_inputs_are_refused() {
     );
 
     let converted = dir.path().join("converted.tir");
-    let convert = |extra: &[&str]| {
-        let mut args = vec![
-            "tir",
-            "convert",
-            "--input",
-            tir,
-            "--output",
-            converted.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        tirebase(&args)
-    };
+    let convert = |extra: &[&str]| tir_convert(&truncated, &converted, extra);
     let refused = convert(&[]);
     assert_eq!(refused.status.code(), Some(2), "{}", text(&refused.stderr));
     assert!(!converted.exists());
@@ -651,16 +584,7 @@ fn issue20_undefined_models_and_non_finite_inputs_are_refused() {
             format!("Fz_N,kappa,alpha_rad,gamma_rad,Vx_mps\n1000,0,0.01,0,16\n1000,0,{bad},0,16\n"),
         )
         .unwrap();
-        let o = tirebase(&[
-            "tir",
-            "eval",
-            "--tir",
-            good.to_str().unwrap(),
-            "--input",
-            csv.to_str().unwrap(),
-            "--output",
-            output,
-        ]);
+        let o = tir_eval(&good, &csv, &out, &[]);
         let err = text(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{bad}: {err}");
         assert!(

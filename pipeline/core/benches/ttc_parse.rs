@@ -9,7 +9,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use tirebase_core::ttc::example::{RoundStyle, example_dat, example_mat};
+use tirebase_core::ttc::example::{ExampleStyle, example_dat, example_mat};
 use tirebase_core::ttc::mat::Compression;
 use tirebase_core::ttc::{read_dat, read_mat};
 
@@ -26,7 +26,7 @@ fn std_parse_sum(bytes: &[u8]) -> f64 {
 }
 
 fn bench_dat(c: &mut Criterion) {
-    let bytes = example_dat(RoundStyle::R8Uscs, ROWS, false);
+    let bytes = example_dat(ExampleStyle::R8Uscs, ROWS, false);
     let mut group = c.benchmark_group("dat");
     group.throughput(Throughput::Bytes(bytes.len() as u64));
     group.sample_size(20);

@@ -69,7 +69,7 @@ impl LevelTolerance {
 
 fn matches(t: &SegmentRow, s: &super::Segment, tol: LevelTolerance) -> bool {
     let fz_tol = t.fz_n_nom.map_or(1.0, |f| tol.of(f, 30.0));
-    t.kind.as_str() == s.kind.as_str()
+    t.kind == s.kind
         && overlaps((t.et_start_s, t.et_end_s), (s.et_start_s, s.et_end_s))
         && level_ok(
             Some(t.pressure_kpa_nom),
@@ -174,8 +174,7 @@ pub(crate) fn evaluate_with(config: SynthConfig) -> Evaluation {
         }
         for s in segments.iter().filter(|s| s.kind.is_matrix()) {
             let real = out.summary.segments.iter().any(|t| {
-                t.kind.as_str() == s.kind.as_str()
-                    && overlaps((t.et_start_s, t.et_end_s), (s.et_start_s, s.et_end_s))
+                t.kind == s.kind && overlaps((t.et_start_s, t.et_end_s), (s.et_start_s, s.et_end_s))
             });
             if !real {
                 ev.spurious.push(format!(

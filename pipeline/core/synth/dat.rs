@@ -7,6 +7,7 @@
 //! (the TTC writer in `crate::ttc`), defects (`defects.rs`).
 
 use crate::frame::{IsoW, TireChannels};
+use crate::ttc::dat::RoundStyle;
 
 use super::machine::RunSamples;
 use super::tires::{KPA_PER_PSI, M_PER_IN, N_PER_LBF};
@@ -16,20 +17,9 @@ pub const NM_PER_FTLB: f64 = 1.355_817_948_331_400_4;
 /// km/h per mph.
 pub const KPH_PER_MPH: f64 = 1.609_344;
 
-/// Which round's header line and unit spellings a file imitates.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum RoundStyle {
-    /// Round 4: `Project 1320; Run 125`, `sec`, `AMBTMP`, `deg F`/`deg C` (+ SI ambient in deg F).
-    R4,
-    /// Round 8: date, time, ISO flag and ID in line 1; `s`, `AmbTmp`, `deg f`/`deg c`, `SAE`.
-    R8,
-    /// Round 9: as R8 plus `Tire_Name=` and `Rim_Width=`.
-    R9,
-}
-
 /// Unit system of a file (the file name's prefix letter).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum Units {
+pub enum FileUnits {
     /// Prefix `A`: mph, in, psi, lb, ft-lb, deg F.
     UsCustomary,
     /// Prefix `B`: km/h, cm, kPa, N, N m, deg C.
@@ -47,26 +37,23 @@ pub enum Container {
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub struct FileStyle {
     pub round: RoundStyle,
-    pub units: Units,
+    pub units: FileUnits,
     pub container: Container,
     /// Dwells kept (`raw` in the name) instead of cut (`run`).
     pub raw: bool,
 }
 
 impl FileStyle {
-    /// Sample rate: 50 Hz for round-4 style, 100 Hz for rounds 6-9.
+    /// Sample rate of the file's round style.
     pub fn rate_hz(&self) -> f64 {
-        match self.round {
-            RoundStyle::R4 => 50.0,
-            RoundStyle::R8 | RoundStyle::R9 => 100.0,
-        }
+        self.round.sample_rate_hz()
     }
 
     /// `<prefix><project>run<N>.<ext>` or `...raw<N>...`.
     pub fn file_name(&self, project: u32, run: u32) -> String {
         let prefix = match self.units {
-            Units::UsCustomary => 'A',
-            Units::Si => 'B',
+            FileUnits::UsCustomary => 'A',
+            FileUnits::Si => 'B',
         };
         let what = if self.raw { "raw" } else { "run" };
         let ext = match self.container {
@@ -81,37 +68,37 @@ impl FileStyle {
 pub const STYLE_CYCLE: [FileStyle; 6] = [
     FileStyle {
         round: RoundStyle::R4,
-        units: Units::UsCustomary,
+        units: FileUnits::UsCustomary,
         container: Container::Dat,
         raw: false,
     },
     FileStyle {
         round: RoundStyle::R9,
-        units: Units::Si,
+        units: FileUnits::Si,
         container: Container::Dat,
         raw: false,
     },
     FileStyle {
         round: RoundStyle::R8,
-        units: Units::Si,
+        units: FileUnits::Si,
         container: Container::Mat,
         raw: false,
     },
     FileStyle {
         round: RoundStyle::R8,
-        units: Units::UsCustomary,
+        units: FileUnits::UsCustomary,
         container: Container::Dat,
         raw: true,
     },
     FileStyle {
         round: RoundStyle::R4,
-        units: Units::Si,
+        units: FileUnits::Si,
         container: Container::Dat,
         raw: false,
     },
     FileStyle {
         round: RoundStyle::R9,
-        units: Units::Si,
+        units: FileUnits::Si,
         container: Container::Mat,
         raw: true,
     },
@@ -174,7 +161,7 @@ pub fn channel_table(
         sel(&s.sl),
     )
     .into_sae();
-    let us = style.units == Units::UsCustomary;
+    let us = style.units == FileUnits::UsCustomary;
     let mat = style.container == Container::Mat;
     let r4 = style.round == RoundStyle::R4 || mat;
     let (force, moment, length, speed, pressure) = if us {

@@ -22,7 +22,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::dat::{ChannelTable, Container, FileStyle, Units};
+use super::dat::{ChannelTable, Container, FileStyle, FileUnits};
 use super::schedule::Program;
 use super::tires::N_PER_LBF;
 
@@ -196,7 +196,7 @@ pub fn apply_to_table(
     table
         .columns
         .retain(|c| !matches!(c.name, "SL" | "NFX" | "NFY"));
-    let declared_in = style.units == Units::UsCustomary && style.container == Container::Dat;
+    let declared_in = style.units == FileUnits::UsCustomary && style.container == Container::Dat;
     let (declared, actual, values_per_declared) = if declared_in {
         ("in", "cm", 2.54)
     } else {

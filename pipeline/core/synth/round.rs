@@ -27,8 +27,8 @@ use crate::tire_model::{Coef, Coefs};
 use crate::ttc::mat::{Compression, MatWriter};
 
 use super::dat::{
-    ChannelTable, Container, FileStyle, HeaderFields, RoundStyle, STYLE_CYCLE, channel_table,
-    header_line, render_dat,
+    ChannelTable, Container, FileStyle, HeaderFields, STYLE_CYCLE, channel_table, header_line,
+    render_dat,
 };
 use super::defects::{DefectKind, DefectRecord, apply_to_table, apply_to_text};
 use super::machine::{LoadSwing, Realism, simulate};
@@ -815,11 +815,7 @@ fn render_mat(
 
 /// The style name recorded in `catalog.toml` comments and `round.toml`.
 fn style_label(style: &FileStyle) -> String {
-    let round = match style.round {
-        RoundStyle::R4 => "R4",
-        RoundStyle::R8 => "R8",
-        RoundStyle::R9 => "R9",
-    };
+    let round = style.round.label();
     format!(
         "{round} {} {:?} {} Hz {}",
         match style.container {

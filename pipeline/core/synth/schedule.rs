@@ -11,45 +11,12 @@
 //! are alpha +3, +6. Loads and pressures are commanded in the consortium's US units (lb, psi) and
 //! carried in SI. Deliberately not here: physics, sensors, file formats.
 
+pub use crate::segment::SegmentKind;
+
 use super::tires::{BaseTire, KPA_PER_PSI, N_PER_LBF, TestPlan, V_REF_MPS};
 
 /// m/s per mph.
 pub const MPS_PER_MPH: f64 = 0.447_04;
-
-/// Segment kinds, as the ingest issue names them.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum SegmentKind {
-    SpringRateStatic,
-    SpringRateDynamic,
-    ColdToWarm,
-    Conditioning,
-    Cornering,
-    DriveBrake,
-    Combined,
-    StepSteer,
-    IaSweep,
-    SpeedSweep,
-    Other,
-}
-
-impl SegmentKind {
-    /// The name written to `segments.csv`.
-    pub const fn as_str(self) -> &'static str {
-        match self {
-            SegmentKind::SpringRateStatic => "spring_rate_static",
-            SegmentKind::SpringRateDynamic => "spring_rate_dynamic",
-            SegmentKind::ColdToWarm => "cold_to_warm",
-            SegmentKind::Conditioning => "conditioning",
-            SegmentKind::Cornering => "cornering",
-            SegmentKind::DriveBrake => "drive_brake",
-            SegmentKind::Combined => "combined",
-            SegmentKind::StepSteer => "step_steer",
-            SegmentKind::IaSweep => "ia_sweep",
-            SegmentKind::SpeedSweep => "speed_sweep",
-            SegmentKind::Other => "other",
-        }
-    }
-}
 
 /// What kind of run file a program is (the run guide's `kind`).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]

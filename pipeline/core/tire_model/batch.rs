@@ -551,25 +551,49 @@ mod tests {
         let mut worst = [0.0f64; 11];
         for ((p, f), pa) in points.iter().zip(&fast).zip(pressures) {
             let s = tire.eval_at(p, *pa, mode);
-            let pairs = [
-                (f.fx_n, s.fx_n),
-                (f.fy_n, s.fy_n),
-                (f.mx_nm, s.mx_nm),
-                (f.my_nm, s.my_nm),
-                (f.mz_nm, s.mz_nm),
-                (f.mux, s.mux),
-                (f.muy, s.muy),
-                (f.kxk_n, s.kxk_n),
-                (f.kya_n_per_rad, s.kya_n_per_rad),
-                (f.trail_m, s.trail_m),
-                (f.mzr_nm, s.mzr_nm),
-            ];
-            for (w, (a, b)) in worst.iter_mut().zip(pairs) {
+            for (w, (a, b)) in worst
+                .iter_mut()
+                .zip(outputs(f).into_iter().zip(outputs(&s)))
+            {
                 assert!(a.is_finite() == b.is_finite(), "{p:?}: {a} vs {b}");
                 *w = w.max((a - b).abs() / b.abs().max(1.0));
             }
         }
         worst
+    }
+
+    /// Every 7th point made an edge lane (drawn with `seed`): zero load, below FZMIN, zero slip,
+    /// standstill, low or reverse speed.
+    fn add_edge_lanes(points: &mut [SlipInput], seed: u64, fnomin_n: f64) {
+        let mut rng = SplitMix64::new(seed);
+        for p in points.iter_mut().step_by(7) {
+            match rng.next_u64() % 7 {
+                0 => p.fz_n = 0.0,
+                1 => p.fz_n = rng.uniform_in(0.0, 0.1) * fnomin_n,
+                2 => p.kappa = 0.0,
+                3 => p.alpha_rad = 0.0,
+                4 => p.vx_mps = 0.0,
+                5 => p.vx_mps = rng.uniform_in(-1.5, 1.5),
+                _ => p.vx_mps = -p.vx_mps,
+            }
+        }
+    }
+
+    /// The 11 outputs compared, in one order.
+    fn outputs(e: &Evaluation<f64>) -> [f64; 11] {
+        [
+            e.fx_n,
+            e.fy_n,
+            e.mx_nm,
+            e.my_nm,
+            e.mz_nm,
+            e.mux,
+            e.muy,
+            e.kxk_n,
+            e.kya_n_per_rad,
+            e.trail_m,
+            e.mzr_nm,
+        ]
     }
 
     fn assert_close(name: &str, worst: [f64; 11]) {
@@ -627,23 +651,9 @@ mod tests {
         let run = |f: &dyn Fn(&mut [Evaluation<f64>])| {
             let mut out = vec![Evaluation::default(); points.len()];
             f(&mut out);
-            let bits = |e: &Evaluation<f64>| {
-                [
-                    e.fx_n,
-                    e.fy_n,
-                    e.mx_nm,
-                    e.my_nm,
-                    e.mz_nm,
-                    e.mux,
-                    e.muy,
-                    e.kxk_n,
-                    e.kya_n_per_rad,
-                    e.trail_m,
-                    e.mzr_nm,
-                ]
-                .map(f64::to_bits)
-            };
-            out.iter().map(bits).collect::<Vec<_>>()
+            out.iter()
+                .map(|e| outputs(e).map(f64::to_bits))
+                .collect::<Vec<_>>()
         };
         let base = run(&|o| {
             eval_batch_lanes(
@@ -720,18 +730,7 @@ mod tests {
             let n = 100_000;
             let mut points = random_points(n, 6, tire.coefs[FNOMIN]);
             let pressures = random_pressures(n, 7, tire.coefs[NOMPRES], 0.5, 1.5);
-            let mut rng = SplitMix64::new(18);
-            for p in points.iter_mut().step_by(7) {
-                match rng.next_u64() % 7 {
-                    0 => p.fz_n = 0.0,
-                    1 => p.fz_n = rng.uniform_in(0.0, 0.1) * tire.coefs[FNOMIN],
-                    2 => p.kappa = 0.0,
-                    3 => p.alpha_rad = 0.0,
-                    4 => p.vx_mps = 0.0,
-                    5 => p.vx_mps = rng.uniform_in(-1.5, 1.5),
-                    _ => p.vx_mps = -p.vx_mps,
-                }
-            }
+            add_edge_lanes(&mut points, 18, tire.coefs[FNOMIN]);
             for mode in [Mode::Limits, Mode::Raw] {
                 assert_close_within(
                     &format!("{name} {mode:?}"),
@@ -750,19 +749,7 @@ mod tests {
         ] {
             let tire = Pac2002::new(coefs_from_tir(tir));
             let mut points = random_points(200_000, 5, tire.coefs[FNOMIN]);
-            // Edge lanes: zero load, below FZMIN, zero slip, standstill, low and reverse speed.
-            let mut rng = SplitMix64::new(17);
-            for p in points.iter_mut().step_by(7) {
-                match rng.next_u64() % 7 {
-                    0 => p.fz_n = 0.0,
-                    1 => p.fz_n = rng.uniform_in(0.0, 0.1) * tire.coefs[FNOMIN],
-                    2 => p.kappa = 0.0,
-                    3 => p.alpha_rad = 0.0,
-                    4 => p.vx_mps = 0.0,
-                    5 => p.vx_mps = rng.uniform_in(-1.5, 1.5),
-                    _ => p.vx_mps = -p.vx_mps,
-                }
-            }
+            add_edge_lanes(&mut points, 17, tire.coefs[FNOMIN]);
             for mode in [Mode::Limits, Mode::Raw] {
                 assert_close(
                     &format!("{name} {mode:?}"),

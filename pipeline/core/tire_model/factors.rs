@@ -10,7 +10,7 @@
 //! evaluator, so the two cannot drift apart silently.
 //! Deliberately not here: evaluation (see `pac2002.rs`), generic scalars (plain `f64`).
 
-use super::pac2002::{EPS, Load, magic_formula, weighting};
+use super::pac2002::{EPS, Load, magic_formula, sgn, sgn_pos, weighting};
 use super::params::{Coef::*, Coefs};
 
 /// Factors of one Magic Formula curve `y = D sin(C atan(B x - E (B x - atan(B x)))) + SV`,
@@ -65,20 +65,6 @@ pub struct SlipFactors {
     pub kxk_n: f64,
     /// `Ky_alpha`, N/rad.
     pub kya_n_per_rad: f64,
-}
-
-fn sgn(x: f64) -> f64 {
-    if x > 0.0 {
-        1.0
-    } else if x < 0.0 {
-        -1.0
-    } else {
-        0.0
-    }
-}
-
-fn sgn_pos(x: f64) -> f64 {
-    if x < 0.0 { -1.0 } else { 1.0 }
 }
 
 /// The factors at the load (and slips) in `l`.

@@ -156,21 +156,13 @@ impl V {
     /// Sign with `sgn(0) = 0`.
     #[inline(always)]
     pub fn sgn(self) -> V {
-        self.map(|x| {
-            if x > 0.0 {
-                1.0
-            } else if x < 0.0 {
-                -1.0
-            } else {
-                0.0
-            }
-        })
+        self.map(super::pac2002::sgn)
     }
 
     /// Sign with `sgn(0) = +1`.
     #[inline(always)]
     pub fn sgn_pos(self) -> V {
-        self.map(|x| if x < 0.0 { -1.0 } else { 1.0 })
+        self.map(super::pac2002::sgn_pos)
     }
 
     /// Lanes equal to `x`.

@@ -147,7 +147,7 @@ pub struct Load<T> {
 
 /// Sign with `sgn(0) = 0`.
 #[inline]
-fn sgn(x: f64) -> f64 {
+pub(crate) fn sgn(x: f64) -> f64 {
     if x > 0.0 {
         1.0
     } else if x < 0.0 {
@@ -159,7 +159,7 @@ fn sgn(x: f64) -> f64 {
 
 /// Sign with `sgn(0) = +1` (protects divisions; also MFeval's choice in `Ey`).
 #[inline]
-fn sgn_pos(x: f64) -> f64 {
+pub(crate) fn sgn_pos(x: f64) -> f64 {
     if x < 0.0 { -1.0 } else { 1.0 }
 }
 

@@ -39,6 +39,38 @@ pub const MF61_SAMPLE_TIR: &str =
 pub const MF61_BOOK_TIR: &str =
     include_str!("../../../tests/fixtures/reference/mfeval-mf6/PacejkaBook_Defaults.tir");
 
+/// MFeval 4.3.1 on its sample tire, pure-slip grid, useMode 111.
+pub const MFEVAL_SAMPLE_PURE_111: &str =
+    include_str!("../../../tests/fixtures/reference/mfeval-sample/mfeval_pac2002_pure_mode111.csv");
+/// MFeval 4.3.1 on the FSAE demo tire, pure-slip grid, useMode 111.
+pub const FSAE_DEMO_PURE_111: &str =
+    include_str!("../../../tests/fixtures/reference/fsae-demo/fsae_demo_pac2002_pure_mode111.csv");
+/// MFeval on its MF 6.1 sample, per-row pressure, useMode 111.
+pub const MF61_SAMPLE_111: &str = include_str!(
+    "../../../tests/fixtures/reference/mfeval-mf6/MagicFormula61_Parameters_mode111.csv"
+);
+/// MFeval on its MF 6.1 sample, per-row pressure, useMode 211.
+pub const MF61_SAMPLE_211: &str = include_str!(
+    "../../../tests/fixtures/reference/mfeval-mf6/MagicFormula61_Parameters_mode211.csv"
+);
+/// MFeval's MF 6.2 sample tire.
+pub const MF62_SAMPLE_TIR: &str =
+    include_str!("../../../tests/fixtures/reference/mfeval-mf6/MagicFormula62_Parameters.tir");
+/// MFeval on its MF 6.2 sample, per-row pressure, useMode 111.
+pub const MF62_SAMPLE_111: &str = include_str!(
+    "../../../tests/fixtures/reference/mfeval-mf6/MagicFormula62_Parameters_mode111.csv"
+);
+/// MFeval on its MF 6.2 sample, per-row pressure, useMode 211.
+pub const MF62_SAMPLE_211: &str = include_str!(
+    "../../../tests/fixtures/reference/mfeval-mf6/MagicFormula62_Parameters_mode211.csv"
+);
+/// MFeval on the book-values MF 6.1 file, per-row pressure, useMode 111.
+pub const MF61_BOOK_111: &str =
+    include_str!("../../../tests/fixtures/reference/mfeval-mf6/PacejkaBook_Defaults_mode111.csv");
+/// MFeval on the book-values MF 6.1 file, per-row pressure, useMode 211.
+pub const MF61_BOOK_211: &str =
+    include_str!("../../../tests/fixtures/reference/mfeval-mf6/PacejkaBook_Defaults_mode211.csv");
+
 /// The coefficients of a bundled `.tir` file (panics if it cannot be read: fixtures are fixed).
 pub fn coefs_from_tir(text: &str) -> Coefs<f64> {
     TirFile::parse(text).expect("bundled .tir reads").0.coefs
@@ -57,6 +89,66 @@ pub fn random_pressures(n: usize, seed: u64, nominal_pa: f64, lo: f64, hi: f64) 
         .collect()
 }
 
+/// A reference CSV read once: the header and every non-blank row's cells (numbers parsed when
+/// read, so text columns such as `case` may be present).
+#[derive(Clone, Debug)]
+pub struct ReferenceGrid {
+    header: Vec<String>,
+    cells: Vec<Vec<String>>,
+}
+
+impl ReferenceGrid {
+    /// Parse `csv` (comma separated, a header line, blank lines skipped).
+    pub fn parse(csv: &str) -> ReferenceGrid {
+        let split = |l: &str| l.split(',').map(|c| c.trim().to_string()).collect();
+        let mut lines = csv.lines();
+        let header = split(lines.next().expect("header"));
+        let cells = lines.filter(|l| !l.trim().is_empty()).map(split).collect();
+        ReferenceGrid { header, cells }
+    }
+
+    /// Number of rows.
+    pub fn row_count(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// The index of column `name` (panics naming it when it is missing).
+    pub fn column(&self, name: &str) -> usize {
+        self.header
+            .iter()
+            .position(|h| h == name)
+            .unwrap_or_else(|| panic!("column {name} missing"))
+    }
+
+    /// The number in row `row`, column `column`.
+    pub fn value(&self, row: usize, column: usize) -> f64 {
+        let cell = &self.cells[row][column];
+        cell.parse()
+            .unwrap_or_else(|_| panic!("row {row}, column {column}: not a number: {cell:?}"))
+    }
+
+    /// Column `name` of every row.
+    pub fn values(&self, name: &str) -> Vec<f64> {
+        let j = self.column(name);
+        (0..self.row_count()).map(|i| self.value(i, j)).collect()
+    }
+
+    /// Every row's operating point (`Fz_N, kappa, alpha_rad, gamma_rad, Vx_mps`).
+    pub fn inputs(&self) -> Vec<SlipInput> {
+        let [fz, kappa, alpha, gamma, vx] =
+            ["Fz_N", "kappa", "alpha_rad", "gamma_rad", "Vx_mps"].map(|n| self.column(n));
+        (0..self.row_count())
+            .map(|i| SlipInput {
+                fz_n: self.value(i, fz),
+                kappa: self.value(i, kappa),
+                alpha_rad: self.value(i, alpha),
+                gamma_rad: self.value(i, gamma),
+                vx_mps: self.value(i, vx),
+            })
+            .collect()
+    }
+}
+
 /// One reference row: the input point and MFeval's `[Fx, Fy, Mx, My, Mz]`.
 #[derive(Copy, Clone, Debug)]
 pub struct ReferenceRow {
@@ -66,45 +158,16 @@ pub struct ReferenceRow {
     pub outputs: [f64; 5],
 }
 
-/// Parse a reference CSV (columns found by header name).
+/// Parse a reference CSV into rows of the operating point and the five forces and moments.
 pub fn reference_rows(csv: &str) -> Vec<ReferenceRow> {
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-    let col = |name: &str| {
-        header
-            .iter()
-            .position(|h| *h == name)
-            .unwrap_or_else(|| panic!("column {name} missing"))
-    };
-    let idx_in = [
-        col("Fz_N"),
-        col("kappa"),
-        col("alpha_rad"),
-        col("gamma_rad"),
-        col("Vx_mps"),
-    ];
-    let idx_out = [
-        col("Fx_N"),
-        col("Fy_N"),
-        col("Mx_Nm"),
-        col("My_Nm"),
-        col("Mz_Nm"),
-    ];
-    lines
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            let num = |i: usize| f[i].trim().parse::<f64>().expect("number");
-            ReferenceRow {
-                input: SlipInput {
-                    fz_n: num(idx_in[0]),
-                    kappa: num(idx_in[1]),
-                    alpha_rad: num(idx_in[2]),
-                    gamma_rad: num(idx_in[3]),
-                    vx_mps: num(idx_in[4]),
-                },
-                outputs: idx_out.map(num),
-            }
+    let grid = ReferenceGrid::parse(csv);
+    let outputs = ["Fx_N", "Fy_N", "Mx_Nm", "My_Nm", "Mz_Nm"].map(|n| grid.column(n));
+    grid.inputs()
+        .into_iter()
+        .enumerate()
+        .map(|(i, input)| ReferenceRow {
+            input,
+            outputs: outputs.map(|j| grid.value(i, j)),
         })
         .collect()
 }

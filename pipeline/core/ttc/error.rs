@@ -7,6 +7,7 @@
 use thiserror::Error;
 
 use super::channel::UnitError;
+use super::mat::ElementProblem;
 
 /// Everything that makes a TTC run file unreadable.
 ///
@@ -112,14 +113,14 @@ pub enum TtcError {
     },
 
     /// A data element that cannot be decoded (truncated, corrupt, inconsistent).
-    #[error("{source_name}: element {element} at byte {offset}: {message}")]
+    #[error("{source_name}: element {element} at byte {offset}: {problem}")]
     MatElement {
         source_name: String,
         /// The variable name when it was already read, otherwise `#<index>` (0-based).
         element: String,
         /// Byte offset of the top-level element's tag in the file.
         offset: usize,
-        message: String,
+        problem: ElementProblem,
     },
 
     /// A decoded variable that cannot be a run channel (wrong shape, wrong length, wrong class).

@@ -1,19 +1,20 @@
 //! Deterministic example run files in each round's exact layout, for tests, benchmarks and fuzz
 //! seeds.
 //!
-//! In: a [`RoundStyle`] and a row count. Out: `.dat` bytes (via [`render_dat`]) or TTC `.mat`
+//! In: an [`ExampleStyle`] and a row count. Out: `.dat` bytes (via [`render_dat`]) or TTC `.mat`
 //! bytes (via [`MatWriter`]) holding smooth made-up signals: sinusoidal slip-angle sweeps at a
 //! 250 lb (1112 N) load, SAE axes, each channel in the style's unit. Deliberately not physics:
 //! the virtual test machine (synth) makes realistic rounds; these only exercise the formats.
 //! Never real TTC data.
 
-use super::dat::{DatColumn, Line1, render_dat};
+use super::dat::{DatColumn, Line1, RoundStyle, render_dat};
 use super::mat::{Compression, MatWriter};
 use super::{Channel, Unit};
 
-/// Header and unit conventions of one round's files (see `shared/docs/ttc-format.md`).
+/// The four header-and-unit conventions the examples come in: a round style and a unit system
+/// (see `shared/docs/ttc-format.md`).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum RoundStyle {
+pub enum ExampleStyle {
     /// Round 4, US customary: `sec mph ... deg F ... none [SAE]`, `AMBTMP`, 50 Hz.
     R4Uscs,
     /// Round 4, SI, with the ambient temperature in deg F.
@@ -24,26 +25,32 @@ pub enum RoundStyle {
     R9Si,
 }
 
-impl RoundStyle {
-    pub const ALL: [RoundStyle; 4] = [
-        RoundStyle::R4Uscs,
-        RoundStyle::R4Si,
-        RoundStyle::R8Uscs,
-        RoundStyle::R9Si,
+impl ExampleStyle {
+    pub const ALL: [ExampleStyle; 4] = [
+        ExampleStyle::R4Uscs,
+        ExampleStyle::R4Si,
+        ExampleStyle::R8Uscs,
+        ExampleStyle::R9Si,
     ];
+
+    /// The round whose header line and unit spellings this style writes.
+    pub fn round(self) -> RoundStyle {
+        match self {
+            ExampleStyle::R4Uscs | ExampleStyle::R4Si => RoundStyle::R4,
+            ExampleStyle::R8Uscs => RoundStyle::R8,
+            ExampleStyle::R9Si => RoundStyle::R9,
+        }
+    }
 
     /// Sample rate, Hz.
     pub fn sample_rate_hz(self) -> f64 {
-        match self {
-            RoundStyle::R4Uscs | RoundStyle::R4Si => 50.0,
-            RoundStyle::R8Uscs | RoundStyle::R9Si => 100.0,
-        }
+        self.round().sample_rate_hz()
     }
 
     /// The unit string this style writes for `channel`.
     pub fn unit(self, channel: Channel) -> &'static str {
-        let uscs = matches!(self, RoundStyle::R4Uscs | RoundStyle::R8Uscs);
-        let r4 = matches!(self, RoundStyle::R4Uscs | RoundStyle::R4Si);
+        let uscs = matches!(self, ExampleStyle::R4Uscs | ExampleStyle::R8Uscs);
+        let r4 = self.round() == RoundStyle::R4;
         match channel {
             Channel::Et => {
                 if r4 {
@@ -83,21 +90,21 @@ impl RoundStyle {
                 }
             }
             Channel::Mx | Channel::Mz => match self {
-                RoundStyle::R9Si => "Nm",
-                RoundStyle::R4Si => "N-m",
+                ExampleStyle::R9Si => "Nm",
+                ExampleStyle::R4Si => "N-m",
                 _ => "ft-lb",
             },
             Channel::Nfx | Channel::Nfy => "none",
             Channel::Rst | Channel::Tsti | Channel::Tstc | Channel::Tsto => match self {
-                RoundStyle::R4Uscs => "deg F",
-                RoundStyle::R4Si => "deg C",
-                RoundStyle::R8Uscs => "deg f",
-                RoundStyle::R9Si => "deg c",
+                ExampleStyle::R4Uscs => "deg F",
+                ExampleStyle::R4Si => "deg C",
+                ExampleStyle::R8Uscs => "deg f",
+                ExampleStyle::R9Si => "deg c",
             },
             Channel::Ambtmp => match self {
-                RoundStyle::R4Uscs | RoundStyle::R4Si => "deg F",
-                RoundStyle::R8Uscs => "deg f",
-                RoundStyle::R9Si => "deg c",
+                ExampleStyle::R4Uscs | ExampleStyle::R4Si => "deg F",
+                ExampleStyle::R8Uscs => "deg f",
+                ExampleStyle::R9Si => "deg c",
             },
             Channel::Sr => {
                 if r4 {
@@ -118,15 +125,15 @@ impl RoundStyle {
             ..Line1::default()
         };
         match self {
-            RoundStyle::R4Uscs | RoundStyle::R4Si => base(1320, 125),
-            RoundStyle::R8Uscs => Line1 {
+            ExampleStyle::R4Uscs | ExampleStyle::R4Si => base(1320, 125),
+            ExampleStyle::R8Uscs => Line1 {
                 date: Some("08-01-2018".into()),
                 time: Some("19:19".into()),
                 iso: Some(false),
                 id: Some("3Scoi1N".into()),
                 ..base(1965, 51)
             },
-            RoundStyle::R9Si => Line1 {
+            ExampleStyle::R9Si => Line1 {
                 date: Some("01-18-2022".into()),
                 time: Some("12:51".into()),
                 tire_name: Some("Example 16.0X7.5-10, R20, C2000".into()),
@@ -184,7 +191,7 @@ pub fn example_value(channel: Channel, i: usize, rate_hz: f64) -> f64 {
 }
 
 /// The columns of an example run: the 21 standard channels (22 with `with_sl`), in file units.
-pub fn example_columns(style: RoundStyle, rows: usize, with_sl: bool) -> Vec<DatColumn> {
+pub fn example_columns(style: ExampleStyle, rows: usize, with_sl: bool) -> Vec<DatColumn> {
     let rate = style.sample_rate_hz();
     Channel::ALL
         .into_iter()
@@ -193,7 +200,7 @@ pub fn example_columns(style: RoundStyle, rows: usize, with_sl: bool) -> Vec<Dat
             let unit_text = style.unit(channel);
             let unit = Unit::parse(unit_text).expect("style units are known spellings");
             let name = match (channel, style) {
-                (Channel::Ambtmp, RoundStyle::R8Uscs | RoundStyle::R9Si) => "AmbTmp",
+                (Channel::Ambtmp, ExampleStyle::R8Uscs | ExampleStyle::R9Si) => "AmbTmp",
                 _ => channel.name(),
             };
             DatColumn {
@@ -209,14 +216,14 @@ pub fn example_columns(style: RoundStyle, rows: usize, with_sl: bool) -> Vec<Dat
 }
 
 /// An example `.dat` file.
-pub fn example_dat(style: RoundStyle, rows: usize, with_sl: bool) -> Vec<u8> {
+pub fn example_dat(style: ExampleStyle, rows: usize, with_sl: bool) -> Vec<u8> {
     render_dat(&style.line1(), &example_columns(style, rows, with_sl))
 }
 
 /// An example TTC `.mat` file (SI, the real variable set: 22 channels with SL, `RUN` as uint8,
 /// the `channel` struct, `source`, `testid`, `tireid`), values rounded like the `.dat`.
 pub fn example_mat(rows: usize, compression: Compression) -> Vec<u8> {
-    let style = RoundStyle::R4Si;
+    let style = ExampleStyle::R4Si;
     let columns = example_columns(style, rows, true);
     let mut writer = MatWriter::new("MATLAB 5.0 MAT-file, Platform: PCWIN64, Created on: example");
     for column in &columns {

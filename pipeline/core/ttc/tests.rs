@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use super::dat::{DatColumn, render_dat};
-use super::example::{RoundStyle, example_columns, example_dat, example_mat, example_value};
+use super::example::{ExampleStyle, example_columns, example_dat, example_mat, example_value};
 use super::mat::{Compression, MatValue, MatWriter, NumericClass, parse_mat};
 use super::*;
 use crate::numerics::random::SplitMix64;
@@ -56,7 +56,7 @@ fn sae_column(run: &RunTable, channel: Channel) -> Vec<f64> {
 
 #[test]
 fn every_round_style_reads_back_in_si_and_iso_w() {
-    for style in RoundStyle::ALL {
+    for style in ExampleStyle::ALL {
         for with_sl in [false, true] {
             let rows = 300;
             let bytes = example_dat(style, rows, with_sl);
@@ -101,7 +101,7 @@ fn every_round_style_reads_back_in_si_and_iso_w() {
 #[test]
 fn header_fields_and_unit_systems_per_round() {
     let r4 = read_dat(
-        &example_dat(RoundStyle::R4Uscs, 5, false),
+        &example_dat(ExampleStyle::R4Uscs, 5, false),
         "A1320run125.dat",
     )
     .unwrap();
@@ -111,7 +111,11 @@ fn header_fields_and_unit_systems_per_round() {
     assert_eq!(r4.meta.format, SourceFormat::Dat);
 
     // Round-4 SI: every unit SI except AMBTMP in deg F -> mixed, and per-column systems say so.
-    let r4si = read_dat(&example_dat(RoundStyle::R4Si, 5, false), "B1320run125.dat").unwrap();
+    let r4si = read_dat(
+        &example_dat(ExampleStyle::R4Si, 5, false),
+        "B1320run125.dat",
+    )
+    .unwrap();
     assert_eq!(r4si.meta.unit_system(), None);
     let amb = r4si
         .meta
@@ -130,7 +134,7 @@ fn header_fields_and_unit_systems_per_round() {
         0.003,
     );
 
-    let r8 = read_dat(&example_dat(RoundStyle::R8Uscs, 5, false), "x.dat").unwrap();
+    let r8 = read_dat(&example_dat(ExampleStyle::R8Uscs, 5, false), "x.dat").unwrap();
     assert_eq!((r8.meta.project, r8.meta.run), (Some(1965), Some(51)));
     assert_eq!(r8.meta.date.as_deref(), Some("08-01-2018"));
     assert_eq!(r8.meta.time.as_deref(), Some("19:19"));
@@ -138,7 +142,7 @@ fn header_fields_and_unit_systems_per_round() {
     assert_eq!(r8.meta.id.as_deref(), Some("3Scoi1N"));
     assert!(r8.meta.columns.iter().any(|c| c.name == "AmbTmp"));
 
-    let r9 = read_dat(&example_dat(RoundStyle::R9Si, 5, false), "x.dat").unwrap();
+    let r9 = read_dat(&example_dat(ExampleStyle::R9Si, 5, false), "x.dat").unwrap();
     assert_eq!(
         r9.meta.tire_name.as_deref(),
         Some("Example 16.0X7.5-10, R20, C2000")
@@ -220,8 +224,8 @@ fn iso_true_file_is_taken_as_iso_w_without_flipping() {
 
 #[test]
 fn spreadsheet_damage_crlf_bom_and_missing_final_newline_are_accepted() {
-    let clean = read_dat(&example_dat(RoundStyle::R8Uscs, 50, false), "clean.dat").unwrap();
-    let text = String::from_utf8(example_dat(RoundStyle::R8Uscs, 50, false)).unwrap();
+    let clean = read_dat(&example_dat(ExampleStyle::R8Uscs, 50, false), "clean.dat").unwrap();
+    let text = String::from_utf8(example_dat(ExampleStyle::R8Uscs, 50, false)).unwrap();
     // Spreadsheet re-save: line 1 and line 2/3 padded with tabs, trailing zeros dropped
     // (`0.000` -> `0`, `25.00` -> `25`, `8.20` -> `8.2`), CRLF, BOM, no final newline.
     let lines: Vec<String> = text
@@ -259,7 +263,7 @@ fn spreadsheet_damage_crlf_bom_and_missing_final_newline_are_accepted() {
 
 #[test]
 fn columns_in_any_order_any_case_with_extra_channels_kept() {
-    let mut columns = example_columns(RoundStyle::R9Si, 20, true);
+    let mut columns = example_columns(ExampleStyle::R9Si, 20, true);
     columns.reverse();
     for column in &mut columns {
         column.name = column.name.to_ascii_lowercase();
@@ -273,9 +277,9 @@ fn columns_in_any_order_any_case_with_extra_channels_kept() {
             values: (0..20).map(|i| 40.0 + f64::from(i)).collect(),
         },
     );
-    let bytes = render_dat(&RoundStyle::R9Si.line1(), &columns);
+    let bytes = render_dat(&ExampleStyle::R9Si.line1(), &columns);
     let run = read_dat(&bytes, "shuffled.dat").unwrap_or_else(|e| panic!("{e}"));
-    let reference = read_dat(&example_dat(RoundStyle::R9Si, 20, true), "ref.dat").unwrap();
+    let reference = read_dat(&example_dat(ExampleStyle::R9Si, 20, true), "ref.dat").unwrap();
     assert_eq!(run.tire, reference.tire);
     assert_eq!(run.ambient_temp_c, reference.ambient_temp_c);
     assert_eq!(run.sl, reference.sl);
@@ -288,7 +292,7 @@ fn columns_in_any_order_any_case_with_extra_channels_kept() {
 
 #[test]
 fn truncated_last_line_is_dropped_with_a_warning_and_elsewhere_is_an_error() {
-    let text = String::from_utf8(example_dat(RoundStyle::R8Uscs, 10, false)).unwrap();
+    let text = String::from_utf8(example_dat(ExampleStyle::R8Uscs, 10, false)).unwrap();
     let full = read_dat(text.as_bytes(), "t.dat").unwrap();
     let trimmed = text.trim_end();
     for cut in [8, 20, 60] {
@@ -319,7 +323,7 @@ fn truncated_last_line_is_dropped_with_a_warning_and_elsewhere_is_an_error() {
 #[test]
 fn a_large_file_parsed_in_two_halves_equals_and_errs_like_one_pass() {
     // Over 1 MiB of rows: parsed in two halves on two threads.
-    let text = String::from_utf8(example_dat(RoundStyle::R8Uscs, 12_000, false)).unwrap();
+    let text = String::from_utf8(example_dat(ExampleStyle::R8Uscs, 12_000, false)).unwrap();
     assert!(text.len() > 1 << 20, "{} bytes", text.len());
     let run = read_dat(text.as_bytes(), "big.dat").unwrap();
     assert_eq!(run.len(), 12_000);
@@ -328,7 +332,7 @@ fn a_large_file_parsed_in_two_halves_equals_and_errs_like_one_pass() {
         "rows out of order"
     );
     let small = read_dat(
-        example_dat(RoundStyle::R8Uscs, 10, false).as_slice(),
+        example_dat(ExampleStyle::R8Uscs, 10, false).as_slice(),
         "small.dat",
     )
     .unwrap();
@@ -352,7 +356,7 @@ fn a_large_file_parsed_in_two_halves_equals_and_errs_like_one_pass() {
 
 #[test]
 fn blank_trailing_lines_are_ignored() {
-    let mut bytes = example_dat(RoundStyle::R4Uscs, 10, false);
+    let mut bytes = example_dat(ExampleStyle::R4Uscs, 10, false);
     bytes.extend_from_slice(b"\n\r\n  \n");
     let run = read_dat(&bytes, "t.dat").unwrap();
     assert_eq!(run.len(), 10);
@@ -541,7 +545,11 @@ fn mat_writer_is_deterministic_and_validates() {
 
 #[test]
 fn mat_run_equals_the_dat_run_of_the_same_data() {
-    let dat = read_dat(&example_dat(RoundStyle::R4Si, 400, true), "B1320run125.dat").unwrap();
+    let dat = read_dat(
+        &example_dat(ExampleStyle::R4Si, 400, true),
+        "B1320run125.dat",
+    )
+    .unwrap();
     for compression in [Compression::None, Compression::Zlib] {
         let mat = read_mat(&example_mat(400, compression), "B1320run125.mat")
             .unwrap_or_else(|e| panic!("{e}"));
@@ -919,8 +927,8 @@ fn check_no_panic_and_sane(bytes: &[u8], name: &str) {
 #[test]
 fn random_mutations_of_valid_files_never_panic() {
     let seeds: Vec<(&str, Vec<u8>)> = vec![
-        ("m.dat", example_dat(RoundStyle::R4Uscs, 6, false)),
-        ("m.dat", example_dat(RoundStyle::R9Si, 6, true)),
+        ("m.dat", example_dat(ExampleStyle::R4Uscs, 6, false)),
+        ("m.dat", example_dat(ExampleStyle::R9Si, 6, true)),
         ("m.mat", example_mat(6, Compression::None)),
         ("m.mat", example_mat(6, Compression::Zlib)),
     ];

@@ -47,11 +47,11 @@ pub fn decode_text(bytes: &[u8]) -> (Cow<'_, str>, bool) {
 mod tests {
     use super::*;
     use crate::ttc::dat::read_dat;
-    use crate::ttc::example::{RoundStyle, example_dat};
+    use crate::ttc::example::{ExampleStyle, example_dat};
 
     #[test]
     fn issue20_a_windows_1252_tire_name_is_decoded_not_replaced() {
-        let utf8 = example_dat(RoundStyle::R9Si, 5, false);
+        let utf8 = example_dat(ExampleStyle::R9Si, 5, false);
         let name = b"Example 16.0X7.5-10, R20, C2000";
         let at = utf8.windows(name.len()).position(|w| w == name).unwrap();
         // The same file with the tire named "Pirelli Ø 10" in Windows-1252 (Ø = 0xD8).

@@ -1,33 +1,13 @@
 //! The evaluator, fed through the `.tir` reader, against every MFeval 4.3.1 reference grid.
 //!
-//! In: the reference `.tir` files and CSVs under `tests/fixtures/reference/` (compiled in).
+//! In: the reference `.tir` files and CSVs under `tests/fixtures/reference/` (`test_support`).
 //! Out: assertions that every output column agrees to a relative error of 1e-9 (relative to
 //! `max(|ref|, 1)`), and the measured maxima printed (`cargo test -- --nocapture`).
 //! Deliberately not here: the CLI path (tests/tir.rs drives the binary on the same files).
 
 use super::TirFile;
+use crate::tire_model::test_support::*;
 use crate::tire_model::{Evaluation, Mode, SlipInput};
-
-const MFEVAL_TIR: &str = include_str!(
-    "../../../../tests/fixtures/reference/mfeval-sample/MagicFormula52_Parameters.tir"
-);
-const MFEVAL_111: &str = include_str!(
-    "../../../../tests/fixtures/reference/mfeval-sample/mfeval_pac2002_combined_mode111.csv"
-);
-const MFEVAL_211: &str = include_str!(
-    "../../../../tests/fixtures/reference/mfeval-sample/mfeval_pac2002_combined_mode211.csv"
-);
-const MFEVAL_PURE_111: &str = include_str!(
-    "../../../../tests/fixtures/reference/mfeval-sample/mfeval_pac2002_pure_mode111.csv"
-);
-const FSAE_TIR: &str =
-    include_str!("../../../../tests/fixtures/reference/fsae-demo/fsae_demo_pac2002.tir");
-const FSAE_COMBINED_111: &str = include_str!(
-    "../../../../tests/fixtures/reference/fsae-demo/fsae_demo_pac2002_combined_mode111.csv"
-);
-const FSAE_PURE_111: &str = include_str!(
-    "../../../../tests/fixtures/reference/fsae-demo/fsae_demo_pac2002_pure_mode111.csv"
-);
 
 /// Relative error bound of issue 2 ("Done when").
 const TOL: f64 = 1e-9;
@@ -55,31 +35,13 @@ const OUTPUTS: [(&str, Getter); 11] = [
 fn check(name: &str, tir: &str, csv: &str, mode: Mode) -> Vec<(&'static str, f64)> {
     let (file, _warnings) = TirFile::parse(tir).expect("reference .tir reads");
     let model = file.model();
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-    let col = |n: &str| {
-        header
-            .iter()
-            .position(|h| *h == n)
-            .unwrap_or_else(|| panic!("{name}: no column {n}"))
-    };
-    let inputs = ["Fz_N", "kappa", "alpha_rad", "gamma_rad", "Vx_mps"].map(col);
-    let outputs: Vec<usize> = OUTPUTS.iter().map(|(n, _)| col(n)).collect();
+    let grid = ReferenceGrid::parse(csv);
+    let outputs: Vec<usize> = OUTPUTS.iter().map(|(n, _)| grid.column(n)).collect();
     let mut worst = vec![0.0_f64; OUTPUTS.len()];
-    let mut rows = 0;
-    for (i, line) in lines.enumerate() {
-        let cells: Vec<&str> = line.split(',').collect();
-        let num = |j: usize| -> f64 { cells[j].parse().expect("number") };
-        let input = SlipInput {
-            fz_n: num(inputs[0]),
-            kappa: num(inputs[1]),
-            alpha_rad: num(inputs[2]),
-            gamma_rad: num(inputs[3]),
-            vx_mps: num(inputs[4]),
-        };
-        let eval = model.eval(&input, mode);
+    for (i, input) in grid.inputs().iter().enumerate() {
+        let eval = model.eval(input, mode);
         for (k, (out_name, get)) in OUTPUTS.iter().enumerate() {
-            let reference = num(outputs[k]);
+            let reference = grid.value(i, outputs[k]);
             let ours = get(&eval);
             let rel = (ours - reference).abs() / reference.abs().max(1.0);
             assert!(
@@ -90,8 +52,8 @@ fn check(name: &str, tir: &str, csv: &str, mode: Mode) -> Vec<(&'static str, f64
             );
             worst[k] = worst[k].max(rel);
         }
-        rows += 1;
     }
+    let rows = grid.row_count();
     assert!(rows > 100, "{name}: only {rows} rows");
     let report: Vec<(&str, f64)> = OUTPUTS.iter().map(|(n, _)| *n).zip(worst).collect();
     println!("{name} ({rows} rows) max relative error: {report:?}");
@@ -100,39 +62,59 @@ fn check(name: &str, tir: &str, csv: &str, mode: Mode) -> Vec<(&'static str, f64
 
 #[test]
 fn mfeval_sample_combined_limits_matches_usemode_111() {
-    check("mfeval combined 111", MFEVAL_TIR, MFEVAL_111, Mode::Limits);
+    check(
+        "mfeval combined 111",
+        MFEVAL_SAMPLE_TIR,
+        MFEVAL_SAMPLE_COMBINED_111,
+        Mode::Limits,
+    );
 }
 
 #[test]
 fn mfeval_sample_combined_raw_matches_usemode_211() {
-    check("mfeval combined 211", MFEVAL_TIR, MFEVAL_211, Mode::Raw);
+    check(
+        "mfeval combined 211",
+        MFEVAL_SAMPLE_TIR,
+        MFEVAL_SAMPLE_COMBINED_211,
+        Mode::Raw,
+    );
 }
 
 #[test]
 fn mfeval_sample_pure_limits_matches_usemode_111() {
-    check("mfeval pure 111", MFEVAL_TIR, MFEVAL_PURE_111, Mode::Limits);
+    check(
+        "mfeval pure 111",
+        MFEVAL_SAMPLE_TIR,
+        MFEVAL_SAMPLE_PURE_111,
+        Mode::Limits,
+    );
 }
 
 #[test]
 fn fsae_demo_combined_limits_matches_usemode_111() {
     check(
         "fsae combined 111",
-        FSAE_TIR,
-        FSAE_COMBINED_111,
+        FSAE_DEMO_TIR,
+        FSAE_DEMO_COMBINED_111,
         Mode::Limits,
     );
 }
 
 #[test]
 fn fsae_demo_pure_limits_matches_usemode_111() {
-    check("fsae pure 111", FSAE_TIR, FSAE_PURE_111, Mode::Limits);
+    check(
+        "fsae pure 111",
+        FSAE_DEMO_TIR,
+        FSAE_DEMO_PURE_111,
+        Mode::Limits,
+    );
 }
 
 /// The raw mode really differs where the E clamp acts (so the 111/211 tests are not the same
 /// test twice).
 #[test]
 fn limits_and_raw_differ_on_the_mfeval_sample() {
-    let (file, _) = TirFile::parse(MFEVAL_TIR).unwrap();
+    let (file, _) = TirFile::parse(MFEVAL_SAMPLE_TIR).unwrap();
     let model = file.model();
     let input = SlipInput {
         fz_n: 2.0 * 9416.6,
@@ -149,7 +131,7 @@ fn limits_and_raw_differ_on_the_mfeval_sample() {
 /// Converting a reference file (render, then read) changes no output bit.
 #[test]
 fn converted_reference_files_evaluate_identically() {
-    for tir in [MFEVAL_TIR, FSAE_TIR] {
+    for tir in [MFEVAL_SAMPLE_TIR, FSAE_DEMO_TIR] {
         let (file, _) = TirFile::parse(tir).unwrap();
         let (again, _) = TirFile::parse(&file.render().unwrap()).unwrap();
         for (a, b) in file.coefs.0.iter().zip(again.coefs.0.iter()) {
@@ -158,33 +140,7 @@ fn converted_reference_files_evaluate_identically() {
     }
 }
 
-// ---------------------------------------------------------------------------------------------
 // MF 6.1 / 6.2: MFeval's samples and the book defaults, per-row inflation pressure, both modes.
-
-const MF61_TIR: &str =
-    include_str!("../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula61_Parameters.tir");
-const MF61_111: &str = include_str!(
-    "../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula61_Parameters_mode111.csv"
-);
-const MF61_211: &str = include_str!(
-    "../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula61_Parameters_mode211.csv"
-);
-const MF62_TIR: &str =
-    include_str!("../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula62_Parameters.tir");
-const MF62_111: &str = include_str!(
-    "../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula62_Parameters_mode111.csv"
-);
-const MF62_211: &str = include_str!(
-    "../../../../tests/fixtures/reference/mfeval-mf6/MagicFormula62_Parameters_mode211.csv"
-);
-const BOOK_TIR: &str =
-    include_str!("../../../../tests/fixtures/reference/mfeval-mf6/PacejkaBook_Defaults.tir");
-const BOOK_111: &str = include_str!(
-    "../../../../tests/fixtures/reference/mfeval-mf6/PacejkaBook_Defaults_mode111.csv"
-);
-const BOOK_211: &str = include_str!(
-    "../../../../tests/fixtures/reference/mfeval-mf6/PacejkaBook_Defaults_mode211.csv"
-);
 
 /// Every row of an MF 6.x grid (inputs with `P_Pa`), scalar and batch paths, against MFeval's
 /// five outputs; returns the worst relative error per output (scalar, batch).
@@ -194,32 +150,10 @@ fn check_mf6(name: &str, tir: &str, csv: &str, mode: Mode) -> [f64; 5] {
     assert!(file.version.is_mf6(), "{name}: read as {}", file.version);
     assert_ne!(file.version, Version::Pac2002);
     let model = file.model();
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-    let col = |n: &str| {
-        header
-            .iter()
-            .position(|h| *h == n)
-            .unwrap_or_else(|| panic!("{name}: no column {n}"))
-    };
-    let inputs = ["Fz_N", "kappa", "alpha_rad", "gamma_rad", "Vx_mps", "P_Pa"].map(col);
-    let outputs = ["Fx_N", "Fy_N", "Mx_Nm", "My_Nm", "Mz_Nm"].map(col);
-    let mut points = Vec::new();
-    let mut pressures = Vec::new();
-    let mut reference = Vec::new();
-    for line in lines.filter(|l| !l.trim().is_empty()) {
-        let cells: Vec<&str> = line.split(',').collect();
-        let num = |j: usize| -> f64 { cells[j].parse().expect("number") };
-        points.push(SlipInput {
-            fz_n: num(inputs[0]),
-            kappa: num(inputs[1]),
-            alpha_rad: num(inputs[2]),
-            gamma_rad: num(inputs[3]),
-            vx_mps: num(inputs[4]),
-        });
-        pressures.push(num(inputs[5]));
-        reference.push(outputs.map(num));
-    }
+    let rows = reference_rows(csv);
+    let points: Vec<SlipInput> = rows.iter().map(|r| r.input).collect();
+    let reference: Vec<[f64; 5]> = rows.iter().map(|r| r.outputs).collect();
+    let pressures = ReferenceGrid::parse(csv).values("P_Pa");
     assert!(points.len() >= 400, "{name}: only {} rows", points.len());
     let mut batch = vec![Evaluation::default(); points.len()];
     model.eval_batch_at(&points, Pressures::PerPoint(&pressures), mode, &mut batch);
@@ -256,38 +190,38 @@ fn check_mf6(name: &str, tir: &str, csv: &str, mode: Mode) -> [f64; 5] {
 /// Issue 19: MF 6.1 (MFeval's sample), limits mode (pressure clipped to PRESMIN).
 #[test]
 fn mf61_sample_matches_usemode_111() {
-    check_mf6("mf61 111", MF61_TIR, MF61_111, Mode::Limits);
+    check_mf6("mf61 111", MF61_SAMPLE_TIR, MF61_SAMPLE_111, Mode::Limits);
 }
 
 #[test]
 fn mf61_sample_matches_usemode_211() {
-    check_mf6("mf61 211", MF61_TIR, MF61_211, Mode::Raw);
+    check_mf6("mf61 211", MF61_SAMPLE_TIR, MF61_SAMPLE_211, Mode::Raw);
 }
 
 #[test]
 fn mf62_sample_matches_usemode_111() {
-    check_mf6("mf62 111", MF62_TIR, MF62_111, Mode::Limits);
+    check_mf6("mf62 111", MF62_SAMPLE_TIR, MF62_SAMPLE_111, Mode::Limits);
 }
 
 #[test]
 fn mf62_sample_matches_usemode_211() {
-    check_mf6("mf62 211", MF62_TIR, MF62_211, Mode::Raw);
+    check_mf6("mf62 211", MF62_SAMPLE_TIR, MF62_SAMPLE_211, Mode::Raw);
 }
 
 #[test]
 fn pacejka_book_defaults_match_usemode_111() {
-    check_mf6("book 111", BOOK_TIR, BOOK_111, Mode::Limits);
+    check_mf6("book 111", MF61_BOOK_TIR, MF61_BOOK_111, Mode::Limits);
 }
 
 #[test]
 fn pacejka_book_defaults_match_usemode_211() {
-    check_mf6("book 211", BOOK_TIR, BOOK_211, Mode::Raw);
+    check_mf6("book 211", MF61_BOOK_TIR, MF61_BOOK_211, Mode::Raw);
 }
 
 /// The pressure really acts (so the grids test the pressure terms), and limits mode clips it.
 #[test]
 fn mf61_pressure_changes_forces_and_is_clipped_in_limits_mode() {
-    let (file, _) = TirFile::parse(MF61_TIR).unwrap();
+    let (file, _) = TirFile::parse(MF61_SAMPLE_TIR).unwrap();
     let model = file.model();
     let input = SlipInput {
         fz_n: 6752.0,

@@ -18,7 +18,7 @@ mod write;
 
 use std::io::Read;
 
-pub use write::{DatColumn, Line1, render_dat};
+pub use write::{DatColumn, Line1, RoundStyle, render_dat};
 
 use super::build::{SourceColumn, build};
 use super::error::{excerpt, printable};

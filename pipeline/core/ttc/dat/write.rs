@@ -9,6 +9,38 @@
 
 use std::fmt::Write as _;
 
+/// Which round's header line and unit spellings a file imitates (see
+/// `shared/docs/ttc-format.md`).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum RoundStyle {
+    /// Round 4: `Project 1320; Run 125`, `sec`, `AMBTMP`, `deg F`/`deg C`, 50 Hz.
+    R4,
+    /// Round 8: date, time, ISO flag and ID in line 1; `s`, `AmbTmp`, `deg f`/`deg c`, `SAE`,
+    /// 100 Hz.
+    R8,
+    /// Round 9: as R8 plus `Tire_Name=` and `Rim_Width=`.
+    R9,
+}
+
+impl RoundStyle {
+    /// Sample rate: 50 Hz for round 4, 100 Hz for rounds 6-9.
+    pub fn sample_rate_hz(self) -> f64 {
+        match self {
+            RoundStyle::R4 => 50.0,
+            RoundStyle::R8 | RoundStyle::R9 => 100.0,
+        }
+    }
+
+    /// `R4`, `R8` or `R9`.
+    pub fn label(self) -> &'static str {
+        match self {
+            RoundStyle::R4 => "R4",
+            RoundStyle::R8 => "R8",
+            RoundStyle::R9 => "R9",
+        }
+    }
+}
+
 /// Line 1 fields. Which ones are `Some` decides the round style:
 /// R4 `Project; Run`, R8 `+ Date; Time; ISO; ID`, R9 `+ Tire_Name=; Rim_Width=`.
 #[derive(Clone, Debug, Default, PartialEq)]

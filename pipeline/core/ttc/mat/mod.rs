@@ -11,7 +11,7 @@
 mod read;
 mod write;
 
-pub use read::{MatFile, looks_like_mat, parse_mat};
+pub use read::{ElementProblem, MatFile, looks_like_mat, parse_mat};
 pub use write::{Compression, MatWriteError, MatWriter, ValueProblem};
 
 use super::build::{SourceColumn, build};

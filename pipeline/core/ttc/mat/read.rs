@@ -8,6 +8,7 @@
 //! and object data (skipped as [`MatValue::Unsupported`]).
 
 use flate2::{Decompress, FlushDecompress, Status};
+use thiserror::Error;
 
 use super::{MatValue, MatVariable, NumericClass};
 use crate::ttc::TtcError;
@@ -57,6 +58,114 @@ pub struct MatFile {
     pub variables: Vec<MatVariable>,
 }
 
+/// What is wrong with one element of a MAT-file (the message after
+/// `element <name> at byte <offset>:` in [`TtcError::MatElement`]). `what` names the part being
+/// read (`array flags`, `cell 3`, `field tireid`, ...); `Nested` prefixes the cell or struct
+/// field the problem was found in.
+#[derive(Debug, Error, Clone, PartialEq, Eq)]
+pub enum ElementProblem {
+    #[error("{what}: tag needs 8 bytes, {left} left (truncated?)")]
+    TagTruncated { what: String, left: usize },
+    #[error("{what}: small element claims {len} bytes, at most 4 fit")]
+    SmallTooLong { what: String, len: usize },
+    #[error(
+        "{what}: data type {data_type} ({}) claims {len} bytes, {left} left (truncated?)",
+        type_name(*.data_type)
+    )]
+    DataTruncated {
+        what: String,
+        data_type: u32,
+        len: usize,
+        left: usize,
+    },
+    #[error(
+        "compressed element holds data type {0} ({name}), expected miMATRIX",
+        name = type_name(*.0)
+    )]
+    CompressedNotMatrix(u32),
+    #[error(
+        "unexpected top-level data type {0} ({name}); expected miMATRIX or miCOMPRESSED",
+        name = type_name(*.0)
+    )]
+    UnexpectedTopLevel(u32),
+    #[error("zlib stream ends before its end marker after {consumed} of {len} bytes (truncated?)")]
+    ZlibTruncated { consumed: u64, len: usize },
+    #[error("zlib stream is corrupt: {0}")]
+    ZlibCorrupt(String),
+    #[error("compressed element inflates to {0} bytes, less than a tag")]
+    InflatesBelowTag(usize),
+    #[error(
+        "compressed element of {compressed} bytes declares {declared} bytes inflated, more than the {cap} accepted (a decompression bomb?)"
+    )]
+    DecompressionBomb {
+        compressed: usize,
+        declared: usize,
+        cap: usize,
+    },
+    #[error(
+        "compressed element declares {declared} bytes, but its dimensions and class need at most {limit}"
+    )]
+    DeclaredBeyondDimensions { declared: usize, limit: usize },
+    #[error("zlib stream inflates beyond the {0} bytes its element declares")]
+    InflatesBeyond(usize),
+    #[error("cells/structs nested deeper than {MAX_DEPTH} levels")]
+    TooDeep,
+    #[error("array flags: expected 8 bytes of miUINT32, found {len} bytes of type {data_type}")]
+    BadFlags { len: usize, data_type: u32 },
+    #[error("array name has data type {0}, expected miINT8")]
+    BadNameType(u32),
+    #[error("unknown array class {0}")]
+    UnknownClass(u8),
+    #[error(
+        "dimensions: expected at least two miINT32 values, found {len} bytes of type {data_type}"
+    )]
+    BadDimensions { len: usize, data_type: u32 },
+    #[error("dimensions: negative size {0}")]
+    NegativeDimension(i32),
+    #[error("dimensions {0:?} overflow")]
+    DimensionsOverflow(Vec<usize>),
+    #[error("{what}: data type {data_type}, expected miMATRIX")]
+    NestedNotMatrix { what: String, data_type: u32 },
+    #[error("{what}: {problem}")]
+    Nested {
+        what: String,
+        problem: Box<ElementProblem>,
+    },
+    #[error("field name length: expected one miINT32")]
+    BadFieldNameLength,
+    #[error("field names: expected miINT8 names of length {name_len} > 0, found type {data_type}")]
+    BadFieldNames { name_len: usize, data_type: u32 },
+    #[error("field names: {len} bytes is not a multiple of the name length {name_len}")]
+    RaggedFieldNames { len: usize, name_len: usize },
+    #[error("struct size overflows")]
+    StructOverflow,
+    #[error("char data has data type {0}, expected miUINT16")]
+    CharType(u32),
+    #[error("char data has {found} characters, dimensions {dims:?} say {count}")]
+    CharCount {
+        found: usize,
+        dims: Vec<usize>,
+        count: usize,
+    },
+    #[error("real part has {found} values, dimensions {dims:?} say {count}")]
+    ValueCount {
+        found: usize,
+        dims: Vec<usize>,
+        count: usize,
+    },
+    #[error("{what}: {len} bytes is not a whole number of {width}-byte values")]
+    RaggedValues {
+        what: String,
+        len: usize,
+        width: usize,
+    },
+    #[error(
+        "numeric data has data type {0} ({name}), which is not numeric",
+        name = type_name(*.0)
+    )]
+    NotNumeric(u32),
+}
+
 /// Whether bytes look like a MAT-file (level 5 text header or an HDF5 signature).
 pub fn looks_like_mat(bytes: &[u8]) -> bool {
     bytes.starts_with(b"MATLAB") || bytes.starts_with(HDF5_SIGNATURE)
@@ -79,7 +188,7 @@ pub fn parse_mat(bytes: &[u8], source_name: &str) -> Result<MatFile, TtcError> {
             name: None,
         };
         let (variable, consumed) = top_level_element(rest, big_endian, &mut context)
-            .map_err(|message| context.error(message))?;
+            .map_err(|problem| context.error(problem))?;
         variables.push(variable);
         pos += consumed;
     }
@@ -141,7 +250,7 @@ struct Context<'a> {
 }
 
 impl Context<'_> {
-    fn error(&self, message: String) -> TtcError {
+    fn error(&self, problem: ElementProblem) -> TtcError {
         TtcError::MatElement {
             source_name: self.source_name.to_string(),
             element: self
@@ -149,7 +258,7 @@ impl Context<'_> {
                 .as_deref()
                 .map_or_else(|| format!("#{}", self.index), printable),
             offset: self.offset,
-            message,
+            problem,
         }
     }
 }
@@ -161,7 +270,7 @@ fn top_level_element(
     rest: &[u8],
     big_endian: bool,
     context: &mut Context,
-) -> Result<(MatVariable, usize), String> {
+) -> Result<(MatVariable, usize), ElementProblem> {
     let result = decode_top_level(rest, big_endian, &mut context.name);
     if result.is_err() && context.name.is_none() {
         context.name = peek_name(rest, big_endian);
@@ -173,7 +282,7 @@ fn decode_top_level(
     rest: &[u8],
     big_endian: bool,
     name: &mut Option<String>,
-) -> Result<(MatVariable, usize), String> {
+) -> Result<(MatVariable, usize), ElementProblem> {
     let mut cursor = Cursor::new(rest, big_endian);
     let (data_type, data) = cursor.element("top-level element")?;
     let variable = match data_type {
@@ -183,18 +292,12 @@ fn decode_top_level(
             let mut inner = Cursor::new(&inflated, big_endian);
             let (inner_type, inner_data) = inner.element("compressed element")?;
             if inner_type != MI_MATRIX {
-                return Err(format!(
-                    "compressed element holds data type {inner_type} ({}), expected miMATRIX",
-                    type_name(inner_type)
-                ));
+                return Err(ElementProblem::CompressedNotMatrix(inner_type));
             }
             matrix(inner_data, big_endian, 0, name)?
         }
         other => {
-            return Err(format!(
-                "unexpected top-level data type {other} ({}); expected miMATRIX or miCOMPRESSED",
-                type_name(other)
-            ));
+            return Err(ElementProblem::UnexpectedTopLevel(other));
         }
     };
     // Compressed elements are not padded; miMATRIX lengths already are multiples of 8.
@@ -240,43 +343,34 @@ const INFLATE_RATIO: usize = 64;
 /// element's tag gives its length, which must fit the array's declared dimensions (numeric and
 /// char arrays) and [`INFLATE_FLOOR_BYTES`] or [`INFLATE_RATIO`] times the compressed size; the
 /// stream must then end exactly there. Nothing larger than the declared length is allocated.
-fn inflate_element(data: &[u8], big_endian: bool) -> Result<Vec<u8>, String> {
+fn inflate_element(data: &[u8], big_endian: bool) -> Result<Vec<u8>, ElementProblem> {
     let (head, status) = inflate(data, PEEK_BYTES);
     if head.len() < 8 {
         status?;
-        return Err(format!(
-            "compressed element inflates to {} bytes, less than a tag",
-            head.len()
-        ));
+        return Err(ElementProblem::InflatesBelowTag(head.len()));
     }
     let tag = Cursor::new(&head, big_endian);
     let (inner_type, declared) = (tag.u32_at(0), tag.u32_at(4) as usize);
     if inner_type != MI_MATRIX {
-        return Err(format!(
-            "compressed element holds data type {inner_type} ({}), expected miMATRIX",
-            type_name(inner_type)
-        ));
+        return Err(ElementProblem::CompressedNotMatrix(inner_type));
     }
     let total = declared.saturating_add(8);
     let cap = INFLATE_FLOOR_BYTES.max(data.len().saturating_mul(INFLATE_RATIO));
     if total > cap {
-        return Err(format!(
-            "compressed element of {} bytes declares {declared} bytes inflated, more than the {cap} accepted (a decompression bomb?)",
-            data.len()
-        ));
+        return Err(ElementProblem::DecompressionBomb {
+            compressed: data.len(),
+            declared,
+            cap,
+        });
     }
     if let Some(limit) = header_bound(&head[8..], big_endian)
         && declared > limit
     {
-        return Err(format!(
-            "compressed element declares {declared} bytes, but its dimensions and class need at most {limit}"
-        ));
+        return Err(ElementProblem::DeclaredBeyondDimensions { declared, limit });
     }
     let (inflated, status) = inflate(data, total);
     if status? == Inflated::Beyond {
-        return Err(format!(
-            "zlib stream inflates beyond the {total} bytes its element declares"
-        ));
+        return Err(ElementProblem::InflatesBeyond(total));
     }
     // A shorter stream leaves the inner element short of its tag's length: the element reader
     // names that.
@@ -324,16 +418,13 @@ enum Inflated {
 /// Inflate at most `limit` bytes of a zlib stream. Returns what was inflated even on failure
 /// (used to recover a variable name for the message), and whether the stream ended or goes on
 /// beyond the limit; an error for a corrupt stream or one that stops before its end marker.
-fn inflate(data: &[u8], limit: usize) -> (Vec<u8>, Result<Inflated, String>) {
+fn inflate(data: &[u8], limit: usize) -> (Vec<u8>, Result<Inflated, ElementProblem>) {
     let mut decoder = Decompress::new(true);
     let mut out: Vec<u8> = Vec::new();
     let mut filled = 0;
-    let truncated = |decoder: &Decompress| {
-        format!(
-            "zlib stream ends before its end marker after {} of {} bytes (truncated?)",
-            decoder.total_in(),
-            data.len()
-        )
+    let truncated = |decoder: &Decompress| ElementProblem::ZlibTruncated {
+        consumed: decoder.total_in(),
+        len: data.len(),
     };
     loop {
         let consumed = usize::try_from(decoder.total_in())
@@ -346,7 +437,7 @@ fn inflate(data: &[u8], limit: usize) -> (Vec<u8>, Result<Inflated, String>) {
             let status = decoder.decompress(&data[consumed..], &mut probe, FlushDecompress::None);
             out.truncate(filled);
             match status {
-                Err(e) => return (out, Err(format!("zlib stream is corrupt: {e}"))),
+                Err(e) => return (out, Err(ElementProblem::ZlibCorrupt(e.to_string()))),
                 _ if decoder.total_out() > out_before => return (out, Ok(Inflated::Beyond)),
                 Ok(Status::StreamEnd) => return (out, Ok(Inflated::Ended)),
                 _ if decoder.total_in() == in_before => return (out, Err(truncated(&decoder))),
@@ -371,7 +462,7 @@ fn inflate(data: &[u8], limit: usize) -> (Vec<u8>, Result<Inflated, String>) {
                 // Keep what was inflated before the damage (it may name the variable).
                 filled += usize::try_from(decoder.total_out() - out_before).unwrap_or(0);
                 out.truncate(filled);
-                return (out, Err(format!("zlib stream is corrupt: {e}")));
+                return (out, Err(ElementProblem::ZlibCorrupt(e.to_string())));
             }
         };
         filled += usize::try_from(decoder.total_out() - out_before).unwrap_or(0);
@@ -413,21 +504,23 @@ impl<'a> Cursor<'a> {
     }
 
     /// The next element's data type and data; `what` names it in errors.
-    fn element(&mut self, what: &str) -> Result<(u32, &'a [u8]), String> {
+    fn element(&mut self, what: &str) -> Result<(u32, &'a [u8]), ElementProblem> {
         let left = self.bytes.len() - self.pos;
         if left < 8 {
-            return Err(format!(
-                "{what}: tag needs 8 bytes, {left} left (truncated?)"
-            ));
+            return Err(ElementProblem::TagTruncated {
+                what: what.to_string(),
+                left,
+            });
         }
         let first = self.u32_at(self.pos);
         if first >> 16 != 0 {
             // Small data element: type and length in one word, up to 4 bytes of data.
             let (data_type, len) = (first & 0xFFFF, (first >> 16) as usize);
             if len > 4 {
-                return Err(format!(
-                    "{what}: small element claims {len} bytes, at most 4 fit"
-                ));
+                return Err(ElementProblem::SmallTooLong {
+                    what: what.to_string(),
+                    len,
+                });
             }
             let data = &self.bytes[self.pos + 4..self.pos + 4 + len];
             self.pos += 8;
@@ -436,11 +529,12 @@ impl<'a> Cursor<'a> {
         let len = self.u32_at(self.pos + 4) as usize;
         let start = self.pos + 8;
         if len > self.bytes.len() - start {
-            return Err(format!(
-                "{what}: data type {first} ({}) claims {len} bytes, {} left (truncated?)",
-                type_name(first),
-                self.bytes.len() - start
-            ));
+            return Err(ElementProblem::DataTruncated {
+                what: what.to_string(),
+                data_type: first,
+                len,
+                left: self.bytes.len() - start,
+            });
         }
         let data = &self.bytes[start..start + len];
         self.pos = (start + len.next_multiple_of(8)).min(self.bytes.len());
@@ -459,11 +553,9 @@ fn matrix(
     big_endian: bool,
     depth: usize,
     name: &mut Option<String>,
-) -> Result<MatVariable, String> {
+) -> Result<MatVariable, ElementProblem> {
     if depth > MAX_DEPTH {
-        return Err(format!(
-            "cells/structs nested deeper than {MAX_DEPTH} levels"
-        ));
+        return Err(ElementProblem::TooDeep);
     }
     if data.is_empty() {
         // MATLAB writes an empty matrix in a cell as an miMATRIX of length 0.
@@ -479,19 +571,17 @@ fn matrix(
     let mut cursor = Cursor::new(data, big_endian);
     let (flags_type, flags) = cursor.element("array flags")?;
     if flags_type != MI_UINT32 || flags.len() != 8 {
-        return Err(format!(
-            "array flags: expected 8 bytes of miUINT32, found {} bytes of type {flags_type}",
-            flags.len()
-        ));
+        return Err(ElementProblem::BadFlags {
+            len: flags.len(),
+            data_type: flags_type,
+        });
     }
     let flags_word = Cursor::new(flags, big_endian).u32_at(0);
     let class = (flags_word & 0xFF) as u8;
     let dims = dimensions(&mut cursor)?;
     let (name_type, name_bytes) = cursor.element("array name")?;
     if !matches!(name_type, MI_INT8 | MI_UINT8 | MI_UTF8) {
-        return Err(format!(
-            "array name has data type {name_type}, expected miINT8"
-        ));
+        return Err(ElementProblem::BadNameType(name_type));
     }
     let array_name = String::from_utf8_lossy(name_bytes).into_owned();
     if depth == 0 {
@@ -513,7 +603,7 @@ fn matrix(
         5 => unsupported("sparse array"),
         16 => unsupported("function handle"),
         17 => unsupported("opaque object (string, table, ...)"),
-        other => return Err(format!("unknown array class {other}")),
+        other => return Err(ElementProblem::UnknownClass(other)),
     };
     Ok(MatVariable {
         name: array_name,
@@ -528,28 +618,28 @@ fn unsupported(description: &str) -> MatValue {
 }
 
 /// The dimensions subelement (`miINT32`, at least two values, none negative).
-fn dimensions(cursor: &mut Cursor) -> Result<Vec<usize>, String> {
+fn dimensions(cursor: &mut Cursor) -> Result<Vec<usize>, ElementProblem> {
     let (data_type, data) = cursor.element("dimensions")?;
     if data_type != MI_INT32 || data.len() < 8 || data.len() % 4 != 0 {
-        return Err(format!(
-            "dimensions: expected at least two miINT32 values, found {} bytes of type {data_type}",
-            data.len()
-        ));
+        return Err(ElementProblem::BadDimensions {
+            len: data.len(),
+            data_type,
+        });
     }
     let words = Cursor::new(data, cursor.big_endian);
     (0..data.len() / 4)
         .map(|k| {
             let value = words.u32_at(4 * k) as i32;
-            usize::try_from(value).map_err(|_| format!("dimensions: negative size {value}"))
+            usize::try_from(value).map_err(|_| ElementProblem::NegativeDimension(value))
         })
         .collect()
 }
 
 /// Product of the dimensions, refusing overflow.
-fn element_count(dims: &[usize]) -> Result<usize, String> {
+fn element_count(dims: &[usize]) -> Result<usize, ElementProblem> {
     dims.iter()
         .try_fold(1usize, |acc, d| acc.checked_mul(*d))
-        .ok_or_else(|| format!("dimensions {dims:?} overflow"))
+        .ok_or_else(|| ElementProblem::DimensionsOverflow(dims.to_vec()))
 }
 
 fn cell(
@@ -557,7 +647,7 @@ fn cell(
     dims: Vec<usize>,
     count: usize,
     depth: usize,
-) -> Result<MatValue, String> {
+) -> Result<MatValue, ElementProblem> {
     let mut items = Vec::with_capacity(count.min(cursor.bytes.len() / 8));
     for k in 0..count {
         items.push(nested_matrix(cursor, depth, &format!("cell {}", k + 1))?);
@@ -566,14 +656,24 @@ fn cell(
 }
 
 /// One nested `miMATRIX` element (a cell item or struct field value).
-fn nested_matrix(cursor: &mut Cursor, depth: usize, what: &str) -> Result<MatValue, String> {
+fn nested_matrix(
+    cursor: &mut Cursor,
+    depth: usize,
+    what: &str,
+) -> Result<MatValue, ElementProblem> {
     let (data_type, data) = cursor.element(what)?;
     if data_type != MI_MATRIX {
-        return Err(format!("{what}: data type {data_type}, expected miMATRIX"));
+        return Err(ElementProblem::NestedNotMatrix {
+            what: what.to_string(),
+            data_type,
+        });
     }
     matrix(data, cursor.big_endian, depth + 1, &mut None)
         .map(|v| v.value)
-        .map_err(|e| format!("{what}: {e}"))
+        .map_err(|problem| ElementProblem::Nested {
+            what: what.to_string(),
+            problem: Box::new(problem),
+        })
 }
 
 fn structure(
@@ -581,23 +681,24 @@ fn structure(
     dims: Vec<usize>,
     count: usize,
     depth: usize,
-) -> Result<MatValue, String> {
+) -> Result<MatValue, ElementProblem> {
     let (len_type, len_data) = cursor.element("field name length")?;
     if len_type != MI_INT32 || len_data.len() != 4 {
-        return Err("field name length: expected one miINT32".to_string());
+        return Err(ElementProblem::BadFieldNameLength);
     }
     let name_len = Cursor::new(len_data, cursor.big_endian).u32_at(0) as usize;
     let (names_type, names) = cursor.element("field names")?;
     if !matches!(names_type, MI_INT8 | MI_UINT8 | MI_UTF8) || name_len == 0 {
-        return Err(format!(
-            "field names: expected miINT8 names of length {name_len} > 0, found type {names_type}"
-        ));
+        return Err(ElementProblem::BadFieldNames {
+            name_len,
+            data_type: names_type,
+        });
     }
     if names.len() % name_len != 0 {
-        return Err(format!(
-            "field names: {} bytes is not a multiple of the name length {name_len}",
-            names.len()
-        ));
+        return Err(ElementProblem::RaggedFieldNames {
+            len: names.len(),
+            name_len,
+        });
     }
     let fields: Vec<String> = names
         .chunks(name_len)
@@ -608,7 +709,7 @@ fn structure(
         .collect();
     let total = count
         .checked_mul(fields.len())
-        .ok_or("struct size overflows")?;
+        .ok_or(ElementProblem::StructOverflow)?;
     let mut values = Vec::with_capacity(total.min(cursor.bytes.len() / 8));
     for k in 0..total {
         let field = &fields[k % fields.len()];
@@ -625,7 +726,11 @@ fn structure(
     })
 }
 
-fn char_array(cursor: &mut Cursor, dims: Vec<usize>, count: usize) -> Result<MatValue, String> {
+fn char_array(
+    cursor: &mut Cursor,
+    dims: Vec<usize>,
+    count: usize,
+) -> Result<MatValue, ElementProblem> {
     if cursor.is_at_end() && count == 0 {
         return Ok(MatValue::Char {
             dims,
@@ -662,16 +767,15 @@ fn char_array(cursor: &mut Cursor, dims: Vec<usize>, count: usize) -> Result<Mat
             .encode_utf16()
             .collect(),
         other => {
-            return Err(format!(
-                "char data has data type {other}, expected miUINT16"
-            ));
+            return Err(ElementProblem::CharType(other));
         }
     };
     if data_type != MI_UTF8 && utf16.len() != count {
-        return Err(format!(
-            "char data has {} characters, dimensions {dims:?} say {count}",
-            utf16.len()
-        ));
+        return Err(ElementProblem::CharCount {
+            found: utf16.len(),
+            dims,
+            count,
+        });
     }
     Ok(MatValue::Char { dims, utf16 })
 }
@@ -682,7 +786,7 @@ fn numeric(
     count: usize,
     class_code: u8,
     complex: bool,
-) -> Result<MatValue, String> {
+) -> Result<MatValue, ElementProblem> {
     let class = match class_code {
         6 => NumericClass::Double,
         7 => NumericClass::Single,
@@ -705,10 +809,11 @@ fn numeric(
     let (data_type, bytes) = cursor.element("real part")?;
     let data = numbers(data_type, bytes, cursor.big_endian)?;
     if data.len() != count {
-        return Err(format!(
-            "real part has {} values, dimensions {dims:?} say {count}",
-            data.len()
-        ));
+        return Err(ElementProblem::ValueCount {
+            found: data.len(),
+            dims,
+            count,
+        });
     }
     if complex {
         return Ok(unsupported(&format!("complex {}", class.name())));
@@ -720,12 +825,13 @@ fn numeric(
 fn even_chunks<'a, const N: usize>(
     data: &'a [u8],
     what: &str,
-) -> Result<impl Iterator<Item = [u8; N]> + 'a, String> {
+) -> Result<impl Iterator<Item = [u8; N]> + 'a, ElementProblem> {
     if !data.len().is_multiple_of(N) {
-        return Err(format!(
-            "{what}: {} bytes is not a whole number of {N}-byte values",
-            data.len()
-        ));
+        return Err(ElementProblem::RaggedValues {
+            what: what.to_string(),
+            len: data.len(),
+            width: N,
+        });
     }
     Ok(data
         .chunks_exact(N)
@@ -733,7 +839,7 @@ fn even_chunks<'a, const N: usize>(
 }
 
 /// Decode numeric storage of any MAT data type to `f64`.
-fn numbers(data_type: u32, bytes: &[u8], big_endian: bool) -> Result<Vec<f64>, String> {
+fn numbers(data_type: u32, bytes: &[u8], big_endian: bool) -> Result<Vec<f64>, ElementProblem> {
     macro_rules! decode {
         ($ty:ty, $n:literal) => {
             even_chunks::<$n>(bytes, "numeric data")?
@@ -759,10 +865,7 @@ fn numbers(data_type: u32, bytes: &[u8], big_endian: bool) -> Result<Vec<f64>, S
         MI_INT64 => decode!(i64, 8),
         MI_UINT64 => decode!(u64, 8),
         other => {
-            return Err(format!(
-                "numeric data has data type {other} ({}), which is not numeric",
-                type_name(other)
-            ));
+            return Err(ElementProblem::NotNumeric(other));
         }
     })
 }
