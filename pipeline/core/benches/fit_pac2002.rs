@@ -17,6 +17,9 @@ mod fit {
         pub use tirebase_core::fit::pac2002::*;
     }
 }
+mod numerics {
+    pub use tirebase_core::numerics::*;
+}
 #[allow(dead_code)]
 #[path = "../fit/pac2002/synthetic.rs"]
 mod synthetic;

@@ -26,6 +26,7 @@
 use std::collections::BTreeMap;
 
 use super::{RelaxationLengths, Sample, Sweep, SweepKind, SweepNominal};
+use crate::numerics::stats::median;
 use crate::tire_model::SlipInput;
 
 /// Output channels of a sample, in a fixed order.
@@ -183,19 +184,6 @@ pub fn collapse(sweep: &Sweep, settings: &CollapseSettings<'_>) -> CollapsedSwee
     }
 }
 
-fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 /// Replaces spikes of one channel by the running median; returns how many.
 fn despike(samples: &mut [Sample], o: Output, sigmas: f64) -> usize {
     const HALF: usize = 3;
@@ -210,7 +198,7 @@ fn despike(samples: &mut [Sample], o: Output, sigmas: f64) -> usize {
         let half = HALF.min(i).min(n - 1 - i);
         let (lo, hi) = (i - half, i + half + 1);
         window.extend(values[lo..hi].iter().copied().filter(|v| v.is_finite()));
-        *m = median(&mut window);
+        *m = median(&mut window).unwrap_or(f64::NAN);
     }
     let mut abs_res: Vec<f64> = values
         .iter()
@@ -221,7 +209,7 @@ fn despike(samples: &mut [Sample], o: Output, sigmas: f64) -> usize {
     if abs_res.is_empty() {
         return 0;
     }
-    let scale = 1.4826 * median(&mut abs_res);
+    let scale = 1.4826 * median(&mut abs_res).unwrap_or(f64::NAN);
     let peak = med
         .iter()
         .filter(|v| v.is_finite())

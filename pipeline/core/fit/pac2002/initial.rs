@@ -22,6 +22,7 @@
 //! Deliberately not here: the joint refinement (these values only need to be in the right basin).
 
 use crate::numerics::bounded_least_squares::Bounds;
+use crate::numerics::stats::finite_median;
 use crate::tire_model::pac2002::{load, pure_fy0};
 use crate::tire_model::{Coef, Coef::*, Coefs, Real, SlipInput};
 
@@ -80,18 +81,9 @@ fn linear_fit(
     Some(out)
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.retain(|x| x.is_finite());
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+/// The median of the finite values, NaN without any.
+fn median(v: Vec<f64>) -> f64 {
+    finite_median(v).unwrap_or(f64::NAN)
 }
 
 /// A single Magic Formula curve with side-dependent curvature:

@@ -5,7 +5,7 @@
 //! model against the truth over the tested envelope, % of the truth's peak per channel.
 
 use super::synthetic::{
-    EnvelopeErrors, Rng, RoundSpec, envelope_errors, fsae_demo, truth_relaxation, ttc_round,
+    EnvelopeErrors, RoundSpec, envelope_errors, fsae_demo, truth_relaxation, ttc_round,
 };
 use super::*;
 use crate::tire_model::{Coef::*, Coefs, Real};
@@ -68,7 +68,7 @@ fn report(name: &str, fit: &Pac2002Fit, e: &EnvelopeErrors) {
 /// in [-1, 1] (seeded), shifts and camber terms included.
 fn perturbed(seed: u64) -> Coefs<f64> {
     let mut c = fsae_demo();
-    let mut rng = Rng::new(seed);
+    let mut rng = crate::numerics::random::SplitMix64::new(seed);
     for family in Family::FIT_ORDER {
         if family == Family::My || family == Family::Mx {
             continue;
