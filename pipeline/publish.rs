@@ -124,8 +124,15 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
     let prev_dir = previous.map(|(_, d, _)| d.as_path());
 
     let t = Instant::now();
-    let (tir_names, tir_notes) = publish_tir(&outcome, prev_dir, &reused_keys, &staging)?;
-    let (mf61_names, mf61_notes) = publish_mf61_tir(&outcome, prev_dir, &reused_keys, &staging)?;
+    let (tir_names, tir_notes) = publish_tir(
+        FitModel::Pac2002,
+        &outcome,
+        prev_dir,
+        &reused_keys,
+        &staging,
+    )?;
+    let (mf61_names, mf61_notes) =
+        publish_tir(FitModel::Mf61, &outcome, prev_dir, &reused_keys, &staging)?;
     let tir_files = crate::store::files::files_in(&staging.join("tir"))?.len();
     let merged = merge_tables(
         &outcome,
@@ -352,15 +359,25 @@ fn merge_tables(
     Ok(out)
 }
 
-/// Write this run's `.tir` files and link the reused groups' files from the previous version,
-/// each under its name among all the version's models (a reused file is renamed when a new
-/// tire's name now collides with it). Returns the names by group and the disambiguation notes.
+/// Write this run's `.tir` files of one model and link the reused ones from the previous
+/// version, each under its name among all the version's models of that model (a reused file is
+/// renamed when a new tire's name now collides with it). PAC2002 files are keyed by group, MF 6.1
+/// files by tire, rim and `NOMPRES`. Returns the names by key and the disambiguation notes.
 fn publish_tir(
+    model: FitModel,
     outcome: &FitOutcome,
     prev_dir: Option<&Path>,
     reused: &BTreeSet<GroupKey>,
     staging: &Path,
 ) -> Result<TirNames, StoreError> {
+    let groups_of = |dir: &Path| match model {
+        FitModel::Pac2002 => model_groups(dir),
+        FitModel::Mf61 => mf61_groups(dir),
+    };
+    let names_of = |groups: &BTreeSet<GroupKey>| match model {
+        FitModel::Pac2002 => tir_names(groups),
+        FitModel::Mf61 => mf61_names(groups),
+    };
     let dir = staging.join("tir");
     crate::store::files::ensure_dir(&dir)?;
     let fitted: Vec<(GroupKey, &String)> = outcome
@@ -368,13 +385,13 @@ fn publish_tir(
         .iter()
         .zip(&outcome.tir_models)
         .zip(&outcome.tir_files)
-        .filter(|((_, m), _)| **m == FitModel::Pac2002)
+        .filter(|((_, m), _)| **m == model)
         .map(|((k, _), (_, text))| ((k.tire.clone(), k.rim_in, k.pressure_kpa_nom), text))
         .collect();
     let (prev_models, prev_names) = match prev_dir {
         Some(prev) => {
-            let groups = model_groups(prev);
-            let (names, _) = tir_names(&groups);
+            let groups = groups_of(prev);
+            let (names, _) = names_of(&groups);
             (groups, names)
         }
         None => Default::default(),
@@ -386,58 +403,7 @@ fn publish_tir(
         .map(|(k, _)| k.clone())
         .chain(reused_models.iter().map(|k| (*k).clone()))
         .collect();
-    let (names, notes) = tir_names(&all);
-    for (key, text) in &fitted {
-        crate::store::files::write_bytes_atomic(&dir.join(&names[key]), text.as_bytes())?;
-    }
-    if let Some(prev) = prev_dir {
-        for key in reused_models {
-            let from = prev.join("tir").join(&prev_names[key]);
-            let to = dir.join(&names[key]);
-            if from.is_file() && !to.exists() && fs::hard_link(&from, &to).is_err() {
-                fs::copy(&from, &to).map_err(|e| StoreError::io(&to, e))?;
-            }
-        }
-    }
-    Ok((names, notes))
-}
-
-/// Write this run's MF 6.1 `.tir` files and link the reused tires' and rims' files from the
-/// previous version, each under its name among all the version's MF 6.1 models (as
-/// [`publish_tir`] does for the PAC2002 files). Returns the names by (tire, rim, `NOMPRES`)
-/// and the disambiguation notes.
-fn publish_mf61_tir(
-    outcome: &FitOutcome,
-    prev_dir: Option<&Path>,
-    reused: &BTreeSet<GroupKey>,
-    staging: &Path,
-) -> Result<TirNames, StoreError> {
-    let dir = staging.join("tir");
-    crate::store::files::ensure_dir(&dir)?;
-    let fitted: Vec<(GroupKey, &String)> = outcome
-        .tir_keys
-        .iter()
-        .zip(&outcome.tir_models)
-        .zip(&outcome.tir_files)
-        .filter(|((_, m), _)| **m == FitModel::Mf61)
-        .map(|((k, _), (_, text))| ((k.tire.clone(), k.rim_in, k.pressure_kpa_nom), text))
-        .collect();
-    let (prev_models, prev_names) = match prev_dir {
-        Some(prev) => {
-            let groups = mf61_groups(prev);
-            let (names, _) = mf61_names(&groups);
-            (groups, names)
-        }
-        None => Default::default(),
-    };
-    let reused_models: Vec<&GroupKey> =
-        reused.iter().filter(|k| prev_models.contains(*k)).collect();
-    let all: BTreeSet<GroupKey> = fitted
-        .iter()
-        .map(|(k, _)| k.clone())
-        .chain(reused_models.iter().map(|k| (*k).clone()))
-        .collect();
-    let (names, notes) = mf61_names(&all);
+    let (names, notes) = names_of(&all);
     for (key, text) in &fitted {
         crate::store::files::write_bytes_atomic(&dir.join(&names[key]), text.as_bytes())?;
     }

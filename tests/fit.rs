@@ -23,9 +23,12 @@ use std::sync::OnceLock;
 use polars::prelude::*;
 use tirebase::core::naming::tir_file_name;
 use tirebase::core::tire_model::tir::TirFile;
-use tirebase::core::tire_model::{Coef, Mode, Pac2002, SlipInput};
+use tirebase::core::tire_model::{Coef, SlipInput};
 
-use crate::harness::{copy_tree, demo_round, f64s, ok, p, strs, synth_round, tirebase};
+use crate::harness::{
+    ENVELOPE_COLUMNS, ENVELOPE_WHERE, copy_tree, demo_round, envelope_error, envelope_points, f64s,
+    ok, p, strs, synth_round, tirebase,
+};
 
 /// A demo round, its store and one fit of it.
 struct Fitted {
@@ -126,11 +129,10 @@ fn model(path: &Path) -> TirFile {
 /// drive/brake and combined segment at its nominal load, inclination (and held slip angle),
 /// over the slip range it covered.
 fn tested_envelope(store: &Path) -> BTreeMap<String, Vec<SlipInput>> {
-    let sql = "SELECT tire, rim_in, pressure_kpa_nom, kind, fz_n_nom, ia_deg_nom, alpha_deg_nom, \
-               alpha_deg_min, alpha_deg_max, kappa_min, kappa_max FROM segments \
-               WHERE qc_ok AND kind IN ('cornering', 'drive_brake', 'combined') \
-               AND pressure_kpa_nom IS NOT NULL AND fz_n_nom IS NOT NULL AND ia_deg_nom IS NOT NULL";
-    let o = tirebase(&["query", "--store", p(store), "--format", "csv", sql]);
+    let sql = format!(
+        "SELECT tire, rim_in, pressure_kpa_nom, {ENVELOPE_COLUMNS} FROM segments WHERE {ENVELOPE_WHERE}"
+    );
+    let o = tirebase(&["query", "--store", p(store), "--format", "csv", &sql]);
     ok(&o, "query");
     let mut reader = csv::Reader::from_reader(o.stdout.as_slice());
     let mut out: BTreeMap<String, Vec<SlipInput>> = BTreeMap::new();
@@ -138,59 +140,9 @@ fn tested_envelope(store: &Path) -> BTreeMap<String, Vec<SlipInput>> {
         let r = rec.unwrap();
         let num = |i: usize| r[i].parse::<f64>().unwrap_or(f64::NAN);
         let name = tir_file_name(&r[0], num(1), num(2));
-        let (fz, gamma) = (num(4), num(5).to_radians());
-        let points = out.entry(name).or_default();
-        if &r[3] == "cornering" {
-            let (lo, hi) = (num(7), num(8));
-            let n = ((hi - lo) / 0.25).ceil().max(1.0) as usize;
-            for k in 0..=n {
-                points.push(SlipInput {
-                    fz_n: fz,
-                    kappa: 0.0,
-                    alpha_rad: (lo + (hi - lo) * k as f64 / n as f64).to_radians(),
-                    gamma_rad: gamma,
-                    vx_mps: 0.0,
-                });
-            }
-        } else {
-            let alpha = num(6);
-            let alpha = if alpha.is_finite() { alpha } else { 0.0 };
-            let (lo, hi) = (num(9), num(10));
-            for k in 0..=40 {
-                points.push(SlipInput {
-                    fz_n: fz,
-                    kappa: lo + (hi - lo) * k as f64 / 40.0,
-                    alpha_rad: alpha.to_radians(),
-                    gamma_rad: gamma,
-                    vx_mps: 0.0,
-                });
-            }
-        }
+        out.entry(name).or_default().extend(envelope_points(&r, 3));
     }
     out
-}
-
-/// RMS error of `fitted` against `truth` over `points`, % of the truth's peak: (Fx, Fy, Mz).
-fn envelope_error(truth: &Pac2002, fitted: &Pac2002, points: &[SlipInput]) -> [f64; 3] {
-    let vx = truth.coefs[Coef::LONGVL];
-    let mut ss = [0.0; 3];
-    let mut peak = [0.0_f64; 3];
-    for pt in points {
-        let pt = SlipInput { vx_mps: vx, ..*pt };
-        let (t, f) = (
-            truth.eval(&pt, Mode::Limits),
-            fitted.eval(&pt, Mode::Limits),
-        );
-        for (k, (a, b)) in [(t.fx_n, f.fx_n), (t.fy_n, f.fy_n), (t.mz_nm, f.mz_nm)]
-            .into_iter()
-            .enumerate()
-        {
-            ss[k] += (b - a).powi(2);
-            peak[k] = peak[k].max(a.abs());
-        }
-    }
-    let n = points.len() as f64;
-    std::array::from_fn(|k| 100.0 * (ss[k] / n).sqrt() / peak[k])
 }
 
 /// Check every written model against its truth; returns the worst (Fx, Fy, Mz) errors.
@@ -211,7 +163,7 @@ fn check_models(f: &Fitted, limits: [f64; 3]) -> [f64; 3] {
         assert!(fitted.exists(), "no fitted {name}");
         let (t, m) = (model(&truth_dir.join(name)), model(&fitted));
         let points = &envelope[name];
-        let e = envelope_error(&t.model(), &m.model(), points);
+        let e = envelope_error(&t.model(), &m.model(), points, None);
         eprintln!(
             "{name}: USE_MODE {:?}, {} envelope points: Fx {:.4} %, Fy {:.4} %, Mz {:.4} % of peak",
             m.use_mode,

@@ -15,6 +15,7 @@ use std::process::{Command, Output};
 use std::sync::OnceLock;
 
 use polars::prelude::{DataFrame, DataType};
+use tirebase::core::tire_model::{Coef, MagicFormula, Mode, SlipInput};
 
 /// The binary under test, as a command to add arguments to.
 pub fn bin() -> Command {
@@ -179,4 +180,87 @@ pub fn tree(root: &Path) -> BTreeMap<String, Vec<u8>> {
         .into_iter()
         .map(|(rel, path)| (rel, fs::read(&path).unwrap()))
         .collect()
+}
+
+/// The `segments` columns [`envelope_points`] reads, in its order, for a query's select list.
+pub const ENVELOPE_COLUMNS: &str = "kind, fz_n_nom, ia_deg_nom, alpha_deg_nom, alpha_deg_min, \
+                                    alpha_deg_max, kappa_min, kappa_max";
+
+/// The `segments` filter of a tested envelope: force-clean cornering, drive/brake and combined
+/// segments with a nominal pressure, load and inclination.
+pub const ENVELOPE_WHERE: &str = "qc_ok AND kind IN ('cornering', 'drive_brake', 'combined') \
+                                  AND pressure_kpa_nom IS NOT NULL AND fz_n_nom IS NOT NULL \
+                                  AND ia_deg_nom IS NOT NULL";
+
+/// The operating points one tested segment covers, read from a CSV record whose columns
+/// [`ENVELOPE_COLUMNS`] start at index `at`: a cornering sweep over its slip-angle range (every
+/// 0.25 deg), any other segment over its slip-ratio range (41 points) at its held slip angle, all
+/// at its nominal load and inclination.
+pub fn envelope_points(r: &csv::StringRecord, at: usize) -> Vec<SlipInput> {
+    let num = |i: usize| r[at + i].parse::<f64>().unwrap_or(f64::NAN);
+    let (fz, gamma) = (num(1), num(2).to_radians());
+    let mut points = Vec::new();
+    if &r[at] == "cornering" {
+        let (lo, hi) = (num(4), num(5));
+        let n = ((hi - lo) / 0.25).ceil().max(1.0) as usize;
+        for k in 0..=n {
+            points.push(SlipInput {
+                fz_n: fz,
+                kappa: 0.0,
+                alpha_rad: (lo + (hi - lo) * k as f64 / n as f64).to_radians(),
+                gamma_rad: gamma,
+                vx_mps: 0.0,
+            });
+        }
+    } else {
+        let alpha = num(3);
+        let alpha = if alpha.is_finite() { alpha } else { 0.0 };
+        let (lo, hi) = (num(6), num(7));
+        for k in 0..=40 {
+            points.push(SlipInput {
+                fz_n: fz,
+                kappa: lo + (hi - lo) * k as f64 / 40.0,
+                alpha_rad: alpha.to_radians(),
+                gamma_rad: gamma,
+                vx_mps: 0.0,
+            });
+        }
+    }
+    points
+}
+
+/// RMS error of `fitted` against `truth` over `points` (at the truth's `LONGVL`), % of the
+/// truth's peak: `[Fx, Fy, Mz]`. Both models are evaluated at `p_pa`, or each at its own
+/// default pressure when `None`.
+pub fn envelope_error(
+    truth: &MagicFormula,
+    fitted: &MagicFormula,
+    points: &[SlipInput],
+    p_pa: Option<f64>,
+) -> [f64; 3] {
+    let vx = truth.coefs[Coef::LONGVL];
+    let mut ss = [0.0; 3];
+    let mut peak = [0.0_f64; 3];
+    for pt in points {
+        let pt = SlipInput { vx_mps: vx, ..*pt };
+        let (t, f) = match p_pa {
+            Some(p) => (
+                truth.eval_at(&pt, p, Mode::Limits),
+                fitted.eval_at(&pt, p, Mode::Limits),
+            ),
+            None => (
+                truth.eval(&pt, Mode::Limits),
+                fitted.eval(&pt, Mode::Limits),
+            ),
+        };
+        for (k, (a, b)) in [(t.fx_n, f.fx_n), (t.fy_n, f.fy_n), (t.mz_nm, f.mz_nm)]
+            .into_iter()
+            .enumerate()
+        {
+            ss[k] += (b - a).powi(2);
+            peak[k] = peak[k].max(a.abs());
+        }
+    }
+    let n = points.len() as f64;
+    std::array::from_fn(|k| 100.0 * (ss[k] / n).sqrt() / peak[k])
 }

@@ -21,9 +21,12 @@ use std::sync::OnceLock;
 
 use tirebase::core::naming::{mf61_tir_file_name, tir_file_name};
 use tirebase::core::tire_model::tir::TirFile;
-use tirebase::core::tire_model::{Coef, MagicFormula, Mode, SlipInput};
+use tirebase::core::tire_model::{Coef, MagicFormula, SlipInput};
 
-use crate::harness::{ok, p, run, synth_round, tirebase};
+use crate::harness::{
+    ENVELOPE_COLUMNS, ENVELOPE_WHERE, envelope_error, envelope_points, ok, p, run, synth_round,
+    tirebase,
+};
 
 const TIRE: &str = "Hoosier 16.0x7.5-10 R25B";
 const RIM_IN: f64 = 7.0;
@@ -98,45 +101,16 @@ fn files_by_pressure(round: &Path) -> BTreeMap<String, i64> {
 /// cornering, drive/brake and combined segment in the store at its nominal load, inclination
 /// (and held slip angle), over the slip range it covered.
 fn tested_envelope(store: &Path) -> BTreeMap<i64, Vec<SlipInput>> {
-    let sql = "SELECT pressure_kpa_nom, kind, fz_n_nom, ia_deg_nom, alpha_deg_nom, \
-               alpha_deg_min, alpha_deg_max, kappa_min, kappa_max FROM segments \
-               WHERE qc_ok AND kind IN ('cornering', 'drive_brake', 'combined') \
-               AND pressure_kpa_nom IS NOT NULL AND fz_n_nom IS NOT NULL AND ia_deg_nom IS NOT NULL";
-    let o = tirebase(&["query", "--store", p(store), "--format", "csv", sql]);
+    let sql =
+        format!("SELECT pressure_kpa_nom, {ENVELOPE_COLUMNS} FROM segments WHERE {ENVELOPE_WHERE}");
+    let o = tirebase(&["query", "--store", p(store), "--format", "csv", &sql]);
     ok(&o, "query");
     let mut reader = csv::Reader::from_reader(o.stdout.as_slice());
     let mut out: BTreeMap<i64, Vec<SlipInput>> = BTreeMap::new();
     for rec in reader.records() {
         let r = rec.unwrap();
-        let num = |i: usize| r[i].parse::<f64>().unwrap_or(f64::NAN);
-        let (fz, gamma) = (num(2), num(3).to_radians());
-        let points = out.entry(num(0).round() as i64).or_default();
-        if &r[1] == "cornering" {
-            let (lo, hi) = (num(5), num(6));
-            let n = ((hi - lo) / 0.25).ceil().max(1.0) as usize;
-            for k in 0..=n {
-                points.push(SlipInput {
-                    fz_n: fz,
-                    kappa: 0.0,
-                    alpha_rad: (lo + (hi - lo) * k as f64 / n as f64).to_radians(),
-                    gamma_rad: gamma,
-                    vx_mps: 0.0,
-                });
-            }
-        } else {
-            let alpha = num(4);
-            let alpha = if alpha.is_finite() { alpha } else { 0.0 };
-            let (lo, hi) = (num(7), num(8));
-            for k in 0..=40 {
-                points.push(SlipInput {
-                    fz_n: fz,
-                    kappa: lo + (hi - lo) * k as f64 / 40.0,
-                    alpha_rad: alpha.to_radians(),
-                    gamma_rad: gamma,
-                    vx_mps: 0.0,
-                });
-            }
-        }
+        let kpa = r[0].parse::<f64>().unwrap_or(f64::NAN).round() as i64;
+        out.entry(kpa).or_default().extend(envelope_points(&r, 1));
     }
     out
 }
@@ -153,35 +127,6 @@ fn commanded_pa(kpa: i64) -> f64 {
         .join("truth/tir")
         .join(tir_file_name(TIRE, RIM_IN, kpa as f64)));
     t.coefs[Coef::INFLPRES]
-}
-
-/// RMS error of `fitted` against `truth` over `points` at `p_pa`, % of the truth's peak:
-/// `[Fx, Fy, Mz]`.
-fn envelope_error(
-    truth: &MagicFormula,
-    fitted: &MagicFormula,
-    points: &[SlipInput],
-    p_pa: f64,
-) -> [f64; 3] {
-    let vx = truth.coefs[Coef::LONGVL];
-    let mut ss = [0.0; 3];
-    let mut peak = [0.0_f64; 3];
-    for pt in points {
-        let pt = SlipInput { vx_mps: vx, ..*pt };
-        let (t, f) = (
-            truth.eval_at(&pt, p_pa, Mode::Limits),
-            fitted.eval_at(&pt, p_pa, Mode::Limits),
-        );
-        for (k, (a, b)) in [(t.fx_n, f.fx_n), (t.fy_n, f.fy_n), (t.mz_nm, f.mz_nm)]
-            .into_iter()
-            .enumerate()
-        {
-            ss[k] += (b - a).powi(2);
-            peak[k] = peak[k].max(a.abs());
-        }
-    }
-    let n = points.len() as f64;
-    std::array::from_fn(|k| 100.0 * (ss[k] / n).sqrt() / peak[k])
 }
 
 fn show(e: [f64; 3]) -> String {
@@ -210,7 +155,7 @@ fn run_recovers_the_mf61_truth_at_every_tested_pressure_issue_19() {
     );
     let mut violations = Vec::new();
     for (kpa, points) in &envelope {
-        let e = envelope_error(&truth, &fitted, points, commanded_pa(*kpa));
+        let e = envelope_error(&truth, &fitted, points, Some(commanded_pa(*kpa)));
         eprintln!("{kpa} kPa, {} envelope points: {}", points.len(), show(e));
         if e.iter().any(|x| x.is_nan() || *x > 1.0) {
             violations.push(format!("{kpa} kPa: {}", show(e)));
@@ -271,7 +216,12 @@ fn run_without_one_pressure_predicts_it_issue_19() {
             !tested_envelope(store_of(&version)).contains_key(&left_out),
             "{left_out} kPa is still in the input"
         );
-        let e = envelope_error(&truth, &held, &envelope[&left_out], commanded_pa(left_out));
+        let e = envelope_error(
+            &truth,
+            &held,
+            &envelope[&left_out],
+            Some(commanded_pa(left_out)),
+        );
         eprintln!("{left_out} kPa left out: {}", show(e));
         if e.iter()
             .zip([3.0, 3.0, 6.0])

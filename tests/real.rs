@@ -198,8 +198,8 @@ fn cornering_mf61_groups(
 ) -> (String, f64, Vec<tirebase::core::fit::mf61::PressureGroup>) {
     use std::collections::BTreeMap;
     use tirebase::core::fit::mf61::{Mf61Sweep, PressureGroup, PressureModel};
-    use tirebase::core::fit::pac2002::{self, FitConfig, FitContext, FitInput, Sweep};
-    use tirebase::core::fit::segment_data::{Channels, MeasuredSegment, NominalLevels, TireKey};
+    use tirebase::core::fit::pac2002::{self, FitConfig, FitInput, Sweep};
+    use tirebase::core::fit::segment_data::{MeasuredSegment, TireKey};
     use tirebase::core::fit::spring_rate::{self, SpringRateConfig};
     use tirebase::core::segment::{self, RunSignals, SegmentConfig};
 
@@ -224,9 +224,6 @@ fn cornering_mf61_groups(
         if seg.qc.iter().any(|f| f.spoils_forces()) {
             continue;
         }
-        let r = seg.samples.clone();
-        let cut = |v: &[f64]| v[r.clone()].to_vec();
-        let opt = |v: &Option<Vec<f64>>| v.as_ref().map(|v| cut(v));
         let key = TireKey {
             tire: tire.clone(),
             rim_in: rim as i64,
@@ -235,38 +232,7 @@ fn cornering_mf61_groups(
         by_pressure
             .entry(i64::from(p))
             .or_default()
-            .push(MeasuredSegment {
-                segment_id: format!("cornering.mat-{}", seg.index),
-                kind: seg.kind,
-                source_file: "cornering.mat".into(),
-                segment_index: seg.index as i64,
-                key,
-                nominal: NominalLevels {
-                    ia_deg: seg.nominal.ia_deg.map(i64::from),
-                    fz_n: seg.nominal.fz_n.map(i64::from),
-                    alpha_deg: seg.nominal.alpha_deg.map(i64::from),
-                    speed_kph: seg.nominal.speed_kph.map(i64::from),
-                },
-                channels: Channels {
-                    et_s: cut(&table.et_s),
-                    speed_kph: cut(&table.speed_kph),
-                    fz_n: cut(&table.tire.fz_n),
-                    fx_n: cut(&table.tire.fx_n),
-                    fy_n: cut(&table.tire.fy_n),
-                    mz_nm: cut(&table.tire.mz_nm),
-                    alpha_rad: cut(&table.tire.alpha_rad),
-                    gamma_rad: cut(&table.tire.gamma_rad),
-                    kappa: cut(&table.tire.kappa),
-                    pressure_kpa: cut(&table.pressure_kpa),
-                    loaded_radius_m: opt(&table.loaded_radius_m),
-                    effective_radius_m: opt(&table.effective_radius_m),
-                    wheel_speed_rpm: opt(&table.wheel_speed_rpm),
-                    tread_inner_c: opt(&table.tread_inner_temp_c),
-                    tread_centre_c: opt(&table.tread_centre_temp_c),
-                    tread_outer_c: opt(&table.tread_outer_temp_c),
-                    ambient_c: opt(&table.ambient_temp_c),
-                },
-            });
+            .push(MeasuredSegment::of_run(&table, "cornering.mat", &seg, key));
     }
     let median = |mut v: Vec<f64>| {
         v.retain(|x| x.is_finite());
@@ -275,6 +241,11 @@ fn cornering_mf61_groups(
     };
     let mut groups = Vec::new();
     for (p, segs) in &by_pressure {
+        let key = TireKey {
+            tire: tire.clone(),
+            rim_in: rim as i64,
+            pressure_kpa_nom: *p,
+        };
         let sr = spring_rate::run(segs, &BTreeMap::new(), &SpringRateConfig::default());
         let vertical = sr.vertical.first();
         let sweeps: Vec<&MeasuredSegment> = segs
@@ -291,15 +262,7 @@ fn cornering_mf61_groups(
                 .collect(),
         );
         let input = FitInput {
-            context: FitContext {
-                tire: tire.clone(),
-                rim_in: rim,
-                pressure_kpa_nom: *p as f64,
-                test_speed_mps: speed_kph / 3.6,
-                vertical_stiffness_n_per_m: vertical.map(|v| v.vertical_stiffness_n_per_m),
-                unloaded_radius_m: vertical.map(|v| v.unloaded_radius_m),
-                relaxation: None,
-            },
+            context: spring_rate::pac2002_context(&key, speed_kph / 3.6, vertical),
             sweeps: sweeps
                 .iter()
                 .filter_map(|s| Sweep::from_segment(s, None, true))

@@ -21,8 +21,7 @@ use std::time::Instant;
 
 use tirebase_core::fit::mf61::{Mf61Sample, Mf61Sweep};
 use tirebase_core::fit::pac2002::{
-    self, FitConfig, FitContext, FitInput, Pac2002Fit, RelaxationLaw as DelagLaw,
-    RelaxationLengths, Sweep,
+    self, FitConfig, FitInput, Pac2002Fit, RelaxationLaw as DelagLaw, RelaxationLengths, Sweep,
 };
 use tirebase_core::fit::relaxation::{
     self, Direction, RelaxationConfig, RelaxationInput, RelaxationOutput,
@@ -228,15 +227,7 @@ fn pac2002_input(
             .map(|s| s.row.speed_kph_mean),
     )?;
     Some(FitInput {
-        context: FitContext {
-            tire: key.tire.clone(),
-            rim_in: key.rim_in as f64,
-            pressure_kpa_nom: key.pressure_kpa_nom as f64,
-            test_speed_mps: speed_kph / 3.6,
-            vertical_stiffness_n_per_m: vertical.map(|v| v.vertical_stiffness_n_per_m),
-            unloaded_radius_m: vertical.map(|v| v.unloaded_radius_m),
-            relaxation: None,
-        },
+        context: spring_rate::pac2002_context(key, speed_kph / 3.6, vertical),
         sweeps,
     })
 }

@@ -29,7 +29,7 @@ use tirebase_core::tire_model::tir::lint::{self, Severity};
 use tirebase_core::tire_model::{Coef, Section, Version};
 
 use super::FitFailure;
-use super::tir::{CoefficientRow, TireSize, WrittenModel, set};
+use super::tir::{CoefficientRow, GEOMETRY, WrittenModel, set_geometry};
 use crate::config::FitModel;
 
 /// Stage name in `fit_failures` and in the stage timings.
@@ -236,36 +236,8 @@ fn build(
                 .flatten(),
         })
         .collect();
-    for coef in [
-        Coef::WIDTH,
-        Coef::ASPECT_RATIO,
-        Coef::RIM_RADIUS,
-        Coef::RIM_WIDTH,
-    ] {
-        file.present[coef] = false;
-        rows.retain(|r| r.coef != coef);
-    }
-    if key.rim_in > 0 {
-        set(
-            &mut file,
-            &mut rows,
-            Coef::RIM_WIDTH,
-            key.rim_in as f64 * 0.0254,
-            "scalar",
-            "data",
-        );
-        file.present[Coef::RIM_WIDTH] = true;
-    }
-    if let Some(size) = TireSize::from_name(&key.tire) {
-        for (coef, value) in [
-            (Coef::WIDTH, size.width_m),
-            (Coef::ASPECT_RATIO, size.aspect_ratio),
-            (Coef::RIM_RADIUS, size.rim_radius_m),
-        ] {
-            set(&mut file, &mut rows, coef, value, "scalar", "catalog");
-            file.present[coef] = true;
-        }
-    }
+    rows.retain(|r| !GEOMETRY.contains(&r.coef));
+    set_geometry(&mut file, &mut rows, &key.tire, key.rim_in);
     rows.sort_by_key(|r| r.coef);
     file.use_mode = use_mode.or(Some(4));
     file.header_comments = header_comments(key, fit, tested_kpa);

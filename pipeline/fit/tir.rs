@@ -105,6 +105,50 @@ pub(super) fn set(
     }
 }
 
+/// The geometry coefficients the fits do not use: `WIDTH`, `ASPECT_RATIO`, `RIM_RADIUS`,
+/// `RIM_WIDTH`.
+pub(super) const GEOMETRY: [Coef; 4] = [
+    Coef::WIDTH,
+    Coef::ASPECT_RATIO,
+    Coef::RIM_RADIUS,
+    Coef::RIM_WIDTH,
+];
+
+/// Write the [`GEOMETRY`] from the catalog: `RIM_WIDTH` from the rim (inches; none when 0),
+/// the others from the tire size in its name; a coefficient with no source is left out of the
+/// file, never written as 0.
+pub(super) fn set_geometry(
+    file: &mut TirFile,
+    rows: &mut Vec<CoefficientRow>,
+    tire: &str,
+    rim_in: i64,
+) {
+    for coef in GEOMETRY {
+        file.present[coef] = false;
+    }
+    if rim_in > 0 {
+        set(
+            file,
+            rows,
+            Coef::RIM_WIDTH,
+            rim_in as f64 * 0.0254,
+            "scalar",
+            "data",
+        );
+        file.present[Coef::RIM_WIDTH] = true;
+    }
+    if let Some(size) = TireSize::from_name(tire) {
+        for (coef, value) in [
+            (Coef::WIDTH, size.width_m),
+            (Coef::ASPECT_RATIO, size.aspect_ratio),
+            (Coef::RIM_RADIUS, size.rim_radius_m),
+        ] {
+            set(file, rows, coef, value, "scalar", "catalog");
+            file.present[coef] = true;
+        }
+    }
+}
+
 /// Build the file of a group; `Err` (a one-line reason) when there is no model to write.
 pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, String> {
     let fit = result
@@ -126,36 +170,7 @@ pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, Str
             r.origin = "spring_rate".to_string();
         }
     }
-    // Geometry the fit does not use: from the catalog (rim, tire size in the name) or left out.
-    for coef in [
-        Coef::WIDTH,
-        Coef::ASPECT_RATIO,
-        Coef::RIM_RADIUS,
-        Coef::RIM_WIDTH,
-    ] {
-        file.present[coef] = false;
-    }
-    if key.rim_in > 0 {
-        set(
-            &mut file,
-            &mut rows,
-            Coef::RIM_WIDTH,
-            key.rim_in as f64 * 0.0254,
-            "scalar",
-            "data",
-        );
-        file.present[Coef::RIM_WIDTH] = true;
-    }
-    if let Some(size) = TireSize::from_name(&key.tire) {
-        for (coef, value) in [
-            (Coef::WIDTH, size.width_m),
-            (Coef::ASPECT_RATIO, size.aspect_ratio),
-            (Coef::RIM_RADIUS, size.rim_radius_m),
-        ] {
-            set(&mut file, &mut rows, coef, value, "scalar", "catalog");
-            file.present[coef] = true;
-        }
-    }
+    set_geometry(&mut file, &mut rows, &key.tire, key.rim_in);
     let fnomin = file.coefs[Coef::FNOMIN];
     if let Some(v) = result.spring_rate.as_ref().and_then(|s| s.vertical.first())
         && let Some(law) = &v.effective_radius

@@ -1,7 +1,8 @@
 //! What the spring-rate, thermal and relaxation stages read: segments with their samples.
 //!
 //! In: nothing (plain data types the command layer fills from the store's `segments` and
-//! `samples` tables, `schemas/segments.toml` and `schemas/samples.toml`). Out: [`MeasuredSegment`]
+//! `samples` tables, `schemas/segments.toml` and `schemas/samples.toml`; tests and benches fill
+//! them from a parsed run file and its segmenter output, [`MeasuredSegment::of_run`]). Out: [`MeasuredSegment`]
 //! (identity, kind, nominal levels, [`Channels`]) and [`TireKey`] (the tire/rim/pressure a stage
 //! groups by), plus small channel helpers every stage uses. Units and axes are the store's: SI,
 //! ISO-W (`fz_n > 0` in compression, `alpha_rad` ISO-W), temperatures degC.
@@ -10,6 +11,10 @@
 //! decides `kind`), any fitting.
 
 use std::fmt;
+use std::ops::Range;
+
+use crate::segment::Segment;
+use crate::ttc::RunTable;
 
 pub use crate::segment::SegmentKind;
 
@@ -161,6 +166,62 @@ pub struct MeasuredSegment {
     pub nominal: NominalLevels,
     /// The samples.
     pub channels: Channels,
+}
+
+impl MeasuredSegment {
+    /// Segment `seg` of the parsed run file `source_file` (its segmenter output), of tire `key`:
+    /// `segment_id` is `<source_file>-<index>`, the samples are the run's over the segment's range.
+    pub fn of_run(table: &RunTable, source_file: &str, seg: &Segment, key: TireKey) -> Self {
+        MeasuredSegment {
+            segment_id: format!("{source_file}-{}", seg.index),
+            kind: seg.kind,
+            source_file: source_file.to_string(),
+            segment_index: seg.index as i64,
+            key,
+            nominal: seg.nominal.into(),
+            channels: Channels::of_run(table, seg.samples.clone()),
+        }
+    }
+}
+
+impl From<crate::segment::NominalLevels> for NominalLevels {
+    /// The segmenter's levels (pressure dropped: it is in the [`TireKey`]).
+    fn from(n: crate::segment::NominalLevels) -> Self {
+        NominalLevels {
+            ia_deg: n.ia_deg.map(i64::from),
+            fz_n: n.fz_n.map(i64::from),
+            alpha_deg: n.alpha_deg.map(i64::from),
+            speed_kph: n.speed_kph.map(i64::from),
+        }
+    }
+}
+
+impl Channels {
+    /// The channels of a parsed run file over sample range `r`.
+    pub fn of_run(table: &RunTable, r: Range<usize>) -> Self {
+        let cut = |v: &[f64]| v[r.clone()].to_vec();
+        let opt = |v: &Option<Vec<f64>>| v.as_ref().map(|v| cut(v));
+        let t = &table.tire;
+        Channels {
+            et_s: cut(&table.et_s),
+            speed_kph: cut(&table.speed_kph),
+            fz_n: cut(&t.fz_n),
+            fx_n: cut(&t.fx_n),
+            fy_n: cut(&t.fy_n),
+            mz_nm: cut(&t.mz_nm),
+            alpha_rad: cut(&t.alpha_rad),
+            gamma_rad: cut(&t.gamma_rad),
+            kappa: cut(&t.kappa),
+            pressure_kpa: cut(&table.pressure_kpa),
+            loaded_radius_m: opt(&table.loaded_radius_m),
+            effective_radius_m: opt(&table.effective_radius_m),
+            wheel_speed_rpm: opt(&table.wheel_speed_rpm),
+            tread_inner_c: opt(&table.tread_inner_temp_c),
+            tread_centre_c: opt(&table.tread_centre_temp_c),
+            tread_outer_c: opt(&table.tread_outer_temp_c),
+            ambient_c: opt(&table.ambient_temp_c),
+        }
+    }
 }
 
 /// A stage part that could not run, with the reason (failures are data).

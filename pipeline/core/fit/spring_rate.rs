@@ -23,6 +23,7 @@ use std::collections::BTreeMap;
 
 use nalgebra::{DMatrix, DVector};
 
+use super::pac2002::FitContext;
 use super::scalar::{self, ScalarOptions};
 use super::segment_data::{MeasuredSegment, SegmentKind, StageFailure, TireKey, finite_mean};
 use crate::numerics::least_squares;
@@ -120,6 +121,25 @@ pub struct SpringRateRow {
     pub fz_n_min: f64,
     /// Load range used, N.
     pub fz_n_max: f64,
+}
+
+/// The PAC2002 stage's context of tire `key` tested at `test_speed_mps`, with `Cz` and `R0`
+/// from the spring-rate stage's [`TirVertical`] when it produced one (the fit estimates them
+/// otherwise) and no relaxation lengths.
+pub fn pac2002_context(
+    key: &TireKey,
+    test_speed_mps: f64,
+    vertical: Option<&TirVertical>,
+) -> FitContext {
+    FitContext {
+        tire: key.tire.clone(),
+        rim_in: key.rim_in as f64,
+        pressure_kpa_nom: key.pressure_kpa_nom as f64,
+        test_speed_mps,
+        vertical_stiffness_n_per_m: vertical.map(|v| v.vertical_stiffness_n_per_m),
+        unloaded_radius_m: vertical.map(|v| v.unloaded_radius_m),
+        relaxation: None,
+    }
 }
 
 /// What the `.tir` VERTICAL and DIMENSION sections need, per tire/rim/pressure.

@@ -12,7 +12,7 @@ use super::thermal::{self, ThermalConfig};
 use crate::synth::round::{RoundPlan, SynthConfig, plan_round, render_run};
 use crate::synth::tires::TruthModel;
 use crate::tire_model::{Coef, Pac2002};
-use crate::ttc::{RunTable, read_run};
+use crate::ttc::read_run;
 
 /// The round's segments and what the truth says per tire/rim/pressure.
 struct Round {
@@ -25,35 +25,6 @@ fn key_of(tire: &str, rim_in: f64, pressure_kpa_nom: f64) -> TireKey {
         tire: tire.to_string(),
         rim_in: rim_in.round() as i64,
         pressure_kpa_nom: pressure_kpa_nom.round() as i64,
-    }
-}
-
-fn slice(v: &[f64], r: std::ops::Range<usize>) -> Vec<f64> {
-    v[r].to_vec()
-}
-
-/// The channels of `table` in sample range `r` (both builders cut segments the same way).
-fn channels(table: &RunTable, r: std::ops::Range<usize>) -> Channels {
-    let opt = |v: &Option<Vec<f64>>| v.as_ref().map(|v| slice(v, r.clone()));
-    let t = &table.tire;
-    Channels {
-        et_s: slice(&table.et_s, r.clone()),
-        speed_kph: slice(&table.speed_kph, r.clone()),
-        fz_n: slice(&t.fz_n, r.clone()),
-        fx_n: slice(&t.fx_n, r.clone()),
-        fy_n: slice(&t.fy_n, r.clone()),
-        mz_nm: slice(&t.mz_nm, r.clone()),
-        alpha_rad: slice(&t.alpha_rad, r.clone()),
-        gamma_rad: slice(&t.gamma_rad, r.clone()),
-        kappa: slice(&t.kappa, r.clone()),
-        pressure_kpa: slice(&table.pressure_kpa, r.clone()),
-        loaded_radius_m: opt(&table.loaded_radius_m),
-        effective_radius_m: opt(&table.effective_radius_m),
-        wheel_speed_rpm: opt(&table.wheel_speed_rpm),
-        tread_inner_c: opt(&table.tread_inner_temp_c),
-        tread_centre_c: opt(&table.tread_centre_temp_c),
-        tread_outer_c: opt(&table.tread_outer_temp_c),
-        ambient_c: opt(&table.ambient_temp_c),
     }
 }
 
@@ -81,7 +52,7 @@ fn build(config: SynthConfig) -> Round {
                     alpha_deg: row.alpha_deg_nom.map(|v| v.round() as i64),
                     speed_kph: row.speed_kph_nom.map(|v| v.round() as i64),
                 },
-                channels: channels(&table, r.clone()),
+                channels: Channels::of_run(&table, r.clone()),
             });
         }
     }
@@ -184,21 +155,12 @@ fn build_segmented_runs(config: SynthConfig, keep: impl Fn(&str, f64, f64) -> bo
             spec.pressure_psi * crate::synth::tires::KPA_PER_PSI,
         );
         for seg in segs {
-            let r = seg.samples.clone();
-            segments.push(MeasuredSegment {
-                segment_id: format!("{}-{}", out.file.path, seg.index),
-                kind: seg.kind,
-                source_file: out.file.path.clone(),
-                segment_index: seg.index as i64,
-                key: key.clone(),
-                nominal: NominalLevels {
-                    ia_deg: seg.nominal.ia_deg.map(i64::from),
-                    fz_n: seg.nominal.fz_n.map(i64::from),
-                    alpha_deg: seg.nominal.alpha_deg.map(i64::from),
-                    speed_kph: seg.nominal.speed_kph.map(i64::from),
-                },
-                channels: channels(&table, r.clone()),
-            });
+            segments.push(MeasuredSegment::of_run(
+                &table,
+                &out.file.path,
+                &seg,
+                key.clone(),
+            ));
         }
     }
     Round { plan, segments }

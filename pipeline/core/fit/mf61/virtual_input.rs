@@ -13,14 +13,14 @@
 use std::collections::BTreeMap;
 
 use crate::fit::mf61::{Mf61Input, Mf61Sweep, PressureGroup, PressureModel};
-use crate::fit::pac2002::{self, FitConfig, FitContext, FitInput, Sweep, SweepKind};
-use crate::fit::segment_data::{Channels, MeasuredSegment, NominalLevels, TireKey};
+use crate::fit::pac2002::{self, FitConfig, FitInput, Sweep, SweepKind};
+use crate::fit::segment_data::{MeasuredSegment, TireKey};
 use crate::fit::spring_rate::{self, SpringRateConfig};
 use crate::segment::{self, RunSignals, SegmentConfig};
 use crate::synth::round::{Size, SynthConfig, plan_round, render_run};
 use crate::synth::tires::{CATALOGUE, KPA_PER_PSI, TruthForm, V_REF_MPS};
 use crate::tire_model::{MagicFormula, SlipInput};
-use crate::ttc::{RunTable, read_run};
+use crate::ttc::read_run;
 
 /// One tire's MF 6.1 input from a virtual round, and its truth.
 pub struct Prepared {
@@ -35,31 +35,6 @@ pub struct Prepared {
     /// (every sweep at its nominal load and inclination, and held slip angle, over the slip range
     /// it covered; `vx_mps` 0: the caller sets the speed).
     pub envelopes: BTreeMap<i64, (f64, Vec<SlipInput>)>,
-}
-
-fn channels(table: &RunTable, r: std::ops::Range<usize>) -> Channels {
-    let slice = |v: &[f64]| v[r.clone()].to_vec();
-    let opt = |v: &Option<Vec<f64>>| v.as_ref().map(|v| slice(v));
-    let t = &table.tire;
-    Channels {
-        et_s: slice(&table.et_s),
-        speed_kph: slice(&table.speed_kph),
-        fz_n: slice(&t.fz_n),
-        fx_n: slice(&t.fx_n),
-        fy_n: slice(&t.fy_n),
-        mz_nm: slice(&t.mz_nm),
-        alpha_rad: slice(&t.alpha_rad),
-        gamma_rad: slice(&t.gamma_rad),
-        kappa: slice(&t.kappa),
-        pressure_kpa: slice(&table.pressure_kpa),
-        loaded_radius_m: opt(&table.loaded_radius_m),
-        effective_radius_m: opt(&table.effective_radius_m),
-        wheel_speed_rpm: opt(&table.wheel_speed_rpm),
-        tread_inner_c: opt(&table.tread_inner_temp_c),
-        tread_centre_c: opt(&table.tread_centre_temp_c),
-        tread_outer_c: opt(&table.tread_outer_temp_c),
-        ambient_c: opt(&table.ambient_temp_c),
-    }
 }
 
 /// The segments of every run of catalogue tire `tire_index` on rim `rim_in` (that tire and rim
@@ -109,20 +84,14 @@ fn segments(
             pressure_kpa_nom: (spec.pressure_psi * KPA_PER_PSI).round() as i64,
         };
         for seg in segs {
-            out.entry(key.clone()).or_default().push(MeasuredSegment {
-                segment_id: format!("{}-{}", rendered.file.path, seg.index),
-                kind: seg.kind,
-                source_file: rendered.file.path.clone(),
-                segment_index: seg.index as i64,
-                key: key.clone(),
-                nominal: NominalLevels {
-                    ia_deg: seg.nominal.ia_deg.map(i64::from),
-                    fz_n: seg.nominal.fz_n.map(i64::from),
-                    alpha_deg: seg.nominal.alpha_deg.map(i64::from),
-                    speed_kph: seg.nominal.speed_kph.map(i64::from),
-                },
-                channels: channels(&table, seg.samples.clone()),
-            });
+            out.entry(key.clone())
+                .or_default()
+                .push(MeasuredSegment::of_run(
+                    &table,
+                    &rendered.file.path,
+                    &seg,
+                    key.clone(),
+                ));
         }
     }
     let truths = plan
@@ -177,15 +146,7 @@ fn pressure_group(key: &TireKey, segs: &[MeasuredSegment]) -> (PressureGroup, Ve
         .filter(|s| Sweep::from_segment(s, None, true).is_some())
         .collect();
     let input = FitInput {
-        context: FitContext {
-            tire: key.tire.clone(),
-            rim_in: key.rim_in as f64,
-            pressure_kpa_nom: key.pressure_kpa_nom as f64,
-            test_speed_mps: V_REF_MPS,
-            vertical_stiffness_n_per_m: vertical.map(|v| v.vertical_stiffness_n_per_m),
-            unloaded_radius_m: vertical.map(|v| v.unloaded_radius_m),
-            relaxation: None,
-        },
+        context: spring_rate::pac2002_context(key, V_REF_MPS, vertical),
         sweeps: used
             .iter()
             .filter_map(|s| Sweep::from_segment(s, None, true))
