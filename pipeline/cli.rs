@@ -645,38 +645,60 @@ pub struct TirConvertArgs {
     pub force: bool,
 }
 
+/// Why an option value was refused (clap prints it after the option's name).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ArgError {
+    /// Not a model version tirebase knows.
+    #[error("'{0}': expected pac2002, mf61 or mf62")]
+    ModelVersion(String),
+    /// A pressure without a leading number.
+    #[error("'{0}': expected a number with a unit, e.g. 83kPa or 12psi")]
+    PressureNumber(String),
+    /// A pressure in a unit tirebase does not convert.
+    #[error("'{value}': unknown pressure unit '{unit}' (Pa, kPa, bar, psi)")]
+    PressureUnit {
+        /// The value as given.
+        value: String,
+        /// Its unit.
+        unit: String,
+    },
+    /// A pressure of 0, below or not finite.
+    #[error("'{0}': the pressure must be positive")]
+    PressureNotPositive(String),
+}
+
 /// `pac2002`, `mf61`, `mf62` (also `mf52`, `MF 6.1`, ...).
-fn parse_model_version(s: &str) -> Result<tirebase_core::tire_model::Version, String> {
-    tirebase_core::tire_model::Version::from_id(s)
-        .ok_or_else(|| format!("'{s}': expected pac2002, mf61 or mf62"))
+fn parse_model_version(s: &str) -> Result<tirebase_core::tire_model::Version, ArgError> {
+    tirebase_core::tire_model::Version::from_id(s).ok_or_else(|| ArgError::ModelVersion(s.into()))
 }
 
 /// A pressure with its unit (`83kPa`, `12 psi`, `0.83bar`, `83000Pa`; a plain number is kPa),
 /// in Pa.
-pub fn parse_pressure_pa(s: &str) -> Result<f64, String> {
+pub fn parse_pressure_pa(s: &str) -> Result<f64, ArgError> {
     let t = s.trim();
     let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
     let (number, unit) = t.split_at(split);
     let value: f64 = number
         .trim()
         .parse()
-        .map_err(|_| format!("'{s}': expected a number with a unit, e.g. 83kPa or 12psi"))?;
+        .map_err(|_| ArgError::PressureNumber(s.into()))?;
     let factor = match unit.trim().to_ascii_lowercase().as_str() {
         "" | "kpa" => 1e3,
         "pa" => 1.0,
         "bar" => 1e5,
         "psi" => 6_894.757_293_168_361,
         other => {
-            return Err(format!(
-                "'{s}': unknown pressure unit '{other}' (Pa, kPa, bar, psi)"
-            ));
+            return Err(ArgError::PressureUnit {
+                value: s.into(),
+                unit: other.into(),
+            });
         }
     };
     let p = value * factor;
     if p.is_finite() && p > 0.0 {
         Ok(p)
     } else {
-        Err(format!("'{s}': the pressure must be positive"))
+        Err(ArgError::PressureNotPositive(s.into()))
     }
 }
 

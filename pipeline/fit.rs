@@ -92,6 +92,17 @@ pub enum FitError {
     },
 }
 
+/// Why a `--stages` list was refused.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum StageListError {
+    /// A name that is no stage.
+    #[error("unknown stage '{0}' (stages: {stages}, all)", stages = StageSet::NAMES.join(", "))]
+    Unknown(String),
+    /// The list names no stage.
+    #[error("no stage given")]
+    Empty,
+}
+
 /// Which stages to run.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub struct StageSet {
@@ -129,7 +140,7 @@ impl StageSet {
     /// assert_eq!(StageSet::parse("all").unwrap(), StageSet::default());
     /// assert!(StageSet::parse("pac").is_err());
     /// ```
-    pub fn parse(list: &str) -> Result<StageSet, String> {
+    pub fn parse(list: &str) -> Result<StageSet, StageListError> {
         let mut s = StageSet {
             pac2002: false,
             spring_rate: false,
@@ -143,16 +154,11 @@ impl StageSet {
                 "spring_rate" => s.spring_rate = true,
                 "thermal" => s.thermal = true,
                 "relaxation" => s.relaxation = true,
-                other => {
-                    return Err(format!(
-                        "unknown stage '{other}' (stages: {}, all)",
-                        StageSet::NAMES.join(", ")
-                    ));
-                }
+                other => return Err(StageListError::Unknown(other.to_string())),
             }
         }
         if s.names().is_empty() {
-            return Err("no stage given".to_string());
+            return Err(StageListError::Empty);
         }
         Ok(s)
     }
@@ -523,7 +529,11 @@ fn fit_one(
                     model = Some(m);
                 }
                 Err(reason) => result.failures.push(FitFailure::new(
-                    &plan.key, "pac2002", "pac2002", true, reason,
+                    &plan.key,
+                    "pac2002",
+                    "pac2002",
+                    true,
+                    reason.to_string(),
                 )),
             }
         }

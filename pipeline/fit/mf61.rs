@@ -29,7 +29,7 @@ use tirebase_core::tire_model::tir::lint::{self, Severity};
 use tirebase_core::tire_model::{Coef, Section, Version};
 
 use super::FitFailure;
-use super::tir::{CoefficientRow, GEOMETRY, WrittenModel, set_geometry};
+use super::tir::{CoefficientRow, GEOMETRY, TirBuildError, WrittenModel, set_geometry};
 use crate::config::FitModel;
 
 /// Stage name in `fit_failures` and in the stage timings.
@@ -180,7 +180,7 @@ pub fn run(tire: &str, rim_in: i64, parts: &[Mf61Part], cfg: &Mf61Config) -> Mf6
             }
             out.model = Some(m);
         }
-        Err(reason) => fail(&mut out, STAGE, true, reason),
+        Err(reason) => fail(&mut out, STAGE, true, reason.to_string()),
     }
     out.fit = Some(fit);
     out.seconds = started.elapsed().as_secs_f64();
@@ -216,7 +216,7 @@ fn build(
     fit: &Mf61Fit,
     use_mode: Option<i64>,
     tested_kpa: &[i64],
-) -> Result<WrittenModel, String> {
+) -> Result<WrittenModel, TirBuildError> {
     let mut file = TirFile::from_coefs_as(fit.model.coefs.clone(), Version::Mf61);
     let mut rows: Vec<CoefficientRow> = fit
         .coefficients
@@ -241,11 +241,14 @@ fn build(
     rows.sort_by_key(|r| r.coef);
     file.use_mode = use_mode.or(Some(4));
     file.header_comments = header_comments(key, fit, tested_kpa);
-    let text = file
-        .render()
-        .map_err(|e| format!("cannot render the MF 6.1 .tir: {e}"))?;
-    let (read_back, _) = TirFile::parse(&text)
-        .map_err(|e| format!("the rendered MF 6.1 .tir does not read back: {e}"))?;
+    let text = file.render().map_err(|source| TirBuildError::Render {
+        model: FitModel::Mf61,
+        source,
+    })?;
+    let (read_back, _) = TirFile::parse(&text).map_err(|source| TirBuildError::ReadBack {
+        model: FitModel::Mf61,
+        source,
+    })?;
     Ok(WrittenModel {
         model: FitModel::Mf61,
         file_name: mf61_tir_file_name(&key.tire, key.rim_in as f64),

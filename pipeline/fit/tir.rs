@@ -22,10 +22,46 @@ use tirebase_core::fit::pac2002::{CoefficientOrigin, Pac2002Fit};
 use tirebase_core::naming::tir_file_name;
 use tirebase_core::tire_model::Coef;
 use tirebase_core::tire_model::tir::lint::{self, LintReport};
-use tirebase_core::tire_model::tir::{TirFile, TyrePressure};
+use tirebase_core::tire_model::tir::{TirFile, TirReadError, TirWriteError, TyrePressure};
 
 use super::group::GroupResult;
 use crate::config::FitModel;
+
+/// Why a fit's `.tir` was not written (a one-line reason in `fit_failures`).
+#[derive(Debug, thiserror::Error)]
+pub enum TirBuildError {
+    /// The group has no PAC2002 model.
+    #[error("no PAC2002 model")]
+    NoModel,
+    /// The PAC2002 fit fitted no pure family.
+    #[error("neither pure Fy nor pure Fx could be fitted (USE_MODE 0)")]
+    UseModeZero,
+    /// The writer refused the model.
+    #[error("cannot render the {}.tir: {source}", model_label(*model))]
+    Render {
+        /// The model being written.
+        model: FitModel,
+        /// The writer's reason.
+        source: TirWriteError,
+    },
+    /// The rendered text does not parse.
+    #[error("the rendered {}.tir does not read back: {source}", model_label(*model))]
+    ReadBack {
+        /// The model being written.
+        model: FitModel,
+        /// The reader's reason.
+        source: TirReadError,
+    },
+}
+
+/// How a reason names a model's file: the PAC2002 one is "the .tir", the MF 6.1 one "the MF 6.1
+/// .tir".
+fn model_label(model: FitModel) -> &'static str {
+    match model {
+        FitModel::Pac2002 => "",
+        FitModel::Mf61 => "MF 6.1 ",
+    }
+}
 
 /// One row of the `coefficients` table (without the group columns).
 #[derive(Clone, Debug, PartialEq)]
@@ -150,13 +186,10 @@ pub(super) fn set_geometry(
 }
 
 /// Build the file of a group; `Err` (a one-line reason) when there is no model to write.
-pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, String> {
-    let fit = result
-        .pac2002
-        .as_ref()
-        .ok_or_else(|| "no PAC2002 model".to_string())?;
+pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, TirBuildError> {
+    let fit = result.pac2002.as_ref().ok_or(TirBuildError::NoModel)?;
     if fit.use_mode == 0 {
-        return Err("neither pure Fy nor pure Fx could be fitted (USE_MODE 0)".to_string());
+        return Err(TirBuildError::UseModeZero);
     }
     let key = &result.key;
     let mut file = TirFile::from_coefs(fit.model.coefs.clone());
@@ -245,11 +278,14 @@ pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, Str
         nominal_pa: Some(nominal_pa),
     };
     file.header_comments = header_comments(result, fit, notes);
-    let text = file
-        .render()
-        .map_err(|e| format!("cannot render the .tir: {e}"))?;
-    let (read_back, _) =
-        TirFile::parse(&text).map_err(|e| format!("the rendered .tir does not read back: {e}"))?;
+    let text = file.render().map_err(|source| TirBuildError::Render {
+        model: FitModel::Pac2002,
+        source,
+    })?;
+    let (read_back, _) = TirFile::parse(&text).map_err(|source| TirBuildError::ReadBack {
+        model: FitModel::Pac2002,
+        source,
+    })?;
     Ok(WrittenModel {
         model: FitModel::Pac2002,
         file_name: tir_file_name(&key.tire, key.rim_in as f64, key.pressure_kpa_nom as f64),

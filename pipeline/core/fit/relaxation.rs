@@ -415,6 +415,69 @@ impl RelaxationLaw {
     }
 }
 
+/// Why a segment, a group or a law gave no relaxation length (recorded as a [`StageFailure`]
+/// reason).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RelaxationError {
+    /// A channel's length differs from `et_s`'s.
+    #[error("channel {channel} has {len} samples, et_s has {et_len}")]
+    ChannelLength {
+        /// The channel.
+        channel: &'static str,
+        /// Its samples.
+        len: usize,
+        /// Samples of `et_s`.
+        et_len: usize,
+    },
+    /// The segment rolls too slowly (or has no finite speed).
+    #[error("mean speed {speed_kph:.1} km/h, need {need_kph:.1}")]
+    Speed {
+        /// Mean road speed, km/h.
+        speed_kph: f64,
+        /// `min_speed_kph`.
+        need_kph: f64,
+    },
+    /// Too few samples the cost counts.
+    #[error("{n} counted samples, need {need}")]
+    TooFewSamples {
+        /// Counted samples.
+        n: usize,
+        /// `min_samples`.
+        need: usize,
+    },
+    /// The camber factor of the lateral length is not positive enough to divide by.
+    #[error("camber factor 1 - PKY3 |gamma| = {factor:.3}")]
+    CamberFactor {
+        /// `1 - PKY3 |gamma|`.
+        factor: f64,
+    },
+    /// No sample has finite model inputs and a finite measured force.
+    #[error("no sample with finite inputs")]
+    NoFiniteSample,
+    /// The 1-D search failed.
+    #[error(transparent)]
+    Search(#[from] scalar::ScalarError),
+    /// A law needs two loads at least.
+    #[error("{loads} distinct loads, need 2 for {law}")]
+    TooFewLoads {
+        /// Loads more than 5 % apart.
+        loads: usize,
+        /// The coefficients of the law (`PTY1 and PTY2`).
+        law: &'static str,
+    },
+    /// A law coefficient ended at its search bound.
+    #[error("{coef} at its search bound ({value:.3})")]
+    AtBound {
+        /// The coefficient (`PTY2`, `PTX3`).
+        coef: &'static str,
+        /// Where it stopped.
+        value: f64,
+    },
+    /// The longitudinal law's design is singular.
+    #[error("PTX1/PTX2: degenerate loads")]
+    DegenerateLoads,
+}
+
 /// Everything the stage produces.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RelaxationOutput {
@@ -442,7 +505,7 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
                 Err(reason) => out.failures.push(StageFailure {
                     key: input.key.clone(),
                     scope: format!("{} segment {}", direction.as_str(), seg.segment_id),
-                    reason,
+                    reason: reason.to_string(),
                 }),
             }
         }
@@ -459,7 +522,7 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
                 Err(reason) => out.failures.push(StageFailure {
                     key: input.key.clone(),
                     scope: format!("{} {} at {} N", group.0.as_str(), group.1.as_str(), group.2),
-                    reason,
+                    reason: reason.to_string(),
                 }),
             }
         }
@@ -695,15 +758,14 @@ impl LagProblem {
     }
 
     /// Find `sigma` in `range` by grid + Brent.
-    pub fn fit(&self, range: (f64, f64)) -> Result<LagFit, String> {
+    pub fn fit(&self, range: (f64, f64)) -> Result<LagFit, RelaxationError> {
         let n = self.counted.iter().filter(|c| **c).count();
         let m = scalar::minimize(
             &|s| self.cost(s).0,
             range.0,
             range.1,
             &ScalarOptions::default(),
-        )
-        .map_err(|e| e.to_string())?;
+        )?;
         let (rss, scale, offset_n) = self.cost(m.x);
         Ok(LagFit {
             sigma_m: m.x,
@@ -724,25 +786,29 @@ fn prepare(
     direction: Direction,
     method: Method,
     cfg: &RelaxationConfig,
-) -> Result<Prepared, String> {
+) -> Result<Prepared, RelaxationError> {
     let c = &seg.channels;
-    if let Some((name, len)) = c.length_mismatch() {
-        return Err(format!(
-            "channel {name} has {len} samples, et_s has {}",
-            c.len()
-        ));
+    if let Some((channel, len)) = c.length_mismatch() {
+        return Err(RelaxationError::ChannelLength {
+            channel,
+            len,
+            et_len: c.len(),
+        });
     }
     let speed_kph = finite_mean(c.speed_kph.iter().copied()).unwrap_or(f64::NAN);
     if speed_kph.is_nan() || speed_kph < cfg.min_speed_kph {
-        return Err(format!(
-            "mean speed {speed_kph:.1} km/h, need {:.1}",
-            cfg.min_speed_kph
-        ));
+        return Err(RelaxationError::Speed {
+            speed_kph,
+            need_kph: cfg.min_speed_kph,
+        });
     }
     let problem = lag_problem(input.model, seg, direction, method, cfg)?;
     let n = problem.counted.iter().filter(|c| **c).count();
     if n < cfg.min_samples {
-        return Err(format!("{n} counted samples, need {}", cfg.min_samples));
+        return Err(RelaxationError::TooFewSamples {
+            n,
+            need: cfg.min_samples,
+        });
     }
     let fz_n_mean = finite_mean(c.fz_n.iter().copied()).unwrap_or(f64::NAN);
     let coefs = &input.model.coefs;
@@ -754,7 +820,7 @@ fn prepare(
         Direction::Longitudinal => 1.0,
     };
     if factor.is_nan() || factor <= 0.1 {
-        return Err(format!("camber factor 1 - PKY3 |gamma| = {factor:.3}"));
+        return Err(RelaxationError::CamberFactor { factor });
     }
     let slip: &[f64] = match direction {
         Direction::Lateral => &c.alpha_rad,
@@ -778,7 +844,7 @@ fn group_row(
     input: &RelaxationInput<'_>,
     members: &[Prepared],
     cfg: &RelaxationConfig,
-) -> Result<RelaxationRow, String> {
+) -> Result<RelaxationRow, RelaxationError> {
     let first = &members[0];
     let (lo, hi) = cfg.sigma_range_m;
     let pooled = |sigma0: f64| -> f64 {
@@ -787,8 +853,7 @@ fn group_row(
             .map(|m| m.problem.cost(sigma0 * m.factor).0)
             .sum()
     };
-    let best =
-        scalar::minimize(&pooled, lo, hi, &ScalarOptions::default()).map_err(|e| e.to_string())?;
+    let best = scalar::minimize(&pooled, lo, hi, &ScalarOptions::default())?;
     let mut n = 0;
     let (mut rss, mut scale, mut offset) = (0.0, 0.0, 0.0);
     for m in members {
@@ -1052,7 +1117,7 @@ pub fn lag_problem(
     direction: Direction,
     method: Method,
     cfg: &RelaxationConfig,
-) -> Result<LagProblem, String> {
+) -> Result<LagProblem, RelaxationError> {
     let c = &seg.channels;
     let n = c.len();
     let hz = {
@@ -1114,7 +1179,7 @@ pub fn lag_problem(
     let first_ok = ok
         .iter()
         .position(|v| *v)
-        .ok_or("no sample with finite inputs")?;
+        .ok_or(RelaxationError::NoFiniteSample)?;
     let mut last = f_ss[first_ok];
     for (i, f) in f_ss.iter_mut().enumerate() {
         if ok[i] {
@@ -1228,7 +1293,7 @@ fn fit_law(
         Err(reason) if !lat.is_empty() => failures.push(StageFailure {
             key: input.key.clone(),
             scope: "PTY1/PTY2".to_string(),
-            reason,
+            reason: reason.to_string(),
         }),
         Err(_) => {}
     }
@@ -1243,7 +1308,7 @@ fn fit_law(
         Err(reason) if !lon.is_empty() => failures.push(StageFailure {
             key: input.key.clone(),
             scope: "PTX1/PTX2/PTX3".to_string(),
-            reason,
+            reason: reason.to_string(),
         }),
         Err(_) => {}
     }
@@ -1354,10 +1419,13 @@ pub fn fit_pty(
     pts: &[(f64, f64, f64, f64)],
     fz0_scaled: f64,
     range: (f64, f64),
-) -> Result<(f64, f64, f64, usize), String> {
+) -> Result<(f64, f64, f64, usize), RelaxationError> {
     let loads = distinct_loads(pts.iter().map(|p| p.0));
     if loads < 2 {
-        return Err(format!("{loads} distinct loads, need 2 for PTY1 and PTY2"));
+        return Err(RelaxationError::TooFewLoads {
+            loads,
+            law: "PTY1 and PTY2",
+        });
     }
     let basis = |pty2: f64, fz: f64, g: f64| (2.0 * (fz / (pty2 * fz0_scaled)).atan()).sin() * g;
     let solve = |pty2: f64| {
@@ -1371,11 +1439,13 @@ pub fn fit_pty(
         let rss: f64 = pts.iter().map(|p| residual(p).powi(2)).sum();
         (pty1, wrss, rss)
     };
-    let m = scalar::minimize(&|p| solve(p).1, range.0, range.1, &ScalarOptions::default())
-        .map_err(|e| e.to_string())?;
+    let m = scalar::minimize(&|p| solve(p).1, range.0, range.1, &ScalarOptions::default())?;
     let (pty1, _, rss) = solve(m.x);
     if m.at_bound {
-        return Err(format!("PTY2 at its search bound ({:.3})", m.x));
+        return Err(RelaxationError::AtBound {
+            coef: "PTY2",
+            value: m.x,
+        });
     }
     Ok((pty1, m.x, (rss / pts.len() as f64).sqrt(), pts.len()))
 }
@@ -1393,10 +1463,13 @@ pub fn fit_ptx(
     fz0_scaled: f64,
     r0: f64,
     range: (f64, f64),
-) -> Result<(f64, f64, f64, f64, usize), String> {
+) -> Result<(f64, f64, f64, f64, usize), RelaxationError> {
     let loads = distinct_loads(pts.iter().map(|p| p.0));
     if loads < 2 {
-        return Err(format!("{loads} distinct loads, need 2 for PTX1 and PTX2"));
+        return Err(RelaxationError::TooFewLoads {
+            loads,
+            law: "PTX1 and PTX2",
+        });
     }
     let solve = |ptx3: f64| {
         let (mut saa, mut sab, mut sbb, mut say, mut sby) = (0.0, 0.0, 0.0, 0.0, 0.0);
@@ -1429,10 +1502,12 @@ pub fn fit_ptx(
             log_grid: false,
             ..ScalarOptions::default()
         };
-        let m = scalar::minimize(&|p| solve(p).2, range.0, range.1, &opts)
-            .map_err(|e| e.to_string())?;
+        let m = scalar::minimize(&|p| solve(p).2, range.0, range.1, &opts)?;
         if m.at_bound {
-            return Err(format!("PTX3 at its search bound ({:.3})", m.x));
+            return Err(RelaxationError::AtBound {
+                coef: "PTX3",
+                value: m.x,
+            });
         }
         // The curvature term only when the rows demand it: with weights 1/SE^2 the weighted
         // residual sum is a chi-square, and a free PTX3 must lower it by PTX3_MIN_CHI2_GAIN.
@@ -1449,7 +1524,7 @@ pub fn fit_ptx(
     };
     let (p1, p2, _, rss) = solve(ptx3);
     if !rss.is_finite() {
-        return Err("PTX1/PTX2: degenerate loads".to_string());
+        return Err(RelaxationError::DegenerateLoads);
     }
     Ok((p1, p2, ptx3, (rss / pts.len() as f64).sqrt(), pts.len()))
 }

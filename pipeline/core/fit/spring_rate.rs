@@ -26,7 +26,8 @@ use nalgebra::{DMatrix, DVector};
 use super::pac2002::FitContext;
 use super::scalar::{self, ScalarOptions};
 use super::segment_data::{MeasuredSegment, SegmentKind, StageFailure, TireKey, finite_mean};
-use crate::numerics::least_squares;
+use crate::numerics::{NumericsError, least_squares};
+use crate::physical::{RADIUS_M, VERTICAL_STIFFNESS_N_PER_M, within};
 
 /// Where a stiffness comes from.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -121,6 +122,77 @@ pub struct SpringRateRow {
     pub fz_n_min: f64,
     /// Load range used, N.
     pub fz_n_max: f64,
+}
+
+/// Why a spring-rate row, the `.tir` vertical numbers or the effective-radius law could not be
+/// produced (recorded as a [`StageFailure`] reason).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SpringRateError {
+    /// Too few samples with both a loaded radius and a load.
+    #[error("{n} usable samples (loaded radius and load), need {need}")]
+    TooFewSamples {
+        /// Usable samples.
+        n: usize,
+        /// `min_samples`.
+        need: usize,
+    },
+    /// The load did not vary enough to fit a line.
+    #[error("load span {span_n:.0} N, need {need_n:.0} N")]
+    LoadSpan {
+        /// Load span of the pool, N.
+        span_n: f64,
+        /// `min_load_span_n`.
+        need_n: f64,
+    },
+    /// The loaded radius grows with the load.
+    #[error("loaded radius grows with load (slope {slope_m_per_n:.3e} m/N)")]
+    RadiusGrows {
+        /// Fitted slope, m/N.
+        slope_m_per_n: f64,
+    },
+    /// The fitted unloaded radius is no tire's.
+    #[error(
+        "unloaded radius {r0_m:.4} m outside a tire's {}..{} m (loaded radius in another unit?)",
+        RADIUS_M.0,
+        RADIUS_M.1
+    )]
+    Radius {
+        /// Fitted unloaded radius, m.
+        r0_m: f64,
+    },
+    /// The fitted vertical stiffness is no tire's.
+    #[error(
+        "vertical stiffness {cz_n_per_m:.0} N/m outside a tire's {:.0}..{:.0} N/m",
+        VERTICAL_STIFFNESS_N_PER_M.0,
+        VERTICAL_STIFFNESS_N_PER_M.1
+    )]
+    Stiffness {
+        /// Fitted vertical stiffness, N/m.
+        cz_n_per_m: f64,
+    },
+    /// The straight-line fit failed.
+    #[error(transparent)]
+    Line(#[from] NumericsError),
+    /// No row to take `VERTICAL_STIFFNESS` and `UNLOADED_RADIUS` from.
+    #[error("no dynamic spring-rate or sweep row")]
+    NoVerticalRow,
+    /// No `FNOMIN` to fit the effective-radius law with.
+    #[error("no FNOMIN for this tire")]
+    NoFnomin,
+    /// Too few rolling samples with an effective radius.
+    #[error("{n} rolling samples with RE, need {need}")]
+    TooFewRolling {
+        /// Usable samples.
+        n: usize,
+        /// `min_samples`.
+        need: usize,
+    },
+    /// The search over `BREFF` failed.
+    #[error(transparent)]
+    Search(#[from] scalar::ScalarError),
+    /// The effective-radius design is singular.
+    #[error("RE law: degenerate design (one load only?)")]
+    DegenerateReLaw,
 }
 
 /// The PAC2002 stage's context of tire `key` tested at `test_speed_mps`, with `Cz` and `R0`
@@ -252,7 +324,7 @@ pub fn run(
                     Condition::Sweep => format!("sweep ia {ia} at {speed_bin} km/h"),
                     _ => format!("{} ia {}", condition.as_str(), ia),
                 },
-                reason,
+                reason: reason.to_string(),
             }),
         }
     }
@@ -273,7 +345,7 @@ pub fn run(
                     out.failures.push(StageFailure {
                         key: key.clone(),
                         scope: "effective radius".to_string(),
-                        reason,
+                        reason: reason.to_string(),
                     });
                 }
                 out.vertical.push(vertical);
@@ -281,7 +353,7 @@ pub fn run(
             Err(reason) => out.failures.push(StageFailure {
                 key,
                 scope: "tir vertical".to_string(),
-                reason,
+                reason: reason.to_string(),
             }),
         }
     }
@@ -349,44 +421,39 @@ fn fit_group(
     ia: i64,
     pool: &Pool,
     cfg: &SpringRateConfig,
-) -> Result<SpringRateRow, String> {
+) -> Result<SpringRateRow, SpringRateError> {
     let n = pool.fz.len();
     if n < cfg.min_samples {
-        return Err(format!(
-            "{n} usable samples (loaded radius and load), need {}",
-            cfg.min_samples
-        ));
+        return Err(SpringRateError::TooFewSamples {
+            n,
+            need: cfg.min_samples,
+        });
     }
     let fz_min = pool.fz.iter().copied().fold(f64::INFINITY, f64::min);
     let fz_max = pool.fz.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     if fz_max - fz_min < cfg.min_load_span_n {
-        return Err(format!(
-            "load span {:.0} N, need {:.0} N",
-            fz_max - fz_min,
-            cfg.min_load_span_n
-        ));
+        return Err(SpringRateError::LoadSpan {
+            span_n: fz_max - fz_min,
+            need_n: cfg.min_load_span_n,
+        });
     }
     let line = LineFit::new(&pool.fz, &pool.rl)?;
     if line.slope >= 0.0 {
-        return Err(format!(
-            "loaded radius grows with load (slope {:.3e} m/N)",
-            line.slope
-        ));
+        return Err(SpringRateError::RadiusGrows {
+            slope_m_per_n: line.slope,
+        });
     }
     let stiffness = -1.0 / line.slope;
     // A radius or stiffness no tire has (a radius channel in another unit) is not a row.
-    use crate::physical::{RADIUS_M, VERTICAL_STIFFNESS_N_PER_M, within};
     if !within(line.intercept, RADIUS_M) {
-        return Err(format!(
-            "unloaded radius {:.4} m outside a tire's {}..{} m (loaded radius in another unit?)",
-            line.intercept, RADIUS_M.0, RADIUS_M.1
-        ));
+        return Err(SpringRateError::Radius {
+            r0_m: line.intercept,
+        });
     }
     if !within(stiffness, VERTICAL_STIFFNESS_N_PER_M) {
-        return Err(format!(
-            "vertical stiffness {stiffness:.0} N/m outside a tire's {:.0}..{:.0} N/m",
-            VERTICAL_STIFFNESS_N_PER_M.0, VERTICAL_STIFFNESS_N_PER_M.1
-        ));
+        return Err(SpringRateError::Stiffness {
+            cz_n_per_m: stiffness,
+        });
     }
     Ok(SpringRateRow {
         key: key.clone(),
@@ -418,10 +485,9 @@ struct LineFit {
 }
 
 impl LineFit {
-    fn new(x: &[f64], y: &[f64]) -> Result<LineFit, String> {
+    fn new(x: &[f64], y: &[f64]) -> Result<LineFit, NumericsError> {
         let design = DMatrix::from_fn(x.len(), 2, |i, j| if j == 0 { 1.0 } else { x[i] });
-        let fit = least_squares::solve(&design, &DVector::from_column_slice(y))
-            .map_err(|e| e.to_string())?;
+        let fit = least_squares::solve(&design, &DVector::from_column_slice(y))?;
         let mean = y.iter().sum::<f64>() / y.len() as f64;
         let tss: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
         Ok(LineFit {
@@ -446,7 +512,7 @@ fn tir_vertical(
     groups: &BTreeMap<GroupKey, Pool>,
     fnomin_n: Option<f64>,
     cfg: &SpringRateConfig,
-) -> Result<(TirVertical, Option<String>), String> {
+) -> Result<(TirVertical, Option<SpringRateError>), SpringRateError> {
     let mine: Vec<&SpringRateRow> = rows.iter().filter(|r| &r.key == key).collect();
     let dynamic: Vec<&&SpringRateRow> = mine
         .iter()
@@ -479,7 +545,7 @@ fn tir_vertical(
             "sweep",
         )
     } else {
-        return Err("no dynamic spring-rate or sweep row".to_string());
+        return Err(SpringRateError::NoVerticalRow);
     };
     let mut vertical = TirVertical {
         key: key.clone(),
@@ -490,7 +556,7 @@ fn tir_vertical(
         effective_radius: None,
     };
     let Some(fz0) = fnomin_n.filter(|f| *f > 0.0) else {
-        return Ok((vertical, Some("no FNOMIN for this tire".to_string())));
+        return Ok((vertical, Some(SpringRateError::NoFnomin)));
     };
     let (fz, re) = re_samples(key, groups, speed, cfg);
     match fit_effective_radius(&fz, &re, r0, cz, fz0, cfg) {
@@ -545,13 +611,13 @@ pub fn fit_effective_radius(
     cz_n_per_m: f64,
     fnomin_n: f64,
     cfg: &SpringRateConfig,
-) -> Result<EffectiveRadiusLaw, String> {
+) -> Result<EffectiveRadiusLaw, SpringRateError> {
     let n = fz_n.len();
     if n < cfg.min_samples {
-        return Err(format!(
-            "{n} rolling samples with RE, need {}",
-            cfg.min_samples
-        ));
+        return Err(SpringRateError::TooFewRolling {
+            n,
+            need: cfg.min_samples,
+        });
     }
     let rho: Vec<f64> = fz_n.iter().map(|f| f / fnomin_n).collect();
     // y = (R0 - RE) Cz/Fz0 = DREFF atan(BREFF rho) + FREFF rho.
@@ -583,10 +649,8 @@ pub fn fit_effective_radius(
     };
     let cost = |b: f64| inner(b).map_or(f64::INFINITY, |(_, _, rss)| rss);
     let (lo, hi) = cfg.breff_range;
-    let m =
-        scalar::minimize(&cost, lo, hi, &ScalarOptions::default()).map_err(|e| e.to_string())?;
-    let (dreff, freff, rss) =
-        inner(m.x).ok_or_else(|| "RE law: degenerate design (one load only?)".to_string())?;
+    let m = scalar::minimize(&cost, lo, hi, &ScalarOptions::default())?;
+    let (dreff, freff, rss) = inner(m.x).ok_or(SpringRateError::DegenerateReLaw)?;
     let rmse_m = (rss / n as f64).sqrt() * fnomin_n / cz_n_per_m;
     Ok(EffectiveRadiusLaw {
         breff: m.x,
