@@ -50,6 +50,7 @@ pub use load::{LoadedSegment, SegmentRow, judge_qc, live_segments, parse_qc_flag
 
 use crate::config::{Config, FitModel};
 use crate::progress::Progress;
+use crate::schema::TableName;
 use crate::store::StoreError;
 use crate::store::files::{ensure_dir, sha256_bytes, write_bytes_atomic};
 use crate::store::layout::SWEPT;
@@ -77,8 +78,8 @@ pub enum FitError {
     /// A result table could not be assembled.
     #[error("table {table}: {message}")]
     Table {
-        /// Table name.
-        table: String,
+        /// The table.
+        table: TableName,
         /// What went wrong.
         message: String,
     },

@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::store::StoreError;
 use crate::store::files::write_bytes_atomic;
+use crate::store::tables::RunStatus;
 
 /// File name of the manifest inside a version directory.
 pub const MANIFEST_FILE: &str = "manifest.toml";
@@ -147,8 +148,32 @@ pub struct InputFile {
     pub mtime_ns: i64,
     /// SHA-256 of the content ("" if it could not be read).
     pub sha256: String,
-    /// `ok` or `failed` (as in the runs table).
-    pub status: String,
+    /// Its `runs.status`, written as in the runs table (`ok`, `partial`, `failed`, `duplicate`);
+    /// `None`, written `""`, for a file the runs table has no row of.
+    #[serde(with = "file_status")]
+    pub status: Option<RunStatus>,
+}
+
+/// [`InputFile::status`] as the runs table's name, `""` for none.
+mod file_status {
+    use serde::de::Error as _;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    use crate::store::tables::RunStatus;
+
+    pub fn serialize<S: Serializer>(status: &Option<RunStatus>, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(status.map_or("", RunStatus::as_str))
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<RunStatus>, D::Error> {
+        let name = String::deserialize(d)?;
+        if name.is_empty() {
+            return Ok(None);
+        }
+        RunStatus::parse(&name)
+            .map(Some)
+            .ok_or_else(|| D::Error::custom(format!("unknown file status '{name}'")))
+    }
 }
 
 #[cfg(test)]
@@ -161,7 +186,7 @@ impl InputFile {
             size: 10,
             mtime_ns: 5,
             sha256: sha.into(),
-            status: "ok".into(),
+            status: Some(RunStatus::Ok),
         }
     }
 }
@@ -421,7 +446,7 @@ mod tests {
             size: 10,
             mtime_ns: 1_700_000_000_123_456_789,
             sha256: "ab".into(),
-            status: "ok".into(),
+            status: Some(RunStatus::Ok),
         });
         m.groups.push(GroupRecord {
             tire: "Hoosier R25B".into(),

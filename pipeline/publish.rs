@@ -207,7 +207,7 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
             from_version: reused.get(&plan_key(g)).copied().unwrap_or(number),
         })
         .collect();
-    let status = |s: RunStatus| files.iter().filter(|f| f.status == s.as_str()).count() as u64;
+    let status = |s: RunStatus| files.iter().filter(|f| f.status == Some(s)).count() as u64;
     let done = |s: FileStatus| ingest.count(|x| *x == s) as u64;
     let counts = Counts {
         files: files.len() as u64,

@@ -170,11 +170,9 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     let files_unchanged = previous
         .as_ref()
         .is_some_and(|(_, _, m)| same_files(&m.files, &fingerprint.files));
-    let previous_clean = previous.as_ref().is_some_and(|(_, _, m)| {
-        m.files
-            .iter()
-            .all(|f| f.status != RunStatus::Failed.as_str())
-    });
+    let previous_clean = previous
+        .as_ref()
+        .is_some_and(|(_, _, m)| m.files.iter().all(|f| f.status != Some(RunStatus::Failed)));
     if let Some((n, _, prev)) = &previous
         && files_unchanged
         && previous_clean
@@ -277,7 +275,7 @@ fn skipped_problems(skipped: &[(PathBuf, String)]) -> impl Iterator<Item = Probl
 }
 
 fn count_status(files: &[InputFile], status: RunStatus) -> u64 {
-    files.iter().filter(|f| f.status == status.as_str()).count() as u64
+    files.iter().filter(|f| f.status == Some(status)).count() as u64
 }
 
 /// Split the plan into groups to fit and groups whose results the previous version holds for
@@ -376,7 +374,7 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
             size: u64::try_from(stamp.size_bytes).unwrap_or(0),
             mtime_ns: stamp.mtime_ns,
             sha256: String::new(),
-            status: String::new(),
+            status: None,
         });
     }
     let catalog_sha256 = match opts.catalog {
@@ -449,7 +447,7 @@ fn same_settings_but_runs(prev: &Manifest, now: &Fingerprint) -> bool {
 
 /// Same input files with the same content and ingest status as last time.
 fn same_content(previous: &[InputFile], now: &[InputFile]) -> bool {
-    let key = |f: &InputFile| (f.name.clone(), f.sha256.clone(), f.status.clone());
+    let key = |f: &InputFile| (f.name.clone(), f.sha256.clone(), f.status);
     let a: BTreeSet<_> = previous.iter().map(key).collect();
     let b: BTreeSet<_> = now.iter().map(key).collect();
     a == b
@@ -507,7 +505,7 @@ fn input_records(runs: &BTreeMap<String, RunRow>, stats: &[InputFile]) -> Vec<In
             let mut f = f.clone();
             if let Some(row) = runs.get(&f.name) {
                 f.sha256 = row.sha256.clone();
-                f.status = row.status.to_string();
+                f.status = Some(row.status);
             }
             f
         })

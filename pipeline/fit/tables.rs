@@ -17,7 +17,7 @@ use super::mf61::Mf61Outcome;
 use super::tir::WrittenModel;
 use super::{FitError, FitFailure};
 use crate::config::FitModel;
-use crate::schema;
+use crate::schema::{self, TableName};
 
 /// A column being built.
 enum Data {
@@ -31,12 +31,12 @@ enum Data {
 
 /// A table being built row by row: every push adds one value to the named column.
 struct Frame {
-    name: &'static str,
+    name: TableName,
     columns: Vec<(&'static str, Data)>,
 }
 
 impl Frame {
-    fn new(name: &'static str) -> Frame {
+    fn new(name: TableName) -> Frame {
         Frame {
             name,
             columns: Vec::new(),
@@ -104,8 +104,7 @@ impl Frame {
 
     /// The conformed frame (an empty table has every schema column and no rows).
     fn finish(self) -> Result<DataFrame, FitError> {
-        let table = schema::table_named(self.name)
-            .unwrap_or_else(|| panic!("no schema for table {}", self.name));
+        let table = schema::table(self.name);
         if self.columns.is_empty() {
             return Ok(DataFrame::empty_with_schema(&table.file_schema()));
         }
@@ -129,7 +128,7 @@ impl Frame {
             cols.push(col);
         }
         let df = DataFrame::new_infer_height(cols).map_err(|e| FitError::Table {
-            table: self.name.to_string(),
+            table: self.name,
             message: e.to_string(),
         })?;
         Ok(table.conform(df)?)
@@ -138,7 +137,7 @@ impl Frame {
 
 /// `coefficients` from the written models.
 pub fn coefficients(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, FitError> {
-    let mut f = Frame::new("coefficients");
+    let mut f = Frame::new(TableName::Coefficients);
     for (key, m) in models {
         for c in &m.coefficients {
             f.key(key)
@@ -157,7 +156,7 @@ pub fn coefficients(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, Fit
 
 /// `lint` from the written models.
 pub fn lint(models: &[(TireKey, WrittenModel)]) -> Result<DataFrame, FitError> {
-    let mut f = Frame::new("lint");
+    let mut f = Frame::new(TableName::Lint);
     for (key, m) in models {
         for finding in &m.lint.findings {
             f.key(key)
@@ -184,7 +183,7 @@ pub fn fit_quality(
     let mut rows: Vec<(TireKey, u8, Frame)> = Vec::new();
     for r in results.iter().filter(|_| pac2002) {
         let Some(fit) = &r.pac2002 else { continue };
-        let mut f = Frame::new("fit_quality");
+        let mut f = Frame::new(TableName::FitQuality);
         for fam in &fit.families {
             let Some(q) = &fam.quality else { continue };
             let oos = q.out_of_sample.as_ref();
@@ -251,7 +250,7 @@ pub fn fit_quality(
             };
             by_pressure
                 .entry(q.pressure_kpa_nom)
-                .or_insert_with(|| Frame::new("fit_quality"))
+                .or_insert_with(|| Frame::new(TableName::FitQuality))
                 .key(&key)
                 .s("model", FitModel::Mf61.as_str())
                 .s("channel", q.family.name())
@@ -305,20 +304,20 @@ pub fn fit_quality(
         out = Some(match out {
             None => df,
             Some(acc) => acc.vstack(&df).map_err(|e| FitError::Table {
-                table: "fit_quality".to_string(),
+                table: TableName::FitQuality,
                 message: e.to_string(),
             })?,
         });
     }
     match out {
         Some(df) => Ok(df),
-        None => Frame::new("fit_quality").finish(),
+        None => Frame::new(TableName::FitQuality).finish(),
     }
 }
 
 /// `fit_failures`.
 pub fn fit_failures(failures: &[FitFailure]) -> Result<DataFrame, FitError> {
-    let mut f = Frame::new("fit_failures");
+    let mut f = Frame::new(TableName::FitFailures);
     for x in failures {
         f.s("tire", x.tire.clone())
             .i("rim_in", x.rim_in)
@@ -333,7 +332,7 @@ pub fn fit_failures(failures: &[FitFailure]) -> Result<DataFrame, FitError> {
 
 /// `spring_rate`.
 pub fn spring_rate(results: &[GroupResult]) -> Result<DataFrame, FitError> {
-    let mut f = Frame::new("spring_rate");
+    let mut f = Frame::new(TableName::SpringRate);
     for r in results.iter().filter_map(|r| r.spring_rate.as_ref()) {
         for row in &r.rows {
             f.key(&row.key)
@@ -358,7 +357,7 @@ pub fn spring_rate(results: &[GroupResult]) -> Result<DataFrame, FitError> {
 
 /// `thermal` (per-sweep quadrant rows).
 pub fn thermal(results: &[GroupResult]) -> Result<DataFrame, FitError> {
-    let mut f = Frame::new("thermal");
+    let mut f = Frame::new(TableName::Thermal);
     for t in results.iter().filter_map(|r| r.thermal.as_ref()) {
         for row in &t.rows {
             f.key(&row.key)
@@ -394,7 +393,7 @@ pub fn thermal(results: &[GroupResult]) -> Result<DataFrame, FitError> {
 
 /// `thermal_fit` (one mu(T) curve per group).
 pub fn thermal_fit(results: &[GroupResult]) -> Result<DataFrame, FitError> {
-    let mut f = Frame::new("thermal_fit");
+    let mut f = Frame::new(TableName::ThermalFit);
     for t in results.iter().filter_map(|r| r.thermal.as_ref()) {
         for row in &t.fits {
             f.key(&row.key)
@@ -416,7 +415,7 @@ pub fn thermal_fit(results: &[GroupResult]) -> Result<DataFrame, FitError> {
 
 /// `relaxation`.
 pub fn relaxation(results: &[GroupResult]) -> Result<DataFrame, FitError> {
-    let mut f = Frame::new("relaxation");
+    let mut f = Frame::new(TableName::Relaxation);
     for x in results.iter().filter_map(|r| r.relaxation.as_ref()) {
         for row in &x.rows {
             f.key(&row.key)
@@ -491,7 +490,7 @@ mod tests {
         let reason = df.column("reason").unwrap().str().unwrap().get(0).unwrap();
         assert_eq!(reason, "no sweeps", "one-line reasons");
 
-        let mut f = Frame::new("coefficients");
+        let mut f = Frame::new(TableName::Coefficients);
         f.key(&key)
             .s("model", "pac2002")
             .s("family", "Fy0")
