@@ -19,7 +19,7 @@ for f in files:
             d = ' '.join(l.strip()[3:].strip() for l in fm.group(1).strip().split('\n'))
             fields[fm.group(2)] = (d, fm.group(3).strip())
         entry = (' '.join(l.strip()[3:].strip() for l in doc.strip().split('\n') if l.strip()), fields)
-        # Two stages name their knobs alike (segment::SpringRateConfig, fit::SpringRateConfig):
+        # Two stages may name their knobs alike (segment::X, fit::X):
         # tables under [fit] take the fitting stages' definitions.
         key = ('fit:' if '/core/fit/' in f else '') + name
         structs.setdefault(key, entry)

@@ -15,14 +15,14 @@
 //! write_outcome: OUT/<table>.parquet, OUT/tir/*.tir (atomic writes)
 //! ```
 //!
-//! A failed group or stage is a row of `fit_failures` (and of [`FitOutcome::failures`]), never an
+//! A failed group or stage is a row of `fit_failures` (and of [`FitResults::failures`]), never an
 //! `Err`: `Err` is reserved for a store that cannot be read or an output that cannot be written.
 //! With MF 6.1 on (`[fit] models`), the groups of one tire and rim are planned as one unit: each
 //! group's input hash covers its siblings', so a change at one pressure refits them all and the
 //! MF 6.1 model (keyed at its `NOMPRES`, one of the tested pressures) is carried over or refit
 //! with them. Output is deterministic: groups are sorted by key, every stage is single-threaded and
 //! deterministic within its group, so any `jobs` gives the same tables (the `seconds` column of
-//! `fit_quality` and [`FitOutcome::stage_seconds`] are wall time and excepted).
+//! `fit_quality` and [`FitResults::stage_seconds`] are wall time and excepted).
 //!
 //! Deliberately not here: the fitting math (`tirebase_core::fit`), the command line and exit
 //! codes (`commands::fit`), the store lock (the caller holds it), versioning (`run`).
@@ -283,7 +283,7 @@ fn thread_cpu_seconds() -> Option<f64> {
 
 /// Everything a fit produced.
 #[derive(Clone, Debug, Default)]
-pub struct FitOutcome {
+pub struct FitResults {
     /// Result tables by name: `coefficients`, `fit_quality`, `spring_rate`, `thermal`,
     /// `thermal_fit`, `relaxation`, `lint`, `fit_failures`. Every table has the columns `tire`
     /// (str), `rim_in` (i64), `pressure_kpa` (i64, nominal). Sorted deterministically;
@@ -313,7 +313,7 @@ pub struct FitOutcome {
     pub groups_empty: usize,
 }
 
-impl FitOutcome {
+impl FitResults {
     /// The fatal failures.
     pub fn fatal(&self) -> impl Iterator<Item = &FitFailure> {
         self.failures.iter().filter(|f| f.fatal)
@@ -635,7 +635,7 @@ pub fn fit_groups(
     groups: &[GroupPlan],
     opts: &FitOptions,
     progress: &dyn Progress,
-) -> Result<FitOutcome, FitError> {
+) -> Result<FitResults, FitError> {
     let rows = live_segments(store)?;
     let cfg = stage_configs(config);
     let models = Models::of(config, &opts.stages);
@@ -661,9 +661,9 @@ pub fn fit_groups(
     let mut results = Vec::with_capacity(outputs.len());
     let mut written = Vec::new();
     let mut parts: BTreeMap<(String, i64), Vec<mf61::Mf61Part>> = BTreeMap::new();
-    let mut outcome = FitOutcome {
+    let mut outcome = FitResults {
         groups: groups.len(),
-        ..FitOutcome::default()
+        ..FitResults::default()
     };
     for out in outputs {
         let GroupOutput {
@@ -816,7 +816,7 @@ fn fit_combinations(
 
 /// Writes OUT/<table>.parquet for every table and OUT/tir/*.tir (atomic writes). Files of
 /// tables or models this outcome does not hold are left alone.
-pub fn write_outcome(outcome: &FitOutcome, out: &Path) -> Result<(), FitError> {
+pub fn write_outcome(outcome: &FitResults, out: &Path) -> Result<(), FitError> {
     ensure_dir(out)?;
     for (name, df) in &outcome.tables {
         let mut df = df.clone();

@@ -13,7 +13,7 @@ use polars::prelude::*;
 use rayon::prelude::*;
 use tirebase_core::inertia::analysis::{SessionOutcome, analyze_session};
 use tirebase_core::inertia::session::{SESSION_FILE, Session, SessionError};
-use tirebase_core::inertia::{InertiaResult, RunError};
+use tirebase_core::inertia::{InertiaResult, InertiaRunError};
 
 use crate::schema::{self, TableName};
 use crate::store::StoreError;
@@ -29,7 +29,7 @@ pub struct InertiaRun {
 
 impl InertiaRun {
     /// Every failed run of every session.
-    pub fn errors(&self) -> impl Iterator<Item = &RunError> {
+    pub fn errors(&self) -> impl Iterator<Item = &InertiaRunError> {
         self.outcomes.iter().flat_map(|o| o.errors.iter())
     }
 
@@ -121,7 +121,7 @@ fn reject_duplicate_ids(outcomes: &mut [SessionOutcome], dirs: &[PathBuf]) {
         }) {
             let o = &mut outcomes[k];
             o.results.clear();
-            o.errors = vec![RunError {
+            o.errors = vec![InertiaRunError {
                 session: o.session.clone(),
                 run: "session.toml".into(),
                 message: format!(
@@ -176,7 +176,7 @@ fn process_dir(dir: &Path) -> SessionOutcome {
         Err(e) => SessionOutcome {
             session: label.clone(),
             results: Vec::new(),
-            errors: vec![RunError {
+            errors: vec![InertiaRunError {
                 session: label,
                 run: "session.toml".into(),
                 message: e.to_string(),

@@ -21,7 +21,7 @@ use std::time::Instant;
 use polars::prelude::*;
 
 use crate::config::FitModel;
-use crate::fit::{FitFailure, FitOutcome, GroupPlan};
+use crate::fit::{FitFailure, FitResults, GroupPlan};
 use crate::inertia::{InertiaRun, process_sessions};
 use crate::ingest::{FileStatus, IngestReport};
 use crate::manifest::{
@@ -64,7 +64,7 @@ pub struct Publication<'a> {
     /// Groups whose results the previous version holds, with the version that computed them.
     pub reused: &'a BTreeMap<GroupKey, u32>,
     /// The fit of the changed groups.
-    pub outcome: FitOutcome,
+    pub outcome: FitResults,
     /// Wall time per stage so far, s.
     pub timings: BTreeMap<String, f64>,
 }
@@ -297,7 +297,7 @@ fn fit_problem(f: &FitFailure) -> Problem {
 /// Merge this run's tables with the reused groups' rows of the previous version and write them
 /// into the staging directory. Returns the merged tables.
 fn merge_tables(
-    outcome: &FitOutcome,
+    outcome: &FitResults,
     prev_dir: Option<&Path>,
     reused: &BTreeSet<GroupKey>,
     tir_names: (&BTreeMap<GroupKey, String>, &BTreeMap<GroupKey, String>),
@@ -365,7 +365,7 @@ fn merge_tables(
 /// files by tire, rim and `NOMPRES`. Returns the names by key and the disambiguation notes.
 fn publish_tir(
     model: FitModel,
-    outcome: &FitOutcome,
+    outcome: &FitResults,
     prev_dir: Option<&Path>,
     reused: &BTreeSet<GroupKey>,
     staging: &Path,

@@ -30,7 +30,7 @@ use std::time::Instant;
 
 use crate::catalog::{Catalog, CatalogError};
 use crate::config::Config;
-use crate::fit::{self, FitError, FitOptions, FitOutcome, GroupPlan};
+use crate::fit::{self, FitError, FitOptions, FitResults, GroupPlan};
 use crate::inertia::find_sessions;
 use crate::ingest::{self, IngestError, IngestOptions, IngestReport, source_file_name};
 use crate::manifest::{
@@ -226,7 +226,7 @@ pub fn run(opts: &RunOptions, progress: &dyn Progress) -> Result<RunOutcome, Run
     // Fit what changed.
     let t = Instant::now();
     let outcome = if to_fit.is_empty() {
-        FitOutcome::default()
+        FitResults::default()
     } else {
         fit::fit_groups(opts.store, opts.config, &to_fit, &fit_opts, progress)?
     };

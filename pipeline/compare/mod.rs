@@ -25,7 +25,7 @@ use std::collections::BTreeMap;
 
 use car::Car;
 use rayon::prelude::*;
-use round::{FitError, GroupKey, RoundResults, ThermalWindow, TirModel};
+use round::{FitUncertainty, GroupKey, RoundResults, ThermalWindow, TirModel};
 use tirebase_core::compare::rank::{difference_tolerance, rank};
 use tirebase_core::compare::{self as figures_of, Figures, Objective, Pac2002Tire};
 
@@ -229,7 +229,7 @@ pub fn compare(
         .map(|c| {
             let tire = Pac2002Tire::new(&c.model.model, c.model.use_mode, max_load);
             let figures = figures_of::evaluate(&tire, &car.conditions);
-            let FitError { relative, source } =
+            let FitUncertainty { relative, source } =
                 round::fit_error(&c.round.results, &c.key, error_channels(objective));
             let value = objective_value(objective, &figures);
             CompareRow {

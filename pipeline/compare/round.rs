@@ -6,7 +6,7 @@
 //! In: a directory with `<table>.parquet` and `tir/*.tir`, or typed [`Results`] and models
 //! already in memory (the report). Out: [`RoundResults`] (a missing or unreadable table or
 //! model is a note, never an error: its figures are left empty), and for a group its model (by
-//! the version's `.tir` name), [`FitError`] and [`ThermalWindow`]. Deliberately not here: the
+//! the version's `.tir` name), [`FitUncertainty`] and [`ThermalWindow`]. Deliberately not here: the
 //! figures, ranking.
 
 use std::collections::BTreeMap;
@@ -124,7 +124,7 @@ fn of_group<'a, T>(
 
 /// The fit's relative error behind an objective.
 #[derive(Clone, Debug, PartialEq)]
-pub struct FitError {
+pub struct FitUncertainty {
     /// Relative standard error of the objective (NaN when unknown).
     pub relative: f64,
     /// Where it comes from.
@@ -143,8 +143,8 @@ fn error_measure(row: &QualityRow) -> (bool, Option<f64>) {
 /// The relative error of a figure built from `channels` of the group's fit (their errors
 /// combined in quadrature: a product of forces, like an envelope area, adds relative errors
 /// so); the source names the measure and the channels that had only an in-sample one.
-pub fn fit_error(results: &Results, key: &GroupKey, channels: &[&str]) -> FitError {
-    let unknown = |why: &str| FitError {
+pub fn fit_error(results: &Results, key: &GroupKey, channels: &[&str]) -> FitUncertainty {
+    let unknown = |why: &str| FitUncertainty {
         relative: f64::NAN,
         source: why.to_string(),
     };
@@ -176,7 +176,7 @@ pub fn fit_error(results: &Results, key: &GroupKey, channels: &[&str]) -> FitErr
             }
         }
     }
-    FitError {
+    FitUncertainty {
         relative: sum_sq.sqrt(),
         source: if in_sample.is_empty() {
             format!(

@@ -27,7 +27,7 @@ pub const MAX_POINTS_PER_SEGMENT: usize = 100;
 
 /// One plotted sample (SI, ISO-W).
 #[derive(Clone, Copy, Debug, Default)]
-pub struct Sample {
+pub struct PlotSample {
     /// Slip angle, rad.
     pub alpha_rad: f64,
     /// Longitudinal slip.
@@ -53,7 +53,7 @@ pub struct SegmentStats {
 
 /// A QC-clean slip-test segment with its decimated samples.
 #[derive(Clone, Debug)]
-pub struct Segment {
+pub struct PlotSegment {
     /// segments.segment_id.
     pub id: String,
     /// cornering, drive_brake or combined.
@@ -83,7 +83,7 @@ pub struct Segment {
     /// Longitudinal-slip range.
     pub kappa_range: (f64, f64),
     /// Decimated samples in sample order.
-    pub samples: Vec<Sample>,
+    pub samples: Vec<PlotSample>,
     /// Statistics of the full-rate samples.
     pub stats: SegmentStats,
 }
@@ -99,7 +99,7 @@ pub struct ReportData {
     /// per result set, see `naming::unique_tir_names`).
     pub tir_names: BTreeMap<(String, i64, i64), String>,
     /// Slip-test segments, sorted by (tire, rim, pressure, kind, id).
-    pub segments: Vec<Segment>,
+    pub segments: Vec<PlotSegment>,
     /// Tires seen anywhere (segments, tables), sorted.
     pub tires: Vec<String>,
     /// (rim, nominal pressure) groups each tire has rows for in any result table.
@@ -209,13 +209,13 @@ fn load_segments(store: &Path, data: &mut ReportData) -> Result<(), super::Repor
 
 /// Per member segment of one file: (index, statistics, decimated samples); or the file and why
 /// it could not be read.
-type FileResult = Result<Vec<(usize, SegmentStats, Vec<Sample>)>, (PathBuf, StoreError)>;
+type FileResult = Result<Vec<(usize, SegmentStats, Vec<PlotSample>)>, (PathBuf, StoreError)>;
 
 /// Read one partition file and cut out its member segments.
 fn read_members(
     path: &Path,
     members: &[usize],
-    segments: &[(Segment, SampleSource)],
+    segments: &[(PlotSegment, SampleSource)],
 ) -> FileResult {
     let file = read_samples(path).map_err(|e| (path.to_path_buf(), e))?;
     Ok(members
@@ -242,18 +242,18 @@ struct SampleSource {
 /// The plotted columns of one partition file, in file order.
 struct FileSamples {
     sample_index: Vec<i64>,
-    samples: Vec<Sample>,
+    samples: Vec<PlotSample>,
 }
 
 impl FileSamples {
     /// Samples whose index lies in `[start, end)`, ordered by index.
-    fn rows(&self, (start, end): (i64, i64)) -> Vec<Sample> {
+    fn rows(&self, (start, end): (i64, i64)) -> Vec<PlotSample> {
         if self.sample_index.is_sorted() {
             let lo = self.sample_index.partition_point(|&k| k < start);
             let hi = self.sample_index.partition_point(|&k| k < end);
             return self.samples[lo..hi.max(lo)].to_vec();
         }
-        let mut rows: Vec<(i64, Sample)> = self
+        let mut rows: Vec<(i64, PlotSample)> = self
             .sample_index
             .iter()
             .zip(&self.samples)
@@ -295,7 +295,7 @@ fn read_samples(path: &Path) -> Result<FileSamples, StoreError> {
         f("mz_nm")?,
     );
     let samples = (0..df.height())
-        .map(|i| Sample {
+        .map(|i| PlotSample {
             alpha_rad: alpha[i],
             kappa: kappa[i],
             fx_n: fx[i],
@@ -312,14 +312,16 @@ fn read_samples(path: &Path) -> Result<FileSamples, StoreError> {
 
 /// Segments (without samples yet) and where their samples are, sorted by
 /// (tire, rim, pressure, kind, id).
-fn build_segments(records: impl Iterator<Item = SegmentRecord>) -> Vec<(Segment, SampleSource)> {
-    let mut out: Vec<(Segment, SampleSource)> = records
+fn build_segments(
+    records: impl Iterator<Item = SegmentRecord>,
+) -> Vec<(PlotSegment, SampleSource)> {
+    let mut out: Vec<(PlotSegment, SampleSource)> = records
         .map(|r| {
             let src = SampleSource {
                 file: r.samples_file(),
                 sample_range: (r.sample_start, r.sample_end),
             };
-            let seg = Segment {
+            let seg = PlotSegment {
                 id: r.segment_id,
                 kind: r.kind,
                 tire: r.tire,
@@ -366,7 +368,7 @@ pub fn decimate<T: Copy>(v: &[T], max: usize) -> Vec<T> {
 
 /// Peak mu (mean of the 5 largest |Fy|/Fz with Fz > 50 N) and the small-slip cornering
 /// stiffness (least squares of Fy on alpha over |alpha| < 1 deg, at least 10 samples).
-fn segment_stats(samples: &[Sample]) -> SegmentStats {
+fn segment_stats(samples: &[PlotSample]) -> SegmentStats {
     let mut mus: Vec<f64> = samples
         .iter()
         .filter(|s| s.fz_n > 50.0)
@@ -421,10 +423,10 @@ mod tests {
 
     #[test]
     fn stats_recover_a_linear_slope_and_peak() {
-        let samples: Vec<Sample> = (-100..=100)
+        let samples: Vec<PlotSample> = (-100..=100)
             .map(|i| {
                 let a = (i as f64 * 0.1).to_radians();
-                Sample {
+                PlotSample {
                     alpha_rad: a,
                     fy_n: -30_000.0 * a,
                     fz_n: 1000.0,

@@ -14,7 +14,7 @@ use tirebase_core::compare::envelope::convex_hull;
 use tirebase_core::naming::tir_file_name;
 use tirebase_core::tire_model::{Coef, Mode, Pac2002, SlipInput, pac2002::relaxation_lengths};
 
-use super::data::{ReportData, Sample, Segment, decimate};
+use super::data::{PlotSample, PlotSegment, ReportData, decimate};
 use super::svg::{Axis, Plot, Series, Style};
 
 /// Points along a model curve.
@@ -50,7 +50,7 @@ impl SlipChart {
     }
 
     /// (x, y) in display units of a sample.
-    fn xy_sample(self, s: &Sample) -> (f64, f64) {
+    fn xy_sample(self, s: &PlotSample) -> (f64, f64) {
         match self {
             SlipChart::FySa => (s.alpha_rad.to_degrees(), s.fy_n),
             SlipChart::MzSa => (s.alpha_rad.to_degrees(), s.mz_nm),
@@ -100,13 +100,13 @@ pub fn model_for<'a>(
 }
 
 /// Label of a nominal load (or its rounded mean when not held).
-fn load_label(seg: &Segment) -> i64 {
+fn load_label(seg: &PlotSegment) -> i64 {
     seg.fz_n_nom
         .filter(|&f| f > 0)
         .unwrap_or_else(|| (seg.fz_n_mean / 10.0).round() as i64 * 10)
 }
 
-fn ia_label(seg: &Segment) -> i64 {
+fn ia_label(seg: &PlotSegment) -> i64 {
     seg.ia_deg_nom
         .filter(|&a| a >= 0)
         .unwrap_or_else(|| seg.ia_deg_mean.round() as i64)
@@ -130,7 +130,7 @@ fn linspace(lo: f64, hi: f64, n: usize) -> impl Iterator<Item = f64> {
 /// inclination over the swept range.
 fn slip_charts(data: &ReportData, tire: &str, chart: SlipChart) -> Vec<Plot> {
     type Key = (i64, i64, i64);
-    let mut groups: BTreeMap<Key, BTreeMap<i64, Vec<&Segment>>> = BTreeMap::new();
+    let mut groups: BTreeMap<Key, BTreeMap<i64, Vec<&PlotSegment>>> = BTreeMap::new();
     for seg in data
         .segments
         .iter()
@@ -181,7 +181,7 @@ fn slip_charts(data: &ReportData, tire: &str, chart: SlipChart) -> Vec<Plot> {
 }
 
 /// The model over the pooled segments' swept range at their mean load, inclination and speed.
-fn slip_model_curve(model: &Pac2002, segs: &[&Segment], chart: SlipChart) -> Vec<(f64, f64)> {
+fn slip_model_curve(model: &Pac2002, segs: &[&PlotSegment], chart: SlipChart) -> Vec<(f64, f64)> {
     let fz_n = mean(segs.iter().map(|s| s.fz_n_mean));
     let gamma_rad = mean(segs.iter().map(|s| s.ia_deg_mean)).to_radians();
     let vx_mps = mean(segs.iter().map(|s| s.speed_kph_mean)) / 3.6;
@@ -282,7 +282,7 @@ pub fn envelope(data: &ReportData, tire: &str) -> Vec<Plot> {
     } else {
         "cornering"
     };
-    let mut groups: BTreeMap<(i64, i64, i64), BTreeMap<i64, Vec<&Segment>>> = BTreeMap::new();
+    let mut groups: BTreeMap<(i64, i64, i64), BTreeMap<i64, Vec<&PlotSegment>>> = BTreeMap::new();
     for seg in data
         .segments
         .iter()
@@ -438,7 +438,7 @@ pub fn peak_mu_and_stiffness(data: &ReportData, tire: &str) -> Vec<Plot> {
         Axis::from_zero("vertical load Fz (N)"),
         Axis::from_zero("cornering stiffness Kyα (N/rad, ISO-W)"),
     );
-    let mut groups: BTreeMap<(i64, i64), Vec<&Segment>> = BTreeMap::new();
+    let mut groups: BTreeMap<(i64, i64), Vec<&PlotSegment>> = BTreeMap::new();
     for seg in data
         .segments
         .iter()
@@ -457,7 +457,7 @@ pub fn peak_mu_and_stiffness(data: &ReportData, tire: &str) -> Vec<Plot> {
     }
     for (color, ((rim, p), segs)) in groups.iter().enumerate() {
         let label = format!("{p} kPa · {rim} in");
-        let flat: Vec<&&Segment> = segs.iter().filter(|s| ia_label(s) == 0).collect();
+        let flat: Vec<&&PlotSegment> = segs.iter().filter(|s| ia_label(s) == 0).collect();
         let mu_pts: Vec<(f64, f64)> = flat
             .iter()
             .map(|s| (s.fz_n_mean, s.stats.mu_y_peak))

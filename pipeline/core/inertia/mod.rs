@@ -12,7 +12,7 @@
 //! (linearised or seeded Monte Carlo). [`session`] reads a session directory (`session.toml`
 //! plus one CSV per run; the only file-system code here), validates it and plans each run, and
 //! [`analysis`] measures the planned runs and combines them per rig into [`InertiaResult`] rows
-//! and one [`RunError`] per failed run. Equations and validation cases:
+//! and one [`InertiaRunError`] per failed run. Equations and validation cases:
 //! `shared/docs/inertia-methods.md`; the file format: `schemas/inertia_session.md`.
 //! Deliberately not here: Parquet output and the command line (root crate).
 
@@ -101,7 +101,7 @@ pub enum MethodError {
 /// One failed run (or session), with a one-line message naming the session and run.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{session}: run {run}: {message}")]
-pub struct RunError {
+pub struct InertiaRunError {
     /// Session id (or directory name when the session could not be read).
     pub session: String,
     /// Run id, or `session.toml` for a session-level failure.

@@ -53,7 +53,7 @@ pub struct SegmentConfig {
     /// Pass 3c: step steers (fast SA steps held at a level).
     pub step_steer: StepSteerConfig,
     /// Pass 3d: spring-rate load staircases (SA and SL quiet).
-    pub spring_rate: SpringRateConfig,
+    pub spring_rate: SpringRateHoldConfig,
     /// Pass 3e: inclination-angle sweeps at SA ~ 0.
     pub ia_sweep: IaSweepConfig,
     /// Pass 4: cold-to-warm / conditioning / matrix rules.
@@ -172,7 +172,7 @@ pub struct StepSteerConfig {
 /// Spring-rate holds: FZ stepped through levels with SA and SL at zero.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
-pub struct SpringRateConfig {
+pub struct SpringRateHoldConfig {
     /// Load half-band of one step (fine: FZ is clean at zero slip), N.
     pub fz_n: Tolerance,
     /// Shortest step, s.
@@ -361,9 +361,9 @@ impl Default for StepSteerConfig {
     }
 }
 
-impl Default for SpringRateConfig {
+impl Default for SpringRateHoldConfig {
     fn default() -> Self {
-        SpringRateConfig {
+        SpringRateHoldConfig {
             fz_n: Tolerance {
                 abs: 30.0,
                 frac: 0.04,

@@ -48,7 +48,7 @@ use levels::{HeldValues, RunLevels};
 
 pub use config::{
     ActivityConfig, ClassifyConfig, GapConfig, IaSweepConfig, LevelConfig, PlateauConfig, QcConfig,
-    SegmentConfig, SmoothingConfig, SpringRateConfig, StepSteerConfig, SweepConfig, Tolerance,
+    SegmentConfig, SmoothingConfig, SpringRateHoldConfig, StepSteerConfig, SweepConfig, Tolerance,
 };
 pub use output::{
     ChannelStats, Level, MeasuredLevels, NominalLevels, QcFlag, RunClass, RunSegmentation, Segment,

@@ -14,7 +14,9 @@ use std::time::Instant;
 use super::{QcFlag, RunSignals, SegmentConfig, SegmentKind, TreadTemps, run};
 use crate::synth::defects::DefectKind;
 use crate::synth::quirks::QuirksConfig;
-use crate::synth::round::{RealismConfig, SegmentRow, Size, SynthConfig, plan_round, render_run};
+use crate::synth::round::{
+    RealismConfig, Size, SynthConfig, TruthSegmentRow, plan_round, render_run,
+};
 use crate::ttc::check::UnitAction;
 use crate::ttc::read_run;
 
@@ -67,7 +69,7 @@ impl LevelTolerance {
     }
 }
 
-fn matches(t: &SegmentRow, s: &super::Segment, tol: LevelTolerance) -> bool {
+fn matches(t: &TruthSegmentRow, s: &super::Segment, tol: LevelTolerance) -> bool {
     let fz_tol = t.fz_n_nom.map_or(1.0, |f| tol.of(f, 30.0));
     t.kind == s.kind
         && overlaps((t.et_start_s, t.et_end_s), (s.et_start_s, s.et_end_s))

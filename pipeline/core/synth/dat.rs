@@ -106,7 +106,7 @@ pub const STYLE_CYCLE: [FileStyle; 6] = [
 
 /// One column of a run file.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Column {
+pub struct DatColumn {
     pub name: &'static str,
     pub unit: &'static str,
     pub decimals: u8,
@@ -116,7 +116,7 @@ pub struct Column {
 /// A run file's columns in file order, SAE axes, file units.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ChannelTable {
-    pub columns: Vec<Column>,
+    pub columns: Vec<DatColumn>,
 }
 
 impl ChannelTable {
@@ -126,12 +126,12 @@ impl ChannelTable {
     }
 
     /// The column called `name` (exact).
-    pub fn column_mut(&mut self, name: &str) -> Option<&mut Column> {
+    pub fn column_mut(&mut self, name: &str) -> Option<&mut DatColumn> {
         self.columns.iter_mut().find(|c| c.name == name)
     }
 
     /// The column called `name` (exact).
-    pub fn column(&self, name: &str) -> Option<&Column> {
+    pub fn column(&self, name: &str) -> Option<&DatColumn> {
         self.columns.iter().find(|c| c.name == name)
     }
 }
@@ -202,7 +202,7 @@ pub fn channel_table(
         .zip(&sae.fz_n)
         .map(|(a, b)| if b.abs() > 1.0 { a / b } else { 0.0 })
         .collect();
-    let col = |name, unit, decimals, values| Column {
+    let col = |name, unit, decimals, values| DatColumn {
         name,
         unit,
         decimals,

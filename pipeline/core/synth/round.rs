@@ -325,7 +325,7 @@ impl Combo {
 
 /// One run file of the round.
 #[derive(Clone, Debug, PartialEq)]
-pub struct RunSpec {
+pub struct RunFileSpec {
     /// Run number (unique in the round, 1-based, at most 255: `.mat` stores RUN as uint8).
     pub run: u32,
     /// Index into [`RoundPlan::combos`].
@@ -350,7 +350,7 @@ pub struct RoundPlan {
     /// Tire/rim combinations.
     pub combos: Vec<Combo>,
     /// Runs in run-number order.
-    pub runs: Vec<RunSpec>,
+    pub runs: Vec<RunFileSpec>,
     /// Truth per combination and distinct nominal pressure, ordered by (combo, pressure).
     pub truths: Vec<TruthModel>,
     /// Thermal truth per combination.
@@ -439,7 +439,7 @@ pub fn plan_round(config: &SynthConfig) -> Result<RoundPlan, RoundError> {
             for kind in [RunKind::Cornering, RunKind::DriveBrake] {
                 let run = runs.len() as u32 + 1;
                 let style = STYLE_CYCLE[(run as usize - 1 + ci) % STYLE_CYCLE.len()];
-                runs.push(RunSpec {
+                runs.push(RunFileSpec {
                     run,
                     combo: ci,
                     pressure_psi: p,
@@ -540,7 +540,7 @@ impl RoundPlan {
     }
 
     /// The commanded program of a run.
-    pub fn program(&self, spec: &RunSpec) -> Program {
+    pub fn program(&self, spec: &RunFileSpec) -> Program {
         let tire = &CATALOGUE[self.combos[spec.combo].tire_index];
         let mut program = match spec.kind {
             RunKind::Cornering => cornering_program(tire, spec.pressure_psi, &self.schedule),
@@ -565,7 +565,7 @@ pub struct OutFile {
 
 /// One truth row of `segments.csv`.
 #[derive(Clone, Debug, PartialEq)]
-pub struct SegmentRow {
+pub struct TruthSegmentRow {
     pub file: String,
     pub project: u32,
     pub run: u32,
@@ -587,9 +587,9 @@ pub struct SegmentRow {
 /// Everything about one run except its bytes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunSummary {
-    pub spec: RunSpec,
+    pub spec: RunFileSpec,
     pub rows: usize,
-    pub segments: Vec<SegmentRow>,
+    pub segments: Vec<TruthSegmentRow>,
     pub defects: Vec<DefectRecord>,
     /// Radius channels written in a wrong unit (older-round quirk).
     pub unit_errors: Vec<UnitErrorRow>,
@@ -699,12 +699,12 @@ fn round_to_decimals(table: &mut ChannelTable) {
 
 fn segment_rows(
     plan: &RoundPlan,
-    spec: &RunSpec,
+    spec: &RunFileSpec,
     program: &Program,
     piece_of_sample: &[u32],
     keep: &[usize],
     table: &ChannelTable,
-) -> Vec<SegmentRow> {
+) -> Vec<TruthSegmentRow> {
     let combo = plan.combos[spec.combo];
     let et = &table.column("ET").expect("ET").values;
     let mut rows = Vec::new();
@@ -720,7 +720,7 @@ fn segment_rows(
             .take_while(|r| inside(r))
             .last()
             .unwrap_or(first);
-        rows.push(SegmentRow {
+        rows.push(TruthSegmentRow {
             file: spec.file.clone(),
             project: plan.config.project,
             run: spec.run,
@@ -770,7 +770,7 @@ fn tire_id(combo: &Combo) -> String {
 
 fn render_mat(
     plan: &RoundPlan,
-    spec: &RunSpec,
+    spec: &RunFileSpec,
     table: &ChannelTable,
 ) -> Result<Vec<u8>, RoundError> {
     let combo = plan.combos[spec.combo];
@@ -1214,7 +1214,7 @@ fn opt(v: Option<f64>, decimals: usize) -> String {
 
 /// `segments.csv`: one row per generated segment, sorted by file and start time.
 pub fn segments_csv(runs: &[RunSummary]) -> String {
-    let mut rows: Vec<&SegmentRow> = runs.iter().flat_map(|r| &r.segments).collect();
+    let mut rows: Vec<&TruthSegmentRow> = runs.iter().flat_map(|r| &r.segments).collect();
     rows.sort_by(|a, b| {
         (a.run, a.file.as_str())
             .cmp(&(b.run, b.file.as_str()))

@@ -47,7 +47,7 @@ impl RunKind {
 
 /// Commanded machine state, ISO-W, SI.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub struct Command {
+pub struct MachineCommand {
     /// Road speed, m/s.
     pub v_mps: f64,
     /// Vertical load, N (> 0).
@@ -60,10 +60,10 @@ pub struct Command {
     pub kappa: f64,
 }
 
-impl Command {
-    fn lerp(&self, to: &Command, f: f64) -> Command {
+impl MachineCommand {
+    fn lerp(&self, to: &MachineCommand, f: f64) -> MachineCommand {
         let l = |a: f64, b: f64| a + (b - a) * f;
-        Command {
+        MachineCommand {
             v_mps: l(self.v_mps, to.v_mps),
             fz_n: l(self.fz_n, to.fz_n),
             gamma_rad: l(self.gamma_rad, to.gamma_rad),
@@ -79,9 +79,9 @@ pub struct Piece {
     /// Duration, s.
     pub duration_s: f64,
     /// State at the start.
-    pub from: Command,
+    pub from: MachineCommand,
     /// State at the end.
-    pub to: Command,
+    pub to: MachineCommand,
     /// A dwell (cooling, transition): dropped from "run" files, kept in "raw" files.
     pub dwell: bool,
 }
@@ -170,7 +170,7 @@ pub fn nominal_kph(mph: f64) -> f64 {
 
 /// Builds a program piece by piece from the current commanded state.
 struct Builder {
-    now: Command,
+    now: MachineCommand,
     pieces: Vec<Piece>,
     segments: Vec<SegmentPlan>,
     open: Option<(SegmentKind, usize, Nominal)>,
@@ -180,7 +180,7 @@ struct Builder {
 impl Builder {
     fn new(pressure_psi: f64) -> Builder {
         Builder {
-            now: Command {
+            now: MachineCommand {
                 v_mps: 0.0,
                 fz_n: 50.0 * N_PER_LBF,
                 gamma_rad: 0.0,
@@ -194,7 +194,7 @@ impl Builder {
         }
     }
 
-    fn ramp(&mut self, to: Command, duration_s: f64, dwell: bool) {
+    fn ramp(&mut self, to: MachineCommand, duration_s: f64, dwell: bool) {
         if duration_s <= 0.0 {
             self.now = to;
             return;
@@ -304,7 +304,7 @@ impl Builder {
     }
 
     fn finish(mut self, kind: RunKind, pressure_psi: f64) -> Program {
-        let to = Command {
+        let to = MachineCommand {
             v_mps: 0.0,
             fz_n: 50.0 * N_PER_LBF,
             gamma_rad: 0.0,
@@ -526,7 +526,7 @@ pub fn drive_brake_program(tire: &BaseTire, pressure_psi: f64, cfg: &ScheduleCon
 impl Program {
     /// The commanded state at time `t_s` and the index of the piece it falls in, walking forward
     /// from `hint` (pass the previous result; time must not decrease).
-    pub fn command_at(&self, t_s: f64, hint: &mut (usize, f64)) -> (Command, usize) {
+    pub fn command_at(&self, t_s: f64, hint: &mut (usize, f64)) -> (MachineCommand, usize) {
         let (ref mut i, ref mut start) = *hint;
         while *i + 1 < self.pieces.len() && t_s >= *start + self.pieces[*i].duration_s {
             *start += self.pieces[*i].duration_s;

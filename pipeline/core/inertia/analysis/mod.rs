@@ -3,7 +3,7 @@
 //! In: a [`Session`] and a reader for its run files. Out: [`SessionOutcome`]: [`InertiaResult`]
 //! rows (per-run measurements such as acceleration, period and first moment, then the combined
 //! results: vehicle inertia per rig, CG position, table inertia and friction) each with a
-//! propagated standard uncertainty, plus one [`RunError`] per failed run. Three steps:
+//! propagated standard uncertainty, plus one [`InertiaRunError`] per failed run. Three steps:
 //! 1. plan every run ([`Session::plan`]: the sections it needs are valid),
 //! 2. measure it ([`measure`]: read its file, one row per run),
 //! 3. combine the measured runs per rig ([`combine_yaw`], [`combine_trifilar`],
@@ -23,7 +23,7 @@ mod statics;
 use super::session::{FrictionMethod, PlanError, Rig, Role, RunSpec, Session, SessionError};
 use super::swing::SwingPeriod;
 use super::uncertainty::Propagation;
-use super::{InertiaResult, MethodError, RunError};
+use super::{InertiaResult, InertiaRunError, MethodError};
 use measure::Measurement;
 use row::Row;
 
@@ -35,7 +35,7 @@ pub struct SessionOutcome {
     /// Result rows.
     pub results: Vec<InertiaResult>,
     /// One error per failed run.
-    pub errors: Vec<RunError>,
+    pub errors: Vec<InertiaRunError>,
     /// Runs declared in the session.
     pub runs: usize,
 }
@@ -96,14 +96,14 @@ pub enum AnalysisError {
 struct Ctx<'s> {
     s: &'s Session,
     results: Vec<InertiaResult>,
-    errors: Vec<RunError>,
+    errors: Vec<InertiaRunError>,
     /// Propagations so far: each Monte Carlo propagation gets its own seed.
     mc_counter: u64,
 }
 
 impl Ctx<'_> {
     fn fail(&mut self, run: &str, error: impl Into<AnalysisError>) {
-        self.errors.push(RunError {
+        self.errors.push(InertiaRunError {
             session: self.s.id.clone(),
             run: run.into(),
             message: error.into().to_string(),

@@ -551,7 +551,7 @@ fn pendulum(value: &toml::Value) -> Result<PendulumSpec, SessionError> {
     })
 }
 
-/// One `[[run]]`. Its keys are named without the run id: the [`crate::inertia::RunError`] that
+/// One `[[run]]`. Its keys are named without the run id: the [`crate::inertia::InertiaRunError`] that
 /// carries the message names the run.
 fn run(r: RawRun) -> Result<RunSpec, SessionError> {
     let rig = choose(
