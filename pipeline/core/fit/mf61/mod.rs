@@ -426,6 +426,8 @@ pub struct FamilyOutcome {
     pub seconds: f64,
     /// Rank and condition of the data Jacobian at the refinement's solution.
     pub identifiability: Identifiability,
+    /// The refinement was kept (not worse than its start).
+    pub accepted: bool,
 }
 
 /// One coefficient of the written model.
@@ -828,6 +830,7 @@ fn fit_points(
             evaluations: outcome.evaluations,
             seconds: started.elapsed().as_secs_f64(),
             identifiability: outcome.identifiability,
+            accepted,
         });
     }
     Fitted {
@@ -1054,18 +1057,33 @@ pub fn fit_collapsed(
     let kfold_started = Instant::now();
     let mut kfold_evaluations = 0;
     if cfg.kfold >= 2 {
+        // The written Mz0 coefficients are the joint Mz step's when it was kept.
+        let mz_sets_mz0 = full
+            .families
+            .iter()
+            .any(|f| f.family == Mf61Family::Mz && f.accepted);
         for outcome in &full.families {
-            let Some(kf) = out_of_sample::k_fold(&full.model, &points, outcome, cfg) else {
+            let also: &[Mf61Family] = match outcome.family {
+                Mf61Family::Mz0 if mz_sets_mz0 => continue,
+                Mf61Family::Mz => &[Mf61Family::Mz0],
+                _ => &[],
+            };
+            let Some(kf) = out_of_sample::k_fold(&full.model, &points, outcome, also, cfg) else {
                 continue;
             };
             kfold_evaluations += kf.evaluations;
-            for (g, group) in groups.iter().enumerate() {
-                let Some((rmse, n)) = kf.rmse_at(g) else {
+            for ((family, g), group) in [outcome.family]
+                .iter()
+                .chain(also)
+                .flat_map(|f| groups.iter().enumerate().map(move |(g, x)| ((*f, g), x)))
+            {
+                let Some((rmse, n)) = kf.rmse_at(family, g) else {
                     continue;
                 };
-                if let Some(q) = family_quality.iter_mut().find(|q| {
-                    q.pressure_kpa_nom == group.pressure_kpa_nom && q.family == outcome.family
-                }) {
+                if let Some(q) = family_quality
+                    .iter_mut()
+                    .find(|q| q.pressure_kpa_nom == group.pressure_kpa_nom && q.family == family)
+                {
                     q.oos_rmse = Some(rmse);
                     q.oos_folds = kf.folds;
                     q.oos_n = n;

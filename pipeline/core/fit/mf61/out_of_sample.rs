@@ -15,12 +15,18 @@
 //!   pressure to fit them from).
 //! - Refit: the family's free coefficients only, refined on the other folds' sweeps from the full
 //!   fit's values with a short budget ([`super::Mf61Config::kfold_iterations`], one robust-loss
-//!   round); every other coefficient keeps its full-fit value. The refit is kept only if it does
-//!   not make the training sweeps worse (as the full fit's own acceptance rule). A fold is
+//!   round); every other coefficient keeps its full-fit value. The refit is used whatever its
+//!   plain RMSE on the training sweeps (the solver minimises the weighted robust cost, which
+//!   from the full fit's values may raise the plain RMSE a little; falling back to the full fit
+//!   would predict held-out sweeps with a model that saw them), unless it is not finite. A fold is
 //!   deficient when its refit's data Jacobian is rank-deficient or
 //!   [`DEFICIENT_CONDITION`] times worse conditioned than the full fit's (as for PAC2002).
 //! - Prediction: the held-out sweeps' points (those [`super::group_family_quality`] scores in
-//!   sample), so `oos_rmse` and `rmse` are on the same points.
+//!   sample), so `oos_rmse` and `rmse` are on the same points. The `Mz0` row is scored by the
+//!   joint `Mz` step's refits when that step was kept (it sets the written `Mz0` coefficients
+//!   last, on every sweep; refitting them on the cornering sweeps alone would cross-validate a
+//!   model that is not the written one): its cornering points are predicted by the `Mz` refit
+//!   that did not see their sweep.
 //!
 //! Deliberately not here: leaving a whole pressure out (`super::fit_collapsed`, a separate
 //! figure with three or more tested pressures), flagging (the `tirebase` crate).
@@ -47,15 +53,16 @@ pub struct KFold {
     pub deficient_folds: usize,
     /// Solver evaluations of the refits.
     pub evaluations: usize,
-    /// Per tested-pressure group: (sum of squared held-out errors, held-out points).
-    pub by_group: BTreeMap<usize, (f64, usize)>,
+    /// Per scored family and tested-pressure group: (sum of squared held-out errors, held-out
+    /// points).
+    pub by_group: BTreeMap<(Mf61Family, usize), (f64, usize)>,
 }
 
 impl KFold {
-    /// RMSE of the held-out predictions at `group` (`None` without points there).
-    pub fn rmse_at(&self, group: usize) -> Option<(f64, usize)> {
+    /// RMSE of `family`'s held-out predictions at `group` (`None` without points there).
+    pub fn rmse_at(&self, family: Mf61Family, group: usize) -> Option<(f64, usize)> {
         self.by_group
-            .get(&group)
+            .get(&(family, group))
             .filter(|(_, n)| *n > 0)
             .map(|(ss, n)| ((ss / *n as f64).sqrt(), *n))
     }
@@ -110,12 +117,15 @@ fn subset(data: &FamilyData, fold_of: &BTreeMap<usize, usize>, f: usize, held: b
     d
 }
 
-/// k-fold-by-sweep prediction error of one refined family of `model` (module docs); `None` with
-/// fewer than two sweeps or `kfold < 2`.
+/// k-fold-by-sweep prediction error of one refined family of `model` (module docs), scored on
+/// the points of the family itself and of `also` (families whose written coefficients this
+/// family's refinement set last: `Mz0` for the joint `Mz` step; their points must lie in this
+/// family's sweeps); `None` with fewer than two sweeps or `kfold < 2`.
 pub fn k_fold(
     model: &MagicFormula,
     points: &[Point],
     outcome: &FamilyOutcome,
+    also: &[Mf61Family],
     cfg: &Mf61Config,
 ) -> Option<KFold> {
     let family = outcome.family;
@@ -129,6 +139,10 @@ pub fn k_fold(
     };
     let scored = family_data(points, family, &pure);
     let fold_of = folds(&scored, model.coefs[FNOMIN], cfg.kfold)?;
+    let mut scored_families = vec![(family, scored)];
+    for f in also {
+        scored_families.push((*f, family_data(points, *f, &pure)));
+    }
     let k = fold_of.values().max()? + 1;
     let free = &outcome.free;
     let bounds = Bounds {
@@ -157,7 +171,6 @@ pub fn k_fold(
     };
     for f in 0..k {
         let train = subset(&weighted, &fold_of, f, false);
-        let held = subset(&scored, &fold_of, f, true);
         let refit = if train.len() < 8 {
             out.deficient_folds += 1;
             model.clone()
@@ -175,30 +188,29 @@ pub fn k_fold(
                 out.deficient_folds += 1;
             }
             let candidate = problem.model_at(&o.params);
-            let (after, before) = (
-                rmse_of(&candidate, channel, &train),
-                rmse_of(model, channel, &train),
-            );
-            if after.is_finite() && (before.is_nan() || after <= before) {
+            if rmse_of(&candidate, channel, &train).is_finite() {
                 candidate
             } else {
                 model.clone()
             }
         };
-        let mut predicted = vec![0.0; held.len()];
-        refit.channel_into_at(
-            channel,
-            &held.inputs,
-            Pressures::PerPoint(&held.pressures),
-            FIT_MODE,
-            &mut predicted,
-        );
-        for ((m, y), g) in predicted.iter().zip(&held.measured).zip(&held.groups) {
-            let e = m - y;
-            if e.is_finite() {
-                let slot = out.by_group.entry(*g).or_insert((0.0, 0));
-                slot.0 += e * e;
-                slot.1 += 1;
+        for (scored_family, scored) in &scored_families {
+            let held = subset(scored, &fold_of, f, true);
+            let mut predicted = vec![0.0; held.len()];
+            refit.channel_into_at(
+                scored_family.channel(),
+                &held.inputs,
+                Pressures::PerPoint(&held.pressures),
+                FIT_MODE,
+                &mut predicted,
+            );
+            for ((m, y), g) in predicted.iter().zip(&held.measured).zip(&held.groups) {
+                let e = m - y;
+                if e.is_finite() {
+                    let slot = out.by_group.entry((*scored_family, *g)).or_insert((0.0, 0));
+                    slot.0 += e * e;
+                    slot.1 += 1;
+                }
             }
         }
     }
