@@ -276,9 +276,12 @@ stiffnesses) and refined jointly over all pressures; no turn slip.
                -> OUT/tir/<tire>__<rim>in__mf61.tir (FITTYP 61, NOMPRES = the tested pressure
                nearest the mean, PRESMIN..PRESMAX the measured range, Pa), rows with
                model = mf61 in coefficients (pressure_kpa = NOMPRES in kPa), fit_quality (per
-               tested pressure and family: rmse, oos_rmse N or N m from the model refitted
-               without that pressure, oos_ratio and oos_flag as for PAC2002, oos_folds = the
-               tested pressures; trend and Jacobian columns null) and lint.
+               tested pressure and family: rmse, oos_rmse N or N m k-fold by sweep as for
+               PAC2002 (folds dealt over load, camber, slip angle and pressure, the family's
+               free coefficients refitted from the full fit; a flag is a fit_failures row),
+               oos_ratio, oos_flag, oos_folds; with 3+ tested pressures also lopo_rmse N or N m
+               and lopo_ratio from the model refitted without that pressure, null otherwise;
+               Jacobian columns of the family's joint refinement; trend columns null) and lint.
 
 Every table starts with tire, rim_in (in), pressure_kpa (nominal, kPa); coefficients,
 fit_quality and lint then name the model (pac2002 or mf61). A stage that fails for

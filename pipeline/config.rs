@@ -192,7 +192,7 @@ impl FitSettings {
         self.models.contains(&model)
     }
 
-    /// The MF 6.1 stage's configuration: the sweep grid and robust loss of `[fit]`.
+    /// The MF 6.1 stage's configuration: the sweep grid, robust loss and k-fold check of `[fit]`.
     pub fn mf61(&self) -> Mf61Config {
         let pac = self.pac2002();
         Mf61Config {
@@ -202,6 +202,9 @@ impl FitSettings {
                 max_points_per_sweep: pac.max_points_per_sweep,
             },
             loss: pac.loss,
+            kfold: pac.kfold,
+            kfold_iterations: pac.kfold_iterations,
+            oos_ratio_limit: pac.oos_ratio_limit,
             ..Mf61Config::default()
         }
     }

@@ -534,8 +534,8 @@ fn with_pool<T: Send>(jobs: usize, f: impl FnOnce() -> T + Send) -> T {
 }
 
 /// The worst row of `fit_quality` by its out-of-sample RMSE in percent of the channel's peak
-/// (the in-sample one where a row has none: [`results::QualityRow::headline_pct_of_peak`]), as one line
-/// naming the group and channel.
+/// (the in-sample one where a row has none: [`results::QualityRow::headline_pct_of_peak`], the
+/// same rule for PAC2002 and MF 6.1 rows), as one line naming the model, group and channel.
 fn worst_fit(results: &Results) -> Option<String> {
     let (q, pct) = results
         .fit_quality
@@ -543,13 +543,20 @@ fn worst_fit(results: &Results) -> Option<String> {
         .flatten()
         .filter_map(|q| Some((q, q.headline_pct_of_peak()?)))
         .max_by(|a, b| a.1.total_cmp(&b.1))?;
-    let what = if q.oos_ratio.is_some_and(f64::is_finite) {
-        "out-of-sample rmse_pct_of_peak"
+    let model = if q.model == FitModel::Mf61.as_str() {
+        "MF 6.1"
+    } else if q.model == FitModel::Pac2002.as_str() {
+        "PAC2002"
     } else {
-        "rmse_pct_of_peak"
+        q.model.as_str()
+    };
+    let what = match (q.oos_ratio.is_some_and(f64::is_finite), q.oos_folds) {
+        (true, Some(k)) if k > 0 => format!("out-of-sample ({k}-fold by sweep) rmse_pct_of_peak"),
+        (true, _) => "out-of-sample rmse_pct_of_peak".to_string(),
+        (false, _) => "rmse_pct_of_peak".to_string(),
     };
     Some(format!(
-        "{what} = {pct:.4} (tire={}, rim_in={}, pressure_kpa={}, model={}, channel={})",
+        "{model} {what} = {pct:.4} (tire={}, rim_in={}, pressure_kpa={}, model={}, channel={})",
         q.tire, q.rim_in, q.pressure_kpa, q.model, q.channel
     ))
 }

@@ -6,7 +6,8 @@
 //! run and kept small (no samples). Out: an [`Mf61Outcome`]: the `.tir` text
 //! (`tir/<tire>__<rim>in__mf61.tir`, MF 6.1 layout, SI, ISO-W) with its coefficient rows and
 //! lint, the fit (per pressure and family quality, in and out of sample), and failures as data
-//! (keyed at the model's `NOMPRES`: a failed fit is a `fit_failures` row, never an `Err`).
+//! (keyed at the model's `NOMPRES`: a failed fit is a `fit_failures` row, never an `Err`; a
+//! family flagged out of sample is a row keyed at the tested pressure it was flagged at).
 //!
 //! What goes where: the coefficients and `NOMPRES` (the tested pressure nearest the mean of the
 //! tested ones), `PRESMIN`/`PRESMAX` (the measured range) and `PFZ1` (the trend of the
@@ -144,6 +145,7 @@ pub fn run(tire: &str, rim_in: i64, parts: &[Mf61Part], cfg: &Mf61Config) -> Mf6
             return out;
         }
     };
+    record_out_of_sample_flags(&mut out, &key, &fit, cfg.oos_ratio_limit);
     if with_data.len() < 2 {
         fail(
             &mut out,
@@ -185,6 +187,40 @@ pub fn run(tire: &str, rim_in: i64, parts: &[Mf61Part], cfg: &Mf61Config) -> Mf6
     out.fit = Some(fit);
     out.seconds = started.elapsed().as_secs_f64();
     out
+}
+
+/// Families flagged out of sample ([`mf61::FamilyQuality::oos_flagged`], the PAC2002 stage's
+/// rule) as partial failures, one per tested pressure and family, keyed at that pressure.
+fn record_out_of_sample_flags(out: &mut Mf61Outcome, key: &TireKey, fit: &Mf61Fit, limit: f64) {
+    for q in fit.family_quality.iter().filter(|q| q.oos_flagged(limit)) {
+        let Some(oos) = q.oos_rmse else { continue };
+        let at = TireKey {
+            pressure_kpa_nom: q.pressure_kpa_nom,
+            ..key.clone()
+        };
+        let lopo = q.lopo_rmse.map_or(String::new(), |l| {
+            format!(
+                "; leaving this pressure out: {l:.4} ({:.2}x)",
+                q.lopo_ratio()
+            )
+        });
+        out.failures.push(FitFailure::new(
+            &at,
+            STAGE,
+            &format!("family {} out of sample", q.family.name()),
+            false,
+            format!(
+                "good in sample, bad out of sample: held-out sweeps RMSE {oos:.4} vs {:.4} in \
+                 sample ({:.2}x, limit {limit}x; {}-fold by sweep over every tested pressure); \
+                 {} of the folds could not determine the coefficients without their held-out \
+                 sweeps{lopo}",
+                q.rmse,
+                q.oos_ratio(),
+                q.oos_folds,
+                q.oos_deficient_folds
+            ),
+        ));
+    }
 }
 
 /// The coefficients table's family of a coefficient the refinement did not fit.

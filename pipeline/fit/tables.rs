@@ -209,6 +209,8 @@ pub fn fit_quality(
                     "oos_deficient_folds",
                     oos.map_or(0, |o| o.deficient_folds as i64),
                 )
+                .f("lopo_rmse", f64::NAN)
+                .f("lopo_ratio", f64::NAN)
                 .oi("n_free", Some(id.n_free as i64))
                 .oi("jacobian_rank", Some(id.rank as i64))
                 .f("condition_number", id.condition)
@@ -228,53 +230,35 @@ pub fn fit_quality(
     for o in mf61 {
         let Some(fit) = &o.fit else { continue };
         let mut by_pressure: std::collections::BTreeMap<i64, Frame> = Default::default();
-        // The out-of-sample check of an MF 6.1 model holds out one tested pressure at a time:
-        // its folds are the tested pressures.
-        let folds = fit
-            .family_quality
-            .iter()
-            .map(|q| q.pressure_kpa_nom)
-            .collect::<std::collections::BTreeSet<_>>()
-            .len() as i64;
         for q in &fit.family_quality {
             let key = TireKey {
                 pressure_kpa_nom: q.pressure_kpa_nom,
                 ..o.key.clone()
             };
             let family = fit.families.iter().find(|x| x.family == q.family);
-            let oos = q.oos_rmse.unwrap_or(f64::NAN);
-            let peak = if q.rmse_pct_of_peak > 0.0 {
-                100.0 * q.rmse / q.rmse_pct_of_peak
-            } else {
-                0.0
-            };
+            let id = family.map(|x| &x.identifiability);
             by_pressure
                 .entry(q.pressure_kpa_nom)
                 .or_insert_with(|| Frame::new(TableName::FitQuality))
                 .key(&key)
                 .s("model", FitModel::Mf61.as_str())
                 .s("channel", q.family.name())
-                .f("oos_rmse", oos)
+                .f("oos_rmse", q.oos_rmse.unwrap_or(f64::NAN))
                 .f("rmse", q.rmse)
-                .f(
-                    "oos_ratio",
-                    if q.rmse > 0.0 { oos / q.rmse } else { f64::NAN },
-                )
-                .b(
-                    "oos_flag",
-                    q.oos_rmse
-                        .is_some_and(|o| o > oos_ratio_limit * q.rmse + 1e-3 * peak.max(0.0)),
-                )
+                .f("oos_ratio", q.oos_ratio())
+                .b("oos_flag", q.oos_flagged(oos_ratio_limit))
                 .f("trend_dev_max", f64::NAN)
                 .f("trend_dev_pct_of_peak", f64::NAN)
                 .o("trend_dev_sweep", None)
                 .f("trend_dev_slip", f64::NAN)
-                .i("oos_folds", if q.oos_rmse.is_some() { folds } else { 0 })
-                .i("oos_n", if q.oos_rmse.is_some() { q.n as i64 } else { 0 })
-                .i("oos_deficient_folds", 0)
-                .oi("n_free", None)
-                .oi("jacobian_rank", None)
-                .f("condition_number", f64::NAN)
+                .i("oos_folds", q.oos_folds as i64)
+                .i("oos_n", q.oos_n as i64)
+                .i("oos_deficient_folds", q.oos_deficient_folds as i64)
+                .f("lopo_rmse", q.lopo_rmse.unwrap_or(f64::NAN))
+                .f("lopo_ratio", q.lopo_ratio())
+                .oi("n_free", id.map(|i| i.n_free as i64))
+                .oi("jacobian_rank", id.map(|i| i.rank as i64))
+                .f("condition_number", id.map_or(f64::NAN, |i| i.condition))
                 .i("n", q.n as i64)
                 .f("rmse_pct_of_peak", q.rmse_pct_of_peak)
                 .f("r2", q.r2)

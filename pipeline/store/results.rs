@@ -147,11 +147,12 @@ pub struct QualityRow {
     /// `pac2002` or `mf61` (`pac2002` in a table written before the column existed).
     pub model: String,
     pub channel: String,
-    /// Out-of-sample RMSE (k-fold by sweep; mf61 rows: leave one pressure out), and its ratio
-    /// to the in-sample one.
+    /// Out-of-sample RMSE (k-fold by sweep, for both models), its ratio to the in-sample one,
+    /// the flag and the folds (`None` in a table written before the column existed).
     pub oos_rmse: Option<f64>,
     pub oos_ratio: Option<f64>,
     pub oos_flag: Option<bool>,
+    pub oos_folds: Option<i64>,
     pub trend_dev_max: Option<f64>,
     pub trend_dev_pct_of_peak: Option<f64>,
     pub n_free: Option<i64>,
@@ -170,7 +171,9 @@ pub struct QualityRow {
 impl QualityRow {
     /// The error a reader should judge the fit by, in percent of the channel's peak: the
     /// out-of-sample RMSE where the row has one (`rmse_pct_of_peak x oos_ratio`), else the
-    /// in-sample `rmse_pct_of_peak`; `None` without either.
+    /// in-sample `rmse_pct_of_peak`; `None` without either. The same for both models: their
+    /// `oos_ratio` is k-fold by sweep (an mf61 row's leave-one-pressure-out figure, `lopo_ratio`,
+    /// is not the headline).
     pub fn headline_pct_of_peak(&self) -> Option<f64> {
         let pct = self.rmse_pct_of_peak.filter(|v| v.is_finite())?;
         Some(match self.oos_ratio.filter(|r| r.is_finite()) {
@@ -494,7 +497,7 @@ fn quality_rows(df: &DataFrame, path: &Path) -> Result<Vec<QualityRow>, StoreErr
     };
     let termination = opt_str(df, "termination", path)?.unwrap_or_else(|| vec![None; h]);
     let model = opt_str(df, "model", path)?.unwrap_or_else(|| vec![None; h]);
-    let (n, iterations) = (i("n")?, i("iterations")?);
+    let (n, iterations, folds) = (i("n")?, i("iterations")?, i("oos_folds")?);
     let (n_free, rank) = (i("n_free")?, i("jacobian_rank")?);
     let (oos_rmse, oos_ratio, trend, trend_pct, condition) = (
         f("oos_rmse")?,
@@ -521,6 +524,7 @@ fn quality_rows(df: &DataFrame, path: &Path) -> Result<Vec<QualityRow>, StoreErr
             oos_rmse: oos_rmse[k],
             oos_ratio: oos_ratio[k],
             oos_flag: oos_flag[k],
+            oos_folds: folds[k],
             trend_dev_max: trend[k],
             trend_dev_pct_of_peak: trend_pct[k],
             n_free: n_free[k],

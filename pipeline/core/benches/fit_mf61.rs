@@ -4,9 +4,10 @@
 //!
 //! In: nothing (the tire's runs are rendered in memory, read, segmented and fitted per pressure
 //! with PAC2002 first, as the test `fit::mf61::virtual_round` does; not timed). Out: criterion's
-//! timing of `tirebase_core::fit::mf61::fit` with the leave-one-pressure-out refits (what the
-//! pipeline runs: the model plus one refit per pressure) and without them (the model alone),
-//! plus one line with the points and solver evaluations. Single thread.
+//! timing of `tirebase_core::fit::mf61::fit` as the pipeline runs it (the model, its k-fold-by-
+//! sweep refits of every family and, with four pressures, one leave-one-pressure-out refit per
+//! pressure), with the k-fold refits only, and the model alone, plus one line with the points
+//! and solver evaluations. Single thread.
 //! Run: `cargo bench -p tirebase-core --bench fit_mf61`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -43,6 +44,11 @@ fn bench_fit(c: &mut Criterion) {
     let with_loo = Mf61Config::default();
     let model_only = Mf61Config {
         leave_one_pressure_out: false,
+        kfold: 0,
+        ..Mf61Config::default()
+    };
+    let with_kfold = Mf61Config {
+        leave_one_pressure_out: false,
         ..Mf61Config::default()
     };
     let once = fit_mf61(&prep.input, &model_only).expect("fit");
@@ -60,7 +66,10 @@ fn bench_fit(c: &mut Criterion) {
     group.bench_function("model_only", |b| {
         b.iter(|| fit_mf61(&prep.input, &model_only).expect("fit"))
     });
-    group.bench_function("with_leave_one_pressure_out", |b| {
+    group.bench_function("with_kfold", |b| {
+        b.iter(|| fit_mf61(&prep.input, &with_kfold).expect("fit"))
+    });
+    group.bench_function("with_kfold_and_leave_one_pressure_out", |b| {
         b.iter(|| fit_mf61(&prep.input, &with_loo).expect("fit"))
     });
     group.finish();

@@ -1,6 +1,7 @@
 //! Fitting stages: measured sweeps in, model coefficients and fit-quality facts out.
 //!
-//! One module per stage; they share nothing but the numerics in [`crate::numerics`]. Pure: no
+//! One module per stage; they share nothing but the numerics in [`crate::numerics`] and the
+//! k-fold-by-sweep dealing of the out-of-sample checks ([`sweep_folds`]). Pure: no
 //! file system, no Parquet (the `tirebase` crate reads the store and writes the tables).
 //! [`pac2002`] fits the steady-state model; [`spring_rate`], [`thermal`] and [`relaxation`] are
 //! the other fan-out stages, reading [`segment_data`] and sharing the 1-D minimiser [`scalar`].
@@ -13,6 +14,7 @@ pub mod relaxation;
 pub mod scalar;
 pub mod segment_data;
 pub mod spring_rate;
+pub mod sweep_folds;
 pub mod thermal;
 
 #[cfg(test)]

@@ -4,10 +4,10 @@
 //! In: an [`Mf61Input`]: per tested pressure its clean cornering, drive/brake and combined
 //! sweeps (samples with the measured pressure), its PAC2002 fit and its spring-rate results.
 //! Out: an [`Mf61Fit`]: the model (`NOMPRES` = [`Mf61Input::nominal_pa`], pressure range the
-//! tested one), per-coefficient facts, per-pressure fit quality in sample and, with two or more
-//! pressures, out of sample by leaving each pressure out (the whole fit, starting values
-//! included, rerun without it; the left-out pressure is predicted), per-family solver facts and
-//! notes.
+//! tested one), per-coefficient facts, per-pressure fit quality in sample and out of sample
+//! (k-fold by sweep per family, [`out_of_sample`], as the PAC2002 stage; with three or more
+//! tested pressures also by leaving each pressure out: the whole fit, starting values included,
+//! rerun without it, the left-out pressure predicted), per-family solver facts and notes.
 //!
 //! Method:
 //! 1. [`data`]: every sweep collapsed onto a slip grid (up/down branch medians averaged), each
@@ -30,6 +30,7 @@
 
 pub mod data;
 pub mod initial;
+mod out_of_sample;
 pub mod problem;
 
 #[cfg(test)]
@@ -42,7 +43,9 @@ mod virtual_round;
 use std::time::Instant;
 
 use crate::fit::pac2002::SweepKind;
-use crate::numerics::bounded_least_squares::{Bounds, Options, RobustLoss, Termination, minimize};
+use crate::numerics::bounded_least_squares::{
+    Bounds, Identifiability, Options, RobustLoss, Termination, minimize,
+};
 use crate::tire_model::params::{Coef, Coef::*};
 use crate::tire_model::{Channel, Evaluation, MagicFormula, Pressures, Version};
 
@@ -107,7 +110,17 @@ pub struct Mf61Config {
     pub max_iterations: usize,
     /// Robust loss of the refinements.
     pub loss: RobustLoss,
-    /// Refit with each pressure left out to report out-of-sample quality.
+    /// Folds of the out-of-sample check (k-fold by sweep, per family: the headline); below 2
+    /// it is skipped.
+    pub kfold: usize,
+    /// Iteration budget of each fold's refit (warm-started from the full fit, one robust-loss
+    /// round).
+    pub kfold_iterations: usize,
+    /// A family whose out-of-sample RMSE exceeds this multiple of its in-sample RMSE (plus
+    /// 0.1 % of the channel's peak) is flagged ([`FamilyQuality::oos_flagged`]).
+    pub oos_ratio_limit: f64,
+    /// With three or more tested pressures, also refit with each pressure left out (the whole
+    /// fit, starting values included) and report how well that pressure is predicted.
     pub leave_one_pressure_out: bool,
 }
 
@@ -117,6 +130,9 @@ impl Default for Mf61Config {
             collapse: CollapseConfig::default(),
             max_iterations: 100,
             loss: RobustLoss::Huber { k: 2.0 },
+            kfold: 5,
+            kfold_iterations: 20,
+            oos_ratio_limit: 1.2,
             leave_one_pressure_out: true,
         }
     }
@@ -408,6 +424,10 @@ pub struct FamilyOutcome {
     pub evaluations: usize,
     /// Wall time, s.
     pub seconds: f64,
+    /// Rank and condition of the data Jacobian at the refinement's solution.
+    pub identifiability: Identifiability,
+    /// The refinement was kept (not worse than its start).
+    pub accepted: bool,
 }
 
 /// One coefficient of the written model.
@@ -442,10 +462,11 @@ pub struct PressureQuality {
     pub rmse_pct_of_peak: f64,
     /// Coefficient of determination.
     pub r2: f64,
-    /// RMSE of the model fitted without this pressure (`None` with one pressure).
-    pub oos_rmse: Option<f64>,
-    /// `oos_rmse` relative to the same peak, %.
-    pub oos_rmse_pct_of_peak: Option<f64>,
+    /// RMSE of the model fitted without this pressure (`None` with fewer than three tested
+    /// pressures or without the check).
+    pub lopo_rmse: Option<f64>,
+    /// `lopo_rmse` relative to the same peak, %.
+    pub lopo_rmse_pct_of_peak: Option<f64>,
 }
 
 /// Fit quality of one family at one tested pressure: the family's channel evaluated on the
@@ -467,8 +488,50 @@ pub struct FamilyQuality {
     pub rmse_pct_of_peak: f64,
     /// Coefficient of determination.
     pub r2: f64,
-    /// RMSE of the model fitted without this pressure (`None` with one pressure).
+    /// RMSE of this pressure's points predicted k-fold by sweep (each by the family refitted
+    /// without its sweep; `None` for a family not refined, with fewer than two sweeps or
+    /// `kfold < 2`).
     pub oos_rmse: Option<f64>,
+    /// Folds of `oos_rmse` (0 without it).
+    pub oos_folds: usize,
+    /// Points of this pressure `oos_rmse` is over (0 without it).
+    pub oos_n: usize,
+    /// Folds whose training sweeps could not determine the family's coefficients.
+    pub oos_deficient_folds: usize,
+    /// RMSE of the model fitted without this pressure (`None` with fewer than three tested
+    /// pressures or without the check).
+    pub lopo_rmse: Option<f64>,
+}
+
+impl FamilyQuality {
+    /// Largest `|value|` among the points (from `rmse` and `rmse_pct_of_peak`; NaN when 0).
+    pub fn peak(&self) -> f64 {
+        if self.rmse_pct_of_peak > 0.0 {
+            100.0 * self.rmse / self.rmse_pct_of_peak
+        } else {
+            f64::NAN
+        }
+    }
+
+    /// `oos_rmse / rmse` (NaN without the check).
+    pub fn oos_ratio(&self) -> f64 {
+        self.oos_rmse.map_or(f64::NAN, |o| o / self.rmse)
+    }
+
+    /// `lopo_rmse / rmse` (NaN without the check).
+    pub fn lopo_ratio(&self) -> f64 {
+        self.lopo_rmse.map_or(f64::NAN, |o| o / self.rmse)
+    }
+
+    /// Good in sample, bad out of sample, by the PAC2002 stage's rule
+    /// (`crate::fit::pac2002::FitQuality::oos_flagged`): the k-fold `oos_rmse` exceeds `limit`
+    /// times `rmse` plus 0.1 % of the peak, or some fold's training sweeps could not determine
+    /// the family's coefficients.
+    pub fn oos_flagged(&self, limit: f64) -> bool {
+        let floor = 1e-3 * self.peak();
+        self.oos_rmse
+            .is_some_and(|o| o > limit * self.rmse + floor.max(0.0) || self.oos_deficient_folds > 0)
+    }
 }
 
 /// The stage's result.
@@ -486,9 +549,13 @@ pub struct Mf61Fit {
     pub families: Vec<FamilyOutcome>,
     /// What the model could not carry, what was held.
     pub notes: Vec<String>,
-    /// Model evaluations over all families (the full fit, not the leave-one-out refits).
+    /// Model evaluations over all families (the full fit, not the out-of-sample refits).
     pub evaluations: usize,
-    /// Wall time of the whole stage including the leave-one-out refits, s.
+    /// Model evaluations of the k-fold refits.
+    pub kfold_evaluations: usize,
+    /// Wall time of the k-fold refits, s.
+    pub kfold_seconds: f64,
+    /// Wall time of the whole stage including the out-of-sample refits, s.
     pub seconds: f64,
 }
 
@@ -577,6 +644,8 @@ fn family_data_scaled(
         d.pressures.push(p.p_pa);
         d.measured.push(p.values[k]);
         d.weights.push(p.weights[k] * scale(p));
+        d.sweeps.push(p.sweep);
+        d.groups.push(p.group);
     }
     d
 }
@@ -760,6 +829,8 @@ fn fit_points(
             termination: outcome.termination,
             evaluations: outcome.evaluations,
             seconds: started.elapsed().as_secs_f64(),
+            identifiability: outcome.identifiability,
+            accepted,
         });
     }
     Fitted {
@@ -960,8 +1031,8 @@ pub fn fit_collapsed(
                 rmse,
                 rmse_pct_of_peak: 100.0 * rmse / peak.max(1e-9),
                 r2,
-                oos_rmse: None,
-                oos_rmse_pct_of_peak: None,
+                lopo_rmse: None,
+                lopo_rmse_pct_of_peak: None,
             });
         }
     }
@@ -976,11 +1047,56 @@ pub fn fit_collapsed(
                 rmse_pct_of_peak: 100.0 * rmse / peak.max(1e-9),
                 r2,
                 oos_rmse: None,
+                oos_folds: 0,
+                oos_n: 0,
+                oos_deficient_folds: 0,
+                lopo_rmse: None,
             });
         }
     }
+    let kfold_started = Instant::now();
+    let mut kfold_evaluations = 0;
+    if cfg.kfold >= 2 {
+        // The written Mz0 coefficients are the joint Mz step's when it was kept.
+        let mz_sets_mz0 = full
+            .families
+            .iter()
+            .any(|f| f.family == Mf61Family::Mz && f.accepted);
+        for outcome in &full.families {
+            let also: &[Mf61Family] = match outcome.family {
+                Mf61Family::Mz0 if mz_sets_mz0 => continue,
+                Mf61Family::Mz => &[Mf61Family::Mz0],
+                _ => &[],
+            };
+            let Some(kf) = out_of_sample::k_fold(&full.model, &points, outcome, also, cfg) else {
+                continue;
+            };
+            kfold_evaluations += kf.evaluations;
+            for ((family, g), group) in [outcome.family]
+                .iter()
+                .chain(also)
+                .flat_map(|f| groups.iter().enumerate().map(move |(g, x)| ((*f, g), x)))
+            {
+                let Some((rmse, n)) = kf.rmse_at(family, g) else {
+                    continue;
+                };
+                if let Some(q) = family_quality
+                    .iter_mut()
+                    .find(|q| q.pressure_kpa_nom == group.pressure_kpa_nom && q.family == family)
+                {
+                    q.oos_rmse = Some(rmse);
+                    q.oos_folds = kf.folds;
+                    q.oos_n = n;
+                    q.oos_deficient_folds = kf.deficient_folds;
+                }
+            }
+        }
+    }
+    let kfold_seconds = kfold_started.elapsed().as_secs_f64();
     let mut notes = full.notes.clone();
-    if cfg.leave_one_pressure_out && groups.len() >= 2 {
+    // Leaving one of two pressures out would fit the pressure terms from one pressure: not a
+    // test of the model, so only with three or more.
+    if cfg.leave_one_pressure_out && groups.len() >= 3 {
         for (g, group) in groups.iter().enumerate() {
             let models = models_of(Some(g));
             if models.is_empty() {
@@ -997,8 +1113,8 @@ pub fn fit_collapsed(
                     .iter_mut()
                     .find(|q| q.pressure_kpa_nom == group.pressure_kpa_nom && q.output == o)
                 {
-                    q.oos_rmse = Some(rmse);
-                    q.oos_rmse_pct_of_peak = Some(100.0 * rmse / peak.max(1e-9));
+                    q.lopo_rmse = Some(rmse);
+                    q.lopo_rmse_pct_of_peak = Some(100.0 * rmse / peak.max(1e-9));
                 }
             }
             for (family, _, rmse, _, _) in group_family_quality(&held.model, &points, g) {
@@ -1006,7 +1122,7 @@ pub fn fit_collapsed(
                     .iter_mut()
                     .find(|q| q.pressure_kpa_nom == group.pressure_kpa_nom && q.family == family)
                 {
-                    q.oos_rmse = Some(rmse);
+                    q.lopo_rmse = Some(rmse);
                 }
             }
         }
@@ -1019,6 +1135,8 @@ pub fn fit_collapsed(
     let coefficients = coefficient_list(&full);
     Ok(Mf61Fit {
         evaluations: full.families.iter().map(|f| f.evaluations).sum(),
+        kfold_evaluations,
+        kfold_seconds,
         model: full.model,
         coefficients,
         quality,

@@ -27,6 +27,10 @@ pub struct FamilyData {
     pub measured: Vec<f64>,
     /// Residual weights.
     pub weights: Vec<f64>,
+    /// Sweep index of each point (across every tested pressure).
+    pub sweeps: Vec<usize>,
+    /// Tested-pressure group of each point.
+    pub groups: Vec<usize>,
 }
 
 impl FamilyData {

@@ -208,9 +208,21 @@ fn recovers_a_known_mf61_tire_across_four_pressures() {
             q.pressure_kpa_nom,
             q.output.name(),
             q.rmse_pct_of_peak,
-            q.oos_rmse_pct_of_peak
+            q.lopo_rmse_pct_of_peak
         );
-        assert!(q.oos_rmse.is_some(), "{q:?}");
+        assert!(q.lopo_rmse.is_some(), "{q:?}");
+    }
+    for q in &fit.family_quality {
+        println!(
+            "{} kPa {}: in {:.3} out (5-fold) {:.3?} lopo {:.3?}",
+            q.pressure_kpa_nom,
+            q.family.name(),
+            q.rmse,
+            q.oos_rmse,
+            q.lopo_rmse
+        );
+        assert!(q.oos_rmse.is_some() && q.oos_folds == 5, "{q:?}");
+        assert!(q.lopo_rmse.is_some(), "{q:?}");
     }
     for (c, want) in [(PPY1, 0.45), (PPY3, -0.12), (PPX1, -0.25), (PPZ1, 0.30)] {
         let got = fit.model.coefs[c];
@@ -236,6 +248,7 @@ fn predicts_a_left_out_pressure() {
         let input = input(&truth, &kept);
         let cfg = Mf61Config {
             leave_one_pressure_out: false,
+            kfold: 0,
             ..Mf61Config::default()
         };
         let mut fit = fit(&input, &cfg).unwrap();
@@ -274,7 +287,7 @@ fn one_pressure_gives_a_model_without_pressure_terms() {
         "{:?}",
         fit.notes
     );
-    assert!(fit.quality.iter().all(|q| q.oos_rmse.is_none()));
+    assert!(fit.quality.iter().all(|q| q.lopo_rmse.is_none()));
 }
 
 /// A pressure whose PAC2002 fit had no cornering data (its lateral coefficients at their

@@ -50,6 +50,7 @@ fn mf61_truth_round_is_recovered_and_a_left_out_pressure_predicted() {
     assert_eq!(pressures.len(), 4, "{pressures:?}");
     let cfg = Mf61Config {
         leave_one_pressure_out: false,
+        kfold: 0,
         ..Mf61Config::default()
     };
     let full = fit(&prep.input, &cfg).expect("fit");
@@ -113,6 +114,7 @@ fn combined_mz_diagnostic() {
     let prep = super::virtual_input::prepare_with(1, 7.0, TruthForm::Pac2002);
     let cfg = Mf61Config {
         leave_one_pressure_out: false,
+        kfold: 0,
         ..Mf61Config::default()
     };
     let full = fit(&prep.input, &cfg).expect("fit");

@@ -32,6 +32,7 @@ use super::family::Family;
 use super::linear::lstsq;
 use super::problem::{DataPoint, FIT_MODE, FamilyProblem};
 use super::stage::{Envelope, bounds_of, data_points, output_of, penalties_of};
+use crate::fit::sweep_folds;
 use crate::numerics::bounded_least_squares::{Identifiability, Options, minimize};
 use crate::tire_model::{Coef, Coefs, Evaluation, Pac2002, SlipInput};
 
@@ -56,8 +57,7 @@ pub struct OutOfSample {
     pub deficient_folds: usize,
 }
 
-/// A fold whose refit is this many times worse conditioned than the full fit is deficient.
-pub const DEFICIENT_CONDITION: f64 = 1e3;
+pub use crate::fit::sweep_folds::DEFICIENT_CONDITION;
 
 /// The largest deviation of the model from the data's local trend along the sweeps.
 #[derive(Clone, Debug, PartialEq)]
@@ -72,30 +72,11 @@ pub struct TrendDeviation {
     pub n: usize,
 }
 
-/// Rank of every value among the distinct values (to `resolution`).
-fn ranks(values: &[f64], resolution: f64) -> Vec<usize> {
-    let keys: Vec<i64> = values
-        .iter()
-        .map(|v| (v / resolution).round() as i64)
-        .collect();
-    let mut levels = keys.clone();
-    levels.sort_unstable();
-    levels.dedup();
-    keys.iter()
-        .map(|k| levels.binary_search(k).unwrap_or(0))
-        .collect()
-}
-
-/// The folds of `sweeps`: diagonal in the nominal levels (module docs), every fold non-empty
-/// (an empty fold takes a sweep from the largest one), `None` with fewer than two sweeps or
-/// `k < 2`.
+/// The folds of `sweeps`: diagonal in the nominal levels (module docs,
+/// [`sweep_folds::diagonal`]), `None` with fewer than two sweeps or `k < 2`.
 fn folds(sweeps: &[&CollapsedSweep], k: usize) -> Option<Vec<usize>> {
-    let k = k.min(sweeps.len());
-    if k < 2 {
-        return None;
-    }
     let level = |f: fn(&CollapsedSweep) -> f64, resolution: f64| {
-        ranks(
+        sweep_folds::ranks(
             &sweeps.iter().map(|s| f(s)).collect::<Vec<f64>>(),
             resolution,
         )
@@ -103,19 +84,10 @@ fn folds(sweeps: &[&CollapsedSweep], k: usize) -> Option<Vec<usize>> {
     let fz = level(|s| s.nominal.fz_n, 1.0);
     let gamma = level(|s| s.nominal.gamma_rad, 1e-4);
     let alpha = level(|s| s.nominal.alpha_rad, 1e-4);
-    let mut fold: Vec<usize> = (0..sweeps.len())
-        .map(|i| (fz[i] + gamma[i] + alpha[i]) % k)
+    let sums: Vec<usize> = (0..sweeps.len())
+        .map(|i| fz[i] + gamma[i] + alpha[i])
         .collect();
-    for f in 0..k {
-        if fold.contains(&f) {
-            continue;
-        }
-        let count = |g: usize, fold: &[usize]| fold.iter().filter(|x| **x == g).count();
-        let largest = (0..k).max_by_key(|g| (count(*g, &fold), *g))?;
-        let i = fold.iter().rposition(|x| *x == largest)?;
-        fold[i] = f;
-    }
-    Some(fold)
+    sweep_folds::diagonal(&sums, k)
 }
 
 /// k-fold-by-sweep prediction error of `family` (see the module docs); `None` with fewer than
