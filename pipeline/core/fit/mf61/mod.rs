@@ -42,7 +42,9 @@ mod virtual_round;
 use std::time::Instant;
 
 use crate::fit::pac2002::SweepKind;
-use crate::numerics::bounded_least_squares::{Bounds, Options, RobustLoss, Termination, minimize};
+use crate::numerics::nonlinear_least_squares::{
+    Bounds, Options, RobustLoss, Termination, minimize,
+};
 use crate::tire_model::params::{Coef, Coef::*};
 use crate::tire_model::{Channel, Evaluation, MagicFormula, Pressures, Version};
 
