@@ -14,7 +14,7 @@ use tirebase_core::fit::pac2002::{FitConfig, MxForm};
 use tirebase_core::fit::relaxation::RelaxationConfig;
 use tirebase_core::fit::spring_rate::SpringRateConfig;
 use tirebase_core::fit::thermal::ThermalConfig;
-use tirebase_core::numerics::bounded_least_squares::RobustLoss;
+use tirebase_core::numerics::nonlinear_least_squares::RobustLoss;
 use tirebase_core::segment::SegmentConfig;
 use tirebase_core::synth::round::SynthConfig;
 

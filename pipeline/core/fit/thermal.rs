@@ -64,7 +64,53 @@ use super::segment_data::{
     moving_average,
 };
 use crate::numerics::least_squares::{polyfit_centered, solve};
-use crate::numerics::levmar::{LeastSquaresModel, LmOptions, minimize};
+use crate::numerics::nonlinear_least_squares::{Bounds, LeastSquaresProblem, Options, minimize};
+
+/// Why a cold-to-warm test or a tire's `mu(T)` fit could not be produced (the `reason` of its
+/// [`StageFailure`] row).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ThermalError {
+    /// A cold-to-warm segment without the centre tread temperature channel.
+    #[error("segment {segment_id}: no centre tread temperature")]
+    NoCentreTemperature {
+        /// The segment.
+        segment_id: String,
+    },
+    /// The joined test is too short to analyse.
+    #[error("{samples} samples")]
+    TooFewSamples {
+        /// Samples in the joined test.
+        samples: usize,
+    },
+    /// Neither wheel speed nor a radius with speed: the IR phase lag is unknown.
+    #[error("no wheel speed or radius for the IR phase lag")]
+    NoIrPhaseLag,
+    /// No complete half-cycle reaches the slip angle that makes a peak.
+    #[error("no half-cycle reaches |SA| {min_abs_alpha_deg:.1} deg")]
+    NoHalfCycle {
+        /// `min_abs_alpha_rad` in degrees.
+        min_abs_alpha_deg: f64,
+    },
+    /// Fewer usable peaks than `min_peaks`.
+    #[error("{found} peaks with a temperature, need {needed}")]
+    TooFewPeaks {
+        /// Peaks with a finite mu and temperature.
+        found: usize,
+        /// `min_peaks`.
+        needed: usize,
+    },
+    /// Fewer peaks than the curve's parameters.
+    #[error("{peaks} peaks for {groups} quadrant levels and 2 shape parameters")]
+    TooFewPeaksForLevels {
+        /// Peaks to fit.
+        peaks: usize,
+        /// One level per (run, quadrant).
+        groups: usize,
+    },
+    /// Neither the air temperature nor the tread temperature at the start of a test.
+    #[error("no cold reference temperature")]
+    NoColdReference,
+}
 
 /// Stage knobs.
 #[derive(Copy, Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -264,10 +310,10 @@ pub fn run(segments: &[MeasuredSegment], cfg: &ThermalConfig) -> ThermalOutput {
                 colds.entry(key.clone()).or_default().push(cold);
                 out.rows.extend(rows);
             }
-            Err(reason) => out.failures.push(StageFailure {
+            Err(err) => out.failures.push(StageFailure {
                 key: key.clone(),
                 scope: format!("cold-to-warm test {source}"),
-                reason,
+                reason: err.to_string(),
             }),
         }
     }
@@ -292,10 +338,10 @@ pub fn run(segments: &[MeasuredSegment], cfg: &ThermalConfig) -> ThermalOutput {
         let rows: Vec<&ThermalSweepRow> = out.rows.iter().filter(|r| &r.key == key).collect();
         match fit_mu_of_t(key, &rows, cold, cfg) {
             Ok(fit) => out.fits.push(fit),
-            Err(reason) => out.failures.push(StageFailure {
+            Err(err) => out.failures.push(StageFailure {
                 key: key.clone(),
                 scope: "mu(T) fit".to_string(),
-                reason,
+                reason: err.to_string(),
             }),
         }
     }
@@ -325,7 +371,7 @@ struct Test {
 }
 
 impl Test {
-    fn join(segs: &[&MeasuredSegment]) -> Result<Test, String> {
+    fn join(segs: &[&MeasuredSegment]) -> Result<Test, ThermalError> {
         let mut order: Vec<&&MeasuredSegment> = segs.iter().collect();
         order.sort_by(|a, b| {
             let t = |s: &MeasuredSegment| s.channels.et_s.first().copied().unwrap_or(f64::NAN);
@@ -347,10 +393,12 @@ impl Test {
         let mut ambient = Vec::new();
         for (k, s) in order.iter().enumerate() {
             let c = &s.channels;
-            let centre = c
-                .tread_centre_c
-                .as_ref()
-                .ok_or_else(|| format!("segment {}: no centre tread temperature", s.segment_id))?;
+            let centre =
+                c.tread_centre_c
+                    .as_ref()
+                    .ok_or_else(|| ThermalError::NoCentreTemperature {
+                        segment_id: s.segment_id.clone(),
+                    })?;
             test.ids.push(s.segment_id.clone());
             for i in 0..c.len() {
                 if test.t.last().is_some_and(|&last| c.et_s[i] <= last) {
@@ -378,7 +426,9 @@ impl Test {
             }
         }
         if test.t.len() < 10 {
-            return Err(format!("{} samples", test.t.len()));
+            return Err(ThermalError::TooFewSamples {
+                samples: test.t.len(),
+            });
         }
         test.ambient = finite_mean(ambient);
         Ok(test)
@@ -397,7 +447,7 @@ impl Test {
         key: &TireKey,
         source: &str,
         cfg: &ThermalConfig,
-    ) -> Result<(Vec<ThermalSweepRow>, (f64, &'static str)), String> {
+    ) -> Result<(Vec<ThermalSweepRow>, (f64, &'static str)), ThermalError> {
         let hz = self.rate_hz();
         let half = |s: f64| ((s * hz).round() as usize).max(1);
         let n = self.t.len();
@@ -410,7 +460,7 @@ impl Test {
             .map(|d| d * cfg.ir_phase_revolutions)
             .collect();
         if delay.iter().all(|d| !d.is_finite()) {
-            return Err("no wheel speed or radius for the IR phase lag".to_string());
+            return Err(ThermalError::NoIrPhaseLag);
         }
         let corrected = |temp: &[f64]| -> Vec<f64> {
             (0..n)
@@ -523,10 +573,9 @@ impl Test {
             });
         }
         if rows.is_empty() {
-            return Err(format!(
-                "no half-cycle reaches |SA| {:.1} deg",
-                cfg.min_abs_alpha_rad.to_degrees()
-            ));
+            return Err(ThermalError::NoHalfCycle {
+                min_abs_alpha_deg: cfg.min_abs_alpha_rad.to_degrees(),
+            });
         }
         let cold = match self.ambient {
             Some(a) => (a, "ambient"),
@@ -817,7 +866,7 @@ impl MuOfT<'_> {
         if self.hot { 3 } else { 2 }
     }
 
-    fn curvature(&self, p: &DVector<f64>, t: f64) -> (f64, usize) {
+    fn curvature(&self, p: &[f64], t: f64) -> (f64, usize) {
         if t > p[0] && self.hot {
             (p[2], 2)
         } else {
@@ -826,39 +875,37 @@ impl MuOfT<'_> {
     }
 }
 
-impl LeastSquaresModel for MuOfT<'_> {
-    fn residuals(&self, p: &DVector<f64>) -> DVector<f64> {
-        let off = self.level_offset();
-        DVector::from_iterator(
-            self.t.len(),
-            (0..self.t.len()).map(|i| {
-                let (k, _) = self.curvature(p, self.t[i]);
-                let x = self.t[i] - p[0];
-                p[off + self.group[i]] * (1.0 - k * x * x) - self.mu[i]
-            }),
-        )
+impl LeastSquaresProblem for MuOfT<'_> {
+    fn n_params(&self) -> usize {
+        self.level_offset() + self.groups
     }
 
-    fn jacobian(&self, p: &DVector<f64>) -> DMatrix<f64> {
+    fn n_residuals(&self) -> usize {
+        self.t.len()
+    }
+
+    fn residuals(&self, p: &[f64], r: &mut [f64]) {
         let off = self.level_offset();
-        let mut j = DMatrix::zeros(self.t.len(), off + self.groups);
-        for i in 0..self.t.len() {
+        for (i, ri) in r.iter_mut().enumerate() {
+            let (k, _) = self.curvature(p, self.t[i]);
+            let x = self.t[i] - p[0];
+            *ri = p[off + self.group[i]] * (1.0 - k * x * x) - self.mu[i];
+        }
+    }
+
+    fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
+        self.residuals(p, r);
+        let off = self.level_offset();
+        let n = self.n_params();
+        jac.fill(0.0);
+        for (i, row) in jac.chunks_exact_mut(n).enumerate() {
             let (k, kcol) = self.curvature(p, self.t[i]);
             let x = self.t[i] - p[0];
             let m = p[off + self.group[i]];
-            j[(i, 0)] = 2.0 * m * k * x;
-            j[(i, kcol)] = -m * x * x;
-            j[(i, off + self.group[i])] = 1.0 - k * x * x;
+            row[0] = 2.0 * m * k * x;
+            row[kcol] = -m * x * x;
+            row[off + self.group[i]] = 1.0 - k * x * x;
         }
-        j
-    }
-
-    fn project(&self, mut p: DVector<f64>) -> DVector<f64> {
-        p[1] = p[1].max(0.0);
-        if self.hot {
-            p[2] = p[2].max(0.0);
-        }
-        p
     }
 }
 
@@ -886,7 +933,7 @@ fn fit_mu_of_t(
     rows: &[&ThermalSweepRow],
     cold: &[(f64, &'static str)],
     cfg: &ThermalConfig,
-) -> Result<ThermalFitRow, String> {
+) -> Result<ThermalFitRow, ThermalError> {
     let usable: Vec<&&ThermalSweepRow> = rows
         .iter()
         .filter(|r| r.mu_peak.is_finite() && r.t_centre_peak_c.is_finite())
@@ -906,11 +953,10 @@ fn fit_mu_of_t(
     .find(|pts| pts.len() >= cfg.min_peaks)
     .unwrap_or(usable);
     if pts.len() < cfg.min_peaks {
-        return Err(format!(
-            "{} peaks with a temperature, need {}",
-            pts.len(),
-            cfg.min_peaks
-        ));
+        return Err(ThermalError::TooFewPeaks {
+            found: pts.len(),
+            needed: cfg.min_peaks,
+        });
     }
     let mut fit = fit_peaks(&pts, cfg)?;
     // One pass of outlier rejection: a peak further than `OUTLIER_MADS` robust standard
@@ -948,7 +994,7 @@ fn fit_mu_of_t(
     let (t_cold, source) = {
         let finite: Vec<&(f64, &str)> = cold.iter().filter(|c| c.0.is_finite()).collect();
         if finite.is_empty() {
-            return Err("no cold reference temperature".to_string());
+            return Err(ThermalError::NoColdReference);
         }
         (
             finite.iter().map(|c| c.0).sum::<f64>() / finite.len() as f64,
@@ -1001,7 +1047,7 @@ struct PeakFit {
 
 /// Fit the piecewise parabola to `pts` (one level per run and quadrant), with the peak-shift
 /// refits of the module docs.
-fn fit_peaks(pts: &[&&ThermalSweepRow], cfg: &ThermalConfig) -> Result<PeakFit, String> {
+fn fit_peaks(pts: &[&&ThermalSweepRow], cfg: &ThermalConfig) -> Result<PeakFit, ThermalError> {
     let mut group_ids: BTreeMap<(String, Quadrant), usize> = BTreeMap::new();
     for r in pts {
         let next = group_ids.len();
@@ -1017,10 +1063,10 @@ fn fit_peaks(pts: &[&&ThermalSweepRow], cfg: &ThermalConfig) -> Result<PeakFit, 
         .collect();
     let groups = group_ids.len();
     if pts.len() < groups + 3 {
-        return Err(format!(
-            "{} peaks for {groups} quadrant levels and 2 shape parameters",
-            pts.len()
-        ));
+        return Err(ThermalError::TooFewPeaksForLevels {
+            peaks: pts.len(),
+            groups,
+        });
     }
     // Start: the temperature of the highest peak relative to its group's maximum.
     let mut gmax = vec![0.0_f64; groups];
@@ -1047,7 +1093,17 @@ fn fit_peaks(pts: &[&&ThermalSweepRow], cfg: &ThermalConfig) -> Result<PeakFit, 
             p0.push(k0);
         }
         p0.extend(gmax.iter().copied());
-        minimize(&model, DVector::from_vec(p0), LmOptions::default())
+        // The curvatures are non-negative: the curve has a maximum.
+        let mut lower = vec![f64::NEG_INFINITY; p0.len()];
+        lower[1] = 0.0;
+        if hot {
+            lower[2] = 0.0;
+        }
+        let bounds = Bounds {
+            lower,
+            upper: vec![f64::INFINITY; p0.len()],
+        };
+        minimize(&model, &p0, &bounds, &Options::default())
     };
     let mut corrected = mu.clone();
     let mut fit = solve(&corrected, false);
@@ -1068,14 +1124,15 @@ fn fit_peaks(pts: &[&&ThermalSweepRow], cfg: &ThermalConfig) -> Result<PeakFit, 
         fit = solve(&corrected, hot);
     }
     let p = &fit.params;
-    let residuals = MuOfT {
+    let mut residuals = vec![0.0; t.len()];
+    MuOfT {
         t: &t,
         mu: &corrected,
         group: &group,
         groups,
         hot,
     }
-    .residuals(p);
+    .residuals(p, &mut residuals);
     let off = if hot { 3 } else { 2 };
     Ok(PeakFit {
         t_peak: p[0],
@@ -1085,8 +1142,8 @@ fn fit_peaks(pts: &[&&ThermalSweepRow], cfg: &ThermalConfig) -> Result<PeakFit, 
         mu_peak_mean: (0..groups).map(|g| p[off + g]).sum::<f64>() / groups as f64,
         n: t.len(),
         rmse: fit.rmse,
-        converged: fit.converged(),
-        residuals: residuals.iter().copied().collect(),
+        converged: fit.termination.converged(),
+        residuals,
     })
 }
 

@@ -12,7 +12,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::MethodError;
 use crate::numerics::least_squares;
-use crate::numerics::levmar::{self, LeastSquaresModel, LmOptions};
+use crate::numerics::nonlinear_least_squares::{Bounds, LeastSquaresProblem, Options, minimize};
 
 /// One static configuration: the summed first moment of the masses added in it and the tilt read.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -67,33 +67,36 @@ struct Static<'a> {
 }
 
 impl Static<'_> {
-    fn unpack(&self, p: &DVector<f64>) -> (f64, f64, f64) {
+    fn unpack(&self, p: &[f64]) -> (f64, f64, f64) {
         (p[0], p[1], self.known_offset.unwrap_or_else(|| p[2]))
     }
 }
 
-impl LeastSquaresModel for Static<'_> {
-    fn residuals(&self, p: &DVector<f64>) -> DVector<f64> {
-        let (sx, sy, off) = self.unpack(p);
-        DVector::from_iterator(
-            self.configs.len(),
-            self.configs
-                .iter()
-                .map(|c| predicted_reading(sx, sy, off, c) - c.reading_rad),
-        )
+impl LeastSquaresProblem for Static<'_> {
+    fn n_params(&self) -> usize {
+        if self.known_offset.is_some() { 2 } else { 3 }
     }
-    fn jacobian(&self, p: &DVector<f64>) -> DMatrix<f64> {
+    fn n_residuals(&self) -> usize {
+        self.configs.len()
+    }
+    fn residuals(&self, p: &[f64], r: &mut [f64]) {
+        let (sx, sy, off) = self.unpack(p);
+        for (ri, c) in r.iter_mut().zip(self.configs) {
+            *ri = predicted_reading(sx, sy, off, c) - c.reading_rad;
+        }
+    }
+    fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
+        self.residuals(p, r);
         let (sx, sy, _) = self.unpack(p);
-        DMatrix::from_fn(self.configs.len(), p.len(), |i, k| {
-            let c = &self.configs[i];
+        for (c, row) in self.configs.iter().zip(jac.chunks_exact_mut(p.len())) {
             let (x, y) = (sx + c.added_sx_kg_m, sy + c.added_sy_kg_m);
             let r2 = x * x + y * y;
-            match k {
-                0 => -y / r2,
-                1 => x / r2,
-                _ => 1.0,
+            row[0] = -y / r2;
+            row[1] = x / r2;
+            if let Some(offset) = row.get_mut(2) {
+                *offset = 1.0;
             }
-        })
+        }
     }
 }
 
@@ -151,7 +154,12 @@ pub fn solve_first_moment(
         configs,
         known_offset,
     };
-    let out = levmar::minimize(&model, DVector::from_vec(p0), LmOptions::default());
+    let out = minimize(
+        &model,
+        &p0,
+        &Bounds::unbounded(p0.len()),
+        &Options::default(),
+    );
     let (sx, sy, off) = model.unpack(&out.params);
     if sy.is_nan() || sy <= 0.0 {
         return Err(MethodError::NonPhysical {

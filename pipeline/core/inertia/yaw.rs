@@ -12,7 +12,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::MethodError;
 use crate::numerics::least_squares::{self, polyfit_centered};
-use crate::numerics::levmar::{self, LeastSquaresModel, LmOptions};
+use crate::numerics::nonlinear_least_squares::{Bounds, LeastSquaresProblem, Options, minimize};
 
 /// Angular acceleration estimate from one run.
 #[derive(Debug, Clone, PartialEq)]
@@ -120,21 +120,27 @@ struct LnCosh<'a> {
     scale: [f64; 4],
 }
 
-impl LeastSquaresModel for LnCosh<'_> {
-    fn residuals(&self, p: &DVector<f64>) -> DVector<f64> {
-        DVector::from_iterator(
-            self.t.len(),
-            self.t
-                .iter()
-                .zip(self.theta)
-                .map(|(&t, &th)| lncosh_angle(t, p[0], p[1], p[2], p[3]) - th),
-        )
+impl LeastSquaresProblem for LnCosh<'_> {
+    fn n_params(&self) -> usize {
+        4
     }
-    fn jacobian(&self, p: &DVector<f64>) -> DMatrix<f64> {
-        let mut j = DMatrix::zeros(self.t.len(), 4);
+    fn n_residuals(&self) -> usize {
+        self.t.len()
+    }
+    fn residuals(&self, p: &[f64], r: &mut [f64]) {
+        for ((ri, &t), &th) in r.iter_mut().zip(self.t).zip(self.theta) {
+            *ri = lncosh_angle(t, p[0], p[1], p[2], p[3]) - th;
+        }
+    }
+    /// Central differences, one-sided at `c = 0` (the series of [`lncosh_angle`] holds only for
+    /// `c >= 0`).
+    fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
+        self.residuals(p, r);
+        let m = self.t.len();
+        let (mut r_hi, mut r_lo) = (vec![0.0; m], vec![0.0; m]);
         for k in 0..4 {
             let h = 1e-6 * p[k].abs().max(self.scale[k]);
-            let (mut lo, mut hi) = (p.clone(), p.clone());
+            let (mut lo, mut hi) = ([p[0], p[1], p[2], p[3]], [p[0], p[1], p[2], p[3]]);
             hi[k] += h;
             lo[k] -= h;
             let width = if k == 3 && lo[k] < 0.0 {
@@ -143,15 +149,12 @@ impl LeastSquaresModel for LnCosh<'_> {
             } else {
                 2.0 * h
             };
-            let d = (self.residuals(&hi) - self.residuals(&lo)) / width;
-            j.set_column(k, &d);
+            self.residuals(&hi, &mut r_hi);
+            self.residuals(&lo, &mut r_lo);
+            for (i, (a, b)) in r_hi.iter().zip(&r_lo).enumerate() {
+                jac[i * 4 + k] = (a - b) / width;
+            }
         }
-        j
-    }
-    fn project(&self, mut p: DVector<f64>) -> DVector<f64> {
-        p[3] = p[3].max(0.0);
-        p[2] = p[2].max(1e-12);
-        p
     }
 }
 
@@ -169,18 +172,23 @@ pub fn fit_lncosh(times_s: &[f64], angles_rad: &[f64]) -> Result<AccelerationFit
     let t1 = quad.t_center - b / (2.0 * a);
     let theta1 = c0 - b * b / (4.0 * a);
     let span = angles_rad.iter().copied().fold(0.0, f64::max).max(1e-3);
-    let p0 = DVector::from_vec(vec![theta1, t1, 2.0 * a, 0.01 / span]);
     let model = LnCosh {
         t: times_s,
         theta: angles_rad,
         scale: [1.0, 1.0, 2.0 * a, 1e-3 / span],
     };
-    let out = levmar::minimize(
+    // alpha0 > 0 and c >= 0: the model is defined for them only.
+    let bounds = Bounds {
+        lower: vec![f64::NEG_INFINITY, f64::NEG_INFINITY, 1e-12, 0.0],
+        upper: vec![f64::INFINITY; 4],
+    };
+    let out = minimize(
         &model,
-        p0,
-        LmOptions {
+        &[theta1, t1, 2.0 * a, 0.01 / span],
+        &bounds,
+        &Options {
             max_iterations: 500,
-            ..LmOptions::default()
+            ..Options::default()
         },
     );
     if !out.params.iter().all(|v| v.is_finite()) {
@@ -202,9 +210,9 @@ pub fn fit_lncosh(times_s: &[f64], angles_rad: &[f64]) -> Result<AccelerationFit
         .fold(0.0, f64::max);
     Ok(AccelerationFit {
         alpha_rad_s2: p[2],
-        u_alpha_rad_s2: out.std_err(2),
+        u_alpha_rad_s2: out.std_errors[2].unwrap_or(f64::NAN),
         drag_c_per_rad: p[3],
-        u_drag_c_per_rad: out.std_err(3),
+        u_drag_c_per_rad: out.std_errors[3].unwrap_or(f64::NAN),
         events: times_s.len(),
         residual_rms_rad: out.rmse,
         peak_omega_rad_s: peak,

@@ -43,7 +43,7 @@ mod virtual_round;
 use std::time::Instant;
 
 use crate::fit::pac2002::SweepKind;
-use crate::numerics::bounded_least_squares::{
+use crate::numerics::nonlinear_least_squares::{
     Bounds, Identifiability, Options, RobustLoss, Termination, minimize,
 };
 use crate::tire_model::params::{Coef, Coef::*};

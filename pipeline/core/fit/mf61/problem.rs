@@ -5,12 +5,12 @@
 //! points of every pressure (each evaluated at its own measured pressure). Out: residuals
 //! `w_i (model_i - measured_i)` and their exact Jacobian, through
 //! [`MagicFormula::jacobian_into_at`] (forward-mode dual numbers, one pressure per point), for
-//! [`crate::numerics::bounded_least_squares::minimize`]. The model is evaluated without input
+//! [`crate::numerics::nonlinear_least_squares::minimize`]. The model is evaluated without input
 //! limiting (`Mode::Raw`), as the PAC2002 stage does.
 //!
 //! Deliberately not here: which points and coefficients a family uses (`mod.rs`).
 
-use crate::numerics::bounded_least_squares::LeastSquaresProblem;
+use crate::numerics::nonlinear_least_squares::LeastSquaresProblem;
 use crate::tire_model::{Channel, Coef, MagicFormula, Mode, Pressures, SlipInput};
 
 /// Evaluation mode of the fit.

@@ -21,7 +21,7 @@
 //!
 //! Deliberately not here: the joint refinement (these values only need to be in the right basin).
 
-use crate::numerics::bounded_least_squares::Bounds;
+use crate::numerics::nonlinear_least_squares::Bounds;
 use crate::numerics::stats::finite_median;
 use crate::tire_model::pac2002::{load, pure_fy0};
 use crate::tire_model::{Coef, Coef::*, Coefs, Real, SlipInput};

@@ -8,7 +8,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::numerics::bounded_least_squares::{
+use crate::numerics::nonlinear_least_squares::{
     Bounds, FitOutcome, LeastSquaresProblem, Options, minimize,
 };
 use crate::tire_model::{Dual, Real};

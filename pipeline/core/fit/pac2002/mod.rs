@@ -21,7 +21,7 @@
 //!    single Magic Formula curve (`B C D E SH SV K`) or trail curve, then linear least squares
 //!    (and 1-D scans for the few nonlinear load laws) for their load and camber dependence.
 //! 3. [`problem`]: joint refinement of the family's coefficients with the bounded
-//!    Levenberg-Marquardt of [`crate::numerics::bounded_least_squares`] on the collapsed points,
+//!    Levenberg-Marquardt of [`crate::numerics::nonlinear_least_squares`] on the collapsed points,
 //!    residuals normalised by each sweep's peak (every sweep counts the same), optional
 //!    Huber/Cauchy loss by IRLS, penalties for `E <= 1` (before clamping) and `Gxa, Gyk > 0` over
 //!    the tested envelope, bounds for `C > 0`, and a small prior pulling the asymmetric
@@ -53,10 +53,10 @@ mod synthetic;
 mod tests;
 
 use super::segment_data::{MeasuredSegment, SegmentKind};
-use crate::numerics::bounded_least_squares::{RobustLoss, Termination};
+use crate::numerics::nonlinear_least_squares::{RobustLoss, Termination};
 use crate::tire_model::{Coef, Pac2002};
 
-pub use crate::numerics::bounded_least_squares::Identifiability;
+pub use crate::numerics::nonlinear_least_squares::Identifiability;
 pub use family::Family;
 pub use quality::{OutOfSample, TREND_SUBDIVISIONS, TrendDeviation};
 pub use stage::fit;

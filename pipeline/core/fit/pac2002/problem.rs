@@ -3,7 +3,7 @@
 //! In: the current coefficient vector (every family fitted so far), the family's free
 //! coefficients, weighted data points of its channel and penalty terms. Out: residuals and their
 //! exact Jacobian (forward-mode [`Dual`] numbers through the generic PAC2002 equations) for
-//! [`crate::numerics::bounded_least_squares::minimize`].
+//! [`crate::numerics::nonlinear_least_squares::minimize`].
 //!
 //! Residuals, in order: data `w_i (model_i - measured_i)`, then penalties: priors
 //! `w (c - centre)` and one-sided constraints `w max(0, q(c) - limit)` for the physical rules
@@ -14,7 +14,7 @@
 //!
 //! Deliberately not here: choosing weights, bounds or penalties (the stage does), the solver.
 
-use crate::numerics::bounded_least_squares::LeastSquaresProblem;
+use crate::numerics::nonlinear_least_squares::LeastSquaresProblem;
 use crate::tire_model::pac2002::{
     CombinedFy, Mode, PureFy, TrailPeak, combined_fx, combined_fy, combined_mz, gxa, load,
     overturning_mx, pure_fx0, pure_fy0, pure_mz0, trail_terms, weighting,
@@ -358,7 +358,7 @@ impl LeastSquaresProblem for FamilyProblem<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::numerics::bounded_least_squares::finite_difference_jacobian;
+    use crate::numerics::nonlinear_least_squares::finite_difference_jacobian;
     use crate::tire_model::Coef;
 
     /// The dual-number Jacobian of every family matches central differences.

@@ -33,7 +33,7 @@ use super::linear::lstsq;
 use super::problem::{DataPoint, FIT_MODE, FamilyProblem};
 use super::stage::{Envelope, bounds_of, data_points, output_of, penalties_of};
 use crate::fit::sweep_folds;
-use crate::numerics::bounded_least_squares::{Identifiability, Options, minimize};
+use crate::numerics::nonlinear_least_squares::{Identifiability, Options, minimize};
 use crate::tire_model::{Coef, Coefs, Evaluation, Pac2002, SlipInput};
 
 /// Interpolation steps between neighbouring collapsed points of the trend check.

@@ -22,7 +22,7 @@ use super::{
     CoefficientOrigin, FamilyFit, FamilyStatus, FitConfig, FitError, FitInput, FitQuality,
     FittedCoefficient, MxForm, Pac2002Fit, SkippedSweep, SweepKind,
 };
-use crate::numerics::bounded_least_squares::{Bounds, FitOutcome, Options, minimize};
+use crate::numerics::nonlinear_least_squares::{Bounds, FitOutcome, Options, minimize};
 use crate::tire_model::{Coef, Coef::*, Coefs, Pac2002, SlipInput};
 
 /// The tested envelope: ranges of the data and the nominal load.
@@ -937,7 +937,8 @@ fn refine(
         scale_floor: 1e-5 / (points.len().max(1) as f64).sqrt(),
     };
     let outcome = minimize(&problem, &start, &bounds, &options);
-    if outcome.termination == crate::numerics::bounded_least_squares::Termination::NonFiniteStart {
+    if outcome.termination == crate::numerics::nonlinear_least_squares::Termination::NonFiniteStart
+    {
         return Err("the starting values give non-finite residuals".to_string());
     }
     let fitted = problem.coefs_at(&outcome.params);

@@ -1,13 +1,18 @@
-//! Bounded nonlinear least squares: a projected Levenberg-Marquardt with an active set, Moré's
-//! diagonal scaling and Nielsen's damping update, plus an optional robust loss by iteratively
-//! reweighted least squares (IRLS).
+//! Nonlinear least squares, the one solver of the crate: a projected Levenberg-Marquardt with an
+//! active set, Moré's diagonal scaling and Nielsen's damping update, optional box bounds, and an
+//! optional robust loss by iteratively reweighted least squares (IRLS).
 //!
 //! In: a [`LeastSquaresProblem`] (residuals, and residuals with their Jacobian written into
-//! caller-owned slices), a start point, box [`Bounds`] and [`Options`]. Out: a [`FitOutcome`]
-//! with the parameters, their standard errors, which parameters ended on a bound, the iteration
-//! and evaluation counts, why the solver stopped, the cost and the data RMSE. Not converging is
-//! reported in [`FitOutcome::termination`], never raised: the caller decides what a
-//! `MaxIterations` fit is worth.
+//! caller-owned slices), a start point, box [`Bounds`] ([`Bounds::unbounded`] for none) and
+//! [`Options`]. Out: a [`FitOutcome`] with the parameters, their covariance and standard errors,
+//! which parameters ended on a bound, the iteration and evaluation counts, why the solver
+//! stopped, the cost and the data RMSE. Not converging is reported in
+//! [`FitOutcome::termination`], never raised: the caller decides what a `MaxIterations` fit is
+//! worth. The problem (residuals + Jacobian) and the solver are separate, as in the
+//! `levenberg-marquardt` and `argmin` crates; every stage's nonlinear fit goes through
+//! [`minimize`] (the PAC2002 and MF 6.1 fits bounded and robust, the thermal `mu(T)` curve and
+//! the rig-inertia models with plain squared loss). Linear least squares is
+//! [`super::least_squares`].
 //!
 //! Why not a crate: neither `levenberg-marquardt` nor `argmin` takes bounds, and the tire fits
 //! need them (shape factors `C > 0`, combined-slip shifts kept small, sign conventions of
@@ -166,9 +171,14 @@ impl Termination {
 pub struct FitOutcome {
     /// Final parameters (inside the bounds).
     pub params: Vec<f64>,
-    /// Standard error of each parameter, `sqrt(diag(s^2 (J^T J)^-1))` over the parameters not on
-    /// a bound, `s^2 = |r|^2 / (n_data - n_free)`; `None` on a bound, when the normal matrix is
-    /// singular, or without spare degrees of freedom.
+    /// Parameter covariance `s^2 (J^T J)^-1` over the parameters not on a bound,
+    /// `s^2 = |r|^2 / (n_data - n_free)` (weighted residuals, penalty rows in `J` but not in
+    /// `s^2`), `n_params x n_params`. Rows and columns of a parameter on a bound are NaN; all of
+    /// it is NaN when the normal matrix is singular or there are no spare degrees of freedom.
+    pub covariance: DMatrix<f64>,
+    /// Standard error of each parameter, the square root of the covariance's diagonal; `None`
+    /// where that is not a finite, non-negative number (on a bound, singular normal matrix, no
+    /// spare degrees of freedom).
     pub std_errors: Vec<Option<f64>>,
     /// Which parameters ended on (within 1e-12 relative of) a bound.
     pub at_bounds: Vec<bool>,
@@ -491,7 +501,7 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
             .collect();
         let free: Vec<usize> = (0..n).filter(|&j| !at_bounds[j]).collect();
         let weighted_data_ss: f64 = r[..n_data].iter().map(|x| x * x).sum();
-        let std_errors = standard_errors(&jac, n, &free, weighted_data_ss, n_data);
+        let (covariance, std_errors) = covariance(&jac, n, &free, weighted_data_ss, n_data);
         let identifiability = Identifiability::of(&jac, n, n_data, &free);
         let mut raw = vec![0.0; m];
         self.problem.residuals(&p, &mut raw);
@@ -504,6 +514,7 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
         let robust_weights = self.weights[..n_data].iter().map(|w| w * w).collect();
         FitOutcome {
             params: p,
+            covariance,
             std_errors,
             at_bounds,
             identifiability,
@@ -594,17 +605,19 @@ fn damped_step(
     Some(step)
 }
 
-fn standard_errors(
+/// The covariance over the `free` parameters (NaN elsewhere) and the standard errors.
+fn covariance(
     jac: &[f64],
     n: usize,
     free: &[usize],
     weighted_data_ss: f64,
     n_data: usize,
-) -> Vec<Option<f64>> {
+) -> (DMatrix<f64>, Vec<Option<f64>>) {
+    let mut cov = DMatrix::from_element(n, n, f64::NAN);
     let mut out = vec![None; n];
     let k = free.len();
     if k == 0 || n_data <= k {
-        return out;
+        return (cov, out);
     }
     let s2 = weighted_data_ss / (n_data - k) as f64;
     let mut a = DMatrix::<f64>::zeros(k, k);
@@ -622,7 +635,7 @@ fn standard_errors(
     // Scale to unit diagonal before inverting: the coefficients differ by orders of magnitude.
     let d: Vec<f64> = (0..k).map(|x| a[(x, x)].sqrt()).collect();
     if d.iter().any(|v| *v <= 0.0 || !v.is_finite()) {
-        return out;
+        return (cov, out);
     }
     for x in 0..k {
         for y in 0..k {
@@ -630,16 +643,19 @@ fn standard_errors(
         }
     }
     let Some(chol) = a.cholesky() else {
-        return out;
+        return (cov, out);
     };
     let inv = chol.inverse();
     for (x, &jx) in free.iter().enumerate() {
-        let var = s2 * inv[(x, x)] / (d[x] * d[x]);
+        for (y, &jy) in free.iter().enumerate() {
+            cov[(jx, jy)] = s2 * inv[(x, y)] / (d[x] * d[y]);
+        }
+        let var = cov[(jx, jx)];
         if var.is_finite() && var >= 0.0 {
             out[jx] = Some(var.sqrt());
         }
     }
-    out
+    (cov, out)
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -753,6 +769,47 @@ mod tests {
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
         assert!(worst < 1e-7, "jacobian vs finite differences: {worst}");
+    }
+
+    #[test]
+    fn covariance_is_s2_times_the_inverse_normal_matrix() {
+        let problem = exp_data(false);
+        let out = minimize(
+            &problem,
+            &[1.0, 0.0, 0.0],
+            &Bounds::unbounded(3),
+            &Options::default(),
+        );
+        let m = problem.n_residuals();
+        let mut r = vec![0.0; m];
+        let mut jac = vec![0.0; m * 3];
+        problem.residuals_and_jacobian(&out.params, &mut r, &mut jac);
+        let j = DMatrix::from_row_slice(m, 3, &jac);
+        let s2 = r.iter().map(|x| x * x).sum::<f64>() / (m - 3) as f64;
+        let expected = (j.transpose() * &j).try_inverse().unwrap() * s2;
+        for a in 0..3 {
+            for b in 0..3 {
+                let (got, want) = (out.covariance[(a, b)], expected[(a, b)]);
+                assert!(
+                    (got - want).abs() <= 1e-9 * want.abs().max(1e-300),
+                    "({a}, {b}): {got} vs {want}"
+                );
+            }
+            assert_eq!(out.std_errors[a], Some(out.covariance[(a, a)].sqrt()));
+        }
+        // A parameter on a bound has no covariance; the others keep theirs.
+        let bounded = minimize(
+            &problem,
+            &[1.0, 0.0, 0.9],
+            &Bounds {
+                lower: vec![f64::NEG_INFINITY, f64::NEG_INFINITY, 0.4],
+                upper: vec![f64::INFINITY; 3],
+            },
+            &Options::default(),
+        );
+        assert!(bounded.at_bounds[2]);
+        assert!((0..3).all(|k| bounded.covariance[(2, k)].is_nan()));
+        assert!(bounded.covariance[(0, 1)].is_finite() && bounded.covariance[(0, 0)] > 0.0);
     }
 
     #[test]
