@@ -39,7 +39,7 @@ use super::{
     rmse_of,
 };
 use crate::fit::sweep_folds::{self, DEFICIENT_CONDITION};
-use crate::numerics::bounded_least_squares::{Bounds, Options, minimize};
+use crate::numerics::nonlinear_least_squares::{Bounds, Options, minimize};
 use crate::tire_model::params::Coef::FNOMIN;
 use crate::tire_model::{MagicFormula, Pressures};
 
