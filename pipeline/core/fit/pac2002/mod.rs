@@ -318,6 +318,9 @@ pub struct FitConfig {
     pub kfold_iterations: usize,
     /// Collapsed points per sweep in each fold's refit (evenly spaced, as
     /// [`FitConfig::max_points_per_sweep`]); the held-out sweeps are predicted at all of theirs.
+    /// The default equals `max_points_per_sweep`: a coarser fold refit solves another problem
+    /// than the full fit (a refit on every sweep would not reproduce the in-sample error), and
+    /// that difference would be charged to out of sample.
     pub kfold_points_per_sweep: usize,
     /// A family whose out-of-sample RMSE exceeds this multiple of its in-sample RMSE (plus
     /// 0.1 % of the channel's peak) is flagged.
@@ -341,7 +344,7 @@ impl Default for FitConfig {
             rolling_resistance_placeholder: 0.0165,
             kfold: 5,
             kfold_iterations: 20,
-            kfold_points_per_sweep: 20,
+            kfold_points_per_sweep: 40,
             oos_ratio_limit: 1.2,
         }
     }
