@@ -17,10 +17,6 @@ pub mod period;
 pub mod random;
 pub mod stats;
 
-/// The solver's former name, kept only until code written against it on other branches has
-/// landed and been moved to [`nonlinear_least_squares`]; nothing on this branch uses it.
-pub use nonlinear_least_squares as bounded_least_squares;
-
 /// Bad input to a numerical routine (non-convergence is not an error: it is reported in the
 /// outcome structs).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
