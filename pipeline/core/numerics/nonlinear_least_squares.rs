@@ -127,6 +127,22 @@ impl Default for Options {
     }
 }
 
+impl Options {
+    /// Options of a warm-started refit (a cross-validation fold started from the full fit):
+    /// looser tolerances, one re-weighting round, `max_iterations` trial steps.
+    pub fn warm_refit(max_iterations: usize, loss: RobustLoss) -> Self {
+        Options {
+            max_iterations,
+            xtol: 1e-8,
+            ftol: 1e-6,
+            gtol: 1e-8,
+            loss,
+            irls_rounds: 1,
+            ..Options::default()
+        }
+    }
+}
+
 /// Why the solver stopped.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Termination {

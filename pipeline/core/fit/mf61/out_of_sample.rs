@@ -154,15 +154,7 @@ pub fn k_fold(
         .enumerate()
         .map(|(j, c)| model.coefs[*c].clamp(bounds.lower[j], bounds.upper[j]))
         .collect();
-    let options = Options {
-        max_iterations: cfg.kfold_iterations,
-        xtol: 1e-8,
-        ftol: 1e-6,
-        gtol: 1e-8,
-        loss: cfg.loss,
-        irls_rounds: 1,
-        ..Options::default()
-    };
+    let options = Options::warm_refit(cfg.kfold_iterations, cfg.loss);
     let channel = family.channel();
     let full = &outcome.identifiability;
     let mut out = KFold {

@@ -112,13 +112,8 @@ pub fn out_of_sample(
         .map(|(j, coef)| c[*coef].clamp(bounds.lower[j], bounds.upper[j]))
         .collect();
     let options = Options {
-        max_iterations: cfg.kfold_iterations,
-        xtol: 1e-8,
-        ftol: 1e-6,
-        gtol: 1e-8,
-        loss: cfg.loss,
-        irls_rounds: 1,
         scale_floor: 1e-5,
+        ..Options::warm_refit(cfg.kfold_iterations, cfg.loss)
     };
     let (mut ss, mut n, mut evaluations, mut deficient) = (0.0, 0usize, 0usize, 0usize);
     for f in 0..k {
