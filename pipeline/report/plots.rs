@@ -16,6 +16,7 @@ use tirebase_core::tire_model::{Coef, Mode, Pac2002, SlipInput, pac2002::relaxat
 
 use super::data::{PlotSample, PlotSegment, ReportData, decimate};
 use super::svg::{Axis, Plot, Series, Style};
+use crate::store::tables::SegmentRecord;
 
 /// Points along a model curve.
 const CURVE_POINTS: usize = 81;
@@ -164,17 +165,8 @@ fn slip_charts(data: &ReportData, tire: &str, chart: SlipChart) -> Vec<Plot> {
         let title = format!("{} · {rim} in · {p} kPa · IA {ia}°", chart.label());
         let mut plot = Plot::new(String::new(), chart.kind(), title, x, y);
         for (color, (load, segs)) in loads.iter().enumerate() {
-            let pooled: Vec<(f64, f64)> = segs
-                .iter()
-                .flat_map(|s| s.samples.iter().map(|x| chart.xy_sample(x)))
-                .collect();
-            let points = decimate(&pooled, MAX_POINTS_PER_SERIES);
-            plot.series.push(Series::new(
-                format!("Fz {load} N"),
-                color,
-                Style::Markers,
-                points,
-            ));
+            plot.series
+                .push(measured_series(segs, *load, color, |x| chart.xy_sample(x)));
             if let Some(model) = model {
                 let curve = slip_model_curve(model, segs, chart);
                 plot.series.push(Series::new("", color, Style::Line, curve));
@@ -192,6 +184,30 @@ fn slip_charts(data: &ReportData, tire: &str, chart: SlipChart) -> Vec<Plot> {
         plots.push(plot);
     }
     plots
+}
+
+/// The pooled segments' samples as measured markers (decimated), labelled by their load.
+fn measured_series(
+    segs: &[&PlotSegment],
+    load: i64,
+    color: usize,
+    xy: impl Fn(&PlotSample) -> (f64, f64),
+) -> Series {
+    let pooled: Vec<(f64, f64)> = segs
+        .iter()
+        .flat_map(|s| s.samples.iter().map(&xy))
+        .collect();
+    let points = decimate(&pooled, MAX_POINTS_PER_SERIES);
+    Series::new(format!("Fz {load} N"), color, Style::Markers, points)
+}
+
+/// The smallest low and the largest high end of a range the segments each record.
+fn span(segs: &[&PlotSegment], range: impl Fn(&SegmentRecord) -> (f64, f64)) -> (f64, f64) {
+    segs.iter()
+        .map(|s| range(&s.segment))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (a, b)| {
+            (lo.min(a), hi.max(b))
+        })
 }
 
 /// The model over the pooled segments' swept range at their mean load, inclination and speed.
@@ -213,22 +229,8 @@ fn slip_model_curve(model: &Pac2002, segs: &[&PlotSegment], chart: SlipChart) ->
         return Vec::new();
     }
     let (lo, hi) = match chart {
-        SlipChart::FxSl => (
-            segs.iter()
-                .map(|s| s.segment.kappa_min)
-                .fold(f64::INFINITY, f64::min),
-            segs.iter()
-                .map(|s| s.segment.kappa_max)
-                .fold(f64::NEG_INFINITY, f64::max),
-        ),
-        _ => (
-            segs.iter()
-                .map(|s| s.segment.alpha_deg_min)
-                .fold(f64::INFINITY, f64::min),
-            segs.iter()
-                .map(|s| s.segment.alpha_deg_max)
-                .fold(f64::NEG_INFINITY, f64::max),
-        ),
+        SlipChart::FxSl => span(segs, |s| (s.kappa_min, s.kappa_max)),
+        _ => span(segs, |s| (s.alpha_deg_min, s.alpha_deg_max)),
     };
     if !(lo.is_finite() && hi.is_finite() && hi > lo) {
         return Vec::new();
@@ -325,28 +327,12 @@ pub fn envelope(data: &ReportData, tire: &str) -> Vec<Plot> {
         };
         for (color, (load, segs)) in loads.iter().enumerate() {
             if source == "combined" {
-                let pooled: Vec<(f64, f64)> = segs
-                    .iter()
-                    .flat_map(|s| s.samples.iter().map(|x| (x.fy_n, x.fx_n)))
-                    .collect();
-                let points = decimate(&pooled, MAX_POINTS_PER_SERIES);
-                plot.series.push(Series::new(
-                    format!("Fz {load} N"),
-                    color,
-                    Style::Markers,
-                    points,
-                ));
+                plot.series
+                    .push(measured_series(segs, *load, color, |x| (x.fy_n, x.fx_n)));
             }
             if let Some(model) = model {
                 let (k_lo, k_hi) = if source == "combined" {
-                    (
-                        segs.iter()
-                            .map(|s| s.segment.kappa_min)
-                            .fold(f64::INFINITY, f64::min),
-                        segs.iter()
-                            .map(|s| s.segment.kappa_max)
-                            .fold(f64::NEG_INFINITY, f64::max),
-                    )
+                    span(segs, |s| (s.kappa_min, s.kappa_max))
                 } else {
                     (-0.2, 0.2)
                 };
