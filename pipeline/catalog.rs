@@ -19,6 +19,8 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use crate::config::{TomlFileError, parse_toml, read_toml_text};
+
 /// One catalogued run.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -46,22 +48,9 @@ struct CatalogFile {
 /// Catalog errors.
 #[derive(Debug, thiserror::Error)]
 pub enum CatalogError {
-    /// The file could not be read.
-    #[error("{path}: {source}")]
-    Io {
-        /// Catalog path.
-        path: String,
-        /// OS error.
-        source: std::io::Error,
-    },
-    /// The TOML is invalid (the message names the line).
-    #[error("{path}: {message}")]
-    Parse {
-        /// Catalog path.
-        path: String,
-        /// toml's message.
-        message: String,
-    },
+    /// The file could not be read or parsed.
+    #[error(transparent)]
+    File(#[from] TomlFileError),
     /// Two entries for one (project, run) disagree.
     #[error("{path}: project {project} run {run} is catalogued twice with different tires")]
     Conflict {
@@ -114,10 +103,7 @@ pub struct Catalog {
 impl Catalog {
     /// Parse catalog TOML text; `path` names it in errors.
     pub fn parse(text: &str, path: &str) -> Result<Catalog, CatalogError> {
-        let file: CatalogFile = toml::from_str(text).map_err(|e| CatalogError::Parse {
-            path: path.to_string(),
-            message: e.to_string().replace('\n', " "),
-        })?;
+        let file: CatalogFile = parse_toml(text, path)?;
         let mut entries = BTreeMap::new();
         for mut e in file.run {
             let invalid = |key: &'static str, message: String| CatalogError::Invalid {
@@ -178,11 +164,7 @@ impl Catalog {
 
     /// Read a catalog file.
     pub fn read(path: &Path) -> Result<Catalog, CatalogError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| CatalogError::Io {
-            path: name.clone(),
-            source,
-        })?;
+        let (text, name) = read_toml_text(path)?;
         Catalog::parse(&text, &name)
     }
 

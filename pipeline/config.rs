@@ -8,6 +8,7 @@
 
 use std::path::Path;
 
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use tirebase_core::fit::mf61::{CollapseConfig, Mf61Config};
 use tirebase_core::fit::pac2002::{FitConfig, MxForm};
@@ -18,25 +19,58 @@ use tirebase_core::numerics::nonlinear_least_squares::RobustLoss;
 use tirebase_core::segment::SegmentConfig;
 use tirebase_core::synth::round::SynthConfig;
 
-/// Configuration errors.
+/// Reading a TOML input file failed: the two ways shared by every TOML file the pipeline reads
+/// (this configuration, the run catalog, the car of `compare`). Each message names the file.
 #[derive(Debug, thiserror::Error)]
-pub enum ConfigError {
+pub enum TomlFileError {
     /// The file could not be read.
     #[error("{path}: {source}")]
     Io {
-        /// Config path.
+        /// The file.
         path: String,
         /// OS error.
         source: std::io::Error,
     },
-    /// Invalid TOML or an unknown key (toml names the key and line).
+    /// Invalid TOML, an unknown or missing key or a wrong type (toml names the key and line).
     #[error("{path}: {message}")]
     Parse {
-        /// Config path.
+        /// The file (or what the text is).
         path: String,
-        /// What is wrong.
+        /// What is wrong, on one line.
         message: String,
     },
+}
+
+impl TomlFileError {
+    /// A parse error of the text `path` names, toml's message on one line.
+    pub fn parse(path: &str, error: impl std::fmt::Display) -> TomlFileError {
+        TomlFileError::Parse {
+            path: path.to_string(),
+            message: error.to_string().trim().replace('\n', " "),
+        }
+    }
+}
+
+/// The text of the file at `path`, and its name for messages.
+pub fn read_toml_text(path: &Path) -> Result<(String, String), TomlFileError> {
+    let name = path.display().to_string();
+    match std::fs::read_to_string(path) {
+        Ok(text) => Ok((text, name)),
+        Err(source) => Err(TomlFileError::Io { path: name, source }),
+    }
+}
+
+/// TOML `text` deserialized (`path` names it in errors).
+pub fn parse_toml<T: DeserializeOwned>(text: &str, path: &str) -> Result<T, TomlFileError> {
+    toml::from_str(text).map_err(|e| TomlFileError::parse(path, e))
+}
+
+/// Configuration errors.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read or parsed.
+    #[error(transparent)]
+    File(#[from] TomlFileError),
     /// A value out of range.
     #[error("config key {key}: {reason}")]
     Invalid {
@@ -426,24 +460,17 @@ impl Config {
     /// Parse TOML text layered over the defaults (any subset of any table, down to one field
     /// of a tolerance); `path` names it in errors.
     pub fn parse(text: &str, path: &str) -> Result<Config, ConfigError> {
-        let parse_error = |e: toml::de::Error| ConfigError::Parse {
-            path: path.to_string(),
-            message: e.to_string().trim().replace('\n', " "),
-        };
-        let user: toml::Table = toml::from_str(text).map_err(parse_error)?;
-        let mut merged =
-            toml::Table::try_from(Config::default()).map_err(|e| ConfigError::Parse {
-                path: "built-in defaults".to_string(),
-                message: e.to_string(),
-            })?;
+        let user: toml::Table = parse_toml(text, path)?;
+        let mut merged = toml::Table::try_from(Config::default())
+            .map_err(|e| TomlFileError::parse("built-in defaults", e))?;
         merge(&mut merged, user);
         let cfg: Config = match merged.try_into() {
             Ok(cfg) => cfg,
             // The text's own error names the key and its line.
             Err(merged_error) => {
-                return Err(match toml::from_str::<Config>(text) {
-                    Err(e) => parse_error(e),
-                    Ok(_) => parse_error(merged_error),
+                return Err(match parse_toml::<Config>(text, path) {
+                    Err(e) => e.into(),
+                    Ok(_) => TomlFileError::parse(path, merged_error).into(),
                 });
             }
         };
@@ -456,11 +483,7 @@ impl Config {
         match path {
             None => Ok(Config::default()),
             Some(p) => {
-                let name = p.display().to_string();
-                let text = std::fs::read_to_string(p).map_err(|source| ConfigError::Io {
-                    path: name.clone(),
-                    source,
-                })?;
+                let (text, name) = read_toml_text(p)?;
                 Config::parse(&text, &name)
             }
         }
@@ -469,10 +492,8 @@ impl Config {
     /// Check values serde cannot: every number (see [`check_numbers`]), then each stage's
     /// own rules.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        let table = toml::Table::try_from(self).map_err(|e| ConfigError::Parse {
-            path: "resolved configuration".to_string(),
-            message: e.to_string(),
-        })?;
+        let table = toml::Table::try_from(self)
+            .map_err(|e| TomlFileError::parse("resolved configuration", e))?;
         check_numbers(&table, "")?;
         self.segment.validate().map_err(|e| ConfigError::Invalid {
             key: "segment".into(),

@@ -54,20 +54,26 @@ use crate::store::tables::{
     write_samples_part, write_segments_part,
 };
 
+/// An input (a file or directory given or found under one) could not be read: an input problem,
+/// not a store error. `ingest` and `run` both report it.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: cannot read the input: {error}")]
+pub struct InputError {
+    /// The file or directory.
+    pub path: PathBuf,
+    /// The OS error.
+    pub error: std::io::Error,
+}
+
 /// Ingest errors that stop the whole ingest (per-file problems are recorded, not raised).
 #[derive(Debug, thiserror::Error)]
 pub enum IngestError {
     /// A path given on the command line does not exist.
     #[error("{0}: no such file or directory")]
     MissingInput(PathBuf),
-    /// An input directory could not be listed (an input problem, not a store error).
-    #[error("{path}: cannot read the input: {error}")]
-    Input {
-        /// The directory.
-        path: PathBuf,
-        /// The OS error.
-        error: std::io::Error,
-    },
+    /// An input directory could not be listed.
+    #[error(transparent)]
+    Input(#[from] InputError),
     /// The store could not be read or written.
     #[error(transparent)]
     Store(#[from] StoreError),
@@ -262,7 +268,7 @@ pub fn discover_with(
             Ok(meta) if meta.is_dir() => {
                 visited.insert(dir_id(p, &meta));
                 walk(p, wanted, &mut visited, &mut out)
-                    .map_err(|(path, error)| IngestError::Input { path, error })?;
+                    .map_err(|(path, error)| InputError { path, error })?;
             }
             Ok(meta) if meta.is_file() => out.files.push(p.clone()),
             Ok(meta) => out.skipped.push((p.clone(), file_kind(&meta).to_string())),

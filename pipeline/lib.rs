@@ -4,7 +4,7 @@
 //! ```text
 //! raw .dat/.mat ──ingest──▶ runs (SI, ISO-W) ──segment──▶ samples + segments (hive Parquet)
 //!        │                                                     │
-//!        │      fit, per (tire, rim, pressure) group (rayon fan-out, fit::group):
+//!        │      fit, per (tire, rim, pressure) group (rayon fan-out; the plan: fit::group):
 //!        │        spring rate ─▶ PAC2002 ─▶ relaxation [─▶ PAC2002 de-lagged ─▶ relaxation]
 //!        │        thermal (independent)
 //!        │      then per (tire, rim): MF 6.1 across its tested pressures (fit::mf61)

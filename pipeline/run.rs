@@ -32,7 +32,7 @@ use crate::catalog::{Catalog, CatalogError};
 use crate::config::Config;
 use crate::fit::{self, FitError, FitOptions, FitResults, GroupPlan};
 use crate::inertia::find_sessions;
-use crate::ingest::{self, IngestError, IngestOptions, IngestReport, source_file_name};
+use crate::ingest::{self, IngestError, IngestOptions, IngestReport, InputError, source_file_name};
 use crate::manifest::{
     GroupRecord, HashedFile, InputFile, Manifest, ManifestError, Problem, ProblemKind,
 };
@@ -54,15 +54,9 @@ pub enum RunError {
     /// The input directory does not exist.
     #[error("{0}: no such input directory")]
     MissingInput(PathBuf),
-    /// An input (the catalog, a rig-session file) could not be read: an input problem, not a
-    /// store error.
-    #[error("{path}: cannot read the input: {error}")]
-    Input {
-        /// The file or directory.
-        path: PathBuf,
-        /// The OS error.
-        error: std::io::Error,
-    },
+    /// An input (the catalog, a rig-session file) could not be read.
+    #[error(transparent)]
+    Input(InputError),
     /// The store could not be read or written (includes a refused lock).
     #[error(transparent)]
     Store(#[from] StoreError),
@@ -382,10 +376,10 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
             // A FIFO would block the read forever.
             match std::fs::metadata(p) {
                 Ok(m) if !m.is_file() => {
-                    return Err(RunError::Input {
+                    return Err(RunError::Input(InputError {
                         path: p.to_path_buf(),
                         error: std::io::Error::other("not a regular file"),
-                    });
+                    }));
                 }
                 _ => {}
             }
@@ -418,7 +412,7 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
 /// A file-system error on an input path, as an input error.
 fn input_error(e: StoreError) -> RunError {
     match e {
-        StoreError::Io { path, error } => RunError::Input { path, error },
+        StoreError::Io { path, error } => RunError::Input(InputError { path, error }),
         other => RunError::Store(other),
     }
 }

@@ -103,13 +103,18 @@ pub enum ScoreError {
     Selection(String),
 }
 
-/// Columns read from the samples table.
-const COLUMNS: [&str; 14] = [
+/// Columns read from the samples table: where a sample belongs, then its values
+/// ([`MEASURED`]).
+const KEY_COLUMNS: [&str; 5] = [
     "tire",
     "rim_in",
     "source_file",
     "sample_index",
     "pressure_kpa_nom",
+];
+
+/// The measured values of a sample (read into [`Measured`]).
+const MEASURED: [&str; 9] = [
     "fz_n",
     "kappa",
     "alpha_rad",
@@ -220,7 +225,13 @@ fn selected_samples(
     let mut frame = ctx
         .execute("SELECT * FROM samples")
         .map_err(polars_err)?
-        .select(COLUMNS.iter().map(|c| col(*c)).collect::<Vec<_>>());
+        .select(
+            KEY_COLUMNS
+                .iter()
+                .chain(&MEASURED)
+                .map(|c| col(*c))
+                .collect::<Vec<_>>(),
+        );
     if let Some(tire) = &selection.tire {
         frame = frame.filter(col("tire").eq(lit(tire.clone())));
     }
@@ -255,18 +266,7 @@ fn selected_samples(
     };
     let (tire, file) = (text("tire")?, text("source_file")?);
     let p_nom = number("pressure_kpa_nom")?;
-    let [fz, kappa, alpha, gamma, v, p, fx, fy, mz] = [
-        "fz_n",
-        "kappa",
-        "alpha_rad",
-        "gamma_rad",
-        "speed_kph",
-        "pressure_kpa",
-        "fx_n",
-        "fy_n",
-        "mz_nm",
-    ]
-    .map(number);
+    let [fz, kappa, alpha, gamma, v, p, fx, fy, mz] = MEASURED.map(number);
     let (fz, kappa, alpha, gamma, v, p, fx, fy, mz) =
         (fz?, kappa?, alpha?, gamma?, v?, p?, fx?, fy?, mz?);
     let max_alpha = selection.max_abs_alpha_deg.to_radians();

@@ -33,7 +33,7 @@ pub fn run(args: &IngestArgs) -> anyhow::Result<ExitCode> {
     let progress = progress::for_stderr();
     let report = match ingest::run(&args.paths, &opts, progress.as_ref()) {
         Ok(r) => r,
-        Err(e @ (ingest::IngestError::MissingInput(_) | ingest::IngestError::Input { .. })) => {
+        Err(e @ (ingest::IngestError::MissingInput(_) | ingest::IngestError::Input(_))) => {
             eprintln!("error: {e}");
             return Ok(ExitCode::from(2));
         }

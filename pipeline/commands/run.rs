@@ -109,8 +109,8 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::from(2))
         }
         Err(
-            e @ (RunError::Input { .. }
-            | RunError::Ingest(IngestError::Input { .. } | IngestError::MissingInput(_))),
+            e @ (RunError::Input(_)
+            | RunError::Ingest(IngestError::Input(_) | IngestError::MissingInput(_))),
         ) => {
             // The previous version stays the latest; the next run starts over.
             eprintln!("error: {e}; nothing published");

@@ -11,6 +11,8 @@ use std::path::Path;
 use serde::Deserialize;
 use tirebase_core::compare::Conditions;
 
+use crate::config::{TomlFileError, parse_toml, read_toml_text};
+
 /// The built-in car (`config/car.toml`).
 pub const DEFAULT_CAR_TOML: &str = include_str!("../../config/car.toml");
 
@@ -20,22 +22,9 @@ pub const DEFAULT_CAR_ORIGIN: &str = "config/car.toml (built in)";
 /// Car-file errors; each names the file and the key or line.
 #[derive(Debug, thiserror::Error)]
 pub enum CarError {
-    /// The file could not be read.
-    #[error("{path}: {source}")]
-    Io {
-        /// The file.
-        path: String,
-        /// OS error.
-        source: std::io::Error,
-    },
-    /// Invalid TOML or an unknown or missing key (toml names the line and key).
-    #[error("{path}: {message}")]
-    Parse {
-        /// The file.
-        path: String,
-        /// What is wrong.
-        message: String,
-    },
+    /// The file could not be read or parsed.
+    #[error(transparent)]
+    File(#[from] TomlFileError),
     /// A value out of range.
     #[error("{path}: car.{key}: {reason}")]
     Invalid {
@@ -104,19 +93,13 @@ impl Car {
         let Some(path) = path else {
             return Ok(Car::builtin());
         };
-        let text = std::fs::read_to_string(path).map_err(|source| CarError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        Car::parse(&text, &path.display().to_string())
+        let (text, name) = read_toml_text(path)?;
+        Car::parse(&text, &name)
     }
 
     /// Parse and validate `text` (`origin` names it in errors).
     pub fn parse(text: &str, origin: &str) -> Result<Car, CarError> {
-        let file: CarFile = toml::from_str(text).map_err(|e| CarError::Parse {
-            path: origin.to_string(),
-            message: e.to_string().trim().replace('\n', " "),
-        })?;
+        let file: CarFile = parse_toml(text, origin)?;
         let raw = file.car;
         let invalid = |key: &'static str, reason: String| CarError::Invalid {
             path: origin.to_string(),

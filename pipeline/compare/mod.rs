@@ -429,22 +429,7 @@ mod tests {
     /// fit_quality rows of 7 in rims with only `rmse_pct_of_peak`.
     fn quality_rows(tires: &[String], p: &[i64], ch: &[&str], pct: &[f64]) -> Vec<QualityRow> {
         (0..tires.len())
-            .map(|i| QualityRow {
-                tire: tires[i].clone(),
-                rim_in: 7,
-                pressure_kpa: p[i],
-                model: "pac2002".into(),
-                channel: ch[i].to_string(),
-                n: None,
-                rmse: None,
-                rmse_pct_of_peak: Some(pct[i]),
-                r2: None,
-                sample_rmse: None,
-                initial_rmse: None,
-                iterations: None,
-                termination: None,
-                ..QualityRow::default()
-            })
+            .map(|i| QualityRow::pct_of_peak_only(&tires[i], p[i], ch[i], pct[i]))
             .collect()
     }
 

@@ -296,22 +296,7 @@ mod tests {
     use super::*;
 
     fn quality(tire: &str, channel: &str, pct: f64) -> QualityRow {
-        QualityRow {
-            tire: tire.into(),
-            rim_in: 7,
-            pressure_kpa: 83,
-            model: "pac2002".into(),
-            channel: channel.into(),
-            n: None,
-            rmse: None,
-            rmse_pct_of_peak: Some(pct),
-            r2: None,
-            sample_rmse: None,
-            initial_rmse: None,
-            iterations: None,
-            termination: None,
-            ..QualityRow::default()
-        }
+        QualityRow::pct_of_peak_only(tire, 83, channel, pct)
     }
 
     fn thermal_fit(t_peak: f64, gain: f64, converged: bool) -> ThermalFitRow {

@@ -31,7 +31,7 @@ use tirebase_core::tire_model::tir::lint::{self, Severity};
 use tirebase_core::tire_model::{Coef, Section, Version};
 
 use super::FitFailure;
-use super::tir::{CoefficientRow, GEOMETRY, TirBuildError, WrittenModel, set_geometry};
+use super::tir::{GEOMETRY, TirBuildError, WrittenCoefficient, WrittenModel, set_geometry};
 use crate::config::FitModel;
 
 /// Stage name in `fit_failures` and in the stage timings.
@@ -255,10 +255,10 @@ fn build(
     tested_kpa: &[i64],
 ) -> Result<WrittenModel, TirBuildError> {
     let mut file = TirFile::from_coefs_as(fit.model.coefs.clone(), Version::Mf61);
-    let mut rows: Vec<CoefficientRow> = fit
+    let mut rows: Vec<WrittenCoefficient> = fit
         .coefficients
         .iter()
-        .map(|c| CoefficientRow {
+        .map(|c| WrittenCoefficient {
             coef: c.coef,
             family: c
                 .family

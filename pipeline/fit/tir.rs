@@ -63,9 +63,10 @@ fn model_label(model: FitModel) -> &'static str {
     }
 }
 
-/// One row of the `coefficients` table (without the group columns).
+/// One coefficient of a written model: its row of the `coefficients` table (without the group
+/// columns), as the table is built (read back, it is `store::results::CoefficientRow`).
 #[derive(Clone, Debug, PartialEq)]
-pub struct CoefficientRow {
+pub struct WrittenCoefficient {
     /// The coefficient.
     pub coef: Coef,
     /// Family name (`Fy0` .. `My`, `relaxation`, `vertical`, `scalar`).
@@ -94,15 +95,15 @@ pub struct WrittenModel {
     /// File text.
     pub text: String,
     /// Coefficient rows in canonical file order.
-    pub coefficients: Vec<CoefficientRow>,
+    pub coefficients: Vec<WrittenCoefficient>,
     /// Lint of the written text.
     pub lint: LintReport,
 }
 
-fn rows_of(fit: &Pac2002Fit) -> Vec<CoefficientRow> {
+fn rows_of(fit: &Pac2002Fit) -> Vec<WrittenCoefficient> {
     fit.coefficients
         .iter()
-        .map(|c| CoefficientRow {
+        .map(|c| WrittenCoefficient {
             coef: c.coef,
             family: c
                 .family
@@ -119,14 +120,14 @@ fn rows_of(fit: &Pac2002Fit) -> Vec<CoefficientRow> {
 /// Put `value` into both the coefficients and the rows.
 pub(super) fn set(
     file: &mut TirFile,
-    rows: &mut Vec<CoefficientRow>,
+    rows: &mut Vec<WrittenCoefficient>,
     coef: Coef,
     value: f64,
     family: &str,
     origin: &str,
 ) {
     file.coefs[coef] = value;
-    let row = CoefficientRow {
+    let row = WrittenCoefficient {
         coef,
         family: family.to_string(),
         value,
@@ -155,7 +156,7 @@ pub(super) const GEOMETRY: [Coef; 4] = [
 /// file, never written as 0.
 pub(super) fn set_geometry(
     file: &mut TirFile,
-    rows: &mut Vec<CoefficientRow>,
+    rows: &mut Vec<WrittenCoefficient>,
     tire: &str,
     rim_in: i64,
 ) {

@@ -54,34 +54,8 @@ pub struct SegmentStats {
 /// A QC-clean slip-test segment with its decimated samples.
 #[derive(Clone, Debug)]
 pub struct PlotSegment {
-    /// segments.segment_id.
-    pub id: String,
-    /// cornering, drive_brake or combined.
-    pub kind: String,
-    /// Tire name.
-    pub tire: String,
-    /// Rim width, in.
-    pub rim_in: i64,
-    /// Nominal pressure, kPa.
-    pub pressure_kpa_nom: i64,
-    /// Nominal inclination, deg (None when swept).
-    pub ia_deg_nom: Option<i64>,
-    /// Nominal load, N (None when swept).
-    pub fz_n_nom: Option<i64>,
-    /// Nominal held slip angle, deg (combined tests).
-    pub alpha_deg_nom: Option<i64>,
-    /// Mean measured load, N.
-    pub fz_n_mean: f64,
-    /// Mean measured inclination, deg.
-    pub ia_deg_mean: f64,
-    /// Mean road speed, km/h.
-    pub speed_kph_mean: f64,
-    /// Mean slip angle, deg.
-    pub alpha_deg_mean: f64,
-    /// Slip-angle range, deg.
-    pub alpha_deg_range: (f64, f64),
-    /// Longitudinal-slip range.
-    pub kappa_range: (f64, f64),
+    /// Its row of the segments table (cornering, drive_brake or combined).
+    pub segment: SegmentRecord,
     /// Decimated samples in sample order.
     pub samples: Vec<PlotSample>,
     /// Statistics of the full-rate samples.
@@ -126,7 +100,11 @@ pub fn load(
     data.results = results.clone();
     load_models(tir_dir, &mut data);
     load_segments(store, &mut data)?;
-    let mut tires: BTreeSet<String> = data.segments.iter().map(|s| s.tire.clone()).collect();
+    let mut tires: BTreeSet<String> = data
+        .segments
+        .iter()
+        .map(|s| s.segment.tire.clone())
+        .collect();
     tires.extend(data.result_groups.keys().cloned());
     data.tires = tires.into_iter().collect();
     Ok(data)
@@ -322,20 +300,7 @@ fn build_segments(
                 sample_range: (r.sample_start, r.sample_end),
             };
             let seg = PlotSegment {
-                id: r.segment_id,
-                kind: r.kind,
-                tire: r.tire,
-                rim_in: r.rim_in,
-                pressure_kpa_nom: r.pressure_kpa_nom,
-                ia_deg_nom: r.ia_deg_nom,
-                fz_n_nom: r.fz_n_nom,
-                alpha_deg_nom: r.alpha_deg_nom,
-                fz_n_mean: r.fz_n_mean,
-                ia_deg_mean: r.ia_deg_mean,
-                speed_kph_mean: r.speed_kph_mean,
-                alpha_deg_mean: r.alpha_deg_mean,
-                alpha_deg_range: (r.alpha_deg_min, r.alpha_deg_max),
-                kappa_range: (r.kappa_min, r.kappa_max),
+                segment: r,
                 samples: Vec::new(),
                 stats: SegmentStats {
                     mu_y_peak: f64::NAN,
@@ -346,13 +311,21 @@ fn build_segments(
         })
         .collect();
     out.sort_by(|(a, _), (b, _)| {
-        (&a.tire, a.rim_in, a.pressure_kpa_nom, &a.kind, &a.id).cmp(&(
-            &b.tire,
-            b.rim_in,
-            b.pressure_kpa_nom,
-            &b.kind,
-            &b.id,
-        ))
+        let (a, b) = (&a.segment, &b.segment);
+        (
+            &a.tire,
+            a.rim_in,
+            a.pressure_kpa_nom,
+            &a.kind,
+            &a.segment_id,
+        )
+            .cmp(&(
+                &b.tire,
+                b.rim_in,
+                b.pressure_kpa_nom,
+                &b.kind,
+                &b.segment_id,
+            ))
     });
     out
 }

@@ -484,11 +484,11 @@ fn tire_page(data: &ReportData, tire: &str, worst: &BTreeSet<usize>) -> (String,
 /// Per (rim, pressure): segments by kind and whether a model exists.
 fn group_summary(data: &ReportData, tire: &str) -> String {
     let mut counts: BTreeMap<(i64, i64), BTreeMap<String, usize>> = BTreeMap::new();
-    for s in data.segments.iter().filter(|s| s.tire == tire) {
+    for s in data.segments.iter().filter(|s| s.segment.tire == tire) {
         *counts
-            .entry((s.rim_in, s.pressure_kpa_nom))
+            .entry((s.segment.rim_in, s.segment.pressure_kpa_nom))
             .or_default()
-            .entry(s.kind.clone())
+            .entry(s.segment.kind.clone())
             .or_default() += 1;
     }
     for &key in data.result_groups.get(tire).into_iter().flatten() {
@@ -562,7 +562,11 @@ fn index_page(
         out.push_str("<table>\n<tr><th>tire</th><th>rims (in)</th><th>pressures (kPa)</th><th>segments</th><th>models</th></tr>\n");
         for (tire, file) in data.tires.iter().zip(names) {
             let (rims, pressures) = tire_levels(data, tire);
-            let segs = data.segments.iter().filter(|s| &s.tire == tire).count();
+            let segs = data
+                .segments
+                .iter()
+                .filter(|s| &s.segment.tire == tire)
+                .count();
             let models = data
                 .tir_names
                 .iter()
@@ -697,9 +701,9 @@ fn inertia_section(data: &ReportData) -> String {
 fn tire_levels(data: &ReportData, tire: &str) -> (BTreeSet<i64>, BTreeSet<i64>) {
     let mut rims = BTreeSet::new();
     let mut pressures = BTreeSet::new();
-    for s in data.segments.iter().filter(|s| s.tire == tire) {
-        rims.insert(s.rim_in);
-        pressures.insert(s.pressure_kpa_nom);
+    for s in data.segments.iter().filter(|s| s.segment.tire == tire) {
+        rims.insert(s.segment.rim_in);
+        pressures.insert(s.segment.pressure_kpa_nom);
     }
     for &(r, p) in data.result_groups.get(tire).into_iter().flatten() {
         rims.insert(r);

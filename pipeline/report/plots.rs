@@ -16,6 +16,7 @@ use tirebase_core::tire_model::{Coef, Mode, Pac2002, SlipInput, pac2002::relaxat
 
 use super::data::{PlotSample, PlotSegment, ReportData, decimate};
 use super::svg::{Axis, Plot, Series, Style};
+use crate::store::tables::SegmentRecord;
 
 /// Points along a model curve.
 const CURVE_POINTS: usize = 81;
@@ -101,15 +102,42 @@ pub fn model_for<'a>(
 
 /// Label of a nominal load (or its rounded mean when not held).
 fn load_label(seg: &PlotSegment) -> i64 {
-    seg.fz_n_nom
+    seg.segment
+        .fz_n_nom
         .filter(|&f| f > 0)
-        .unwrap_or_else(|| (seg.fz_n_mean / 10.0).round() as i64 * 10)
+        .unwrap_or_else(|| (seg.segment.fz_n_mean / 10.0).round() as i64 * 10)
 }
 
 fn ia_label(seg: &PlotSegment) -> i64 {
-    seg.ia_deg_nom
+    seg.segment
+        .ia_deg_nom
         .filter(|&a| a >= 0)
-        .unwrap_or_else(|| seg.ia_deg_mean.round() as i64)
+        .unwrap_or_else(|| seg.segment.ia_deg_mean.round() as i64)
+}
+
+/// The tire's segments of one kind by (rim, nominal pressure, inclination label), then by load
+/// label.
+type ByGroupAndLoad<'a> = BTreeMap<(i64, i64, i64), BTreeMap<i64, Vec<&'a PlotSegment>>>;
+
+fn by_group_and_load<'a>(data: &'a ReportData, tire: &str, kind: &str) -> ByGroupAndLoad<'a> {
+    let mut groups = ByGroupAndLoad::new();
+    for seg in data
+        .segments
+        .iter()
+        .filter(|s| s.segment.tire == tire && s.segment.kind == kind)
+    {
+        groups
+            .entry((
+                seg.segment.rim_in,
+                seg.segment.pressure_kpa_nom,
+                ia_label(seg),
+            ))
+            .or_default()
+            .entry(load_label(seg))
+            .or_default()
+            .push(seg);
+    }
+    groups
 }
 
 fn mean(values: impl Iterator<Item = f64>) -> f64 {
@@ -129,20 +157,7 @@ fn linspace(lo: f64, hi: f64, n: usize) -> impl Iterator<Item = f64> {
 /// markers = measured (pooled, decimated), lines = the model at the group's mean load and
 /// inclination over the swept range.
 fn slip_charts(data: &ReportData, tire: &str, chart: SlipChart) -> Vec<Plot> {
-    type Key = (i64, i64, i64);
-    let mut groups: BTreeMap<Key, BTreeMap<i64, Vec<&PlotSegment>>> = BTreeMap::new();
-    for seg in data
-        .segments
-        .iter()
-        .filter(|s| s.tire == tire && s.kind == chart.segment_kind())
-    {
-        groups
-            .entry((seg.rim_in, seg.pressure_kpa_nom, ia_label(seg)))
-            .or_default()
-            .entry(load_label(seg))
-            .or_default()
-            .push(seg);
-    }
+    let groups = by_group_and_load(data, tire, chart.segment_kind());
     let mut plots = Vec::new();
     for ((rim, p, ia), loads) in &groups {
         let (x, y) = chart.axes();
@@ -150,17 +165,8 @@ fn slip_charts(data: &ReportData, tire: &str, chart: SlipChart) -> Vec<Plot> {
         let title = format!("{} · {rim} in · {p} kPa · IA {ia}°", chart.label());
         let mut plot = Plot::new(String::new(), chart.kind(), title, x, y);
         for (color, (load, segs)) in loads.iter().enumerate() {
-            let pooled: Vec<(f64, f64)> = segs
-                .iter()
-                .flat_map(|s| s.samples.iter().map(|x| chart.xy_sample(x)))
-                .collect();
-            let points = decimate(&pooled, MAX_POINTS_PER_SERIES);
-            plot.series.push(Series::new(
-                format!("Fz {load} N"),
-                color,
-                Style::Markers,
-                points,
-            ));
+            plot.series
+                .push(measured_series(segs, *load, color, |x| chart.xy_sample(x)));
             if let Some(model) = model {
                 let curve = slip_model_curve(model, segs, chart);
                 plot.series.push(Series::new("", color, Style::Line, curve));
@@ -180,11 +186,35 @@ fn slip_charts(data: &ReportData, tire: &str, chart: SlipChart) -> Vec<Plot> {
     plots
 }
 
+/// The pooled segments' samples as measured markers (decimated), labelled by their load.
+fn measured_series(
+    segs: &[&PlotSegment],
+    load: i64,
+    color: usize,
+    xy: impl Fn(&PlotSample) -> (f64, f64),
+) -> Series {
+    let pooled: Vec<(f64, f64)> = segs
+        .iter()
+        .flat_map(|s| s.samples.iter().map(&xy))
+        .collect();
+    let points = decimate(&pooled, MAX_POINTS_PER_SERIES);
+    Series::new(format!("Fz {load} N"), color, Style::Markers, points)
+}
+
+/// The smallest low and the largest high end of a range the segments each record.
+fn span(segs: &[&PlotSegment], range: impl Fn(&SegmentRecord) -> (f64, f64)) -> (f64, f64) {
+    segs.iter()
+        .map(|s| range(&s.segment))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (a, b)| {
+            (lo.min(a), hi.max(b))
+        })
+}
+
 /// The model over the pooled segments' swept range at their mean load, inclination and speed.
 fn slip_model_curve(model: &Pac2002, segs: &[&PlotSegment], chart: SlipChart) -> Vec<(f64, f64)> {
-    let fz_n = mean(segs.iter().map(|s| s.fz_n_mean));
-    let gamma_rad = mean(segs.iter().map(|s| s.ia_deg_mean)).to_radians();
-    let vx_mps = mean(segs.iter().map(|s| s.speed_kph_mean)) / 3.6;
+    let fz_n = mean(segs.iter().map(|s| s.segment.fz_n_mean));
+    let gamma_rad = mean(segs.iter().map(|s| s.segment.ia_deg_mean)).to_radians();
+    let vx_mps = mean(segs.iter().map(|s| s.segment.speed_kph_mean)) / 3.6;
     let vx_mps = if vx_mps.is_finite() && vx_mps > 1.0 {
         vx_mps
     } else {
@@ -199,27 +229,13 @@ fn slip_model_curve(model: &Pac2002, segs: &[&PlotSegment], chart: SlipChart) ->
         return Vec::new();
     }
     let (lo, hi) = match chart {
-        SlipChart::FxSl => (
-            segs.iter()
-                .map(|s| s.kappa_range.0)
-                .fold(f64::INFINITY, f64::min),
-            segs.iter()
-                .map(|s| s.kappa_range.1)
-                .fold(f64::NEG_INFINITY, f64::max),
-        ),
-        _ => (
-            segs.iter()
-                .map(|s| s.alpha_deg_range.0)
-                .fold(f64::INFINITY, f64::min),
-            segs.iter()
-                .map(|s| s.alpha_deg_range.1)
-                .fold(f64::NEG_INFINITY, f64::max),
-        ),
+        SlipChart::FxSl => span(segs, |s| (s.kappa_min, s.kappa_max)),
+        _ => span(segs, |s| (s.alpha_deg_min, s.alpha_deg_max)),
     };
     if !(lo.is_finite() && hi.is_finite() && hi > lo) {
         return Vec::new();
     }
-    let alpha_held = mean(segs.iter().map(|s| s.alpha_deg_mean)).to_radians();
+    let alpha_held = mean(segs.iter().map(|s| s.segment.alpha_deg_mean)).to_radians();
     linspace(lo, hi, CURVE_POINTS)
         .map(|x| {
             let input = match chart {
@@ -276,25 +292,13 @@ pub fn envelope(data: &ReportData, tire: &str) -> Vec<Plot> {
     let source = if data
         .segments
         .iter()
-        .any(|s| s.tire == tire && s.kind == "combined")
+        .any(|s| s.segment.tire == tire && s.segment.kind == "combined")
     {
         "combined"
     } else {
         "cornering"
     };
-    let mut groups: BTreeMap<(i64, i64, i64), BTreeMap<i64, Vec<&PlotSegment>>> = BTreeMap::new();
-    for seg in data
-        .segments
-        .iter()
-        .filter(|s| s.tire == tire && s.kind == source)
-    {
-        groups
-            .entry((seg.rim_in, seg.pressure_kpa_nom, ia_label(seg)))
-            .or_default()
-            .entry(load_label(seg))
-            .or_default()
-            .push(seg);
-    }
+    let groups = by_group_and_load(data, tire, source);
     let mut plots = Vec::new();
     for ((rim, p, ia), loads) in &groups {
         let model = model_for(data, tire, *rim, *p);
@@ -308,8 +312,12 @@ pub fn envelope(data: &ReportData, tire: &str) -> Vec<Plot> {
         let alpha_max_deg = data
             .segments
             .iter()
-            .filter(|s| s.tire == tire && s.rim_in == *rim && s.pressure_kpa_nom == *p)
-            .flat_map(|s| [s.alpha_deg_range.0.abs(), s.alpha_deg_range.1.abs()])
+            .filter(|s| {
+                s.segment.tire == tire
+                    && s.segment.rim_in == *rim
+                    && s.segment.pressure_kpa_nom == *p
+            })
+            .flat_map(|s| [s.segment.alpha_deg_min.abs(), s.segment.alpha_deg_max.abs()])
             .filter(|a| a.is_finite())
             .fold(0.0, f64::max);
         let alpha_max_deg = if alpha_max_deg > 1.0 {
@@ -319,28 +327,12 @@ pub fn envelope(data: &ReportData, tire: &str) -> Vec<Plot> {
         };
         for (color, (load, segs)) in loads.iter().enumerate() {
             if source == "combined" {
-                let pooled: Vec<(f64, f64)> = segs
-                    .iter()
-                    .flat_map(|s| s.samples.iter().map(|x| (x.fy_n, x.fx_n)))
-                    .collect();
-                let points = decimate(&pooled, MAX_POINTS_PER_SERIES);
-                plot.series.push(Series::new(
-                    format!("Fz {load} N"),
-                    color,
-                    Style::Markers,
-                    points,
-                ));
+                plot.series
+                    .push(measured_series(segs, *load, color, |x| (x.fy_n, x.fx_n)));
             }
             if let Some(model) = model {
                 let (k_lo, k_hi) = if source == "combined" {
-                    (
-                        segs.iter()
-                            .map(|s| s.kappa_range.0)
-                            .fold(f64::INFINITY, f64::min),
-                        segs.iter()
-                            .map(|s| s.kappa_range.1)
-                            .fold(f64::NEG_INFINITY, f64::max),
-                    )
+                    span(segs, |s| (s.kappa_min, s.kappa_max))
                 } else {
                     (-0.2, 0.2)
                 };
@@ -349,8 +341,8 @@ pub fn envelope(data: &ReportData, tire: &str) -> Vec<Plot> {
                 } else {
                     (-0.2, 0.2)
                 };
-                let fz_n = mean(segs.iter().map(|s| s.fz_n_mean));
-                let gamma = mean(segs.iter().map(|s| s.ia_deg_mean)).to_radians();
+                let fz_n = mean(segs.iter().map(|s| s.segment.fz_n_mean));
+                let gamma = mean(segs.iter().map(|s| s.segment.ia_deg_mean)).to_radians();
                 let hull =
                     model_envelope(model, fz_n, gamma, alpha_max_deg.to_radians(), (k_lo, k_hi));
                 let name = if source == "combined" {
@@ -442,10 +434,10 @@ pub fn peak_mu_and_stiffness(data: &ReportData, tire: &str) -> Vec<Plot> {
     for seg in data
         .segments
         .iter()
-        .filter(|s| s.tire == tire && s.kind == "cornering")
+        .filter(|s| s.segment.tire == tire && s.segment.kind == "cornering")
     {
         groups
-            .entry((seg.rim_in, seg.pressure_kpa_nom))
+            .entry((seg.segment.rim_in, seg.segment.pressure_kpa_nom))
             .or_default()
             .push(seg);
     }
@@ -460,11 +452,11 @@ pub fn peak_mu_and_stiffness(data: &ReportData, tire: &str) -> Vec<Plot> {
         let flat: Vec<&&PlotSegment> = segs.iter().filter(|s| ia_label(s) == 0).collect();
         let mu_pts: Vec<(f64, f64)> = flat
             .iter()
-            .map(|s| (s.fz_n_mean, s.stats.mu_y_peak))
+            .map(|s| (s.segment.fz_n_mean, s.stats.mu_y_peak))
             .collect();
         let ky_pts: Vec<(f64, f64)> = flat
             .iter()
-            .map(|s| (s.fz_n_mean, s.stats.cornering_stiffness_n_per_rad))
+            .map(|s| (s.segment.fz_n_mean, s.stats.cornering_stiffness_n_per_rad))
             .collect();
         mu.series.push(Series::new(
             format!("{label} data"),
@@ -485,10 +477,10 @@ pub fn peak_mu_and_stiffness(data: &ReportData, tire: &str) -> Vec<Plot> {
             } else {
                 (
                     segs.iter()
-                        .map(|s| s.fz_n_mean)
+                        .map(|s| s.segment.fz_n_mean)
                         .fold(f64::INFINITY, f64::min),
                     segs.iter()
-                        .map(|s| s.fz_n_mean)
+                        .map(|s| s.segment.fz_n_mean)
                         .fold(f64::NEG_INFINITY, f64::max),
                 )
             };

@@ -373,20 +373,9 @@ pub fn files_in(dir: &Path) -> Result<Vec<PathBuf>, StoreError> {
 
 /// Every `*.parquet` file directly in `dir` (sorted; empty if `dir` does not exist).
 pub fn parquet_files_in(dir: &Path) -> Result<Vec<PathBuf>, StoreError> {
-    let mut out = Vec::new();
-    let entries = match fs::read_dir(dir) {
-        Ok(e) => e,
-        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(out),
-        Err(e) => return Err(StoreError::io(dir, e)),
-    };
-    for entry in entries {
-        let path = entry.map_err(|e| StoreError::io(dir, e))?.path();
-        if path.extension().is_some_and(|x| x == "parquet") && path.is_file() {
-            out.push(path);
-        }
-    }
-    out.sort();
-    Ok(out)
+    let mut files = files_in(dir)?;
+    files.retain(|p| p.extension().is_some_and(|x| x == "parquet"));
+    Ok(files)
 }
 
 /// Every `*.parquet` file anywhere below `dir` (sorted; empty if `dir` does not exist).

@@ -168,6 +168,22 @@ pub struct QualityRow {
     pub termination: Option<String>,
 }
 
+#[cfg(test)]
+impl QualityRow {
+    /// A PAC2002 row on a 7 in rim with only `rmse_pct_of_peak` (test fixtures).
+    pub fn pct_of_peak_only(tire: &str, pressure_kpa: i64, channel: &str, pct: f64) -> QualityRow {
+        QualityRow {
+            tire: tire.into(),
+            rim_in: 7,
+            pressure_kpa,
+            model: "pac2002".into(),
+            channel: channel.into(),
+            rmse_pct_of_peak: Some(pct),
+            ..QualityRow::default()
+        }
+    }
+}
+
 impl QualityRow {
     /// The error a reader should judge the fit by, in percent of the channel's peak: the
     /// out-of-sample RMSE where the row has one (`rmse_pct_of_peak x oos_ratio`), else the
