@@ -141,6 +141,8 @@ pub struct FitSettings {
     pub kfold_points_per_sweep: usize,
     /// Flag a family whose out-of-sample RMSE exceeds this multiple of its in-sample RMSE (plus 0.1 % of the channel's peak), -.
     pub oos_ratio_limit: f64,
+    /// Bring the PAC2002 sweeps to a reference tread temperature with the thermal stage's mu(T) law of the same tire, rim and pressure and each sample's IR temperature before the fit, when that law exists (cold-to-warm runs, IR channels, thermal stage on); fit_quality grip_t_ref_c says the temperature.
+    pub grip_correction: bool,
     /// `[fit.spring_rate]`: vertical stiffness, unloaded radius, effective rolling radius.
     pub spring_rate: SpringRateConfig,
     /// `[fit.thermal]`: cold-to-warm peaks and the mu(T) curve.
@@ -179,6 +181,7 @@ impl Default for FitSettings {
             kfold_iterations: core.kfold_iterations,
             kfold_points_per_sweep: core.kfold_points_per_sweep,
             oos_ratio_limit: core.oos_ratio_limit,
+            grip_correction: core.grip_correction,
             spring_rate: SpringRateConfig::default(),
             thermal: ThermalConfig::default(),
             relaxation: RelaxationConfig::default(),
@@ -235,6 +238,7 @@ impl FitSettings {
             kfold_iterations: self.kfold_iterations,
             kfold_points_per_sweep: self.kfold_points_per_sweep,
             oos_ratio_limit: self.oos_ratio_limit,
+            grip_correction: self.grip_correction,
         }
     }
 

@@ -41,6 +41,7 @@
 
 mod collapse;
 mod family;
+pub mod grip;
 mod initial;
 mod linear;
 mod problem;
@@ -141,6 +142,9 @@ pub struct Sample {
     pub mx_nm: f64,
     /// Loaded radius, m (only used when the context has no unloaded radius / stiffness).
     pub loaded_radius_m: Option<f64>,
+    /// Centre tread surface temperature as the IR sensor reads it (no phase-lag correction),
+    /// degC; NaN when not recorded. Only the grip-temperature correction ([`grip`]) reads it.
+    pub tread_c: f64,
 }
 
 /// One sweep of one segment.
@@ -196,6 +200,7 @@ impl Sweep {
                     mz_nm: c.mz_nm[i],
                     mx_nm: mx_nm.map_or(f64::NAN, |m| m[i]),
                     loaded_radius_m: c.loaded_radius_m.as_ref().map(|v| v[i]),
+                    tread_c: c.tread_centre_c.as_ref().map_or(f64::NAN, |v| v[i]),
                 })
                 .collect(),
         })
@@ -325,6 +330,10 @@ pub struct FitConfig {
     /// A family whose out-of-sample RMSE exceeds this multiple of its in-sample RMSE (plus
     /// 0.1 % of the channel's peak) is flagged.
     pub oos_ratio_limit: f64,
+    /// Bring the sweeps to a reference tread temperature with the thermal stage's `mu(T)` law
+    /// before fitting ([`grip::correct`]), when that law exists. The caller applies it: the
+    /// stage fits the input it is given.
+    pub grip_correction: bool,
 }
 
 impl Default for FitConfig {
@@ -346,6 +355,7 @@ impl Default for FitConfig {
             kfold_iterations: 20,
             kfold_points_per_sweep: 40,
             oos_ratio_limit: 1.2,
+            grip_correction: true,
         }
     }
 }
