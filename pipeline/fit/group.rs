@@ -4,15 +4,35 @@
 //! Out: a [`GroupResult`]: each stage's output, the `.tir` coefficients (PAC2002 model with the
 //! spring-rate and relaxation results written in), failures as data, wall time per stage.
 //!
-//! Order (issues 5 and 6): spring rate (holds + free-rolling sweep crossings) -> PAC2002 on the
-//! force-clean cornering, drive/brake and combined segments, with `Cz`/`R0` from the spring-rate
-//! stage (else the fit takes them from `RL` at low slip) -> relaxation with that model (sweeps,
-//! cold-to-warm sweeps, speed sweeps, step steers) -> when `[fit] delag` is on and relaxation
-//! gave lengths, PAC2002 again on de-lagged sweeps and relaxation again with the final model (so
-//! the written `PTY*`/`PTX*` belong to the written steady state). With de-lagging the first
-//! PAC2002 pass fits the force families only (relaxation reads `Fy`, `Fx`; `Mz`, `Mx` cost the
-//! most and do not change the forces). Thermal (cold-to-warm) is independent. Every stage's
-//! failure is recorded and the others still run.
+//! The order is data: [`plan`] lists the [`Step`]s once per group and [`run`] walks them. With
+//! every stage and `[fit] delag` on (the default), for a group with relaxation segments:
+//!
+//! ```text
+//! step                       reads                               gives
+//! SpringRate                 holds, free-rolling sweep crossings Cz, R0 (fit input), RE law
+//! Pac2002 forces only        cornering, drive/brake, combined    Fy, Fx model (not written)
+//! Relaxation                 sweeps, cold-to-warm, speed sweeps, sigma by load = de-lag lengths
+//!                            step steers; that model
+//! Pac2002Delagged            the same sweeps de-lagged           every family, k-fold: written
+//! RelaxationFinal            the written model                   PTY*/PTX* of the written model
+//! Record                                                         relaxation table, PAC2002 fit
+//! SpringRateAtFittedFnomin   (only if FNOMIN differs from the    RE law at the fitted FNOMIN
+//!                            spring rate's estimate)
+//! Thermal                    cold-to-warm, air temperatures      mu(T) (independent)
+//! ```
+//!
+//! Other stage sets and settings drop steps from that list:
+//! - without de-lagging (or without relaxation segments) the first PAC2002 fit is the written
+//!   one (every family, k-fold) and relaxation, when asked for, runs once with it;
+//! - relaxation without PAC2002: every fit is forces only and none is written (the moment
+//!   families cost the most and relaxation reads only `Fy` and `Fx`); without de-lagging it is
+//!   one fit;
+//! - PAC2002 without relaxation still runs relaxation for the de-lag lengths, not its final
+//!   pass; spring rate not asked for still runs for `Cz`/`R0` (its table and failures are then
+//!   not reported).
+//!
+//! A step whose input is missing (no model, no vertical stiffness) records why when its stage
+//! was asked for; every other stage still runs.
 //!
 //! Deliberately not here: reading the store (`load`), tables and file text (`tables`, `tir`).
 
@@ -30,6 +50,7 @@ use tirebase_core::fit::segment_data::{MeasuredSegment, SegmentKind, StageFailur
 use tirebase_core::fit::spring_rate::{self, SpringRateConfig, SpringRateOutput, TirVertical};
 use tirebase_core::fit::thermal::{self, ThermalConfig, ThermalOutput};
 use tirebase_core::numerics::stats::finite_median;
+use tirebase_core::tire_model::Coef;
 
 use super::load::LoadedSegment;
 use super::{FitFailure, StageSet};
@@ -313,45 +334,387 @@ fn delag_lengths(rx: &RelaxationOutput) -> Option<RelaxationLengths> {
         .then_some(lengths)
 }
 
-/// Run the enabled stages on one group's segments.
+/// One step of a group's fit plan (see the module doc for the orders [`plan`] builds).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// Spring rate at the nominal load the PAC2002 fit is expected to choose: `Cz`, `R0` for
+    /// the fit (relaxation reads them too) and the `.tir` vertical numbers.
+    SpringRate,
+    /// PAC2002 on the sweeps as measured. `forces_only`: the moment channels are left out (the
+    /// model only feeds relaxation, which reads `Fy` and `Fx`). `written`: the model to write,
+    /// with its out-of-sample (k-fold) refits.
+    Pac2002 {
+        /// Fit the force families only.
+        forces_only: bool,
+        /// The model to write (out-of-sample refits run).
+        written: bool,
+    },
+    /// Relaxation with the model so far: its lengths are what the sweeps are de-lagged with,
+    /// and (when the stage is asked for) its output is the relaxation table.
+    Relaxation,
+    /// PAC2002 again on the sweeps de-lagged with the relaxation lengths (as measured when
+    /// relaxation gave none; skipped then when it would repeat the first fit).
+    Pac2002Delagged {
+        /// Fit the force families only.
+        forces_only: bool,
+        /// The model to write (out-of-sample refits run).
+        written: bool,
+    },
+    /// Relaxation again with the de-lagged model, so the written `PTY*`/`PTX*` belong to the
+    /// written steady state (only when the refit was de-lagged).
+    RelaxationFinal,
+    /// Keep the relaxation output (when asked for) and the PAC2002 model to write, with their
+    /// notes as partial failures.
+    Record,
+    /// Spring rate again when the fit chose another `FNOMIN` (the RE law is normalised by it).
+    SpringRateAtFittedFnomin,
+    /// mu(T) from the cold-to-warm tests (independent of the other stages).
+    Thermal,
+}
+
+/// The fit plan of one group: which steps run, in order, for the enabled `stages`, `[fit]
+/// delag` and whether the group has segments relaxation reads.
+pub fn plan(stages: &StageSet, delag: bool, has_relax_segments: bool) -> Vec<Step> {
+    let mut steps = Vec::new();
+    // Relaxation needs the PAC2002 model; both need the spring rate's Cz and R0.
+    let fits = stages.pac2002 || stages.relaxation;
+    if stages.spring_rate || fits {
+        steps.push(Step::SpringRate);
+    }
+    if fits {
+        // De-lagging needs the relaxation lengths, which need a first model: that one is then
+        // a forces-only pass, and so is every fit when only relaxation is asked for.
+        let refit = delag && has_relax_segments;
+        let written = stages.pac2002 && !refit;
+        steps.push(Step::Pac2002 {
+            forces_only: !written,
+            written,
+        });
+        if stages.relaxation || refit {
+            steps.push(Step::Relaxation);
+        }
+        if refit {
+            steps.push(Step::Pac2002Delagged {
+                forces_only: !stages.pac2002,
+                written: stages.pac2002,
+            });
+            if stages.relaxation {
+                steps.push(Step::RelaxationFinal);
+            }
+        }
+        steps.push(Step::Record);
+    }
+    if stages.pac2002 {
+        steps.push(Step::SpringRateAtFittedFnomin);
+    }
+    if stages.thermal {
+        steps.push(Step::Thermal);
+    }
+    steps
+}
+
+/// Run the enabled stages on one group's segments: build the [`plan`] and walk it.
 pub fn run(
     key: &TireKey,
     segments: &[LoadedSegment],
     stages: &StageSet,
     cfg: &StageConfigs,
 ) -> GroupResult {
-    let mut out = GroupResult::new(key);
     let all: Vec<&LoadedSegment> = segments.iter().collect();
-
-    // Spring rate: needed by the PAC2002 fit (Cz, R0) and by relaxation (Cz, R0).
-    let needs_vertical = stages.spring_rate || stages.pac2002 || stages.relaxation;
-    let fnomin_estimate = middle_nominal_load(&all);
-    if needs_vertical {
-        run_spring_rate(&mut out, &all, fnomin_estimate, cfg);
-    }
-    let vertical = out
-        .spring_rate
-        .as_ref()
-        .and_then(|s| s.vertical.first().cloned());
-
-    if stages.pac2002 || stages.relaxation {
-        run_pac2002_and_relaxation(&mut out, key, &all, vertical.as_ref(), stages, cfg);
-    }
-    // The RE law is normalised by FNOMIN: redo it if the fit chose another nominal load.
-    if let (Some(fit), Some(est)) = (&out.pac2002, fnomin_estimate) {
-        let fnomin = fit.model.coefs[tirebase_core::tire_model::Coef::FNOMIN];
-        if (fnomin - est).abs() > 1e-6 * fnomin.abs().max(1.0) {
-            run_spring_rate(&mut out, &all, Some(fnomin), cfg);
+    let has_relax_segments = all.iter().any(|s| relaxation_segment(s));
+    let mut walk = Walk {
+        out: GroupResult::new(key),
+        fnomin_estimate: middle_nominal_load(&all),
+        all,
+        stages,
+        cfg,
+        input: None,
+        model: None,
+        relax_segments: Vec::new(),
+        vertical_for_relaxation: None,
+        relaxation: None,
+    };
+    for step in plan(stages, cfg.pac2002.delag, has_relax_segments) {
+        match step {
+            Step::SpringRate => walk.spring_rate(walk.fnomin_estimate),
+            Step::Pac2002 {
+                forces_only,
+                written,
+            } => walk.pac2002(forces_only, written),
+            Step::Relaxation => walk.relaxation(),
+            Step::Pac2002Delagged {
+                forces_only,
+                written,
+            } => walk.pac2002_delagged(forces_only, written),
+            Step::RelaxationFinal => walk.relaxation_final(),
+            Step::Record => walk.record(),
+            Step::SpringRateAtFittedFnomin => walk.spring_rate_at_fitted_fnomin(),
+            Step::Thermal => walk.thermal(),
         }
     }
-    if !stages.spring_rate {
-        // used for Cz, R0 and the RE law of the .tir, but not asked for: not reported.
+    walk.out
+}
+
+/// A PAC2002 fit of the walk and how it was run.
+struct Model {
+    fit: Pac2002Fit,
+    forces_only: bool,
+    written: bool,
+    /// Fitted on de-lagged sweeps.
+    delagged: bool,
+}
+
+/// The state a group's plan is walked with.
+struct Walk<'a> {
+    out: GroupResult,
+    all: Vec<&'a LoadedSegment>,
+    stages: &'a StageSet,
+    cfg: &'a StageConfigs,
+    /// `FNOMIN` as the PAC2002 fit is expected to choose it.
+    fnomin_estimate: Option<f64>,
+    /// The PAC2002 stage's input (built by the first PAC2002 step; `None`: none could be).
+    input: Option<FitInput>,
+    /// The latest successful PAC2002 fit.
+    model: Option<Model>,
+    /// The segments relaxation reads (filled by the first relaxation).
+    relax_segments: Vec<MeasuredSegment>,
+    /// Unloaded radius, m, and vertical stiffness, N/m, relaxation runs with.
+    vertical_for_relaxation: Option<(f64, f64)>,
+    /// The latest relaxation output.
+    relaxation: Option<RelaxationOutput>,
+}
+
+impl Walk<'_> {
+    /// Spring rate at `fnomin` (replacing an earlier run's output and failures). When the stage
+    /// was not asked for, it ran only for the fit's sake: its failures are not reported.
+    fn spring_rate(&mut self, fnomin: Option<f64>) {
+        let started = Instant::now();
+        let out = &mut self.out;
         out.failures.retain(|f| f.stage != "spring_rate");
+        let segs: Vec<MeasuredSegment> = self
+            .all
+            .iter()
+            .filter(|s| spring_rate_segment(s))
+            .map(|s| s.segment.clone())
+            .collect();
+        let fnomin_map: BTreeMap<TireKey, f64> =
+            fnomin.map(|f| (out.key.clone(), f)).into_iter().collect();
+        let sr = spring_rate::run(&segs, &fnomin_map, &self.cfg.spring_rate);
+        out.partial("spring_rate", &sr.failures);
+        if sr.vertical.is_empty() {
+            out.fail(
+                "spring_rate",
+                "spring_rate",
+                true,
+                if segs.is_empty() {
+                    "no force-clean spring-rate hold or free-rolling sweep".to_string()
+                } else {
+                    "no vertical stiffness and unloaded radius for the .tir".to_string()
+                },
+            );
+        }
+        if !self.stages.spring_rate {
+            out.failures.retain(|f| f.stage != "spring_rate");
+        }
+        out.spring_rate = Some(sr);
+        out.time("spring_rate", started);
     }
 
-    if stages.thermal {
+    /// The spring rate's `.tir` vertical numbers, when it ran and found them.
+    fn vertical(&self) -> Option<TirVertical> {
+        self.out
+            .spring_rate
+            .as_ref()
+            .and_then(|s| s.vertical.first().cloned())
+    }
+
+    /// The first PAC2002 fit (building the stage's input).
+    fn pac2002(&mut self, forces_only: bool, written: bool) {
         let started = Instant::now();
-        let segs: Vec<MeasuredSegment> = all
+        let vertical = self.vertical();
+        let Some(input) = pac2002_input(&self.out.key, &self.all, vertical.as_ref()) else {
+            self.out.fail(
+                "pac2002",
+                "pac2002",
+                true,
+                "no force-clean cornering, drive/brake or combined segment",
+            );
+            self.out.time("pac2002", started);
+            return;
+        };
+        self.out.n_pac2002_segments = input.sweeps.len();
+        record_unusable_sweeps(&mut self.out, &self.all);
+        self.out.pressure_kpa_mean = finite_median(
+            self.all
+                .iter()
+                .filter(|s| pac2002_segment(s))
+                .flat_map(|s| s.segment.channels.pressure_kpa.iter().copied()),
+        )
+        .unwrap_or(f64::NAN);
+        self.fit(&input, forces_only, written, false);
+        self.input = Some(input);
+    }
+
+    /// Relaxation with the first model; when it cannot run and the stage was asked for, why.
+    fn relaxation(&mut self) {
+        let cannot = match &self.model {
+            None => Some("needs the PAC2002 model".to_string()),
+            Some(_) if !self.all.iter().any(|s| relaxation_segment(s)) => {
+                Some("no force-clean sweep, speed sweep or step steer".to_string())
+            }
+            Some(model) => {
+                let (r0, cz) = match self.vertical() {
+                    Some(v) => (v.unloaded_radius_m, v.vertical_stiffness_n_per_m),
+                    None => (
+                        model.fit.model.coefs[Coef::UNLOADED_RADIUS],
+                        model.fit.model.coefs[Coef::VERTICAL_STIFFNESS],
+                    ),
+                };
+                if cz > 0.0 && r0 > 0.0 {
+                    self.vertical_for_relaxation = Some((r0, cz));
+                    None
+                } else {
+                    Some(format!(
+                        "no vertical stiffness/unloaded radius (Cz {cz} N/m, R0 {r0} m)"
+                    ))
+                }
+            }
+        };
+        if let Some(reason) = cannot {
+            if self.stages.relaxation {
+                self.out.fail("relaxation", "relaxation", true, reason);
+            }
+            return;
+        }
+        self.relax_segments = self
+            .all
+            .iter()
+            .filter(|s| relaxation_segment(s))
+            .map(|s| s.segment.clone())
+            .collect();
+        self.relax();
+    }
+
+    /// Relaxation with the latest model (set up by [`Walk::relaxation`]).
+    fn relax(&mut self) {
+        let (Some(model), Some((r0, cz))) = (&self.model, self.vertical_for_relaxation) else {
+            return;
+        };
+        let started = Instant::now();
+        let input = RelaxationInput {
+            key: self.out.key.clone(),
+            model: &model.fit.model,
+            unloaded_radius_m: r0,
+            vertical_stiffness_n_per_m: cz,
+            segments: &self.relax_segments,
+        };
+        self.relaxation = Some(relaxation::run(
+            std::slice::from_ref(&input),
+            &self.cfg.relaxation,
+        ));
+        self.out.time("relaxation", started);
+    }
+
+    /// PAC2002 again, on sweeps de-lagged with the relaxation lengths.
+    fn pac2002_delagged(&mut self, forces_only: bool, written: bool) {
+        let (Some(mut input), Some(first)) = (self.input.take(), &self.model) else {
+            return;
+        };
+        let lengths = self.relaxation.as_ref().and_then(delag_lengths);
+        // Nothing to de-lag with and the same fit as the first: keep the first.
+        if lengths.is_none() && first.forces_only == forces_only && first.written == written {
+            self.input = Some(input);
+            return;
+        }
+        input.context.relaxation = lengths;
+        self.out.delag = input.context.relaxation.clone();
+        let delagged = self.out.delag.is_some();
+        self.fit(&input, forces_only, written, delagged);
+        self.input = Some(input);
+    }
+
+    /// Relaxation again when the model was refitted de-lagged.
+    fn relaxation_final(&mut self) {
+        if self.model.as_ref().is_some_and(|m| m.delagged) {
+            self.relax();
+        }
+    }
+
+    /// One PAC2002 fit of `input` (the moment channels left out when `forces_only`); on
+    /// success it becomes the walk's model. A failed fit leaves the earlier model, which is
+    /// then not written (only a forces-only first pass precedes a refit).
+    fn fit(&mut self, input: &FitInput, forces_only: bool, written: bool, delagged: bool) {
+        let fit = if forces_only {
+            run_fit(&mut self.out, &only_forces(input), self.cfg, written)
+        } else {
+            run_fit(&mut self.out, input, self.cfg, written)
+        };
+        if let Some(fit) = fit {
+            self.model = Some(Model {
+                fit,
+                forces_only,
+                written,
+                delagged,
+            });
+        }
+    }
+
+    /// The relaxation output (when asked for) and the model to write (when PAC2002 was asked
+    /// for), with their notes.
+    fn record(&mut self) {
+        if self.stages.relaxation
+            && let Some(rx) = self.relaxation.take()
+        {
+            let out = &mut self.out;
+            out.partial("relaxation", &rx.failures);
+            if rx.laws.is_empty() {
+                out.fail(
+                    "relaxation",
+                    "relaxation",
+                    true,
+                    "no relaxation length law (PTY1/PTY2, PTX1..3)",
+                );
+            } else if rx
+                .laws
+                .iter()
+                .all(|l| l.lateral.is_none() && l.longitudinal.is_none())
+            {
+                // e.g. a lag-free (ideal) round: every sigma at its lower search bound.
+                let at_bound = rx.rows.iter().filter(|r| r.at_bound).count();
+                out.fail(
+                    "relaxation",
+                    "PTY1/PTY2, PTX1..3",
+                    false,
+                    format!(
+                        "no law: {at_bound} of {} relaxation lengths sit on a search bound (no measurable lag?)",
+                        rx.rows.len()
+                    ),
+                );
+            }
+            out.relaxation = Some(rx);
+        }
+        if self.stages.pac2002
+            && let Some(model) = self.model.take_if(|m| m.written)
+        {
+            record_fit_notes(&mut self.out, &model.fit, self.cfg.pac2002.oos_ratio_limit);
+            self.out.pac2002 = Some(model.fit);
+        }
+    }
+
+    fn spring_rate_at_fitted_fnomin(&mut self) {
+        if let (Some(fit), Some(est)) = (&self.out.pac2002, self.fnomin_estimate) {
+            let fnomin = fit.model.coefs[Coef::FNOMIN];
+            if (fnomin - est).abs() > 1e-6 * fnomin.abs().max(1.0) {
+                self.spring_rate(Some(fnomin));
+            }
+        }
+    }
+
+    fn thermal(&mut self) {
+        let started = Instant::now();
+        let out = &mut self.out;
+        let segs: Vec<MeasuredSegment> = self
+            .all
             .iter()
             .filter(|s| thermal_segment(s))
             .map(|s| s.segment.clone())
@@ -364,7 +727,7 @@ pub fn run(
                 "no force- and temperature-clean cold_to_warm segment: nothing to fit",
             );
         } else {
-            let th = thermal::run(&segs, &cfg.thermal);
+            let th = thermal::run(&segs, &self.cfg.thermal);
             out.partial("thermal", &th.failures);
             if th.fits.is_empty() {
                 out.fail("thermal", "thermal", true, "no mu(T) fit");
@@ -372,218 +735,6 @@ pub fn run(
             out.thermal = Some(th);
         }
         out.time("thermal", started);
-    }
-    out
-}
-
-fn run_spring_rate(
-    out: &mut GroupResult,
-    all: &[&LoadedSegment],
-    fnomin: Option<f64>,
-    cfg: &StageConfigs,
-) {
-    let started = Instant::now();
-    out.failures.retain(|f| f.stage != "spring_rate");
-    let segs: Vec<MeasuredSegment> = all
-        .iter()
-        .filter(|s| spring_rate_segment(s))
-        .map(|s| s.segment.clone())
-        .collect();
-    let fnomin_map: BTreeMap<TireKey, f64> =
-        fnomin.map(|f| (out.key.clone(), f)).into_iter().collect();
-    let sr = spring_rate::run(&segs, &fnomin_map, &cfg.spring_rate);
-    out.partial("spring_rate", &sr.failures);
-    if sr.vertical.is_empty() {
-        out.fail(
-            "spring_rate",
-            "spring_rate",
-            true,
-            if segs.is_empty() {
-                "no force-clean spring-rate hold or free-rolling sweep".to_string()
-            } else {
-                "no vertical stiffness and unloaded radius for the .tir".to_string()
-            },
-        );
-    }
-    out.spring_rate = Some(sr);
-    out.time("spring_rate", started);
-}
-
-fn run_pac2002_and_relaxation(
-    out: &mut GroupResult,
-    key: &TireKey,
-    all: &[&LoadedSegment],
-    vertical: Option<&TirVertical>,
-    stages: &StageSet,
-    cfg: &StageConfigs,
-) {
-    let started = Instant::now();
-    let Some(mut input) = pac2002_input(key, all, vertical) else {
-        out.fail(
-            "pac2002",
-            "pac2002",
-            true,
-            "no force-clean cornering, drive/brake or combined segment",
-        );
-        if stages.relaxation {
-            out.fail("relaxation", "relaxation", true, "needs the PAC2002 model");
-        }
-        out.time("pac2002", started);
-        return;
-    };
-    out.n_pac2002_segments = input.sweeps.len();
-    record_unusable_sweeps(out, all);
-    out.pressure_kpa_mean = finite_median(
-        all.iter()
-            .filter(|s| pac2002_segment(s))
-            .flat_map(|s| s.segment.channels.pressure_kpa.iter().copied()),
-    )
-    .unwrap_or(f64::NAN);
-    let relax_segments: Vec<MeasuredSegment> = all
-        .iter()
-        .filter(|s| relaxation_segment(s))
-        .map(|s| s.segment.clone())
-        .collect();
-    // Relaxation lengths: always when de-lagging, else only when asked for.
-    let wants_relaxation = (stages.relaxation || cfg.pac2002.delag) && !relax_segments.is_empty();
-    // The relaxation stage reads only Fy and Fx of the model. When a second PAC2002 fit follows
-    // anyway (de-lagging) or the model is not written (relaxation alone), the first fit leaves
-    // the moments out: the force families do not depend on them, so the relaxation lengths are
-    // the same and the first pass costs a fraction (Mz and Mx are the expensive families).
-    let forces_first = wants_relaxation && (cfg.pac2002.delag || !stages.pac2002);
-    let first_input = if forces_first {
-        forces_only(&input)
-    } else {
-        input.clone()
-    };
-    // The forces-only pass is never written: no out-of-sample refits for it.
-    let first = match run_fit(out, &first_input, cfg, !forces_first) {
-        Some(f) => f,
-        None => {
-            if stages.relaxation {
-                out.fail("relaxation", "relaxation", true, "needs the PAC2002 model");
-            }
-            return;
-        }
-    };
-    let (r0, cz) = match vertical {
-        Some(v) => (v.unloaded_radius_m, v.vertical_stiffness_n_per_m),
-        None => (
-            first.model.coefs[tirebase_core::tire_model::Coef::UNLOADED_RADIUS],
-            first.model.coefs[tirebase_core::tire_model::Coef::VERTICAL_STIFFNESS],
-        ),
-    };
-    let relax = |model: &Pac2002Fit| {
-        let input = RelaxationInput {
-            key: key.clone(),
-            model: &model.model,
-            unloaded_radius_m: r0,
-            vertical_stiffness_n_per_m: cz,
-            segments: &relax_segments,
-        };
-        relaxation::run(std::slice::from_ref(&input), &cfg.relaxation)
-    };
-    let can_relax = cz > 0.0 && r0 > 0.0;
-    if !wants_relaxation || !can_relax {
-        if stages.relaxation {
-            out.fail(
-                "relaxation",
-                "relaxation",
-                true,
-                if relax_segments.is_empty() {
-                    "no force-clean sweep, speed sweep or step steer".to_string()
-                } else {
-                    format!("no vertical stiffness/unloaded radius (Cz {cz} N/m, R0 {r0} m)")
-                },
-            );
-        }
-        if !stages.pac2002 {
-            return;
-        }
-        let fit = if forces_first {
-            match run_fit(out, &input, cfg, true) {
-                Some(f) => f,
-                None => return,
-            }
-        } else {
-            first
-        };
-        record_fit_notes(out, &fit, cfg.pac2002.oos_ratio_limit);
-        out.pac2002 = Some(fit);
-        return;
-    }
-    let started = Instant::now();
-    let mut rx = relax(&first);
-    out.time("relaxation", started);
-    let lengths = if cfg.pac2002.delag {
-        delag_lengths(&rx)
-    } else {
-        None
-    };
-    let refit = lengths.is_some();
-    let fit = if forces_first || refit {
-        input.context.relaxation = lengths;
-        out.delag = input.context.relaxation.clone();
-        let second_input = if stages.pac2002 {
-            input
-        } else {
-            forces_only(&input)
-        };
-        match run_fit(out, &second_input, cfg, stages.pac2002) {
-            Some(second) => {
-                if refit {
-                    let started = Instant::now();
-                    rx = relax(&second);
-                    out.time("relaxation", started);
-                }
-                Some(second)
-            }
-            // the forces-only first pass is not a model to write
-            None if forces_first => None,
-            None => {
-                // the first (not de-lagged) fit is written
-                out.delag = None;
-                Some(first)
-            }
-        }
-    } else {
-        Some(first)
-    };
-    if stages.relaxation {
-        out.partial("relaxation", &rx.failures);
-        if rx.laws.is_empty() {
-            out.fail(
-                "relaxation",
-                "relaxation",
-                true,
-                "no relaxation length law (PTY1/PTY2, PTX1..3)",
-            );
-        } else if rx
-            .laws
-            .iter()
-            .all(|l| l.lateral.is_none() && l.longitudinal.is_none())
-        {
-            // e.g. a lag-free (ideal) round: every sigma at its lower search bound.
-            let at_bound = rx.rows.iter().filter(|r| r.at_bound).count();
-            out.fail(
-                "relaxation",
-                "PTY1/PTY2, PTX1..3",
-                false,
-                format!(
-                    "no law: {at_bound} of {} relaxation lengths sit on a search bound (no measurable lag?)",
-                    rx.rows.len()
-                ),
-            );
-        }
-        out.relaxation = Some(rx);
-    }
-    if !stages.pac2002 {
-        // relaxation alone still needed the steady-state model; it is not written.
-        return;
-    }
-    if let Some(fit) = fit {
-        record_fit_notes(out, &fit, cfg.pac2002.oos_ratio_limit);
-        out.pac2002 = Some(fit);
     }
 }
 
@@ -659,7 +810,7 @@ fn record_fit_notes(out: &mut GroupResult, fit: &Pac2002Fit, out_of_sample_limit
 
 /// The input without the moment channels: the moment families then have no data and are
 /// skipped (a fit of the force families only).
-fn forces_only(input: &FitInput) -> FitInput {
+fn only_forces(input: &FitInput) -> FitInput {
     let mut input = input.clone();
     for sweep in &mut input.sweeps {
         for sample in &mut sweep.samples {
@@ -694,6 +845,159 @@ fn run_fit(
         Err(e) => {
             out.fail("pac2002", "pac2002", true, e.to_string());
             None
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use Step::*;
+
+    fn stages(list: &str) -> StageSet {
+        StageSet::parse(list).unwrap()
+    }
+
+    const FORCES: Step = Pac2002 {
+        forces_only: true,
+        written: false,
+    };
+    const WRITTEN: Step = Pac2002 {
+        forces_only: false,
+        written: true,
+    };
+    const DELAGGED: Step = Pac2002Delagged {
+        forces_only: false,
+        written: true,
+    };
+    const DELAGGED_FORCES: Step = Pac2002Delagged {
+        forces_only: true,
+        written: false,
+    };
+
+    #[test]
+    fn every_stage_with_delag_fits_forces_then_the_delagged_model() {
+        assert_eq!(
+            plan(&stages("all"), true, true),
+            [
+                SpringRate,
+                FORCES,
+                Relaxation,
+                DELAGGED,
+                RelaxationFinal,
+                Record,
+                SpringRateAtFittedFnomin,
+                Thermal,
+            ]
+        );
+    }
+
+    #[test]
+    fn without_delag_or_relaxation_segments_the_first_fit_is_written() {
+        let once = [
+            SpringRate,
+            WRITTEN,
+            Relaxation,
+            Record,
+            SpringRateAtFittedFnomin,
+            Thermal,
+        ];
+        assert_eq!(plan(&stages("all"), false, true), once);
+        // no relaxation segments: relaxation is still a step (it records why it cannot run)
+        assert_eq!(plan(&stages("all"), true, false), once);
+    }
+
+    #[test]
+    fn pac2002_alone_runs_relaxation_only_for_the_delag_lengths() {
+        assert_eq!(
+            plan(&stages("pac2002"), true, true),
+            [
+                SpringRate,
+                FORCES,
+                Relaxation,
+                DELAGGED,
+                Record,
+                SpringRateAtFittedFnomin,
+            ]
+        );
+        assert_eq!(
+            plan(&stages("pac2002"), false, true),
+            [SpringRate, WRITTEN, Record, SpringRateAtFittedFnomin]
+        );
+    }
+
+    #[test]
+    fn relaxation_alone_fits_forces_only_and_writes_no_model() {
+        // without de-lagging the forces-only fit is the only one
+        assert_eq!(
+            plan(&stages("relaxation"), false, true),
+            [SpringRate, FORCES, Relaxation, Record]
+        );
+        assert_eq!(
+            plan(&stages("relaxation"), true, true),
+            [
+                SpringRate,
+                FORCES,
+                Relaxation,
+                DELAGGED_FORCES,
+                RelaxationFinal,
+                Record,
+            ]
+        );
+        assert_eq!(
+            plan(&stages("relaxation"), true, false),
+            [SpringRate, FORCES, Relaxation, Record]
+        );
+    }
+
+    #[test]
+    fn stages_without_a_model_fit_nothing() {
+        assert_eq!(plan(&stages("thermal"), true, true), [Thermal]);
+        assert_eq!(plan(&stages("spring_rate"), true, true), [SpringRate]);
+        assert_eq!(
+            plan(&stages("spring_rate,thermal"), false, false),
+            [SpringRate, Thermal]
+        );
+    }
+
+    #[test]
+    fn every_plan_fits_at_most_twice_and_writes_at_most_one_model() {
+        for list in [
+            "all",
+            "pac2002",
+            "relaxation",
+            "pac2002,relaxation",
+            "pac2002,thermal",
+            "relaxation,spring_rate",
+        ] {
+            for delag in [false, true] {
+                for has_relax in [false, true] {
+                    let s = stages(list);
+                    let p = plan(&s, delag, has_relax);
+                    let fits: Vec<bool> = p
+                        .iter()
+                        .filter_map(|step| match *step {
+                            Pac2002 { written, .. } | Pac2002Delagged { written, .. } => {
+                                Some(written)
+                            }
+                            _ => None,
+                        })
+                        .collect();
+                    assert!(matches!(fits.len(), 1 | 2), "{list} {delag} {has_relax}");
+                    // the written model is the last fit, and only when PAC2002 was asked for
+                    let written = fits.iter().filter(|w| **w).count();
+                    assert_eq!(
+                        written,
+                        usize::from(s.pac2002),
+                        "{list} {delag} {has_relax}"
+                    );
+                    assert!(!s.pac2002 || fits[fits.len() - 1], "{list}");
+                    // relaxation reads a model: it comes after the first fit
+                    let first_fit = p.iter().position(|x| matches!(x, Pac2002 { .. }));
+                    let relax = p.iter().position(|x| *x == Relaxation);
+                    assert!(relax.is_none_or(|r| first_fit.is_some_and(|f| f < r)));
+                }
+            }
         }
     }
 }
