@@ -334,6 +334,10 @@ pub struct FitConfig {
     /// before fitting ([`grip::correct`]), when that law exists. The caller applies it: the
     /// stage fits the input it is given.
     pub grip_correction: bool,
+    /// Smallest rise of peak grip from the cold tire to the optimum (the thermal fit's
+    /// `gain_peak_over_cold`) that counts as a temperature effect to correct: a flatter law is
+    /// the fit of noise (a grip independent of temperature gives gains of ~0.002).
+    pub grip_min_gain: f64,
 }
 
 impl Default for FitConfig {
@@ -356,6 +360,7 @@ impl Default for FitConfig {
             kfold_points_per_sweep: 40,
             oos_ratio_limit: 1.2,
             grip_correction: true,
+            grip_min_gain: 0.02,
         }
     }
 }
