@@ -45,7 +45,7 @@ use std::time::Instant;
 
 use tirebase_core::fit::mf61::{Mf61Sample, Mf61Sweep};
 use tirebase_core::fit::pac2002::{
-    self, FitConfig, FitInput, Pac2002Fit, RelaxationLaw as DelagLaw, RelaxationLengths, Sweep,
+    self, FitConfig, FitInput, Pac2002Fit, RelaxationLengths, RelaxationTable, Sweep,
     grip::{self, GripLaw, GripReference},
 };
 use tirebase_core::fit::relaxation::{
@@ -53,6 +53,7 @@ use tirebase_core::fit::relaxation::{
 };
 use tirebase_core::fit::segment_data::{MeasuredSegment, SegmentKind, StageFailure, TireKey};
 use tirebase_core::fit::spring_rate::{self, SpringRateConfig, SpringRateOutput, TirVertical};
+use tirebase_core::fit::sweep_folds::OutOfSampleQuality;
 use tirebase_core::fit::thermal::{self, ThermalConfig, ThermalOutput};
 use tirebase_core::numerics::stats::finite_median;
 use tirebase_core::tire_model::Coef;
@@ -327,7 +328,7 @@ fn sweep_of(s: &LoadedSegment) -> Option<Sweep> {
 /// Relaxation lengths by nominal load from the relaxation rows, for de-lagging.
 fn delag_lengths(rx: &RelaxationOutput) -> Option<RelaxationLengths> {
     let by_load = relaxation::sigma_by_load(&rx.rows);
-    let law = |d: Direction| DelagLaw {
+    let law = |d: Direction| RelaxationTable {
         by_load: by_load
             .iter()
             .filter(|((dir, fz), s)| *dir == d && *fz > 0 && s.is_finite() && **s > 0.0)

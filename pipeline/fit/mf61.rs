@@ -24,6 +24,7 @@ use tirebase_core::fit::mf61::{
 };
 use tirebase_core::fit::segment_data::TireKey;
 use tirebase_core::fit::spring_rate::TirVertical;
+use tirebase_core::fit::sweep_folds::OutOfSampleQuality;
 use tirebase_core::naming::mf61_tir_file_name;
 use tirebase_core::tire_model::tir::TirFile;
 use tirebase_core::tire_model::tir::lint::{self, Severity};
@@ -189,7 +190,7 @@ pub fn run(tire: &str, rim_in: i64, parts: &[Mf61Part], cfg: &Mf61Config) -> Mf6
     out
 }
 
-/// Families flagged out of sample ([`mf61::FamilyQuality::oos_flagged`], the PAC2002 stage's
+/// Families flagged out of sample ([`OutOfSampleQuality::oos_flagged`], the PAC2002 stage's
 /// rule) as partial failures, one per tested pressure and family, keyed at that pressure.
 fn record_out_of_sample_flags(out: &mut Mf61Outcome, key: &TireKey, fit: &Mf61Fit, limit: f64) {
     for q in fit.family_quality.iter().filter(|q| q.oos_flagged(limit)) {

@@ -12,6 +12,7 @@
 use polars::prelude::*;
 use tirebase_core::fit::pac2002::Family;
 use tirebase_core::fit::segment_data::TireKey;
+use tirebase_core::fit::sweep_folds::OutOfSampleQuality;
 
 use super::group::GroupResult;
 use super::mf61::Mf61Outcome;

@@ -7,7 +7,8 @@
 //! on a load x inclination (x pressure) grid holds at most one sweep of a load at each other
 //! level, never most of a load, inclination or pressure (its prediction would be an
 //! extrapolation), and repeats of a condition are held out together. An empty fold takes a sweep
-//! from the largest one.
+//! from the largest one. [`OutOfSampleQuality`]: the ratio and the flag rule read from a
+//! family's in-sample and out-of-sample errors, the same for both models.
 //!
 //! Deliberately not here: the refits and predictions (each stage's own quality module), where
 //! the levels come from (nominal levels of a segment, or clustered sweep means).
@@ -68,6 +69,44 @@ pub fn diagonal(rank_sums: &[usize], k: usize) -> Option<Vec<usize>> {
         fold[i] = f;
     }
     Some(fold)
+}
+
+/// One fitted family's in-sample error and k-fold-by-sweep check, and the rules read from them,
+/// shared by the PAC2002 and MF 6.1 quality rows (which differ otherwise).
+pub trait OutOfSampleQuality {
+    /// In-sample RMSE (N or N m).
+    fn rmse(&self) -> f64;
+    /// `rmse` relative to the largest `|value|` among the points, %.
+    fn rmse_pct_of_peak(&self) -> f64;
+    /// RMSE of the points predicted k-fold by sweep (`None` without the check).
+    fn oos_rmse(&self) -> Option<f64>;
+    /// Folds whose training sweeps could not determine the family's coefficients (some
+    /// coefficient rests on the held-out sweeps alone).
+    fn oos_deficient_folds(&self) -> usize;
+
+    /// Largest `|value|` among the points (from `rmse` and `rmse_pct_of_peak`; NaN when 0).
+    fn peak(&self) -> f64 {
+        if self.rmse_pct_of_peak() > 0.0 {
+            100.0 * self.rmse() / self.rmse_pct_of_peak()
+        } else {
+            f64::NAN
+        }
+    }
+
+    /// Out-of-sample RMSE over in-sample RMSE (NaN without the check).
+    fn oos_ratio(&self) -> f64 {
+        self.oos_rmse().map_or(f64::NAN, |o| o / self.rmse())
+    }
+
+    /// Good in sample, bad out of sample: the out-of-sample RMSE exceeds `limit` times the
+    /// in-sample RMSE plus 0.1 % of the channel's peak (a floor for noise-free data), or some
+    /// fold's training sweeps could not determine the coefficients.
+    fn oos_flagged(&self, limit: f64) -> bool {
+        let floor = 1e-3 * self.peak();
+        self.oos_rmse().is_some_and(|o| {
+            o > limit * self.rmse() + floor.max(0.0) || self.oos_deficient_folds() > 0
+        })
+    }
 }
 
 #[cfg(test)]

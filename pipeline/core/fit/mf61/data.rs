@@ -12,6 +12,7 @@
 //! up/down average is enough for a model spanning pressures), QC (the caller passes clean
 //! sweeps).
 
+use crate::fit::output::Output;
 use crate::fit::pac2002::{Sweep, SweepKind};
 use crate::fit::segment_data::MeasuredSegment;
 use crate::tire_model::SlipInput;
@@ -80,34 +81,6 @@ impl Mf61Sweep {
                 })
                 .collect(),
         })
-    }
-}
-
-/// The output channels a point carries.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Output {
-    /// Longitudinal force.
-    Fx,
-    /// Lateral force.
-    Fy,
-    /// Aligning moment.
-    Mz,
-    /// Overturning moment.
-    Mx,
-}
-
-impl Output {
-    /// Every output.
-    pub const ALL: [Output; 4] = [Output::Fx, Output::Fy, Output::Mz, Output::Mx];
-
-    /// `Fx`, `Fy`, `Mz`, `Mx`.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Output::Fx => "Fx",
-            Output::Fy => "Fy",
-            Output::Mz => "Mz",
-            Output::Mx => "Mx",
-        }
     }
 }
 

@@ -42,16 +42,18 @@ mod virtual_round;
 
 use std::time::Instant;
 
+use crate::fit::output::Output;
 use crate::fit::pac2002::SweepKind;
+use crate::fit::sweep_folds::OutOfSampleQuality;
 use crate::numerics::nonlinear_least_squares::{
     Bounds, Identifiability, Options, RobustLoss, Termination, minimize,
 };
 use crate::tire_model::params::{Coef, Coef::*};
 use crate::tire_model::{Channel, Evaluation, MagicFormula, Pressures, Version};
 
-pub use data::{CollapseConfig, Mf61Sample, Mf61Sweep, Output, Point};
+pub use data::{CollapseConfig, Mf61Sample, Mf61Sweep, Point};
 pub use initial::PressureModel;
-use problem::{FIT_MODE, FamilyData, FamilyProblem};
+use problem::{FIT_MODE, FamilyData, Mf61FamilyProblem};
 
 /// One tested pressure.
 #[derive(Clone, Debug, PartialEq)]
@@ -117,7 +119,7 @@ pub struct Mf61Config {
     /// round).
     pub kfold_iterations: usize,
     /// A family whose out-of-sample RMSE exceeds this multiple of its in-sample RMSE (plus
-    /// 0.1 % of the channel's peak) is flagged ([`FamilyQuality::oos_flagged`]).
+    /// 0.1 % of the channel's peak) is flagged ([`OutOfSampleQuality::oos_flagged`]).
     pub oos_ratio_limit: f64,
     /// With three or more tested pressures, also refit with each pressure left out (the whole
     /// fit, starting values included) and report how well that pressure is predicted.
@@ -504,33 +506,24 @@ pub struct FamilyQuality {
 }
 
 impl FamilyQuality {
-    /// Largest `|value|` among the points (from `rmse` and `rmse_pct_of_peak`; NaN when 0).
-    pub fn peak(&self) -> f64 {
-        if self.rmse_pct_of_peak > 0.0 {
-            100.0 * self.rmse / self.rmse_pct_of_peak
-        } else {
-            f64::NAN
-        }
-    }
-
-    /// `oos_rmse / rmse` (NaN without the check).
-    pub fn oos_ratio(&self) -> f64 {
-        self.oos_rmse.map_or(f64::NAN, |o| o / self.rmse)
-    }
-
     /// `lopo_rmse / rmse` (NaN without the check).
     pub fn lopo_ratio(&self) -> f64 {
         self.lopo_rmse.map_or(f64::NAN, |o| o / self.rmse)
     }
+}
 
-    /// Good in sample, bad out of sample, by the PAC2002 stage's rule
-    /// (`crate::fit::pac2002::FitQuality::oos_flagged`): the k-fold `oos_rmse` exceeds `limit`
-    /// times `rmse` plus 0.1 % of the peak, or some fold's training sweeps could not determine
-    /// the family's coefficients.
-    pub fn oos_flagged(&self, limit: f64) -> bool {
-        let floor = 1e-3 * self.peak();
+impl OutOfSampleQuality for FamilyQuality {
+    fn rmse(&self) -> f64 {
+        self.rmse
+    }
+    fn rmse_pct_of_peak(&self) -> f64 {
+        self.rmse_pct_of_peak
+    }
+    fn oos_rmse(&self) -> Option<f64> {
         self.oos_rmse
-            .is_some_and(|o| o > limit * self.rmse + floor.max(0.0) || self.oos_deficient_folds > 0)
+    }
+    fn oos_deficient_folds(&self) -> usize {
+        self.oos_deficient_folds
     }
 }
 
@@ -785,7 +778,7 @@ fn fit_points(
         }
         let channel = family.channel();
         let initial_rmse = rmse_of(&model, channel, &data);
-        let problem = FamilyProblem {
+        let problem = Mf61FamilyProblem {
             base: &model,
             free: &free,
             channel,

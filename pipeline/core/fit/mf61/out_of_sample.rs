@@ -33,7 +33,7 @@
 
 use std::collections::BTreeMap;
 
-use super::problem::{FIT_MODE, FamilyData, FamilyProblem};
+use super::problem::{FIT_MODE, FamilyData, Mf61FamilyProblem};
 use super::{
     FamilyOutcome, Mf61Config, Mf61Family, Point, PureData, bounds_of, family_data, mz_data,
     rmse_of,
@@ -149,11 +149,8 @@ pub fn k_fold(
         lower: free.iter().map(|c| bounds_of(*c).0).collect(),
         upper: free.iter().map(|c| bounds_of(*c).1).collect(),
     };
-    let start: Vec<f64> = free
-        .iter()
-        .enumerate()
-        .map(|(j, c)| model.coefs[*c].clamp(bounds.lower[j], bounds.upper[j]))
-        .collect();
+    // Warm start from the full fit (`minimize` clamps it into the box).
+    let start: Vec<f64> = free.iter().map(|c| model.coefs[*c]).collect();
     let options = Options::warm_refit(cfg.kfold_iterations, cfg.loss);
     let channel = family.channel();
     let full = &outcome.identifiability;
@@ -167,7 +164,7 @@ pub fn k_fold(
             out.deficient_folds += 1;
             model.clone()
         } else {
-            let problem = FamilyProblem {
+            let problem = Mf61FamilyProblem {
                 base: model,
                 free,
                 channel,

@@ -46,7 +46,7 @@ impl FamilyData {
 }
 
 /// The problem: `base` with `free` replaced by the parameters.
-pub struct FamilyProblem<'a> {
+pub struct Mf61FamilyProblem<'a> {
     /// The model with every other coefficient fixed.
     pub base: &'a MagicFormula,
     /// Free coefficients, in parameter order.
@@ -57,7 +57,7 @@ pub struct FamilyProblem<'a> {
     pub data: &'a FamilyData,
 }
 
-impl FamilyProblem<'_> {
+impl Mf61FamilyProblem<'_> {
     /// The model at parameters `p`.
     pub fn model_at(&self, p: &[f64]) -> MagicFormula {
         let mut m = self.base.clone();
@@ -68,7 +68,7 @@ impl FamilyProblem<'_> {
     }
 }
 
-impl LeastSquaresProblem for FamilyProblem<'_> {
+impl LeastSquaresProblem for Mf61FamilyProblem<'_> {
     fn n_params(&self) -> usize {
         self.free.len()
     }

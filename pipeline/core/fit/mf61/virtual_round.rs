@@ -274,7 +274,7 @@ fn combined_mz_diagnostic() {
             100.0 * rmse_of(&full.model, Channel::Mz, data) / peak
         );
         for (name, free) in variants {
-            let problem = FamilyProblem {
+            let problem = Mf61FamilyProblem {
                 base: &full.model,
                 free,
                 channel: Channel::Mz,

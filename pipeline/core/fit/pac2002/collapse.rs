@@ -26,45 +26,9 @@
 use std::collections::BTreeMap;
 
 use super::{RelaxationLengths, Sample, Sweep, SweepKind, SweepNominal};
+use crate::fit::output::Output;
 use crate::numerics::stats::median;
 use crate::tire_model::SlipInput;
-
-/// Output channels of a sample, in a fixed order.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum Output {
-    /// `Fx`, N.
-    Fx,
-    /// `Fy`, N.
-    Fy,
-    /// `Mz`, N m.
-    Mz,
-    /// `Mx`, N m.
-    Mx,
-}
-
-impl Output {
-    /// All outputs.
-    pub const ALL: [Output; 4] = [Output::Fx, Output::Fy, Output::Mz, Output::Mx];
-
-    /// The channel's value in a sample.
-    pub fn of(self, s: &Sample) -> f64 {
-        match self {
-            Output::Fx => s.fx_n,
-            Output::Fy => s.fy_n,
-            Output::Mz => s.mz_nm,
-            Output::Mx => s.mx_nm,
-        }
-    }
-
-    fn set(self, s: &mut Sample, v: f64) {
-        match self {
-            Output::Fx => s.fx_n = v,
-            Output::Fy => s.fy_n = v,
-            Output::Mz => s.mz_nm = v,
-            Output::Mx => s.mx_nm = v,
-        }
-    }
-}
 
 /// One point of a collapsed curve: averaged inputs and outputs (NaN if the channel is missing).
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -188,7 +152,7 @@ pub fn collapse(sweep: &Sweep, settings: &CollapseSettings<'_>) -> CollapsedSwee
 fn despike(samples: &mut [Sample], o: Output, sigmas: f64) -> usize {
     const HALF: usize = 3;
     let n = samples.len();
-    let values: Vec<f64> = samples.iter().map(|s| o.of(s)).collect();
+    let values: Vec<f64> = samples.iter().map(|s| s.output(o)).collect();
     let mut med = vec![f64::NAN; n];
     let mut window = Vec::with_capacity(2 * HALF + 1);
     for (i, m) in med.iter_mut().enumerate() {
@@ -218,7 +182,7 @@ fn despike(samples: &mut [Sample], o: Output, sigmas: f64) -> usize {
     let mut count = 0;
     for (i, s) in samples.iter_mut().enumerate() {
         if (values[i] - med[i]).abs() > threshold {
-            o.set(s, med[i]);
+            s.set_output(o, med[i]);
             count += 1;
         }
     }
@@ -289,13 +253,13 @@ fn delag(samples: &mut [Sample], relax: &RelaxationLengths) {
         if law.by_load.is_empty() && rig == 0.0 {
             continue;
         }
-        let y: Vec<f64> = samples.iter().map(|s| o.of(s)).collect();
+        let y: Vec<f64> = samples.iter().map(|s| s.output(o)).collect();
         let dy = local_slope(&t, &y, 0.06, 2);
         for (k, s) in samples.iter_mut().enumerate() {
             let sigma = law.at(s.fz_n).unwrap_or(0.0);
             let tau = sigma / s.vx_mps.abs().max(0.1) + rig;
             if y[k].is_finite() {
-                o.set(s, y[k] + tau * dy[k]);
+                s.set_output(o, y[k] + tau * dy[k]);
             }
         }
     }
@@ -321,7 +285,7 @@ impl Acc {
             *a += v;
         }
         for (k, o) in Output::ALL.iter().enumerate() {
-            let v = o.of(s);
+            let v = s.output(*o);
             if v.is_finite() {
                 self.outputs[k] += v;
                 self.output_n[k] += 1;
@@ -505,7 +469,7 @@ mod tests {
             s.push(sample(t, 0.0, y));
         }
         let relax = RelaxationLengths {
-            sigma_alpha: super::super::RelaxationLaw {
+            sigma_alpha: super::super::RelaxationTable {
                 by_load: vec![(0.0, tau * 11.0)],
             },
             sigma_kappa: Default::default(),

@@ -21,15 +21,27 @@
 //!
 //! Deliberately not here: the joint refinement (these values only need to be in the right basin).
 
+use crate::fit::output::Output;
 use crate::numerics::nonlinear_least_squares::Bounds;
 use crate::numerics::stats::finite_median;
 use crate::tire_model::pac2002::{load, pure_fy0};
 use crate::tire_model::{Coef, Coef::*, Coefs, Real, SlipInput};
 
-use super::collapse::{CollapsedSweep, Output};
+use super::collapse::CollapsedSweep;
 use super::family::Family;
 use super::linear::{CurveModel, fit_curve, lstsq};
 use super::problem::{FIT_MODE, channel_value};
+
+/// Why a family has no starting values: no sweep gave the per-sweep curve its load and camber
+/// laws are read from.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("no {sweeps} sweep gave a {curve} curve")]
+pub struct NoSweepCurve {
+    /// The sweeps tried (`cornering`, `drive/brake`).
+    pub sweeps: &'static str,
+    /// The curve looked for (`Magic Formula`, `pneumatic-trail`).
+    pub curve: &'static str,
+}
 
 /// What the starting-value functions need besides the sweeps.
 pub struct Setup<'a> {
@@ -213,10 +225,13 @@ pub fn pure_lateral(
     sweeps: &[&CollapsedSweep],
     setup: &Setup<'_>,
     c: &mut Coefs<f64>,
-) -> Result<(), String> {
+) -> Result<(), NoSweepCurve> {
     let shapes = sweep_shapes(sweeps, Output::Fy);
     if shapes.is_empty() {
-        return Err("no cornering sweep gave a Magic Formula curve".to_string());
+        return Err(NoSweepCurve {
+            sweeps: "cornering",
+            curve: "Magic Formula",
+        });
     }
     let dfz: Vec<f64> = shapes.iter().map(|s| setup.dfz(s.1)).collect();
     let gam: Vec<f64> = shapes.iter().map(|s| s.2).collect();
@@ -317,10 +332,13 @@ pub fn pure_longitudinal(
     sweeps: &[&CollapsedSweep],
     setup: &Setup<'_>,
     c: &mut Coefs<f64>,
-) -> Result<(), String> {
+) -> Result<(), NoSweepCurve> {
     let shapes = sweep_shapes(sweeps, Output::Fx);
     if shapes.is_empty() {
-        return Err("no drive/brake sweep gave a Magic Formula curve".to_string());
+        return Err(NoSweepCurve {
+            sweeps: "drive/brake",
+            curve: "Magic Formula",
+        });
     }
     let n = shapes.len();
     let dfz: Vec<f64> = shapes.iter().map(|s| setup.dfz(s.1)).collect();
@@ -404,7 +422,7 @@ pub fn pure_aligning(
     sweeps: &[&CollapsedSweep],
     setup: &Setup<'_>,
     c: &mut Coefs<f64>,
-) -> Result<(), String> {
+) -> Result<(), NoSweepCurve> {
     struct Row {
         dt: f64,
         bt: f64,
@@ -480,7 +498,10 @@ pub fn pure_aligning(
         });
     }
     if rows_out.is_empty() {
-        return Err("no cornering sweep gave a pneumatic-trail curve".to_string());
+        return Err(NoSweepCurve {
+            sweeps: "cornering",
+            curve: "pneumatic-trail",
+        });
     }
     let n = rows_out.len();
     let dfz: Vec<f64> = rows_out.iter().map(|r| setup.dfz(r.fz)).collect();

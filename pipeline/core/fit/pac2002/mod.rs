@@ -53,7 +53,9 @@ mod synthetic;
 #[cfg(test)]
 mod tests;
 
+use super::output::Output;
 use super::segment_data::{MeasuredSegment, SegmentKind};
+use super::sweep_folds::OutOfSampleQuality;
 use crate::numerics::nonlinear_least_squares::{RobustLoss, Termination};
 use crate::tire_model::{Coef, Pac2002};
 
@@ -147,6 +149,27 @@ pub struct Sample {
     pub tread_c: f64,
 }
 
+impl Sample {
+    /// The value of one output channel.
+    pub fn output(&self, o: Output) -> f64 {
+        match o {
+            Output::Fx => self.fx_n,
+            Output::Fy => self.fy_n,
+            Output::Mz => self.mz_nm,
+            Output::Mx => self.mx_nm,
+        }
+    }
+
+    fn set_output(&mut self, o: Output, v: f64) {
+        match o {
+            Output::Fx => self.fx_n = v,
+            Output::Fy => self.fy_n = v,
+            Output::Mz => self.mz_nm = v,
+            Output::Mx => self.mx_nm = v,
+        }
+    }
+}
+
 /// One sweep of one segment.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sweep {
@@ -210,12 +233,12 @@ impl Sweep {
 /// A relaxation length as a function of load: `(fz_n, sigma_m)` pairs, linearly interpolated,
 /// held constant outside the first and last load.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct RelaxationLaw {
+pub struct RelaxationTable {
     /// `(load N, relaxation length m)`, sorted by load.
     pub by_load: Vec<(f64, f64)>,
 }
 
-impl RelaxationLaw {
+impl RelaxationTable {
     /// Relaxation length at `fz_n`, m (`None` for an empty law).
     pub fn at(&self, fz_n: f64) -> Option<f64> {
         let pts = &self.by_load;
@@ -237,9 +260,9 @@ impl RelaxationLaw {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RelaxationLengths {
     /// Lateral relaxation length `sigma_alpha(Fz)`: de-lags `Fy`, `Mz`, `Mx`.
-    pub sigma_alpha: RelaxationLaw,
+    pub sigma_alpha: RelaxationTable,
     /// Longitudinal relaxation length `sigma_kappa(Fz)`: de-lags `Fx`.
-    pub sigma_kappa: RelaxationLaw,
+    pub sigma_kappa: RelaxationTable,
     /// The rig's measurement lag in time (every force and moment channel), s: de-lagging
     /// removes `sigma/V + measurement_lag_s` of lag.
     pub measurement_lag_s: f64,
@@ -434,32 +457,18 @@ pub struct FitQuality {
     pub trend: Option<TrendDeviation>,
 }
 
-impl FitQuality {
-    /// Largest `|value|` among the collapsed points (from `rmse` and `rmse_pct_of_peak`).
-    pub fn peak(&self) -> f64 {
-        if self.rmse_pct_of_peak > 0.0 {
-            100.0 * self.rmse / self.rmse_pct_of_peak
-        } else {
-            f64::NAN
-        }
+impl OutOfSampleQuality for FitQuality {
+    fn rmse(&self) -> f64 {
+        self.rmse
     }
-
-    /// Out-of-sample RMSE over in-sample RMSE (NaN without the check).
-    pub fn oos_ratio(&self) -> f64 {
-        self.out_of_sample
-            .as_ref()
-            .map_or(f64::NAN, |o| o.rmse / self.rmse)
+    fn rmse_pct_of_peak(&self) -> f64 {
+        self.rmse_pct_of_peak
     }
-
-    /// Good in sample, bad out of sample: the out-of-sample RMSE exceeds `limit` times the
-    /// in-sample RMSE plus 0.1 % of the channel's peak (a floor for noise-free data), or some
-    /// fold's training sweeps could not determine the coefficients
-    /// ([`OutOfSample::deficient_folds`]: some coefficient rests on the held-out sweeps alone).
-    pub fn oos_flagged(&self, limit: f64) -> bool {
-        let floor = 1e-3 * self.peak();
-        self.out_of_sample
-            .as_ref()
-            .is_some_and(|o| o.rmse > limit * self.rmse + floor.max(0.0) || o.deficient_folds > 0)
+    fn oos_rmse(&self) -> Option<f64> {
+        self.out_of_sample.as_ref().map(|o| o.rmse)
+    }
+    fn oos_deficient_folds(&self) -> usize {
+        self.out_of_sample.as_ref().map_or(0, |o| o.deficient_folds)
     }
 }
 
@@ -558,7 +567,7 @@ pub struct Pac2002Fit {
 
 /// Bad input (a failed family is not an error: see [`FamilyStatus::Failed`]).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum FitError {
+pub enum Pac2002Error {
     /// Nothing to fit.
     #[error("{tire}: no usable cornering, drive/brake or combined sweep ({skipped} skipped)")]
     NoUsableSweeps {

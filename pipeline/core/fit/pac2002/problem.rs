@@ -65,7 +65,7 @@ pub struct DataPoint {
 
 /// A quantity of the model that a constraint bounds from above.
 #[derive(Copy, Clone, Debug, PartialEq)]
-pub enum Quantity {
+pub enum ConstrainedQuantity {
     /// `Ey` at a relative load change, inclination and sign of `alpha_y`.
     Ey { dfz: f64, gamma: f64, sign: f64 },
     /// `Ex` at a relative load change and sign of `kappa_x`.
@@ -84,37 +84,37 @@ pub enum Quantity {
     NegBt { dfz: f64, gamma: f64 },
 }
 
-impl Quantity {
+impl ConstrainedQuantity {
     fn value<T: Real>(&self, c: &Coefs<T>) -> T {
         match *self {
-            Quantity::Ey { dfz, gamma, sign } => {
+            ConstrainedQuantity::Ey { dfz, gamma, sign } => {
                 let gy = c[LGAY] * gamma;
                 (c[PEY1] + c[PEY2] * dfz) * (-((c[PEY3] + c[PEY4] * gy) * sign) + 1.0) * c[LEY]
             }
-            Quantity::Ex { dfz, sign } => {
+            ConstrainedQuantity::Ex { dfz, sign } => {
                 (c[PEX1] + c[PEX2] * dfz + c[PEX3] * (dfz * dfz))
                     * (-(c[PEX4] * sign) + 1.0)
                     * c[LEX]
             }
-            Quantity::Et { dfz, gamma, a } => {
+            ConstrainedQuantity::Et { dfz, gamma, a } => {
                 let gz = c[LGAZ] * gamma;
                 (c[QEZ1] + c[QEZ2] * dfz + c[QEZ3] * (dfz * dfz))
                     * ((c[QEZ4] + c[QEZ5] * gz) * a + 1.0)
             }
-            Quantity::Exa { dfz } => c[REX1] + c[REX2] * dfz,
-            Quantity::Eyk { dfz } => c[REY1] + c[REY2] * dfz,
-            Quantity::NegGxa { input } => {
+            ConstrainedQuantity::Exa { dfz } => c[REX1] + c[REX2] * dfz,
+            ConstrainedQuantity::Eyk { dfz } => c[REY1] + c[REY2] * dfz,
+            ConstrainedQuantity::NegGxa { input } => {
                 let l = load(c, &input, FIT_MODE);
                 -gxa(c, &l)
             }
-            Quantity::NegGyk { input } => {
+            ConstrainedQuantity::NegGyk { input } => {
                 let l = load(c, &input, FIT_MODE);
                 let byk = c[RBY1] * (c[RBY2] * (l.alpha - c[RBY3])).cos_atan() * c[LYKA];
                 let eyk = c[REY1] + c[REY2] * l.dfz;
                 let shyk = c[RHY1] + c[RHY2] * l.dfz;
                 -(weighting(byk, c[RCY1], eyk, l.kappa + shyk) / weighting(byk, c[RCY1], eyk, shyk))
             }
-            Quantity::NegBt { dfz, gamma } => {
+            ConstrainedQuantity::NegBt { dfz, gamma } => {
                 let gz = c[LGAZ] * gamma;
                 -((c[QBZ1] + c[QBZ2] * dfz + c[QBZ3] * (dfz * dfz))
                     * (c[QBZ4] * gz + c[QBZ5] * gz.abs() + 1.0))
@@ -134,7 +134,7 @@ pub enum Penalty {
     },
     /// `weight max(0, quantity - limit)`.
     AtMost {
-        quantity: Quantity,
+        quantity: ConstrainedQuantity,
         limit: f64,
         weight: f64,
     },

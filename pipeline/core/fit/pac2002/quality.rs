@@ -27,11 +27,12 @@
 //! Deliberately not here: the full fit (`stage`), choosing what is flagged beyond the ratio.
 
 use super::FitConfig;
-use super::collapse::{CollapsedSweep, Output};
+use super::collapse::CollapsedSweep;
 use super::family::Family;
 use super::linear::lstsq;
 use super::problem::{DataPoint, FIT_MODE, FamilyProblem};
 use super::stage::{Envelope, bounds_of, data_points, output_of, penalties_of};
+use crate::fit::output::Output;
 use crate::fit::sweep_folds;
 use crate::numerics::nonlinear_least_squares::{
     Identifiability, LeastSquaresProblem, Options, minimize,
@@ -109,11 +110,8 @@ pub fn out_of_sample(
     let output = output_of(family);
     let penalties = penalties_of(family, free, env, cfg);
     let bounds = bounds_of(free, c, env);
-    let start: Vec<f64> = free
-        .iter()
-        .enumerate()
-        .map(|(j, coef)| c[*coef].clamp(bounds.lower[j], bounds.upper[j]))
-        .collect();
+    // Warm start from the full fit (`minimize` clamps it into the box).
+    let start: Vec<f64> = free.iter().map(|coef| c[*coef]).collect();
     let options = Options {
         scale_floor: 1e-5,
         ..Options::warm_refit(cfg.kfold_iterations, cfg.loss)

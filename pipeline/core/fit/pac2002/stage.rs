@@ -1,7 +1,7 @@
 //! The stage itself: sweeps in, fitted model and facts out, family by family in dependency order.
 //!
-//! In: a [`FitInput`] and a [`FitConfig`]. Out: a [`Pac2002Fit`] or a [`FitError`] for input that
-//! cannot be fitted at all. Order: check the context, sort and collapse the sweeps, set the
+//! In: a [`FitInput`] and a [`FitConfig`]. Out: a [`Pac2002Fit`] or a [`Pac2002Error`] for input
+//! that cannot be fitted at all. Order: check the context, sort and collapse the sweeps, set the
 //! scalars (`FNOMIN` = middle nominal load of the matrix, `LONGVL`, radius, stiffness, ranges),
 //! then `Fy0 -> Mz0 -> Fx0 -> Fx -> Fy -> Mz -> Mx`, each: data points and weights, held
 //! (unidentifiable) coefficients, starting values, bounds and penalties, joint refinement,
@@ -13,16 +13,19 @@
 
 use std::time::Instant;
 
-use super::collapse::{CollapseSettings, CollapsedSweep, Output, collapse};
+use super::collapse::{CollapseSettings, CollapsedSweep, collapse};
 use super::family::{Family, Levels, count_levels, held_value, unidentifiable};
-use super::initial::{self, Setup};
-use super::problem::{DataPoint, FamilyProblem, Penalty, Quantity, channel_value};
+use super::initial::{self, NoSweepCurve, Setup};
+use super::problem::{ConstrainedQuantity, DataPoint, FamilyProblem, Penalty, channel_value};
 use super::quality;
 use super::{
-    CoefficientOrigin, FamilyFit, FamilyStatus, FitConfig, FitError, FitInput, FitQuality,
-    FittedCoefficient, MxForm, Pac2002Fit, SkippedSweep, SweepKind,
+    CoefficientOrigin, FamilyFit, FamilyStatus, FitConfig, FitInput, FitQuality, FittedCoefficient,
+    MxForm, Pac2002Error, Pac2002Fit, SkippedSweep, SweepKind,
 };
-use crate::numerics::nonlinear_least_squares::{Bounds, FitOutcome, Options, minimize};
+use crate::fit::output::Output;
+use crate::numerics::nonlinear_least_squares::{
+    Bounds, FitOutcome, Options, Termination, minimize,
+};
 use crate::tire_model::{Coef, Coef::*, Coefs, Pac2002, SlipInput};
 
 /// The tested envelope: ranges of the data and the nominal load.
@@ -52,13 +55,35 @@ impl Envelope {
     }
 }
 
+/// Why one family was not fitted (its [`FamilyStatus`] reason).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub(super) enum FamilyError {
+    /// A family it builds on was not fitted.
+    #[error("needs the {} family, which was not fitted", .0.as_str())]
+    NeedsFamily(Family),
+    /// None of the sweeps it is fitted to carries its channel.
+    #[error("no {sweeps} with {} data", .output.name())]
+    NoSweeps {
+        /// The sweeps it needs (`cornering sweeps`, ...).
+        sweeps: &'static str,
+        /// Its channel.
+        output: Output,
+    },
+    /// No starting values.
+    #[error(transparent)]
+    NoStart(#[from] NoSweepCurve),
+    /// The starting values give non-finite residuals.
+    #[error("the starting values give non-finite residuals")]
+    NonFiniteStart,
+}
+
 /// Runs the PAC2002 fit of one (tire, rim, pressure). See the module docs of `fit::pac2002`.
-pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
+pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, Pac2002Error> {
     let started = Instant::now();
     let ctx = &input.context;
     let speed = ctx.test_speed_mps;
     if !(speed.is_finite() && speed > 0.0) {
-        return Err(FitError::BadContext {
+        return Err(Pac2002Error::BadContext {
             tire: ctx.tire.clone(),
             field: "test_speed_mps",
             value: speed,
@@ -68,7 +93,7 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
     let mut notes = Vec::new();
     let (sweeps, skipped) = prepare_sweeps(input, cfg);
     if sweeps.is_empty() {
-        return Err(FitError::NoUsableSweeps {
+        return Err(Pac2002Error::NoUsableSweeps {
             tire: ctx.tire.clone(),
             skipped: skipped.len(),
         });
@@ -112,7 +137,9 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
             Err(reason) => {
                 families.push(FamilyFit {
                     family,
-                    status: FamilyStatus::NoData { reason },
+                    status: FamilyStatus::NoData {
+                        reason: reason.to_string(),
+                    },
                     quality: None,
                 });
                 continue;
@@ -155,7 +182,9 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, FitError> {
                 origins.retain(|o| o.1 != Some(family));
                 families.push(FamilyFit {
                     family,
-                    status: FamilyStatus::Failed { reason },
+                    status: FamilyStatus::Failed {
+                        reason: reason.to_string(),
+                    },
                     quality: None,
                 });
             }
@@ -302,7 +331,7 @@ fn set_scalars(
     c: &mut Coefs<f64>,
     origins: &mut Vec<(Coef, Option<Family>, CoefficientOrigin)>,
     notes: &mut Vec<String>,
-) -> Result<Envelope, FitError> {
+) -> Result<Envelope, Pac2002Error> {
     let ctx = &input.context;
     // FNOMIN: middle nominal load of the cornering matrix (else of all sweeps).
     let matrix: Vec<&CollapsedSweep> = {
@@ -404,7 +433,7 @@ fn set_scalars(
             ));
         }
         (None, None) => {
-            return Err(FitError::NoUnloadedRadius {
+            return Err(Pac2002Error::NoUnloadedRadius {
                 tire: ctx.tire.clone(),
             });
         }
@@ -460,7 +489,7 @@ fn family_sweeps<'a>(
     family: Family,
     sweeps: &'a [CollapsedSweep],
     fitted: &[Family],
-) -> Result<Vec<&'a CollapsedSweep>, String> {
+) -> Result<Vec<&'a CollapsedSweep>, FamilyError> {
     let needs: &[Family] = match family {
         Family::Fy0 | Family::Fx0 | Family::My => &[],
         Family::Mz0 => &[Family::Fy0],
@@ -470,10 +499,7 @@ fn family_sweeps<'a>(
         Family::Mx => &[Family::Fy0],
     };
     if let Some(missing) = needs.iter().find(|f| !fitted.contains(f)) {
-        return Err(format!(
-            "needs the {} family, which was not fitted",
-            missing.as_str()
-        ));
+        return Err(FamilyError::NeedsFamily(*missing));
     }
     let output = output_of(family);
     let combined_fy = fitted.contains(&Family::Fy);
@@ -502,7 +528,10 @@ fn family_sweeps<'a>(
             Family::Fx | Family::Fy | Family::Mz => "combined-slip sweeps",
             _ => "sweeps",
         };
-        return Err(format!("no {what} with {} data", output_name(output)));
+        return Err(FamilyError::NoSweeps {
+            sweeps: what,
+            output,
+        });
     }
     Ok(selected)
 }
@@ -513,15 +542,6 @@ pub(super) fn output_of(family: Family) -> Output {
         Family::Fx0 | Family::Fx | Family::My => Output::Fx,
         Family::Mz0 | Family::Mz => Output::Mz,
         Family::Mx => Output::Mx,
-    }
-}
-
-fn output_name(o: Output) -> &'static str {
-    match o {
-        Output::Fx => "Fx",
-        Output::Fy => "Fy",
-        Output::Mz => "Mz",
-        Output::Mx => "Mx",
     }
 }
 
@@ -591,7 +611,7 @@ pub(super) fn data_points(
     out
 }
 
-type FamilyResult = Result<(FitOutcome, Vec<Coef>, FitQuality, usize), String>;
+type FamilyResult = Result<(FitOutcome, Vec<Coef>, FitQuality, usize), FamilyError>;
 
 /// Fits one family: held coefficients, starting values, bounds and penalties, refinement.
 #[allow(clippy::too_many_arguments)]
@@ -781,7 +801,7 @@ pub(super) fn penalties_of(
             for dfz in env.dfz_grid() {
                 for gamma in gammas {
                     for sign in [-1.0, 1.0] {
-                        out.push(at_most(Quantity::Ey { dfz, gamma, sign }, 1.0));
+                        out.push(at_most(ConstrainedQuantity::Ey { dfz, gamma, sign }, 1.0));
                     }
                 }
             }
@@ -789,7 +809,7 @@ pub(super) fn penalties_of(
         Family::Fx0 => {
             for dfz in env.dfz_grid() {
                 for sign in [-1.0, 1.0] {
-                    out.push(at_most(Quantity::Ex { dfz, sign }, 1.0));
+                    out.push(at_most(ConstrainedQuantity::Ex { dfz, sign }, 1.0));
                 }
             }
         }
@@ -797,26 +817,26 @@ pub(super) fn penalties_of(
             for dfz in env.dfz_grid() {
                 for gamma in gammas {
                     for a in [-1.0, 1.0] {
-                        out.push(at_most(Quantity::Et { dfz, gamma, a }, 1.0));
+                        out.push(at_most(ConstrainedQuantity::Et { dfz, gamma, a }, 1.0));
                     }
-                    out.push(at_most(Quantity::NegBt { dfz, gamma }, -0.1));
+                    out.push(at_most(ConstrainedQuantity::NegBt { dfz, gamma }, -0.1));
                 }
             }
         }
         Family::Fx | Family::Fy => {
             for dfz in env.dfz_grid() {
                 let q = if family == Family::Fx {
-                    Quantity::Exa { dfz }
+                    ConstrainedQuantity::Exa { dfz }
                 } else {
-                    Quantity::Eyk { dfz }
+                    ConstrainedQuantity::Eyk { dfz }
                 };
                 out.push(at_most(q, 1.0));
             }
             for input in envelope_grid(env) {
                 let q = if family == Family::Fx {
-                    Quantity::NegGxa { input }
+                    ConstrainedQuantity::NegGxa { input }
                 } else {
-                    Quantity::NegGyk { input }
+                    ConstrainedQuantity::NegGyk { input }
                 };
                 out.push(at_most(q, -0.01));
             }
@@ -915,7 +935,7 @@ fn refine(
     env: &Envelope,
     cfg: &FitConfig,
     c: &mut Coefs<f64>,
-) -> Result<(FitOutcome, FitQuality), String> {
+) -> Result<(FitOutcome, FitQuality), FamilyError> {
     let bounds = bounds_of(free, c, env);
     let penalties = penalties_of(family, free, env, cfg);
     let start: Vec<f64> = free.iter().map(|coef| c[*coef]).collect();
@@ -937,9 +957,8 @@ fn refine(
         scale_floor: 1e-5 / (points.len().max(1) as f64).sqrt(),
     };
     let outcome = minimize(&problem, &start, &bounds, &options);
-    if outcome.termination == crate::numerics::nonlinear_least_squares::Termination::NonFiniteStart
-    {
-        return Err("the starting values give non-finite residuals".to_string());
+    if outcome.termination == Termination::NonFiniteStart {
+        return Err(FamilyError::NonFiniteStart);
     }
     let fitted = problem.coefs_at(&outcome.params);
     *c = fitted;
@@ -985,7 +1004,7 @@ fn quality_of(
     let (mut ss, mut n_samples) = (0.0, 0usize);
     for s in sweeps {
         for sample in &s.samples {
-            let y = output.of(sample);
+            let y = sample.output(output);
             if !y.is_finite() {
                 continue;
             }

@@ -9,7 +9,8 @@
 //! next to the virtual test machine (branch `synth`): no heat, no load control dynamics.
 
 use crate::fit::pac2002::{
-    FitContext, FitInput, RelaxationLaw, RelaxationLengths, Sample, Sweep, SweepKind, SweepNominal,
+    FitContext, FitInput, RelaxationLengths, RelaxationTable, Sample, Sweep, SweepKind,
+    SweepNominal,
 };
 use crate::numerics::random::SplitMix64;
 use crate::tire_model::{Coef, Coefs, Mode, Pac2002, SlipInput};
@@ -101,10 +102,10 @@ const SLIP_SA_DEG: [f64; 3] = [0.0, 3.0, 6.0];
 /// 0.12..0.25 m over the load range.
 pub fn truth_relaxation() -> RelaxationLengths {
     RelaxationLengths {
-        sigma_alpha: RelaxationLaw {
+        sigma_alpha: RelaxationTable {
             by_load: vec![(200.0, 0.2), (1600.0, 0.45)],
         },
-        sigma_kappa: RelaxationLaw {
+        sigma_kappa: RelaxationTable {
             by_load: vec![(200.0, 0.12), (1600.0, 0.25)],
         },
         measurement_lag_s: 0.0,

@@ -351,13 +351,13 @@ fn bad_input_is_an_error() {
     input.sweeps.clear();
     assert!(matches!(
         fit(&input, &FitConfig::default()),
-        Err(FitError::NoUsableSweeps { .. })
+        Err(Pac2002Error::NoUsableSweeps { .. })
     ));
     let mut input = ttc_round(&fsae_demo(), &RoundSpec::ideal());
     input.context.unloaded_radius_m = None;
     assert!(matches!(
         fit(&input, &FitConfig::default()),
-        Err(FitError::NoUnloadedRadius { .. })
+        Err(Pac2002Error::NoUnloadedRadius { .. })
     ));
 }
 
