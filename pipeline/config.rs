@@ -175,6 +175,10 @@ pub struct FitSettings {
     pub kfold_points_per_sweep: usize,
     /// Flag a family whose out-of-sample RMSE exceeds this multiple of its in-sample RMSE (plus 0.1 % of the channel's peak), -.
     pub oos_ratio_limit: f64,
+    /// Bring the PAC2002 sweeps to a reference tread temperature with the thermal stage's mu(T) law of the same tire, rim and pressure and each sample's IR temperature before the fit, when that law exists (cold-to-warm runs, IR channels, thermal stage on); fit_quality grip_t_ref_c says the temperature.
+    pub grip_correction: bool,
+    /// Smallest rise of peak grip from cold to optimum (thermal_fit gain_peak_over_cold) the correction acts on: a flatter mu(T) is taken as no temperature effect, -.
+    pub grip_min_gain: f64,
     /// `[fit.spring_rate]`: vertical stiffness, unloaded radius, effective rolling radius.
     pub spring_rate: SpringRateConfig,
     /// `[fit.thermal]`: cold-to-warm peaks and the mu(T) curve.
@@ -213,6 +217,8 @@ impl Default for FitSettings {
             kfold_iterations: core.kfold_iterations,
             kfold_points_per_sweep: core.kfold_points_per_sweep,
             oos_ratio_limit: core.oos_ratio_limit,
+            grip_correction: core.grip_correction,
+            grip_min_gain: core.grip_min_gain,
             spring_rate: SpringRateConfig::default(),
             thermal: ThermalConfig::default(),
             relaxation: RelaxationConfig::default(),
@@ -269,6 +275,8 @@ impl FitSettings {
             kfold_iterations: self.kfold_iterations,
             kfold_points_per_sweep: self.kfold_points_per_sweep,
             oos_ratio_limit: self.oos_ratio_limit,
+            grip_correction: self.grip_correction,
+            grip_min_gain: self.grip_min_gain,
         }
     }
 
@@ -308,6 +316,9 @@ impl FitSettings {
         }
         if self.regularisation_weight.is_nan() || self.regularisation_weight < 0.0 {
             return bad("regularisation_weight", "must be >= 0");
+        }
+        if !(self.grip_min_gain >= 0.0 && self.grip_min_gain.is_finite()) {
+            return bad("grip_min_gain", "must be a finite number >= 0");
         }
         if self.oos_ratio_limit.is_nan() || self.oos_ratio_limit < 1.0 {
             return bad("oos_ratio_limit", "must be at least 1");

@@ -21,6 +21,10 @@
 //! Thermal                    cold-to-warm, air temperatures      mu(T) (independent)
 //! ```
 //!
+//! With `[fit] grip_correction` on (the default) Thermal moves to the front: every PAC2002 fit
+//! then reads the sweeps brought to a reference tread temperature with the group's `mu(T)`
+//! ([`grip::correct`]); without a `mu(T)` fit the sweeps are fitted as measured.
+//!
 //! Other stage sets and settings drop steps from that list:
 //! - without de-lagging (or without relaxation segments) the first PAC2002 fit is the written
 //!   one (every family, k-fold) and relaxation, when asked for, runs once with it;
@@ -42,6 +46,7 @@ use std::time::Instant;
 use tirebase_core::fit::mf61::{Mf61Sample, Mf61Sweep};
 use tirebase_core::fit::pac2002::{
     self, FitConfig, FitInput, Pac2002Fit, RelaxationLengths, RelaxationTable, Sweep,
+    grip::{self, GripLaw, GripReference},
 };
 use tirebase_core::fit::relaxation::{
     self, Direction, RelaxationConfig, RelaxationInput, RelaxationOutput,
@@ -83,6 +88,9 @@ pub struct GroupResult {
     pub relaxation: Option<RelaxationOutput>,
     /// Thermal output.
     pub thermal: Option<ThermalOutput>,
+    /// The reference temperatures the PAC2002 sweeps were brought to by the grip-temperature
+    /// correction (`None`: fitted as measured).
+    pub grip: Option<GripReference>,
     /// Mean measured inflation pressure of the PAC2002 sweeps, kPa.
     pub pressure_kpa_mean: f64,
     /// The relaxation lengths the final PAC2002 fit de-lagged its sweeps with (`None`: not
@@ -109,6 +117,7 @@ impl GroupResult {
             pac2002: None,
             relaxation: None,
             thermal: None,
+            grip: None,
             pressure_kpa_mean: f64::NAN,
             delag: None,
             n_pac2002_segments: 0,
@@ -374,11 +383,21 @@ pub enum Step {
 }
 
 /// The fit plan of one group: which steps run, in order, for the enabled `stages`, `[fit]
-/// delag` and whether the group has segments relaxation reads.
-pub fn plan(stages: &StageSet, delag: bool, has_relax_segments: bool) -> Vec<Step> {
+/// delag`, whether the group has segments relaxation reads and `[fit] grip_correction`.
+pub fn plan(
+    stages: &StageSet,
+    delag: bool,
+    has_relax_segments: bool,
+    grip_correction: bool,
+) -> Vec<Step> {
     let mut steps = Vec::new();
     // Relaxation needs the PAC2002 model; both need the spring rate's Cz and R0.
     let fits = stages.pac2002 || stages.relaxation;
+    // The grip-temperature correction of the PAC2002 sweeps reads the thermal stage's mu(T).
+    let thermal_first = stages.thermal && fits && grip_correction;
+    if thermal_first {
+        steps.push(Step::Thermal);
+    }
     if stages.spring_rate || fits {
         steps.push(Step::SpringRate);
     }
@@ -408,7 +427,7 @@ pub fn plan(stages: &StageSet, delag: bool, has_relax_segments: bool) -> Vec<Ste
     if stages.pac2002 {
         steps.push(Step::SpringRateAtFittedFnomin);
     }
-    if stages.thermal {
+    if stages.thermal && !thermal_first {
         steps.push(Step::Thermal);
     }
     steps
@@ -435,7 +454,13 @@ pub fn run(
         vertical_for_relaxation: None,
         relaxation: None,
     };
-    for step in plan(stages, cfg.pac2002.delag, has_relax_segments) {
+    let steps = plan(
+        stages,
+        cfg.pac2002.delag,
+        has_relax_segments,
+        cfg.pac2002.grip_correction,
+    );
+    for step in steps {
         match step {
             Step::SpringRate => walk.spring_rate(walk.fnomin_estimate),
             Step::Pac2002 {
@@ -544,6 +569,25 @@ impl Walk<'_> {
             return;
         };
         self.out.n_pac2002_segments = input.sweeps.len();
+        let law = grip_law(self.out.thermal.as_ref(), &self.out.key, self.cfg);
+        let input = match law {
+            Some(law) => {
+                let r0 = vertical
+                    .as_ref()
+                    .map(|v| v.unloaded_radius_m)
+                    .or(input.context.unloaded_radius_m)
+                    .unwrap_or(f64::NAN);
+                let (corrected, reference) = grip::correct(&input, &law, r0);
+                // no sample with a tread temperature: nothing was corrected
+                if reference.samples_corrected == 0 {
+                    input
+                } else {
+                    self.out.grip = Some(reference);
+                    corrected
+                }
+            }
+            None => input,
+        };
         record_unusable_sweeps(&mut self.out, &self.all);
         self.out.pressure_kpa_mean = finite_median(
             self.all
@@ -695,8 +739,11 @@ impl Walk<'_> {
             out.relaxation = Some(rx);
         }
         if self.stages.pac2002
-            && let Some(model) = self.model.take_if(|m| m.written)
+            && let Some(mut model) = self.model.take_if(|m| m.written)
         {
+            if let Some(g) = &self.out.grip {
+                model.fit.notes.push(grip_note(g));
+            }
             record_fit_notes(&mut self.out, &model.fit, self.cfg.pac2002.oos_ratio_limit);
             self.out.pac2002 = Some(model.fit);
         }
@@ -737,6 +784,41 @@ impl Walk<'_> {
         }
         out.time("thermal", started);
     }
+}
+
+/// The group's `mu(T)` law for the grip-temperature correction: its thermal fit, when `[fit]
+/// grip_correction` is on, the thermal step ran before the PAC2002 fit and the law rises by at
+/// least `grip_min_gain` from cold to optimum (`None` otherwise).
+fn grip_law(th: Option<&ThermalOutput>, key: &TireKey, cfg: &StageConfigs) -> Option<GripLaw> {
+    if !cfg.pac2002.grip_correction {
+        return None;
+    }
+    let f = th?
+        .fits
+        .iter()
+        .find(|f| &f.key == key && f.gain_peak_over_cold >= cfg.pac2002.grip_min_gain)?;
+    GripLaw::new(
+        f.t_peak_c,
+        f.k_cold_per_c2,
+        f.hot_falloff,
+        cfg.thermal.ir_phase_revolutions,
+    )
+}
+
+/// The `.tir` comment of a grip-corrected fit: the temperatures the model describes.
+fn grip_note(g: &GripReference) -> String {
+    let t = |v: Option<f64>| v.map_or("as measured".to_string(), |t| format!("{t:.1} degC"));
+    format!(
+        "grip-temperature correction: the model describes the tire at a tread surface \
+         temperature of {} (lateral: Fy, Mz, Mx) and {} (longitudinal: Fx), where the thermal \
+         stage's mu(T) equals the |F|/Fz-weighted mean grip of those sweeps; {} samples scaled \
+         by mu(T)/mu(T_ref) in {:.3}..{:.3}",
+        t(g.lateral_t_ref_c),
+        t(g.longitudinal_t_ref_c),
+        g.samples_corrected,
+        g.factor_range.0,
+        g.factor_range.1
+    )
 }
 
 /// Force-clean matrix segments the PAC2002 stage could not be given, as partial failures (one
@@ -879,7 +961,7 @@ mod tests {
     #[test]
     fn every_stage_with_delag_fits_forces_then_the_delagged_model() {
         assert_eq!(
-            plan(&stages("all"), true, true),
+            plan(&stages("all"), true, true, false),
             [
                 SpringRate,
                 FORCES,
@@ -894,6 +976,29 @@ mod tests {
     }
 
     #[test]
+    fn grip_correction_runs_thermal_before_the_fits() {
+        assert_eq!(
+            plan(&stages("all"), true, true, true),
+            [
+                Thermal,
+                SpringRate,
+                FORCES,
+                Relaxation,
+                DELAGGED,
+                RelaxationFinal,
+                Record,
+                SpringRateAtFittedFnomin,
+            ]
+        );
+        // without the thermal stage there is no law: the plan is the uncorrected one
+        assert_eq!(
+            plan(&stages("pac2002"), true, true, true),
+            plan(&stages("pac2002"), true, true, false)
+        );
+        assert_eq!(plan(&stages("thermal"), true, true, true), [Thermal]);
+    }
+
+    #[test]
     fn without_delag_or_relaxation_segments_the_first_fit_is_written() {
         let once = [
             SpringRate,
@@ -903,15 +1008,15 @@ mod tests {
             SpringRateAtFittedFnomin,
             Thermal,
         ];
-        assert_eq!(plan(&stages("all"), false, true), once);
+        assert_eq!(plan(&stages("all"), false, true, false), once);
         // no relaxation segments: relaxation is still a step (it records why it cannot run)
-        assert_eq!(plan(&stages("all"), true, false), once);
+        assert_eq!(plan(&stages("all"), true, false, false), once);
     }
 
     #[test]
     fn pac2002_alone_runs_relaxation_only_for_the_delag_lengths() {
         assert_eq!(
-            plan(&stages("pac2002"), true, true),
+            plan(&stages("pac2002"), true, true, false),
             [
                 SpringRate,
                 FORCES,
@@ -922,7 +1027,7 @@ mod tests {
             ]
         );
         assert_eq!(
-            plan(&stages("pac2002"), false, true),
+            plan(&stages("pac2002"), false, true, false),
             [SpringRate, WRITTEN, Record, SpringRateAtFittedFnomin]
         );
     }
@@ -931,11 +1036,11 @@ mod tests {
     fn relaxation_alone_fits_forces_only_and_writes_no_model() {
         // without de-lagging the forces-only fit is the only one
         assert_eq!(
-            plan(&stages("relaxation"), false, true),
+            plan(&stages("relaxation"), false, true, false),
             [SpringRate, FORCES, Relaxation, Record]
         );
         assert_eq!(
-            plan(&stages("relaxation"), true, true),
+            plan(&stages("relaxation"), true, true, false),
             [
                 SpringRate,
                 FORCES,
@@ -946,17 +1051,20 @@ mod tests {
             ]
         );
         assert_eq!(
-            plan(&stages("relaxation"), true, false),
+            plan(&stages("relaxation"), true, false, false),
             [SpringRate, FORCES, Relaxation, Record]
         );
     }
 
     #[test]
     fn stages_without_a_model_fit_nothing() {
-        assert_eq!(plan(&stages("thermal"), true, true), [Thermal]);
-        assert_eq!(plan(&stages("spring_rate"), true, true), [SpringRate]);
+        assert_eq!(plan(&stages("thermal"), true, true, false), [Thermal]);
         assert_eq!(
-            plan(&stages("spring_rate,thermal"), false, false),
+            plan(&stages("spring_rate"), true, true, false),
+            [SpringRate]
+        );
+        assert_eq!(
+            plan(&stages("spring_rate,thermal"), false, false, false),
             [SpringRate, Thermal]
         );
     }
@@ -971,10 +1079,10 @@ mod tests {
             "pac2002,thermal",
             "relaxation,spring_rate",
         ] {
-            for delag in [false, true] {
-                for has_relax in [false, true] {
+            for (delag, has_relax, grip) in (0..8).map(|k| (k & 1 == 1, k & 2 == 2, k & 4 == 4)) {
+                {
                     let s = stages(list);
-                    let p = plan(&s, delag, has_relax);
+                    let p = plan(&s, delag, has_relax, grip);
                     let fits: Vec<bool> = p
                         .iter()
                         .filter_map(|step| match *step {
@@ -997,6 +1105,16 @@ mod tests {
                     let first_fit = p.iter().position(|x| matches!(x, Pac2002 { .. }));
                     let relax = p.iter().position(|x| *x == Relaxation);
                     assert!(relax.is_none_or(|r| first_fit.is_some_and(|f| f < r)));
+                    // the grip-temperature correction reads mu(T): thermal before every fit
+                    let thermal = p.iter().position(|x| *x == Thermal);
+                    if grip && s.thermal {
+                        assert!(thermal.is_some_and(|t| first_fit.is_some_and(|f| t < f)));
+                    }
+                    // thermal runs once, when asked for
+                    assert_eq!(
+                        p.iter().filter(|x| **x == Thermal).count(),
+                        usize::from(s.thermal)
+                    );
                 }
             }
         }

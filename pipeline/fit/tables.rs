@@ -10,6 +10,7 @@
 //! Deliberately not here: computing anything, writing files.
 
 use polars::prelude::*;
+use tirebase_core::fit::pac2002::Family;
 use tirebase_core::fit::segment_data::TireKey;
 use tirebase_core::fit::sweep_folds::OutOfSampleQuality;
 
@@ -187,6 +188,11 @@ pub fn fit_quality(
         let mut f = Frame::new(TableName::FitQuality);
         for fam in &fit.families {
             let Some(q) = &fam.quality else { continue };
+            let t_ref = r.grip.as_ref().and_then(|g| match fam.family {
+                Family::Fx0 | Family::Fx => g.longitudinal_t_ref_c,
+                Family::My => None,
+                _ => g.lateral_t_ref_c,
+            });
             let oos = q.out_of_sample.as_ref();
             let trend = q.trend.as_ref();
             let id = &q.identifiability;
@@ -197,6 +203,7 @@ pub fn fit_quality(
                 .f("rmse", q.rmse)
                 .f("oos_ratio", q.oos_ratio())
                 .b("oos_flag", q.oos_flagged(oos_ratio_limit))
+                .f("grip_t_ref_c", t_ref.unwrap_or(f64::NAN))
                 .f("trend_dev_max", trend.map_or(f64::NAN, |t| t.max))
                 .f(
                     "trend_dev_pct_of_peak",
@@ -248,6 +255,7 @@ pub fn fit_quality(
                 .f("rmse", q.rmse)
                 .f("oos_ratio", q.oos_ratio())
                 .b("oos_flag", q.oos_flagged(oos_ratio_limit))
+                .f("grip_t_ref_c", f64::NAN)
                 .f("trend_dev_max", f64::NAN)
                 .f("trend_dev_pct_of_peak", f64::NAN)
                 .o("trend_dev_sweep", None)

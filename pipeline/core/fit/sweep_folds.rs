@@ -13,8 +13,8 @@
 //! Deliberately not here: the refits and predictions (each stage's own quality module), where
 //! the levels come from (nominal levels of a segment, or clustered sweep means).
 
-/// A fold whose refit is this many times worse conditioned than the full fit is deficient:
-/// its training sweeps do not determine the family's coefficients.
+/// A fold whose training data are this many times worse conditioned than the full fit's is
+/// deficient: its training sweeps do not determine the family's coefficients.
 pub const DEFICIENT_CONDITION: f64 = 1e3;
 
 /// Rank of every value among the distinct values, values equal to `resolution` being one level

@@ -379,6 +379,7 @@ mod tests {
             mz_nm: 0.0,
             mx_nm: 0.0,
             loaded_radius_m: None,
+            tread_c: f64::NAN,
         }
     }
 

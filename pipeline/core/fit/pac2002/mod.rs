@@ -41,6 +41,7 @@
 
 mod collapse;
 mod family;
+pub mod grip;
 mod initial;
 mod linear;
 mod problem;
@@ -143,6 +144,9 @@ pub struct Sample {
     pub mx_nm: f64,
     /// Loaded radius, m (only used when the context has no unloaded radius / stiffness).
     pub loaded_radius_m: Option<f64>,
+    /// Centre tread surface temperature as the IR sensor reads it (no phase-lag correction),
+    /// degC; NaN when not recorded. Only the grip-temperature correction ([`grip`]) reads it.
+    pub tread_c: f64,
 }
 
 impl Sample {
@@ -219,6 +223,7 @@ impl Sweep {
                     mz_nm: c.mz_nm[i],
                     mx_nm: mx_nm.map_or(f64::NAN, |m| m[i]),
                     loaded_radius_m: c.loaded_radius_m.as_ref().map(|v| v[i]),
+                    tread_c: c.tread_centre_c.as_ref().map_or(f64::NAN, |v| v[i]),
                 })
                 .collect(),
         })
@@ -348,6 +353,14 @@ pub struct FitConfig {
     /// A family whose out-of-sample RMSE exceeds this multiple of its in-sample RMSE (plus
     /// 0.1 % of the channel's peak) is flagged.
     pub oos_ratio_limit: f64,
+    /// Bring the sweeps to a reference tread temperature with the thermal stage's `mu(T)` law
+    /// before fitting ([`grip::correct`]), when that law exists. The caller applies it: the
+    /// stage fits the input it is given.
+    pub grip_correction: bool,
+    /// Smallest rise of peak grip from the cold tire to the optimum (the thermal fit's
+    /// `gain_peak_over_cold`) that counts as a temperature effect to correct: a flatter law is
+    /// the fit of noise (a grip independent of temperature gives gains of ~0.002).
+    pub grip_min_gain: f64,
 }
 
 impl Default for FitConfig {
@@ -369,6 +382,8 @@ impl Default for FitConfig {
             kfold_iterations: 20,
             kfold_points_per_sweep: 40,
             oos_ratio_limit: 1.2,
+            grip_correction: true,
+            grip_min_gain: 0.02,
         }
     }
 }

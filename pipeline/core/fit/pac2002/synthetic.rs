@@ -202,6 +202,7 @@ fn sweep(
             mz_nm: ch[2][k],
             mx_nm: ch[3][k],
             loaded_radius_m: None,
+            tread_c: f64::NAN,
         })
         .collect();
     Sweep {
