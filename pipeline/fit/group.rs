@@ -186,6 +186,9 @@ fn relaxation_segment(s: &LoadedSegment) -> bool {
 }
 
 /// The segment kinds any enabled stage reads (what a group's plan and hash cover).
+/// Not derived from [`plan`]: it filters rows before groups (and `has_relax_segments`) exist,
+/// and it is narrower than the steps (`--stages pac2002` leaves out the cold-to-warm and
+/// step-steer segments its de-lag relaxation step would read), so deriving it changes outputs.
 pub fn used_by(stages: &StageSet, kind: SegmentKind) -> bool {
     let pac = kind.is_matrix();
     let spring = spring_rate_kind(kind);
