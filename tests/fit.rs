@@ -26,8 +26,8 @@ use tirebase::core::tire_model::tir::TirFile;
 use tirebase::core::tire_model::{Coef, SlipInput};
 
 use crate::harness::{
-    ENVELOPE_COLUMNS, ENVELOPE_WHERE, copy_tree, demo_round, envelope_error, envelope_points, f64s,
-    ok, p, strs, synth_round, tirebase,
+    ENVELOPE_COLUMNS, ENVELOPE_WHERE, copy_tree, demo_round, envelope_points, f64s, ok, p, strs,
+    synth_round, tirebase,
 };
 
 /// A demo round, its store and one fit of it.
@@ -163,7 +163,7 @@ fn check_models(f: &Fitted, limits: [f64; 3]) -> [f64; 3] {
         assert!(fitted.exists(), "no fitted {name}");
         let (t, m) = (model(&truth_dir.join(name)), model(&fitted));
         let points = &envelope[name];
-        let e = envelope_error(&t.model(), &m.model(), points, None);
+        let e = t.model().rms_error_pct_of_peak(&m.model(), points, None);
         eprintln!(
             "{name}: USE_MODE {:?}, {} envelope points: Fx {:.4} %, Fy {:.4} %, Mz {:.4} % of peak",
             m.use_mode,

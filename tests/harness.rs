@@ -15,7 +15,7 @@ use std::process::{Command, Output};
 use std::sync::OnceLock;
 
 use polars::prelude::{DataFrame, DataType};
-use tirebase::core::tire_model::{Coef, MagicFormula, Mode, SlipInput};
+use tirebase::core::tire_model::SlipInput;
 
 /// The binary under test, as a command to add arguments to.
 pub fn bin() -> Command {
@@ -227,40 +227,4 @@ pub fn envelope_points(r: &csv::StringRecord, at: usize) -> Vec<SlipInput> {
         }
     }
     points
-}
-
-/// RMS error of `fitted` against `truth` over `points` (at the truth's `LONGVL`), % of the
-/// truth's peak: `[Fx, Fy, Mz]`. Both models are evaluated at `p_pa`, or each at its own
-/// default pressure when `None`.
-pub fn envelope_error(
-    truth: &MagicFormula,
-    fitted: &MagicFormula,
-    points: &[SlipInput],
-    p_pa: Option<f64>,
-) -> [f64; 3] {
-    let vx = truth.coefs[Coef::LONGVL];
-    let mut ss = [0.0; 3];
-    let mut peak = [0.0_f64; 3];
-    for pt in points {
-        let pt = SlipInput { vx_mps: vx, ..*pt };
-        let (t, f) = match p_pa {
-            Some(p) => (
-                truth.eval_at(&pt, p, Mode::Limits),
-                fitted.eval_at(&pt, p, Mode::Limits),
-            ),
-            None => (
-                truth.eval(&pt, Mode::Limits),
-                fitted.eval(&pt, Mode::Limits),
-            ),
-        };
-        for (k, (a, b)) in [(t.fx_n, f.fx_n), (t.fy_n, f.fy_n), (t.mz_nm, f.mz_nm)]
-            .into_iter()
-            .enumerate()
-        {
-            ss[k] += (b - a).powi(2);
-            peak[k] = peak[k].max(a.abs());
-        }
-    }
-    let n = points.len() as f64;
-    std::array::from_fn(|k| 100.0 * (ss[k] / n).sqrt() / peak[k])
 }

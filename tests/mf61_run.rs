@@ -24,8 +24,7 @@ use tirebase::core::tire_model::tir::TirFile;
 use tirebase::core::tire_model::{Coef, MagicFormula, SlipInput};
 
 use crate::harness::{
-    ENVELOPE_COLUMNS, ENVELOPE_WHERE, envelope_error, envelope_points, ok, p, run, synth_round,
-    tirebase,
+    ENVELOPE_COLUMNS, ENVELOPE_WHERE, envelope_points, ok, p, run, synth_round, tirebase,
 };
 
 const TIRE: &str = "Hoosier 16.0x7.5-10 R25B";
@@ -155,7 +154,7 @@ fn run_recovers_the_mf61_truth_at_every_tested_pressure_issue_19() {
     );
     let mut violations = Vec::new();
     for (kpa, points) in &envelope {
-        let e = envelope_error(&truth, &fitted, points, Some(commanded_pa(*kpa)));
+        let e = truth.rms_error_pct_of_peak(&fitted, points, Some(commanded_pa(*kpa)));
         eprintln!("{kpa} kPa, {} envelope points: {}", points.len(), show(e));
         if e.iter().any(|x| x.is_nan() || *x > 1.0) {
             violations.push(format!("{kpa} kPa: {}", show(e)));
@@ -216,12 +215,8 @@ fn run_without_one_pressure_predicts_it_issue_19() {
             !tested_envelope(store_of(&version)).contains_key(&left_out),
             "{left_out} kPa is still in the input"
         );
-        let e = envelope_error(
-            &truth,
-            &held,
-            &envelope[&left_out],
-            Some(commanded_pa(left_out)),
-        );
+        let e =
+            truth.rms_error_pct_of_peak(&held, &envelope[&left_out], Some(commanded_pa(left_out)));
         eprintln!("{left_out} kPa left out: {}", show(e));
         if e.iter()
             .zip([3.0, 3.0, 6.0])

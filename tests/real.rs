@@ -197,7 +197,7 @@ fn cornering_mf61_groups(
     real: &Path,
 ) -> (String, f64, Vec<tirebase::core::fit::mf61::PressureGroup>) {
     use std::collections::BTreeMap;
-    use tirebase::core::fit::mf61::{Mf61Sweep, PressureGroup, PressureModel};
+    use tirebase::core::fit::mf61::{Mf61Sweep, Pac2002AtPressure, PressureGroup};
     use tirebase::core::fit::pac2002::{self, FitConfig, FitInput, Sweep};
     use tirebase::core::fit::segment_data::{MeasuredSegment, TireKey};
     use tirebase::core::fit::spring_rate::{self, SpringRateConfig};
@@ -292,7 +292,7 @@ fn cornering_mf61_groups(
                 .iter()
                 .filter_map(|s| Mf61Sweep::from_segment(s, None))
                 .collect(),
-            pac2002: pac.ok().map(|f| PressureModel {
+            pac2002: pac.ok().map(|f| Pac2002AtPressure {
                 p_pa,
                 model: f.model,
                 vertical_stiffness_n_per_m: vertical.map(|v| v.vertical_stiffness_n_per_m),

@@ -20,7 +20,7 @@
 use std::time::Instant;
 
 use tirebase_core::fit::mf61::{
-    self, CollapsedGroup, Mf61Config, Mf61Fit, Mf61Input, Mf61Sweep, PressureModel,
+    self, CollapsedGroup, Mf61Config, Mf61Fit, Mf61Input, Mf61Sweep, Pac2002AtPressure,
 };
 use tirebase_core::fit::segment_data::TireKey;
 use tirebase_core::fit::spring_rate::TirVertical;
@@ -64,7 +64,7 @@ impl Mf61Part {
             group: CollapsedGroup {
                 pressure_kpa_nom: key.pressure_kpa_nom,
                 points: mf61::collapse_group(sweeps, &cfg.collapse),
-                pac2002: pac2002.map(|m| PressureModel {
+                pac2002: pac2002.map(|m| Pac2002AtPressure {
                     p_pa: m
                         .file
                         .pressure

@@ -762,23 +762,30 @@ mod tests {
         Exp { x, y }
     }
 
+    /// The fit of `problem` from `[1, 0, 0]`, unbounded, with `options`.
+    fn fit_exp(problem: &Exp, options: &Options) -> FitOutcome {
+        minimize(problem, &[1.0, 0.0, 0.0], &Bounds::unbounded(3), options)
+    }
+
+    /// Residuals and row-major Jacobian of `problem` at `p`.
+    fn residuals_and_jacobian_at(problem: &Exp, p: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let m = problem.n_residuals();
+        let mut r = vec![0.0; m];
+        let mut jac = vec![0.0; m * problem.n_params()];
+        problem.residuals_and_jacobian(p, &mut r, &mut jac);
+        (r, jac)
+    }
+
     #[test]
     fn recovers_exponential_unbounded() {
         let problem = exp_data(false);
-        let out = minimize(
-            &problem,
-            &[1.0, 0.0, 0.0],
-            &Bounds::unbounded(3),
-            &Options::default(),
-        );
+        let out = fit_exp(&problem, &Options::default());
         assert!(out.termination.converged(), "{:?}", out.termination);
         assert!((out.params[0] - 2.5).abs() < 5e-3, "{:?}", out.params);
         assert!((out.params[1] + 0.7).abs() < 5e-3, "{:?}", out.params);
         assert!(out.std_errors.iter().all(|s| s.is_some()));
         let fd = finite_difference_jacobian(&problem, &out.params, 1e-6);
-        let mut r = vec![0.0; problem.n_residuals()];
-        let mut jac = vec![0.0; fd.len()];
-        problem.residuals_and_jacobian(&out.params, &mut r, &mut jac);
+        let (_, jac) = residuals_and_jacobian_at(&problem, &out.params);
         let worst = fd
             .iter()
             .zip(&jac)
@@ -790,16 +797,9 @@ mod tests {
     #[test]
     fn covariance_is_s2_times_the_inverse_normal_matrix() {
         let problem = exp_data(false);
-        let out = minimize(
-            &problem,
-            &[1.0, 0.0, 0.0],
-            &Bounds::unbounded(3),
-            &Options::default(),
-        );
+        let out = fit_exp(&problem, &Options::default());
         let m = problem.n_residuals();
-        let mut r = vec![0.0; m];
-        let mut jac = vec![0.0; m * 3];
-        problem.residuals_and_jacobian(&out.params, &mut r, &mut jac);
+        let (r, jac) = residuals_and_jacobian_at(&problem, &out.params);
         let j = DMatrix::from_row_slice(m, 3, &jac);
         let s2 = r.iter().map(|x| x * x).sum::<f64>() / (m - 3) as f64;
         let expected = (j.transpose() * &j).try_inverse().unwrap() * s2;
@@ -840,12 +840,7 @@ mod tests {
         assert!((two.condition - 1.0).abs() < 1e-12, "{two:?}");
         // Penalty rows (after n_data) do not count.
         assert_eq!(Identifiability::of(&jac, 3, 1, &[0, 1]).rank, 1);
-        let out = minimize(
-            &exp_data(false),
-            &[1.0, 0.0, 0.0],
-            &Bounds::unbounded(3),
-            &Options::default(),
-        );
+        let out = fit_exp(&exp_data(false), &Options::default());
         assert_eq!(out.identifiability.rank, 3);
         assert!(out.identifiability.condition.is_finite() && out.identifiability.condition > 1.0);
     }
@@ -867,16 +862,9 @@ mod tests {
     #[test]
     fn huber_irls_resists_outliers() {
         let problem = exp_data(true);
-        let plain = minimize(
+        let plain = fit_exp(&problem, &Options::default());
+        let robust = fit_exp(
             &problem,
-            &[1.0, 0.0, 0.0],
-            &Bounds::unbounded(3),
-            &Options::default(),
-        );
-        let robust = minimize(
-            &problem,
-            &[1.0, 0.0, 0.0],
-            &Bounds::unbounded(3),
             &Options {
                 loss: RobustLoss::Huber { k: 1.5 },
                 irls_rounds: 6,

@@ -186,7 +186,7 @@ pub(crate) fn evaluate_with(config: SynthConfig) -> Evaluation {
             }
         }
         for u in &out.summary.unit_errors {
-            let channel = crate::ttc::Channel::from_name(u.channel);
+            let channel = crate::ttc::TtcChannel::from_name(u.channel);
             let fixed = table.meta.unit_notes.iter().any(|n| {
                 Some(n.channel) == channel
                     && match n.action {

@@ -2,12 +2,12 @@
 //!
 //! In: [`RunSamples`] (SI, ISO-W) and a [`FileStyle`] (round style 4/8/9, US customary or SI,
 //! `.dat` or `.mat`). Out: a [`ChannelTable`] (names, unit spellings, decimals, SAE columns in the
-//! file's units) and the `.dat` bytes (`render_dat`). The ISO-W -> SAE flip happens in
-//! `frame::TireChannels::into_sae`, nowhere else. Deliberately not here: the `.mat` encoding
-//! (the TTC writer in `crate::ttc`), defects (`defects.rs`).
+//! file's units) and line 1 of a `.dat` file ([`header_line`]). The ISO-W -> SAE flip happens in
+//! `frame::TireChannels::into_sae`, nowhere else. Deliberately not here: the `.dat` and `.mat`
+//! encodings (the TTC writers in `crate::ttc`), defects (`defects.rs`).
 
 use crate::frame::{IsoW, TireChannels};
-use crate::ttc::dat::RoundStyle;
+use crate::ttc::dat::{DatColumn, RoundStyle};
 
 use super::machine::RunSamples;
 use super::tires::{KPA_PER_PSI, M_PER_IN, N_PER_LBF};
@@ -104,15 +104,6 @@ pub const STYLE_CYCLE: [FileStyle; 6] = [
     },
 ];
 
-/// One column of a run file.
-#[derive(Clone, Debug, PartialEq)]
-pub struct DatColumn {
-    pub name: &'static str,
-    pub unit: &'static str,
-    pub decimals: u8,
-    pub values: Vec<f64>,
-}
-
 /// A run file's columns in file order, SAE axes, file units.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ChannelTable {
@@ -202,9 +193,9 @@ pub fn channel_table(
         .zip(&sae.fz_n)
         .map(|(a, b)| if b.abs() > 1.0 { a / b } else { 0.0 })
         .collect();
-    let col = |name, unit, decimals, values| DatColumn {
-        name,
-        unit,
+    let col = |name: &str, unit: &str, decimals, values| DatColumn {
+        name: name.to_string(),
+        unit: unit.to_string(),
         decimals,
         values,
     };
@@ -258,63 +249,6 @@ pub fn channel_table(
     ChannelTable { columns }
 }
 
-/// Append `x` with exactly `decimals` decimals (no exponent, no `-0`; `decimals <= 9`).
-pub fn push_fixed(out: &mut Vec<u8>, x: f64, decimals: u8) {
-    let scale = 10f64.powi(i32::from(decimals));
-    let q = (x * scale).round();
-    let neg = q < 0.0;
-    let mut q = q.abs() as u64;
-    if neg && q != 0 {
-        out.push(b'-');
-    }
-    // Digits from the right into a stack buffer: fraction (zero-padded), point, integer part.
-    let mut buf = [0u8; 32];
-    let mut i = buf.len();
-    for _ in 0..decimals {
-        i -= 1;
-        buf[i] = b'0' + (q % 10) as u8;
-        q /= 10;
-    }
-    if decimals > 0 {
-        i -= 1;
-        buf[i] = b'.';
-    }
-    loop {
-        i -= 1;
-        buf[i] = b'0' + (q % 10) as u8;
-        q /= 10;
-        if q == 0 {
-            break;
-        }
-    }
-    out.extend_from_slice(&buf[i..]);
-}
-
-/// The `.dat` bytes: header line 1, channel names, units, then fixed-decimal rows; TAB
-/// separated, LF line endings, a final newline.
-pub fn render_dat(line1: &str, table: &ChannelTable) -> Vec<u8> {
-    let rows = table.rows();
-    let mut out = Vec::with_capacity(rows * table.columns.len() * 9 + 512);
-    out.extend_from_slice(line1.as_bytes());
-    out.push(b'\n');
-    let names: Vec<&str> = table.columns.iter().map(|c| c.name).collect();
-    out.extend_from_slice(names.join("\t").as_bytes());
-    out.push(b'\n');
-    let units: Vec<&str> = table.columns.iter().map(|c| c.unit).collect();
-    out.extend_from_slice(units.join("\t").as_bytes());
-    out.push(b'\n');
-    for r in 0..rows {
-        for (j, c) in table.columns.iter().enumerate() {
-            if j > 0 {
-                out.push(b'\t');
-            }
-            push_fixed(&mut out, c.values[r], c.decimals);
-        }
-        out.push(b'\n');
-    }
-    out
-}
-
 /// What line 1 of a `.dat` file may say about the run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HeaderFields<'a> {
@@ -349,28 +283,5 @@ pub fn header_line(style: &FileStyle, h: &HeaderFields) -> String {
         RoundStyle::R9 => format!(
             "TIRF Data File: Project {project}; Run {run:03}; Date {date}; Time {time}; Tire_Name={tire_name}; Rim_Width={rim_in:.1}; ISO False; ID {id}"
         ),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn fixed_decimals() {
-        let cases = [
-            (0.0, 3, "0.000"),
-            (-0.0001, 3, "0.000"),
-            (-1.23456, 2, "-1.23"),
-            (1234.5678, 3, "1234.568"),
-            (0.05, 1, "0.1"),
-            (-12.0, 0, "-12"),
-            (0.00049, 4, "0.0005"),
-        ];
-        for (x, d, want) in cases {
-            let mut out = Vec::new();
-            push_fixed(&mut out, x, d);
-            assert_eq!(String::from_utf8(out).unwrap(), want, "{x} with {d}");
-        }
     }
 }

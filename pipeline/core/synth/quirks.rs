@@ -195,7 +195,7 @@ pub fn apply_to_table(
     }
     table
         .columns
-        .retain(|c| !matches!(c.name, "SL" | "NFX" | "NFY"));
+        .retain(|c| !matches!(c.name.as_str(), "SL" | "NFX" | "NFY"));
     let declared_in = style.units == FileUnits::UsCustomary && style.container == Container::Dat;
     let (declared, actual, values_per_declared) = if declared_in {
         ("in", "cm", 2.54)

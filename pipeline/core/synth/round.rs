@@ -24,11 +24,11 @@ use serde::{Deserialize, Serialize};
 use crate::naming::{tir_file_name, tire_rim_stem};
 use crate::tire_model::tir::{TirFile, TyrePressure};
 use crate::tire_model::{Coef, Coefs};
+use crate::ttc::dat::render_dat;
 use crate::ttc::mat::{Compression, MatWriter};
 
 use super::dat::{
     ChannelTable, Container, FileStyle, HeaderFields, STYLE_CYCLE, channel_table, header_line,
-    render_dat,
 };
 use super::defects::{DefectKind, DefectRecord, apply_to_table, apply_to_text};
 use super::machine::{LoadSwing, Realism, simulate};
@@ -664,7 +664,7 @@ pub fn render_run(plan: &RoundPlan, index: usize) -> Result<RunOutput, RoundErro
                     id: &id,
                 },
             );
-            let mut bytes = render_dat(&line1, &table);
+            let mut bytes = render_dat(&line1, &table.columns);
             for kind in spec.defects.iter().filter(|k| !k.on_table()) {
                 defects.push(apply_to_text(&mut bytes, *kind, &table, &spec.file));
             }
@@ -788,13 +788,14 @@ fn render_mat(
         "MATLAB 5.0 MAT-file, Platform: PCWIN64, Created on: {date} (tirebase synth)"
     ));
     for c in &table.columns {
-        w.push_column(c.name, &c.values, compression).map_err(err)?;
+        w.push_column(&c.name, &c.values, compression)
+            .map_err(err)?;
     }
     let run_u8 = u8::try_from(spec.run).unwrap_or(u8::MAX);
     w.push_uint8_column("RUN", &vec![run_u8; table.rows()], compression)
         .map_err(err)?;
-    let names: Vec<&str> = table.columns.iter().map(|c| c.name).collect();
-    let units: Vec<&str> = table.columns.iter().map(|c| c.unit).collect();
+    let names: Vec<&str> = table.columns.iter().map(|c| c.name.as_str()).collect();
+    let units: Vec<&str> = table.columns.iter().map(|c| c.unit.as_str()).collect();
     // Older rounds' .mat files carry no unit metadata at all.
     if !plan.config.quirks.older_round {
         w.push_struct_of_text_cells(

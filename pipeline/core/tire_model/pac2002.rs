@@ -919,6 +919,39 @@ impl MagicFormula {
         )
     }
 
+    /// How far `fitted` is from this model over `points` (rolling at this model's `LONGVL`,
+    /// limits mode): the RMS difference as % of this model's largest `|value|` there, `[Fx, Fy,
+    /// Mz]`. Both are evaluated at `p_pa`, or each at its own default pressure when `None`. How a
+    /// fit is scored against a known truth over the envelope the data tested.
+    pub fn rms_error_pct_of_peak(
+        &self,
+        fitted: &MagicFormula,
+        points: &[SlipInput],
+        p_pa: Option<f64>,
+    ) -> [f64; 3] {
+        let (p_self, p_fitted) = match p_pa {
+            Some(p) => (p, p),
+            None => (self.default_pressure_pa(), fitted.default_pressure_pa()),
+        };
+        let vx = self.coefs[LONGVL];
+        let mut ss = [0.0; 3];
+        let mut peak = [0.0_f64; 3];
+        for pt in points {
+            let pt = SlipInput { vx_mps: vx, ..*pt };
+            let t = self.eval_at(&pt, p_self, Mode::Limits);
+            let f = fitted.eval_at(&pt, p_fitted, Mode::Limits);
+            for (k, (a, b)) in [(t.fx_n, f.fx_n), (t.fy_n, f.fy_n), (t.mz_nm, f.mz_nm)]
+                .into_iter()
+                .enumerate()
+            {
+                ss[k] += (b - a).powi(2);
+                peak[k] = peak[k].max(a.abs());
+            }
+        }
+        let n = points.len() as f64;
+        std::array::from_fn(|k| 100.0 * (ss[k] / n).sqrt() / peak[k])
+    }
+
     /// Combined-slip forces and moments at a vertical load (N), slip angle (rad), longitudinal
     /// slip, inclination (rad) and inflation pressure (Pa), rolling at the reference speed
     /// `LONGVL`, limits mode: the call for "what does this tire do at 11 psi".

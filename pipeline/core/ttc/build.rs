@@ -7,7 +7,7 @@
 //! and any smoothing or QC judgement.
 
 use super::{
-    Channel, ColumnInfo, ExtraChannel, KappaSource, RunMeta, RunTable, TtcError, TtcFileName,
+    ColumnInfo, ExtraChannel, KappaSource, RunMeta, RunTable, TtcChannel, TtcError, TtcFileName,
 };
 use crate::frame::{IsoW, Sae, TireChannels};
 use crate::numerics::stats::median_high;
@@ -31,7 +31,7 @@ pub(crate) fn build(
     let rows = columns.first().map_or(0, |c| c.values.len());
     debug_assert!(columns.iter().all(|c| c.values.len() == rows));
 
-    let mut by_channel: [Option<Vec<f64>>; Channel::ALL.len()] = Default::default();
+    let mut by_channel: [Option<Vec<f64>>; TtcChannel::ALL.len()] = Default::default();
     let mut extras = Vec::new();
     for SourceColumn { info, mut values } in columns {
         match (info.channel, info.unit) {
@@ -47,7 +47,7 @@ pub(crate) fn build(
         }
         meta.columns.push(info);
     }
-    if let Some(missing) = Channel::REQUIRED
+    if let Some(missing) = TtcChannel::REQUIRED
         .into_iter()
         .find(|c| by_channel[*c as usize].is_none())
     {
@@ -57,20 +57,20 @@ pub(crate) fn build(
             channel: missing.name().to_string(),
         });
     }
-    let mut take = |channel: Channel| by_channel[channel as usize].take();
-    let mut required = |channel: Channel| take(channel).unwrap_or_default();
+    let mut take = |channel: TtcChannel| by_channel[channel as usize].take();
+    let mut required = |channel: TtcChannel| take(channel).unwrap_or_default();
 
-    let et_s = required(Channel::Et);
-    let speed_kph = required(Channel::V);
-    let pressure_kpa = required(Channel::P);
+    let et_s = required(TtcChannel::Et);
+    let speed_kph = required(TtcChannel::V);
+    let pressure_kpa = required(TtcChannel::P);
     let (fx, fy, fz) = (
-        required(Channel::Fx),
-        required(Channel::Fy),
-        required(Channel::Fz),
+        required(TtcChannel::Fx),
+        required(TtcChannel::Fy),
+        required(TtcChannel::Fz),
     );
-    let (mx, mz) = (required(Channel::Mx), required(Channel::Mz));
-    let (sa_rad, ia_rad) = (required(Channel::Sa), required(Channel::Ia));
-    let sl = take(Channel::Sl);
+    let (mx, mz) = (required(TtcChannel::Mx), required(TtcChannel::Mz));
+    let (sa_rad, ia_rad) = (required(TtcChannel::Sa), required(TtcChannel::Ia));
+    let sl = take(TtcChannel::Sl);
     let (kappa, kappa_source) = kappa_from_sl(sl.as_deref(), rows);
 
     let tire = if meta.iso_flag == Some(true) {
@@ -95,19 +95,19 @@ pub(crate) fn build(
         meta,
         et_s,
         speed_kph,
-        wheel_speed_rpm: take(Channel::N),
-        loaded_radius_m: take(Channel::Rl),
-        effective_radius_m: take(Channel::Re),
+        wheel_speed_rpm: take(TtcChannel::N),
+        loaded_radius_m: take(TtcChannel::Rl),
+        effective_radius_m: take(TtcChannel::Re),
         pressure_kpa,
         tire,
-        nfx: take(Channel::Nfx),
-        nfy: take(Channel::Nfy),
-        road_temp_c: take(Channel::Rst),
-        tread_inner_temp_c: take(Channel::Tsti),
-        tread_centre_temp_c: take(Channel::Tstc),
-        tread_outer_temp_c: take(Channel::Tsto),
-        ambient_temp_c: take(Channel::Ambtmp),
-        sr: take(Channel::Sr),
+        nfx: take(TtcChannel::Nfx),
+        nfy: take(TtcChannel::Nfy),
+        road_temp_c: take(TtcChannel::Rst),
+        tread_inner_temp_c: take(TtcChannel::Tsti),
+        tread_centre_temp_c: take(TtcChannel::Tstc),
+        tread_outer_temp_c: take(TtcChannel::Tsto),
+        ambient_temp_c: take(TtcChannel::Ambtmp),
+        sr: take(TtcChannel::Sr),
         sl,
         extras,
     };

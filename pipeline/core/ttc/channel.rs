@@ -1,15 +1,16 @@
 //! The 22 TTC channels: names, the quantity each measures, which ones a run must have.
 //!
-//! In: a channel name from `.dat` line 2 or a `.mat` variable name. Out: a [`Channel`] (matched
-//! case-insensitively, so `AmbTmp` is `AMBTMP`). Deliberately not here: units (see `units.rs`)
-//! and what the readers do with unknown names (they keep them as extra channels).
+//! In: a channel name from `.dat` line 2 or a `.mat` variable name. Out: a [`TtcChannel`]
+//! (matched case-insensitively, so `AmbTmp` is `AMBTMP`). Deliberately not here: units (see
+//! `units.rs`) and what the readers do with unknown names (they keep them as extra channels).
+//! Not [`crate::tire_model::Channel`], which is a model output a fit evaluates.
 
 use super::error::printable;
 use super::units::{Quantity, Unit};
 
 /// A channel Calspan TIRF records.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Channel {
+pub enum TtcChannel {
     Et,
     V,
     N,
@@ -59,88 +60,88 @@ pub enum UnitError {
     },
 }
 
-impl Channel {
+impl TtcChannel {
     /// All channels in the order TIRF files list them.
-    pub const ALL: [Channel; 22] = [
-        Channel::Et,
-        Channel::V,
-        Channel::N,
-        Channel::Sa,
-        Channel::Ia,
-        Channel::Rl,
-        Channel::Re,
-        Channel::P,
-        Channel::Fx,
-        Channel::Fy,
-        Channel::Fz,
-        Channel::Mx,
-        Channel::Mz,
-        Channel::Nfx,
-        Channel::Nfy,
-        Channel::Rst,
-        Channel::Tsti,
-        Channel::Tstc,
-        Channel::Tsto,
-        Channel::Ambtmp,
-        Channel::Sr,
-        Channel::Sl,
+    pub const ALL: [TtcChannel; 22] = [
+        TtcChannel::Et,
+        TtcChannel::V,
+        TtcChannel::N,
+        TtcChannel::Sa,
+        TtcChannel::Ia,
+        TtcChannel::Rl,
+        TtcChannel::Re,
+        TtcChannel::P,
+        TtcChannel::Fx,
+        TtcChannel::Fy,
+        TtcChannel::Fz,
+        TtcChannel::Mx,
+        TtcChannel::Mz,
+        TtcChannel::Nfx,
+        TtcChannel::Nfy,
+        TtcChannel::Rst,
+        TtcChannel::Tsti,
+        TtcChannel::Tstc,
+        TtcChannel::Tsto,
+        TtcChannel::Ambtmp,
+        TtcChannel::Sr,
+        TtcChannel::Sl,
     ];
 
     /// Channels without which a file is rejected: what a stored sample needs (time, speed,
     /// pressure, slip and inclination angle, the five forces and moments). The others are
     /// optional and come out as `None` when absent.
-    pub const REQUIRED: [Channel; 10] = [
-        Channel::Et,
-        Channel::V,
-        Channel::P,
-        Channel::Sa,
-        Channel::Ia,
-        Channel::Fx,
-        Channel::Fy,
-        Channel::Fz,
-        Channel::Mx,
-        Channel::Mz,
+    pub const REQUIRED: [TtcChannel; 10] = [
+        TtcChannel::Et,
+        TtcChannel::V,
+        TtcChannel::P,
+        TtcChannel::Sa,
+        TtcChannel::Ia,
+        TtcChannel::Fx,
+        TtcChannel::Fy,
+        TtcChannel::Fz,
+        TtcChannel::Mx,
+        TtcChannel::Mz,
     ];
 
     /// The name as TIRF writes it (upper case; `AMBTMP` for the ambient temperature).
     pub fn name(self) -> &'static str {
         match self {
-            Channel::Et => "ET",
-            Channel::V => "V",
-            Channel::N => "N",
-            Channel::Sa => "SA",
-            Channel::Ia => "IA",
-            Channel::Rl => "RL",
-            Channel::Re => "RE",
-            Channel::P => "P",
-            Channel::Fx => "FX",
-            Channel::Fy => "FY",
-            Channel::Fz => "FZ",
-            Channel::Mx => "MX",
-            Channel::Mz => "MZ",
-            Channel::Nfx => "NFX",
-            Channel::Nfy => "NFY",
-            Channel::Rst => "RST",
-            Channel::Tsti => "TSTI",
-            Channel::Tstc => "TSTC",
-            Channel::Tsto => "TSTO",
-            Channel::Ambtmp => "AMBTMP",
-            Channel::Sr => "SR",
-            Channel::Sl => "SL",
+            TtcChannel::Et => "ET",
+            TtcChannel::V => "V",
+            TtcChannel::N => "N",
+            TtcChannel::Sa => "SA",
+            TtcChannel::Ia => "IA",
+            TtcChannel::Rl => "RL",
+            TtcChannel::Re => "RE",
+            TtcChannel::P => "P",
+            TtcChannel::Fx => "FX",
+            TtcChannel::Fy => "FY",
+            TtcChannel::Fz => "FZ",
+            TtcChannel::Mx => "MX",
+            TtcChannel::Mz => "MZ",
+            TtcChannel::Nfx => "NFX",
+            TtcChannel::Nfy => "NFY",
+            TtcChannel::Rst => "RST",
+            TtcChannel::Tsti => "TSTI",
+            TtcChannel::Tstc => "TSTC",
+            TtcChannel::Tsto => "TSTO",
+            TtcChannel::Ambtmp => "AMBTMP",
+            TtcChannel::Sr => "SR",
+            TtcChannel::Sl => "SL",
         }
     }
 
     /// Match a name case-insensitively, ignoring surrounding blanks.
     ///
     /// ```
-    /// use tirebase_core::ttc::Channel;
-    /// assert_eq!(Channel::from_name("AmbTmp"), Some(Channel::Ambtmp));
-    /// assert_eq!(Channel::from_name(" fz "), Some(Channel::Fz));
-    /// assert_eq!(Channel::from_name("RUN"), None);
+    /// use tirebase_core::ttc::TtcChannel;
+    /// assert_eq!(TtcChannel::from_name("AmbTmp"), Some(TtcChannel::Ambtmp));
+    /// assert_eq!(TtcChannel::from_name(" fz "), Some(TtcChannel::Fz));
+    /// assert_eq!(TtcChannel::from_name("RUN"), None);
     /// ```
-    pub fn from_name(name: &str) -> Option<Channel> {
+    pub fn from_name(name: &str) -> Option<TtcChannel> {
         let name = name.trim();
-        Channel::ALL
+        TtcChannel::ALL
             .into_iter()
             .find(|c| c.name().eq_ignore_ascii_case(name))
     }
@@ -148,33 +149,35 @@ impl Channel {
     /// What the channel measures.
     pub fn quantity(self) -> Quantity {
         match self {
-            Channel::Et => Quantity::Time,
-            Channel::V => Quantity::RoadSpeed,
-            Channel::N => Quantity::WheelSpeed,
-            Channel::Sa | Channel::Ia => Quantity::Angle,
-            Channel::Rl | Channel::Re => Quantity::Length,
-            Channel::P => Quantity::Pressure,
-            Channel::Fx | Channel::Fy | Channel::Fz => Quantity::Force,
-            Channel::Mx | Channel::Mz => Quantity::Moment,
-            Channel::Nfx | Channel::Nfy | Channel::Sr | Channel::Sl => Quantity::Ratio,
-            Channel::Rst | Channel::Tsti | Channel::Tstc | Channel::Tsto | Channel::Ambtmp => {
-                Quantity::Temperature
-            }
+            TtcChannel::Et => Quantity::Time,
+            TtcChannel::V => Quantity::RoadSpeed,
+            TtcChannel::N => Quantity::WheelSpeed,
+            TtcChannel::Sa | TtcChannel::Ia => Quantity::Angle,
+            TtcChannel::Rl | TtcChannel::Re => Quantity::Length,
+            TtcChannel::P => Quantity::Pressure,
+            TtcChannel::Fx | TtcChannel::Fy | TtcChannel::Fz => Quantity::Force,
+            TtcChannel::Mx | TtcChannel::Mz => Quantity::Moment,
+            TtcChannel::Nfx | TtcChannel::Nfy | TtcChannel::Sr | TtcChannel::Sl => Quantity::Ratio,
+            TtcChannel::Rst
+            | TtcChannel::Tsti
+            | TtcChannel::Tstc
+            | TtcChannel::Tsto
+            | TtcChannel::Ambtmp => Quantity::Temperature,
         }
     }
 
     /// Whether a run file must contain this channel.
     pub fn is_required(self) -> bool {
-        Channel::REQUIRED.contains(&self)
+        TtcChannel::REQUIRED.contains(&self)
     }
 
     /// Parse a unit string written for this channel: it must be a known spelling of a unit of
     /// the channel's quantity. The error text lists the accepted spellings.
     ///
     /// ```
-    /// use tirebase_core::ttc::{Channel, Unit};
-    /// assert_eq!(Channel::Fz.parse_unit("lb"), Ok(Unit::PoundForce));
-    /// let err = Channel::Fz.parse_unit("psi").unwrap_err();
+    /// use tirebase_core::ttc::{TtcChannel, Unit};
+    /// assert_eq!(TtcChannel::Fz.parse_unit("lb"), Ok(Unit::PoundForce));
+    /// let err = TtcChannel::Fz.parse_unit("psi").unwrap_err();
     /// assert!(err.to_string().contains("measures Pressure"));
     /// ```
     pub fn parse_unit(self, unit_raw: &str) -> Result<Unit, UnitError> {
@@ -239,10 +242,10 @@ mod tests {
 
     #[test]
     fn names_round_trip_and_fallback_units_fit_their_channel() {
-        for channel in Channel::ALL {
-            assert_eq!(Channel::from_name(channel.name()), Some(channel));
+        for channel in TtcChannel::ALL {
+            assert_eq!(TtcChannel::from_name(channel.name()), Some(channel));
             assert_eq!(
-                Channel::from_name(&channel.name().to_ascii_lowercase()),
+                TtcChannel::from_name(&channel.name().to_ascii_lowercase()),
                 Some(channel)
             );
             let spelled = Unit::parse(channel.si_fallback_spelling()).unwrap();

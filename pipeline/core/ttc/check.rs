@@ -25,7 +25,7 @@
 
 use std::fmt;
 
-use super::{Channel, RunTable};
+use super::{RunTable, TtcChannel};
 use crate::numerics::stats::finite_median_high;
 
 /// Road speed above which the wheel rolls for these checks, km/h.
@@ -73,7 +73,7 @@ pub enum UnitAction {
 /// One finding of the cross-check.
 #[derive(Clone, Debug, PartialEq)]
 pub struct UnitNote {
-    pub channel: Channel,
+    pub channel: TtcChannel,
     pub action: UnitAction,
     /// What was measured (one line).
     pub evidence: String,
@@ -106,7 +106,7 @@ impl fmt::Display for UnitNote {
 }
 
 /// The metres per unit of the unit a channel was read in (cm when unknown).
-fn read_unit(t: &RunTable, channel: Channel) -> (String, f64) {
+fn read_unit(t: &RunTable, channel: TtcChannel) -> (String, f64) {
     let info = t.meta.columns.iter().find(|c| c.channel == Some(channel));
     let raw = info.map_or("cm".to_string(), |c| c.unit_raw.clone());
     let per = info
@@ -126,7 +126,7 @@ pub(crate) fn cross_check(t: &mut RunTable) -> Vec<UnitNote> {
     let evidence = rolling.iter().filter(|r| **r).count() as f64 / rate_hz;
     if evidence >= MIN_EVIDENCE_S {
         let kinematic = check_wheel_speed(t, &rolling, &mut notes);
-        for channel in [Channel::Re, Channel::Rl] {
+        for channel in [TtcChannel::Re, TtcChannel::Rl] {
             check_radius(t, channel, &rolling, kinematic, &mut notes);
         }
     } else {
@@ -134,7 +134,7 @@ pub(crate) fn cross_check(t: &mut RunTable) -> Vec<UnitNote> {
         // a tire's radius range on the loaded samples (RE means nothing at standstill).
         let loaded: Vec<bool> = t.tire.fz_n.iter().map(|f| *f > LOADED_MIN_N).collect();
         if loaded.iter().filter(|l| **l).count() as f64 / rate_hz >= MIN_EVIDENCE_S {
-            check_radius(t, Channel::Rl, &loaded, None, &mut notes);
+            check_radius(t, TtcChannel::Rl, &loaded, None, &mut notes);
         }
     }
     range_checks(t, &mut notes);
@@ -168,7 +168,7 @@ fn check_wheel_speed(
     let rpm = finite_median_high(samples.iter().map(|&i| n_rpm[i])).unwrap_or(f64::NAN);
     let v = finite_median_high(samples.iter().map(|&i| t.speed_kph[i])).unwrap_or(f64::NAN);
     notes.push(UnitNote {
-        channel: Channel::N,
+        channel: TtcChannel::N,
         action: UnitAction::Withheld,
         evidence: format!(
             "V / (2 pi N / 60) within {}..{} m on {:.0} % of {} rolling samples (median N {rpm:.2} rpm at V {v:.1} km/h)",
@@ -185,13 +185,13 @@ fn check_wheel_speed(
 /// A radius channel against the kinematic radius (or, without one, a tire's radius range).
 fn check_radius(
     t: &mut RunTable,
-    channel: Channel,
+    channel: TtcChannel,
     rolling: &[bool],
     kinematic: Option<(f64, usize)>,
     notes: &mut Vec<UnitNote>,
 ) {
     let values = match channel {
-        Channel::Re => t.effective_radius_m.as_ref(),
+        TtcChannel::Re => t.effective_radius_m.as_ref(),
         _ => t.loaded_radius_m.as_ref(),
     };
     let Some(values) = values else {
@@ -210,7 +210,7 @@ fn check_radius(
         .count() as f64
         >= CONSISTENT_FRAC * samples.len() as f64;
     let (unit_raw, per_unit) = read_unit(t, channel);
-    let band = if channel == Channel::Re {
+    let band = if channel == TtcChannel::Re {
         RE_BAND
     } else {
         RL_BAND
@@ -264,7 +264,7 @@ fn check_radius(
         return;
     };
     let slot = match channel {
-        Channel::Re => &mut t.effective_radius_m,
+        TtcChannel::Re => &mut t.effective_radius_m,
         _ => &mut t.loaded_radius_m,
     };
     match &action {
@@ -284,31 +284,33 @@ fn check_radius(
 
 /// Range checks that keep the values: pressure, load, speed, temperatures.
 fn range_checks(t: &RunTable, notes: &mut Vec<UnitNote>) {
-    let mut check = |channel: Channel, values: Option<&Vec<f64>>, lo: f64, hi: f64, unit: &str| {
-        let Some(values) = values else {
-            return;
+    let mut check =
+        |channel: TtcChannel, values: Option<&Vec<f64>>, lo: f64, hi: f64, unit: &str| {
+            let Some(values) = values else {
+                return;
+            };
+            let Some(mid) = finite_median_high(values.iter().copied().filter(|v| v.abs() > 1.0))
+            else {
+                return;
+            };
+            if !(lo..=hi).contains(&mid) {
+                notes.push(UnitNote {
+                    channel,
+                    action: UnitAction::OutOfRange,
+                    evidence: format!("median {mid:.4} {unit}, expected {lo}..{hi} {unit}"),
+                });
+            }
         };
-        let Some(mid) = finite_median_high(values.iter().copied().filter(|v| v.abs() > 1.0)) else {
-            return;
-        };
-        if !(lo..=hi).contains(&mid) {
-            notes.push(UnitNote {
-                channel,
-                action: UnitAction::OutOfRange,
-                evidence: format!("median {mid:.4} {unit}, expected {lo}..{hi} {unit}"),
-            });
-        }
-    };
     let (p_lo, p_hi) = crate::physical::PRESSURE_KPA;
-    check(Channel::P, Some(&t.pressure_kpa), p_lo, p_hi, "kPa");
-    check(Channel::Fz, Some(&t.tire.fz_n), -15_000.0, 15_000.0, "N");
-    check(Channel::V, Some(&t.speed_kph), 0.0, 300.0, "km/h");
+    check(TtcChannel::P, Some(&t.pressure_kpa), p_lo, p_hi, "kPa");
+    check(TtcChannel::Fz, Some(&t.tire.fz_n), -15_000.0, 15_000.0, "N");
+    check(TtcChannel::V, Some(&t.speed_kph), 0.0, 300.0, "km/h");
     for (channel, values) in [
-        (Channel::Rst, t.road_temp_c.as_ref()),
-        (Channel::Tsti, t.tread_inner_temp_c.as_ref()),
-        (Channel::Tstc, t.tread_centre_temp_c.as_ref()),
-        (Channel::Tsto, t.tread_outer_temp_c.as_ref()),
-        (Channel::Ambtmp, t.ambient_temp_c.as_ref()),
+        (TtcChannel::Rst, t.road_temp_c.as_ref()),
+        (TtcChannel::Tsti, t.tread_inner_temp_c.as_ref()),
+        (TtcChannel::Tstc, t.tread_centre_temp_c.as_ref()),
+        (TtcChannel::Tsto, t.tread_outer_temp_c.as_ref()),
+        (TtcChannel::Ambtmp, t.ambient_temp_c.as_ref()),
     ] {
         check(channel, values, -40.0, 200.0, "degC");
     }
@@ -338,7 +340,7 @@ mod tests {
         }
         let notes = cross_check(&mut t);
         assert_eq!(notes.len(), 1, "{notes:?}");
-        assert_eq!(notes[0].channel, Channel::Re);
+        assert_eq!(notes[0].channel, TtcChannel::Re);
         let UnitAction::Rescaled {
             factor,
             actual_unit,
@@ -396,13 +398,13 @@ mod tests {
             *v = 0.3 * ((i % 7) as f64 - 3.0);
         }
         let notes = cross_check(&mut t);
-        let actions: Vec<(Channel, &UnitAction)> =
+        let actions: Vec<(TtcChannel, &UnitAction)> =
             notes.iter().map(|n| (n.channel, &n.action)).collect();
         assert_eq!(
             actions,
             [
-                (Channel::N, &UnitAction::Withheld),
-                (Channel::Re, &UnitAction::Withheld)
+                (TtcChannel::N, &UnitAction::Withheld),
+                (TtcChannel::Re, &UnitAction::Withheld)
             ]
         );
         assert!(t.effective_radius_m.is_none() && t.wheel_speed_rpm.is_none());
@@ -433,7 +435,7 @@ mod tests {
         assert_eq!(notes.len(), 1, "{notes:?}");
         assert_eq!(
             (notes[0].channel, &notes[0].action),
-            (Channel::Rl, &UnitAction::Withheld)
+            (TtcChannel::Rl, &UnitAction::Withheld)
         );
         assert!(notes[0].evidence.contains("no usable wheel speed"));
         assert!(t.loaded_radius_m.is_none());
@@ -449,7 +451,7 @@ mod tests {
         assert_eq!(notes.len(), 1);
         assert_eq!(
             (notes[0].channel, &notes[0].action),
-            (Channel::P, &UnitAction::OutOfRange)
+            (TtcChannel::P, &UnitAction::OutOfRange)
         );
         assert!((t.pressure_kpa[0] - 12.0).abs() < 0.5);
     }

@@ -7,9 +7,9 @@
 //! the virtual test machine (synth) makes realistic rounds; these only exercise the formats.
 //! Never real TTC data.
 
-use super::dat::{DatColumn, Line1, RoundStyle, render_dat};
+use super::dat::{DatColumn, Line1, RoundStyle, push_fixed, render_dat};
 use super::mat::{Compression, MatWriter};
-use super::{Channel, Unit};
+use super::{TtcChannel, Unit};
 
 /// The four header-and-unit conventions the examples come in: a round style and a unit system
 /// (see `shared/docs/ttc-format.md`).
@@ -48,72 +48,74 @@ impl ExampleStyle {
     }
 
     /// The unit string this style writes for `channel`.
-    pub fn unit(self, channel: Channel) -> &'static str {
+    pub fn unit(self, channel: TtcChannel) -> &'static str {
         let uscs = matches!(self, ExampleStyle::R4Uscs | ExampleStyle::R8Uscs);
         let r4 = self.round() == RoundStyle::R4;
         match channel {
-            Channel::Et => {
+            TtcChannel::Et => {
                 if r4 {
                     "sec"
                 } else {
                     "s"
                 }
             }
-            Channel::V => {
+            TtcChannel::V => {
                 if uscs {
                     "mph"
                 } else {
                     "kph"
                 }
             }
-            Channel::N => "rpm",
-            Channel::Sa | Channel::Ia => "deg",
-            Channel::Rl | Channel::Re => {
+            TtcChannel::N => "rpm",
+            TtcChannel::Sa | TtcChannel::Ia => "deg",
+            TtcChannel::Rl | TtcChannel::Re => {
                 if uscs {
                     "in"
                 } else {
                     "cm"
                 }
             }
-            Channel::P => {
+            TtcChannel::P => {
                 if uscs {
                     "psi"
                 } else {
                     "kPa"
                 }
             }
-            Channel::Fx | Channel::Fy | Channel::Fz => {
+            TtcChannel::Fx | TtcChannel::Fy | TtcChannel::Fz => {
                 if uscs {
                     "lb"
                 } else {
                     "N"
                 }
             }
-            Channel::Mx | Channel::Mz => match self {
+            TtcChannel::Mx | TtcChannel::Mz => match self {
                 ExampleStyle::R9Si => "Nm",
                 ExampleStyle::R4Si => "N-m",
                 _ => "ft-lb",
             },
-            Channel::Nfx | Channel::Nfy => "none",
-            Channel::Rst | Channel::Tsti | Channel::Tstc | Channel::Tsto => match self {
-                ExampleStyle::R4Uscs => "deg F",
-                ExampleStyle::R4Si => "deg C",
-                ExampleStyle::R8Uscs => "deg f",
-                ExampleStyle::R9Si => "deg c",
-            },
-            Channel::Ambtmp => match self {
+            TtcChannel::Nfx | TtcChannel::Nfy => "none",
+            TtcChannel::Rst | TtcChannel::Tsti | TtcChannel::Tstc | TtcChannel::Tsto => {
+                match self {
+                    ExampleStyle::R4Uscs => "deg F",
+                    ExampleStyle::R4Si => "deg C",
+                    ExampleStyle::R8Uscs => "deg f",
+                    ExampleStyle::R9Si => "deg c",
+                }
+            }
+            TtcChannel::Ambtmp => match self {
                 ExampleStyle::R4Uscs | ExampleStyle::R4Si => "deg F",
                 ExampleStyle::R8Uscs => "deg f",
                 ExampleStyle::R9Si => "deg c",
             },
-            Channel::Sr => {
+            TtcChannel::Sr => {
                 if r4 {
                     "none"
                 } else {
                     "SAE"
                 }
             }
-            Channel::Sl => "SAE",
+            TtcChannel::Sl => "SAE",
         }
     }
 
@@ -147,60 +149,62 @@ impl ExampleStyle {
 }
 
 /// Decimals per channel, as TIRF writes them.
-fn decimals(channel: Channel) -> usize {
+fn decimals(channel: TtcChannel) -> u8 {
     match channel {
-        Channel::Et | Channel::Sa | Channel::Ia => 3,
-        Channel::Nfx | Channel::Nfy | Channel::Sr | Channel::Sl => 4,
+        TtcChannel::Et | TtcChannel::Sa | TtcChannel::Ia => 3,
+        TtcChannel::Nfx | TtcChannel::Nfy | TtcChannel::Sr | TtcChannel::Sl => 4,
         _ => 2,
     }
 }
 
 /// The example signal of `channel` at sample `i`, canonical units (s, km/h, rpm, rad, m, kPa,
 /// N, N m, degC, 1), SAE axes.
-pub fn example_value(channel: Channel, i: usize, rate_hz: f64) -> f64 {
+pub fn example_value(channel: TtcChannel, i: usize, rate_hz: f64) -> f64 {
     let t = i as f64 / rate_hz;
     let sa_deg = 12.0 * (t * 0.5).sin();
     let fz = -1112.06 + 30.0 * (t * 3.0).sin();
     let fy = -2.4 * fz * (sa_deg.to_radians() * 8.0).atan().sin();
     let fx = 40.0 * (t * 0.7).cos();
     match channel {
-        Channel::Et => 26.84 + t,
-        Channel::V => 40.2336 + 0.2 * (t * 2.0).sin(),
+        TtcChannel::Et => 26.84 + t,
+        TtcChannel::V => 40.2336 + 0.2 * (t * 2.0).sin(),
         // Consistent with V and RE (= 0.21 m): N = V / RE * 60 / (2 pi).
-        Channel::N => (40.2336 + 0.2 * (t * 2.0).sin()) / 3.6 / 0.21 * 60.0 / std::f64::consts::TAU,
-        Channel::Sa => sa_deg.to_radians(),
-        Channel::Ia => (f64::from((i / 500 % 5) as u32)).to_radians(),
-        Channel::Rl => 0.2 + 0.001 * (t * 3.0).sin(),
-        Channel::Re => 0.21,
-        Channel::P => 82.7 + 0.3 * (t * 0.1).sin(),
-        Channel::Fx => fx,
-        Channel::Fy => fy,
-        Channel::Fz => fz,
-        Channel::Mx => -0.02 * fy,
-        Channel::Mz => -0.015 * fy * (1.0 - (sa_deg / 12.0).abs()),
-        Channel::Nfx => fx / fz,
-        Channel::Nfy => fy / fz,
-        Channel::Rst => 30.0,
-        Channel::Tsti => 55.0 + 10.0 * (t * 0.05).sin(),
-        Channel::Tstc => 50.0 + 10.0 * (t * 0.05).sin(),
-        Channel::Tsto => 45.0 + 10.0 * (t * 0.05).sin(),
-        Channel::Ambtmp => 24.0,
-        Channel::Sr => 0.02 * (t * 0.3).sin() + 0.003,
-        Channel::Sl => 0.02 * (t * 0.3).sin(),
+        TtcChannel::N => {
+            (40.2336 + 0.2 * (t * 2.0).sin()) / 3.6 / 0.21 * 60.0 / std::f64::consts::TAU
+        }
+        TtcChannel::Sa => sa_deg.to_radians(),
+        TtcChannel::Ia => (f64::from((i / 500 % 5) as u32)).to_radians(),
+        TtcChannel::Rl => 0.2 + 0.001 * (t * 3.0).sin(),
+        TtcChannel::Re => 0.21,
+        TtcChannel::P => 82.7 + 0.3 * (t * 0.1).sin(),
+        TtcChannel::Fx => fx,
+        TtcChannel::Fy => fy,
+        TtcChannel::Fz => fz,
+        TtcChannel::Mx => -0.02 * fy,
+        TtcChannel::Mz => -0.015 * fy * (1.0 - (sa_deg / 12.0).abs()),
+        TtcChannel::Nfx => fx / fz,
+        TtcChannel::Nfy => fy / fz,
+        TtcChannel::Rst => 30.0,
+        TtcChannel::Tsti => 55.0 + 10.0 * (t * 0.05).sin(),
+        TtcChannel::Tstc => 50.0 + 10.0 * (t * 0.05).sin(),
+        TtcChannel::Tsto => 45.0 + 10.0 * (t * 0.05).sin(),
+        TtcChannel::Ambtmp => 24.0,
+        TtcChannel::Sr => 0.02 * (t * 0.3).sin() + 0.003,
+        TtcChannel::Sl => 0.02 * (t * 0.3).sin(),
     }
 }
 
 /// The columns of an example run: the 21 standard channels (22 with `with_sl`), in file units.
 pub fn example_columns(style: ExampleStyle, rows: usize, with_sl: bool) -> Vec<DatColumn> {
     let rate = style.sample_rate_hz();
-    Channel::ALL
+    TtcChannel::ALL
         .into_iter()
-        .filter(|c| with_sl || *c != Channel::Sl)
+        .filter(|c| with_sl || *c != TtcChannel::Sl)
         .map(|channel| {
             let unit_text = style.unit(channel);
             let unit = Unit::parse(unit_text).expect("style units are known spellings");
             let name = match (channel, style) {
-                (Channel::Ambtmp, ExampleStyle::R8Uscs | ExampleStyle::R9Si) => "AmbTmp",
+                (TtcChannel::Ambtmp, ExampleStyle::R8Uscs | ExampleStyle::R9Si) => "AmbTmp",
                 _ => channel.name(),
             };
             DatColumn {
@@ -231,7 +235,10 @@ pub fn example_mat(rows: usize, compression: Compression) -> Vec<u8> {
             .values
             .iter()
             .map(|v| {
-                format!("{:.*}", column.decimals, v)
+                let mut text = Vec::new();
+                push_fixed(&mut text, *v, column.decimals);
+                String::from_utf8(text)
+                    .expect("ASCII digits")
                     .parse()
                     .expect("number")
             })

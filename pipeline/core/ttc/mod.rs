@@ -57,7 +57,7 @@ mod tests;
 
 use crate::frame::{IsoW, TireChannels};
 
-pub use channel::{Channel, UnitError};
+pub use channel::{TtcChannel, UnitError};
 pub use dat::read_dat;
 pub use error::TtcError;
 pub use mat::read_mat;
@@ -105,7 +105,7 @@ pub struct ColumnInfo {
     /// The name as written in the file (`AmbTmp`, `FZ`, `RUN`).
     pub name: String,
     /// The channel it was recognised as; `None` for extra channels.
-    pub channel: Option<Channel>,
+    pub channel: Option<TtcChannel>,
     /// The unit string as written (`deg f`, `N-m`), or the fallback spelling for `.mat` files
     /// without a `channel` struct entry.
     pub unit_raw: String,

@@ -25,32 +25,32 @@ fn assert_close(what: &str, got: f64, want: f64, abs_tol: f64) {
 
 /// The canonical-unit column a RunTable holds for `channel`, in the file's frame convention
 /// undone (i.e. back in SAE) so it compares with `example_value`.
-fn sae_column(run: &RunTable, channel: Channel) -> Vec<f64> {
+fn sae_column(run: &RunTable, channel: TtcChannel) -> Vec<f64> {
     let neg = |v: &[f64]| v.iter().map(|x| -x).collect::<Vec<_>>();
     let t = &run.tire;
     match channel {
-        Channel::Et => run.et_s.clone(),
-        Channel::V => run.speed_kph.clone(),
-        Channel::N => run.wheel_speed_rpm.clone().unwrap(),
-        Channel::Sa => neg(&t.alpha_rad),
-        Channel::Ia => t.gamma_rad.clone(),
-        Channel::Rl => run.loaded_radius_m.clone().unwrap(),
-        Channel::Re => run.effective_radius_m.clone().unwrap(),
-        Channel::P => run.pressure_kpa.clone(),
-        Channel::Fx => t.fx_n.clone(),
-        Channel::Fy => neg(&t.fy_n),
-        Channel::Fz => neg(&t.fz_n),
-        Channel::Mx => t.mx_nm.clone(),
-        Channel::Mz => neg(&t.mz_nm),
-        Channel::Nfx => run.nfx.clone().unwrap(),
-        Channel::Nfy => run.nfy.clone().unwrap(),
-        Channel::Rst => run.road_temp_c.clone().unwrap(),
-        Channel::Tsti => run.tread_inner_temp_c.clone().unwrap(),
-        Channel::Tstc => run.tread_centre_temp_c.clone().unwrap(),
-        Channel::Tsto => run.tread_outer_temp_c.clone().unwrap(),
-        Channel::Ambtmp => run.ambient_temp_c.clone().unwrap(),
-        Channel::Sr => run.sr.clone().unwrap(),
-        Channel::Sl => run.sl.clone().unwrap(),
+        TtcChannel::Et => run.et_s.clone(),
+        TtcChannel::V => run.speed_kph.clone(),
+        TtcChannel::N => run.wheel_speed_rpm.clone().unwrap(),
+        TtcChannel::Sa => neg(&t.alpha_rad),
+        TtcChannel::Ia => t.gamma_rad.clone(),
+        TtcChannel::Rl => run.loaded_radius_m.clone().unwrap(),
+        TtcChannel::Re => run.effective_radius_m.clone().unwrap(),
+        TtcChannel::P => run.pressure_kpa.clone(),
+        TtcChannel::Fx => t.fx_n.clone(),
+        TtcChannel::Fy => neg(&t.fy_n),
+        TtcChannel::Fz => neg(&t.fz_n),
+        TtcChannel::Mx => t.mx_nm.clone(),
+        TtcChannel::Mz => neg(&t.mz_nm),
+        TtcChannel::Nfx => run.nfx.clone().unwrap(),
+        TtcChannel::Nfy => run.nfy.clone().unwrap(),
+        TtcChannel::Rst => run.road_temp_c.clone().unwrap(),
+        TtcChannel::Tsti => run.tread_inner_temp_c.clone().unwrap(),
+        TtcChannel::Tstc => run.tread_centre_temp_c.clone().unwrap(),
+        TtcChannel::Tsto => run.tread_outer_temp_c.clone().unwrap(),
+        TtcChannel::Ambtmp => run.ambient_temp_c.clone().unwrap(),
+        TtcChannel::Sr => run.sr.clone().unwrap(),
+        TtcChannel::Sl => run.sl.clone().unwrap(),
     }
 }
 
@@ -64,7 +64,7 @@ fn every_round_style_reads_back_in_si_and_iso_w() {
             assert_eq!(run.len(), rows);
             let rate = style.sample_rate_hz();
             for column in example_columns(style, rows, with_sl) {
-                let channel = Channel::from_name(&column.name).unwrap();
+                let channel = TtcChannel::from_name(&column.name).unwrap();
                 let unit = Unit::parse(&column.unit).unwrap();
                 // Half a unit in the last written decimal, converted to canonical units.
                 let step = 0.5 * 10f64.powi(-(column.decimals as i32));
@@ -583,7 +583,7 @@ fn mat_run_equals_the_dat_run_of_the_same_data() {
 #[test]
 fn mat_without_channel_struct_falls_back_to_si_and_says_so() {
     let mut writer = MatWriter::new("MATLAB 5.0 MAT-file");
-    for channel in Channel::ALL {
+    for channel in TtcChannel::ALL {
         let values: Vec<f64> = (0..5)
             .map(|i| {
                 channel
@@ -614,10 +614,10 @@ fn mat_without_channel_struct_falls_back_to_si_and_says_so() {
 #[test]
 fn mat_sl_all_zero_means_kappa_not_measured() {
     let mut writer = MatWriter::new("MATLAB 5.0 MAT-file");
-    for channel in Channel::ALL {
+    for channel in TtcChannel::ALL {
         let values: Vec<f64> = (0..5)
             .map(|i| match channel {
-                Channel::Sl => 0.0,
+                TtcChannel::Sl => 0.0,
                 _ => channel
                     .si_fallback_unit()
                     .from_canonical(example_value(channel, i, 100.0)),

@@ -22,7 +22,7 @@ use crate::tire_model::{MagicFormula, Version};
 
 /// One tested pressure's PAC2002 result.
 #[derive(Clone, Debug, PartialEq)]
-pub struct PressureModel {
+pub struct Pac2002AtPressure {
     /// Inflation pressure the model describes, Pa.
     pub p_pa: f64,
     /// The PAC2002 fit.
@@ -86,7 +86,7 @@ pub struct Start {
 }
 
 /// The lifted (MF 6.1) coefficients of one PAC2002 model at its own pressure.
-fn lift(m: &PressureModel) -> Option<Coefs<f64>> {
+fn lift(m: &Pac2002AtPressure) -> Option<Coefs<f64>> {
     let file = TirFile::from_coefs(m.model.coefs.clone());
     convert::convert(&file, Version::Mf61, Some(m.p_pa))
         .ok()
@@ -94,7 +94,7 @@ fn lift(m: &PressureModel) -> Option<Coefs<f64>> {
 }
 
 /// Build the start. `models` must not be empty.
-pub fn start(models: &[PressureModel], nominal_pa: f64) -> Start {
+pub fn start(models: &[Pac2002AtPressure], nominal_pa: f64) -> Start {
     let mut notes = Vec::new();
     let reference = (0..models.len())
         .min_by(|&a, &b| {

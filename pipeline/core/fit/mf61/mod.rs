@@ -52,7 +52,7 @@ use crate::tire_model::params::{Coef, Coef::*};
 use crate::tire_model::{Channel, Evaluation, MagicFormula, Pressures, Version};
 
 pub use data::{CollapseConfig, Mf61Sample, Mf61Sweep, Point};
-pub use initial::PressureModel;
+pub use initial::Pac2002AtPressure;
 use problem::{FIT_MODE, FamilyData, Mf61FamilyProblem};
 
 /// One tested pressure.
@@ -64,7 +64,7 @@ pub struct PressureGroup {
     pub sweeps: Vec<Mf61Sweep>,
     /// Its PAC2002 fit and spring-rate results (`None`: the group's PAC2002 fit failed; its
     /// sweeps still count).
-    pub pac2002: Option<PressureModel>,
+    pub pac2002: Option<Pac2002AtPressure>,
 }
 
 /// Everything one MF 6.1 fit needs.
@@ -664,7 +664,7 @@ fn rmse_of(model: &MagicFormula, channel: Channel, d: &FamilyData) -> f64 {
 }
 
 fn fit_points(
-    models: &[PressureModel],
+    models: &[Pac2002AtPressure],
     points: &[Point],
     nominal_pa: f64,
     pressures_pa: (f64, f64),
@@ -934,7 +934,7 @@ pub struct CollapsedGroup {
     /// Its collapsed points.
     pub points: Vec<Point>,
     /// Its PAC2002 fit and spring-rate results (`None`: the group's PAC2002 fit failed).
-    pub pac2002: Option<PressureModel>,
+    pub pac2002: Option<Pac2002AtPressure>,
 }
 
 /// Collapse one tested pressure's sweeps (as [`fit`] does).
@@ -1004,7 +1004,7 @@ pub fn fit_collapsed(
             (PRESMIN.default_value(), PRESMAX.default_value())
         }
     };
-    let models_of = |skip: Option<usize>| -> Vec<PressureModel> {
+    let models_of = |skip: Option<usize>| -> Vec<Pac2002AtPressure> {
         groups
             .iter()
             .enumerate()

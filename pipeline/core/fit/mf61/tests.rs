@@ -99,7 +99,7 @@ fn sweeps(model: &MagicFormula, p: f64) -> Vec<Mf61Sweep> {
 }
 
 /// The truth as PAC2002 at pressure `p`, disturbed.
-fn pac2002_start(model: &MagicFormula, p: f64) -> PressureModel {
+fn pac2002_start(model: &MagicFormula, p: f64) -> Pac2002AtPressure {
     let file = TirFile::from_coefs_as(model.coefs.clone(), Version::Mf61);
     let mut c = convert::convert(&file, Version::Pac2002, Some(p))
         .unwrap()
@@ -109,7 +109,7 @@ fn pac2002_start(model: &MagicFormula, p: f64) -> PressureModel {
     c[PKY1] *= 0.96;
     c[PDX1] *= 0.97;
     c[QDZ1] *= 1.05;
-    PressureModel {
+    Pac2002AtPressure {
         p_pa: p,
         model: MagicFormula::new(c),
         vertical_stiffness_n_per_m: Some(100e3 * (1.0 + 0.75 * (p - P0) / P0)),
@@ -170,6 +170,32 @@ fn envelope_error(fit: &MagicFormula, truth: &MagicFormula, p: f64) -> [f64; 3] 
     [0, 1, 2].map(|k| (sq[k] / n).sqrt() / peak[k])
 }
 
+/// The MF 6.1 model alone: no k-fold or leave-one-pressure-out refits.
+pub(super) fn model_only() -> Mf61Config {
+    Mf61Config {
+        leave_one_pressure_out: false,
+        kfold: 0,
+        ..Mf61Config::default()
+    }
+}
+
+/// One line per family: points, free coefficients, RMSE against its start's, how the solver
+/// stopped.
+pub(super) fn print_families(fit: &Mf61Fit) {
+    for f in &fit.families {
+        println!(
+            "{}: n {} free {} rmse {:.4e} (start {:.4e}) {:?} {} it",
+            f.family.name(),
+            f.n,
+            f.free.len(),
+            f.rmse,
+            f.initial_rmse,
+            f.termination,
+            f.iterations
+        );
+    }
+}
+
 /// Issue 19: four pressures of a known MF 6.1 tire: the fit is within 1 % of peak (RMS over
 /// the envelope, Fx, Fy, Mz) at every pressure, the leave-one-pressure-out quality is reported
 /// for every pressure and output, and the pressure terms come out near the truth's.
@@ -190,18 +216,7 @@ fn recovers_a_known_mf61_tire_across_four_pressures() {
         );
         assert!(e.iter().all(|x| *x < 0.01), "{k} kPa: {e:?}");
     }
-    for f in &fit.families {
-        println!(
-            "{}: n {} free {} rmse {:.3e} (start {:.3e}) {:?} {} it",
-            f.family.name(),
-            f.n,
-            f.free.len(),
-            f.rmse,
-            f.initial_rmse,
-            f.termination,
-            f.iterations
-        );
-    }
+    print_families(&fit);
     for q in &fit.quality {
         println!(
             "{} kPa {}: in {:.3} % out {:.3?} %",
@@ -246,11 +261,7 @@ fn predicts_a_left_out_pressure() {
     let truth = truth();
     for (left_out, kept) in [(97, [55, 69, 83]), (69, [55, 83, 97])] {
         let input = input(&truth, &kept);
-        let cfg = Mf61Config {
-            leave_one_pressure_out: false,
-            kfold: 0,
-            ..Mf61Config::default()
-        };
+        let cfg = model_only();
         let mut fit = fit(&input, &cfg).unwrap();
         fit.model.coefs[PRESMIN] = PRESMIN.default_value();
         fit.model.coefs[PRESMAX] = PRESMAX.default_value();

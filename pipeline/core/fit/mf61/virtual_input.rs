@@ -12,7 +12,7 @@
 
 use std::collections::BTreeMap;
 
-use crate::fit::mf61::{Mf61Input, Mf61Sweep, PressureGroup, PressureModel};
+use crate::fit::mf61::{Mf61Input, Mf61Sweep, Pac2002AtPressure, PressureGroup};
 use crate::fit::pac2002::{self, FitConfig, FitInput, Sweep, SweepKind};
 use crate::fit::segment_data::{MeasuredSegment, TireKey};
 use crate::fit::spring_rate::{self, SpringRateConfig};
@@ -167,7 +167,7 @@ fn pressure_group(key: &TireKey, segs: &[MeasuredSegment]) -> (PressureGroup, Ve
     let group = PressureGroup {
         pressure_kpa_nom: key.pressure_kpa_nom,
         sweeps: sweeps.into_iter().map(|(m, _)| m).collect(),
-        pac2002: pac.map(|f| PressureModel {
+        pac2002: pac.map(|f| Pac2002AtPressure {
             p_pa,
             model: f.model,
             vertical_stiffness_n_per_m: vertical.map(|v| v.vertical_stiffness_n_per_m),

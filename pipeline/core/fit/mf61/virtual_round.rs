@@ -3,36 +3,10 @@
 //! ([`super::virtual_input`]): the fitted model against the truth over each pressure's tested
 //! envelope (issue 19). Test-only.
 
+use super::tests::{model_only, print_families};
 use super::virtual_input::prepare;
 use super::*;
 use crate::tire_model::{Mode, SlipInput};
-
-/// RMS error of `fitted` against `truth` over `points` at `p_pa`, % of the truth's peak:
-/// `[Fx, Fy, Mz]`.
-fn envelope_error(
-    truth: &MagicFormula,
-    fitted: &MagicFormula,
-    points: &[SlipInput],
-    p_pa: f64,
-) -> [f64; 3] {
-    let vx = truth.coefs[LONGVL];
-    let mut ss = [0.0; 3];
-    let mut peak = [0.0_f64; 3];
-    for pt in points {
-        let pt = SlipInput { vx_mps: vx, ..*pt };
-        let t = truth.eval_at(&pt, p_pa, Mode::Limits);
-        let f = fitted.eval_at(&pt, p_pa, Mode::Limits);
-        for (k, (a, b)) in [(t.fx_n, f.fx_n), (t.fy_n, f.fy_n), (t.mz_nm, f.mz_nm)]
-            .into_iter()
-            .enumerate()
-        {
-            ss[k] += (b - a).powi(2);
-            peak[k] = peak[k].max(a.abs());
-        }
-    }
-    let n = points.len() as f64;
-    std::array::from_fn(|k| 100.0 * (ss[k] / n).sqrt() / peak[k])
-}
 
 fn show(e: [f64; 3]) -> String {
     format!("Fx {:.3} %, Fy {:.3} %, Mz {:.3} %", e[0], e[1], e[2])
@@ -48,24 +22,9 @@ fn mf61_truth_round_is_recovered_and_a_left_out_pressure_predicted() {
     let prep = prepare(1, 7.0);
     let pressures: Vec<i64> = prep.envelopes.keys().copied().collect();
     assert_eq!(pressures.len(), 4, "{pressures:?}");
-    let cfg = Mf61Config {
-        leave_one_pressure_out: false,
-        kfold: 0,
-        ..Mf61Config::default()
-    };
+    let cfg = model_only();
     let full = fit(&prep.input, &cfg).expect("fit");
-    for f in &full.families {
-        println!(
-            "{}: n {} free {} rmse {:.3} (start {:.3}) {:?} {} it",
-            f.family.name(),
-            f.n,
-            f.free.len(),
-            f.rmse,
-            f.initial_rmse,
-            f.termination,
-            f.iterations
-        );
-    }
+    print_families(&full);
     for n in &full.notes {
         println!("note: {n}");
     }
@@ -79,7 +38,9 @@ fn mf61_truth_round_is_recovered_and_a_left_out_pressure_predicted() {
     }
     let mut violations = Vec::new();
     for (k, (p_pa, points)) in &prep.envelopes {
-        let e = envelope_error(&prep.truth, &full.model, points, *p_pa);
+        let e = prep
+            .truth
+            .rms_error_pct_of_peak(&full.model, points, Some(*p_pa));
         println!("{k} kPa, all pressures: {}", show(e));
         if e.iter().any(|x| x.is_nan() || *x > 1.0) {
             violations.push(format!("{k} kPa in sample: {}", show(e)));
@@ -93,7 +54,9 @@ fn mf61_truth_round_is_recovered_and_a_left_out_pressure_predicted() {
         held.model.coefs[PRESMIN] = PRESMIN.default_value();
         held.model.coefs[PRESMAX] = PRESMAX.default_value();
         let (p_pa, points) = &prep.envelopes[left_out];
-        let e = envelope_error(&prep.truth, &held.model, points, *p_pa);
+        let e = prep
+            .truth
+            .rms_error_pct_of_peak(&held.model, points, Some(*p_pa));
         println!("{left_out} kPa left out: {}", show(e));
         let limits = [3.0, 3.0, 6.0];
         if e.iter().zip(limits).any(|(x, l)| x.is_nan() || *x > l) {
@@ -112,11 +75,7 @@ fn mf61_truth_round_is_recovered_and_a_left_out_pressure_predicted() {
 fn combined_mz_diagnostic() {
     use crate::synth::tires::TruthForm;
     let prep = super::virtual_input::prepare_with(1, 7.0, TruthForm::Pac2002);
-    let cfg = Mf61Config {
-        leave_one_pressure_out: false,
-        kfold: 0,
-        ..Mf61Config::default()
-    };
+    let cfg = model_only();
     let full = fit(&prep.input, &cfg).expect("fit");
     for f in &full.families {
         println!(

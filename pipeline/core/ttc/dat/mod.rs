@@ -18,12 +18,12 @@ mod write;
 
 use std::io::Read;
 
-pub use write::{DatColumn, Line1, RoundStyle, render_dat};
+pub use write::{DatColumn, Line1, RoundStyle, push_fixed, render_dat};
 
 use super::build::{SourceColumn, build};
 use super::error::{excerpt, printable};
 use super::float::{parse_f64, scan_fixed_decimal};
-use super::{Channel, ColumnInfo, RunMeta, RunTable, SourceFormat, TtcError, Unit};
+use super::{ColumnInfo, RunMeta, RunTable, SourceFormat, TtcChannel, TtcError, Unit};
 
 /// Line 1 must start with this (case-insensitive).
 const LINE1_PREFIX: &str = "TIRF Data File";
@@ -230,9 +230,9 @@ fn check_required(names: &[String], source_name: &str) -> Result<(), TtcError> {
             ),
         });
     }
-    let missing = Channel::REQUIRED
+    let missing = TtcChannel::REQUIRED
         .into_iter()
-        .find(|c| !names.iter().any(|n| Channel::from_name(n) == Some(*c)));
+        .find(|c| !names.iter().any(|n| TtcChannel::from_name(n) == Some(*c)));
     match missing {
         Some(channel) => Err(TtcError::MissingChannel {
             source_name: source_name.to_string(),
@@ -267,7 +267,7 @@ fn parse_units(
         .zip(units)
         .enumerate()
         .map(|(index, (name, unit_raw))| {
-            let channel = Channel::from_name(name);
+            let channel = TtcChannel::from_name(name);
             let unit = match channel {
                 Some(channel) => {
                     Some(

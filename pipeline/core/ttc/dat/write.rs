@@ -1,13 +1,14 @@
 //! `.dat` writer: columns -> TIRF ASCII bytes (the inverse of the reader).
 //!
-//! In: a [`Line1`] (round-style header fields) and [`DatColumn`]s (name, unit string, fixed
-//! decimals, values, in the file's own units and axes). Out: the bytes of a `.dat` file: line 1,
-//! names, units, then one tab-separated row per sample with LF endings, like Calspan's. Used by
-//! tests, benchmarks and the virtual test machine. Deliberately not here: unit or axis
+//! In: line 1 (a [`Line1`] of round-style header fields, or the virtual test machine's own
+//! header text) and [`DatColumn`]s (name, unit string, fixed decimals, values, in the file's own
+//! units and axes). Out: the bytes of a `.dat` file: line 1, names, units, then one
+//! tab-separated row per sample with LF endings, like Calspan's. Used by tests, benchmarks and
+//! the virtual test machine. Deliberately not here: unit or axis
 //! conversion (the caller writes what the file should contain) and spreadsheet damage (tests
 //! apply that to the bytes).
 
-use std::fmt::Write as _;
+use std::fmt::Display;
 
 /// Which round's header line and unit spellings a file imitates (see
 /// `shared/docs/ttc-format.md`).
@@ -91,32 +92,90 @@ pub struct DatColumn {
     pub name: String,
     /// Unit string as written on line 3 (`s`, `deg f`, `N-m`, ...).
     pub unit: String,
-    /// Digits after the decimal point.
-    pub decimals: usize,
+    /// Digits after the decimal point (at most 9).
+    pub decimals: u8,
+    /// Values in the file's units and axes.
     pub values: Vec<f64>,
 }
 
-/// Render a `.dat` file. Every column must have the same length (shorter columns end the rows
-/// early, which is the caller's bug; debug builds assert it).
-pub fn render_dat(line1: &Line1, columns: &[DatColumn]) -> Vec<u8> {
+/// Append `x` with exactly `decimals` decimals (no exponent, no `-0`; `decimals <= 9`).
+pub fn push_fixed(out: &mut Vec<u8>, x: f64, decimals: u8) {
+    let scale = 10f64.powi(i32::from(decimals));
+    let q = (x * scale).round();
+    let neg = q < 0.0;
+    let mut q = q.abs() as u64;
+    if neg && q != 0 {
+        out.push(b'-');
+    }
+    // Digits from the right into a stack buffer: fraction (zero-padded), point, integer part.
+    let mut buf = [0u8; 32];
+    let mut i = buf.len();
+    for _ in 0..decimals {
+        i -= 1;
+        buf[i] = b'0' + (q % 10) as u8;
+        q /= 10;
+    }
+    if decimals > 0 {
+        i -= 1;
+        buf[i] = b'.';
+    }
+    loop {
+        i -= 1;
+        buf[i] = b'0' + (q % 10) as u8;
+        q /= 10;
+        if q == 0 {
+            break;
+        }
+    }
+    out.extend_from_slice(&buf[i..]);
+}
+
+/// Render a `.dat` file: `line1`, channel names, units, then fixed-decimal rows ([`push_fixed`]);
+/// TAB separated, LF line endings, a final newline. Every column must have the same length
+/// (shorter columns are the caller's bug; debug builds assert it).
+pub fn render_dat(line1: &impl Display, columns: &[DatColumn]) -> Vec<u8> {
     let rows = columns.first().map_or(0, |c| c.values.len());
     debug_assert!(columns.iter().all(|c| c.values.len() == rows));
-    let mut text = String::with_capacity(64 + rows * columns.len() * 9);
-    let _ = writeln!(text, "{line1}");
+    let mut out = Vec::with_capacity(rows * columns.len() * 9 + 512);
+    out.extend_from_slice(line1.to_string().as_bytes());
+    out.push(b'\n');
     let names: Vec<&str> = columns.iter().map(|c| c.name.as_str()).collect();
+    out.extend_from_slice(names.join("\t").as_bytes());
+    out.push(b'\n');
     let units: Vec<&str> = columns.iter().map(|c| c.unit.as_str()).collect();
-    text.push_str(&names.join("\t"));
-    text.push('\n');
-    text.push_str(&units.join("\t"));
-    text.push('\n');
-    for row in 0..rows {
-        for (k, column) in columns.iter().enumerate() {
-            if k > 0 {
-                text.push('\t');
+    out.extend_from_slice(units.join("\t").as_bytes());
+    out.push(b'\n');
+    for r in 0..rows {
+        for (j, c) in columns.iter().enumerate() {
+            if j > 0 {
+                out.push(b'\t');
             }
-            let _ = write!(text, "{:.*}", column.decimals, column.values[row]);
+            push_fixed(&mut out, c.values[r], c.decimals);
         }
-        text.push('\n');
+        out.push(b'\n');
     }
-    text.into_bytes()
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fixed_decimals() {
+        let cases = [
+            (0.0, 3, "0.000"),
+            (-0.0001, 3, "0.000"),
+            (-1.23456, 2, "-1.23"),
+            (1234.5678, 3, "1234.568"),
+            (0.05, 1, "0.1"),
+            (-12.0, 0, "-12"),
+            (0.00049, 4, "0.0005"),
+        ];
+        for (x, d, want) in cases {
+            let mut out = Vec::new();
+            push_fixed(&mut out, x, d);
+            assert_eq!(String::from_utf8(out).unwrap(), want, "{x} with {d}");
+        }
+    }
 }

@@ -16,7 +16,7 @@ pub use write::{Compression, MatWriteError, MatWriter, ValueProblem};
 
 use super::build::{SourceColumn, build};
 use super::error::printable;
-use super::{Channel, ColumnInfo, RunMeta, RunTable, SourceFormat, TtcError, Unit};
+use super::{ColumnInfo, RunMeta, RunTable, SourceFormat, TtcChannel, TtcError, Unit};
 
 /// The class a numeric array had in MATLAB (storage may use a smaller type; values are `f64`).
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
@@ -223,7 +223,7 @@ fn run_from_variables(
 
     let rows = variables
         .iter()
-        .find(|v| Channel::from_name(&v.name) == Some(Channel::Et))
+        .find(|v| TtcChannel::from_name(&v.name) == Some(TtcChannel::Et))
         .ok_or_else(|| TtcError::MissingChannel {
             source_name: source_name.to_string(),
             location: "variables".to_string(),
@@ -250,7 +250,7 @@ fn run_from_variables(
         if name.is_empty() || META_VARIABLES.contains(&name.as_str()) {
             continue;
         }
-        let channel = Channel::from_name(&name);
+        let channel = TtcChannel::from_name(&name);
         let Some(data) = value.as_vector().filter(|d| d.len() == rows) else {
             let found = value.describe();
             if channel.is_some() {
