@@ -195,6 +195,9 @@ fn relaxation_segment(s: &LoadedSegment) -> bool {
 }
 
 /// The segment kinds any enabled stage reads (what a group's plan and hash cover).
+/// Not derived from [`plan`]: it filters rows before groups (and `has_relax_segments`) exist,
+/// and it is narrower than the steps (`--stages pac2002` leaves out the cold-to-warm and
+/// step-steer segments its de-lag relaxation step would read), so deriving it changes outputs.
 pub fn used_by(stages: &StageSet, kind: SegmentKind) -> bool {
     let pac = kind.is_matrix();
     let spring = spring_rate_kind(kind);
@@ -209,8 +212,9 @@ pub fn used_by(stages: &StageSet, kind: SegmentKind) -> bool {
         || (stages.relaxation && (relax || pac || spring))
 }
 
-/// `FNOMIN` as the PAC2002 stage chooses it: the middle nominal load of the cornering matrix
-/// (else of all matrix sweeps), levels closer than 2 % merged.
+/// `FNOMIN` as the PAC2002 stage chooses it ([`pac2002::middle_nominal_load`]), from the
+/// group's matrix segments before the stage collapses them (it may skip some sweeps, so the
+/// fitted `FNOMIN` can still differ: see [`Step::SpringRateAtFittedFnomin`]).
 pub fn middle_nominal_load(segments: &[&LoadedSegment]) -> Option<f64> {
     let loads_of = |cornering_only: bool| -> Vec<f64> {
         segments
@@ -220,21 +224,7 @@ pub fn middle_nominal_load(segments: &[&LoadedSegment]) -> Option<f64> {
             .filter_map(|s| s.segment.nominal.fz_n.map(|f| f as f64))
             .collect()
     };
-    let mut loads = loads_of(true);
-    if loads.is_empty() {
-        loads = loads_of(false);
-    }
-    loads.sort_by(f64::total_cmp);
-    let mut levels: Vec<f64> = Vec::new();
-    for l in loads {
-        if levels
-            .last()
-            .is_none_or(|last| l - last > 0.02 * last.abs().max(1.0))
-        {
-            levels.push(l);
-        }
-    }
-    (!levels.is_empty()).then(|| levels[(levels.len() - 1) / 2])
+    pac2002::middle_nominal_load(&loads_of(true), &loads_of(false))
 }
 
 /// The PAC2002 stage's view of the group's force-clean matrix segments.

@@ -62,7 +62,7 @@ use crate::tire_model::{Coef, Pac2002};
 pub use crate::numerics::nonlinear_least_squares::Identifiability;
 pub use family::Family;
 pub use quality::{OutOfSample, TREND_SUBDIVISIONS, TrendDeviation};
-pub use stage::fit;
+pub use stage::{fit, middle_nominal_load};
 
 /// A sweep's samples as this stage fits them: finite, in time order, despiked and, with
 /// `relaxation`, de-lagged (the MF 6.1 stage reads the same cleaned samples).

@@ -324,28 +324,15 @@ fn prepare_sweeps(input: &FitInput, cfg: &FitConfig) -> (Vec<CollapsedSweep>, Ve
     (kept, skipped)
 }
 
-/// `FNOMIN`, `LONGVL`, radius, stiffness and ranges; returns the envelope.
-fn set_scalars(
-    input: &FitInput,
-    sweeps: &[CollapsedSweep],
-    c: &mut Coefs<f64>,
-    origins: &mut Vec<(Coef, Option<Family>, CoefficientOrigin)>,
-    notes: &mut Vec<String>,
-) -> Result<Envelope, Pac2002Error> {
-    let ctx = &input.context;
-    // FNOMIN: middle nominal load of the cornering matrix (else of all sweeps).
-    let matrix: Vec<&CollapsedSweep> = {
-        let cornering: Vec<&CollapsedSweep> = sweeps
-            .iter()
-            .filter(|s| s.kind == SweepKind::Cornering)
-            .collect();
-        if cornering.is_empty() {
-            sweeps.iter().collect()
-        } else {
-            cornering
-        }
+/// `FNOMIN` as the fit chooses it: the middle nominal load level of the cornering sweeps
+/// (`cornering`), or of all sweeps (`all`) when there is no cornering sweep; levels closer
+/// than 2 % are merged. Loads in N; `None` when there is none.
+pub fn middle_nominal_load(cornering: &[f64], all: &[f64]) -> Option<f64> {
+    let mut loads = if cornering.is_empty() {
+        all.to_vec()
+    } else {
+        cornering.to_vec()
     };
-    let mut loads: Vec<f64> = matrix.iter().map(|s| s.nominal.fz_n).collect();
     loads.sort_by(f64::total_cmp);
     let mut levels: Vec<f64> = Vec::new();
     for l in loads {
@@ -356,7 +343,27 @@ fn set_scalars(
             levels.push(l);
         }
     }
-    let fz0 = levels[(levels.len() - 1) / 2];
+    (!levels.is_empty()).then(|| levels[(levels.len() - 1) / 2])
+}
+
+/// `FNOMIN`, `LONGVL`, radius, stiffness and ranges; returns the envelope.
+fn set_scalars(
+    input: &FitInput,
+    sweeps: &[CollapsedSweep],
+    c: &mut Coefs<f64>,
+    origins: &mut Vec<(Coef, Option<Family>, CoefficientOrigin)>,
+    notes: &mut Vec<String>,
+) -> Result<Envelope, Pac2002Error> {
+    let ctx = &input.context;
+    let loads = |cornering_only: bool| -> Vec<f64> {
+        sweeps
+            .iter()
+            .filter(|s| !cornering_only || s.kind == SweepKind::Cornering)
+            .map(|s| s.nominal.fz_n)
+            .collect()
+    };
+    let fz0 = middle_nominal_load(&loads(true), &loads(false))
+        .expect("fit() returns NoUsableSweeps before set_scalars when there is no sweep");
     c[FNOMIN] = fz0;
     c[LONGVL] = ctx.test_speed_mps;
     origins.push((FNOMIN, None, CoefficientOrigin::Data));
