@@ -15,7 +15,7 @@ use std::path::Path;
 use crate::schema::TableName;
 pub use crate::store::results::{GroupKey, TirModel};
 use crate::store::results::{
-    QualityRow, Results, ThermalFitRow, ThermalRow, read_tir_models, tir_names,
+    QualityRow, Results, ThermalFitRecord, ThermalRow, read_tir_models, tir_names,
 };
 
 /// Result tables a comparison reads (notes about the others are left out).
@@ -232,7 +232,7 @@ pub const MIN_THERMAL_GAIN: f64 = 0.01;
 pub fn thermal_window(results: &Results, key: &GroupKey) -> ThermalWindow {
     let finite = |v: f64| v.is_finite().then_some(v);
     let mut w = ThermalWindow::default();
-    let Some(fit): Option<&ThermalFitRow> = of_group(&results.thermal_fit, key, |f| {
+    let Some(fit): Option<&ThermalFitRecord> = of_group(&results.thermal_fit, key, |f| {
         (f.tire.as_str(), f.rim_in, f.pressure_kpa)
     })
     .next() else {
@@ -299,8 +299,8 @@ mod tests {
         QualityRow::pct_of_peak_only(tire, 83, channel, pct)
     }
 
-    fn thermal_fit(t_peak: f64, gain: f64, converged: bool) -> ThermalFitRow {
-        ThermalFitRow {
+    fn thermal_fit(t_peak: f64, gain: f64, converged: bool) -> ThermalFitRecord {
+        ThermalFitRecord {
             tire: "A".into(),
             rim_in: 7,
             pressure_kpa: 83,

@@ -64,7 +64,7 @@ fn model_label(model: FitModel) -> &'static str {
 }
 
 /// One coefficient of a written model: its row of the `coefficients` table (without the group
-/// columns), as the table is built (read back, it is `store::results::CoefficientRow`).
+/// columns), as the table is built (read back, it is `store::results::CoefficientRecord`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct WrittenCoefficient {
     /// The coefficient.

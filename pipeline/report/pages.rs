@@ -17,7 +17,7 @@ use super::plots;
 use super::selection::SelectionSection;
 use super::svg::{Plot, escape};
 use crate::compare::Comparison;
-use crate::store::results::{CoefficientRow, FitFailure, LintRow, QualityRow};
+use crate::store::results::{CoefficientRecord, FitFailure, LintRow, QualityRow};
 
 /// Rows of fit quality highlighted as the worst of the round.
 const WORST_FITS: usize = 3;
@@ -273,7 +273,7 @@ impl Tabular for FitFailure {
 }
 
 /// A coefficient at a bound, shown on its tire's page (the tire is the page's).
-impl Tabular for CoefficientRow {
+impl Tabular for CoefficientRecord {
     const COLUMNS: &'static [&'static str] = &[
         "rim_in",
         "pressure_kpa",

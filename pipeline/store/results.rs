@@ -122,9 +122,11 @@ impl fmt::Display for FitFailure {
     }
 }
 
-/// A row of `coefficients` as the report uses it.
+/// A row of the published `coefficients` table as read back for the report and `compare`, with
+/// its group columns; a non-finite `std_error` reads as not estimated, a null `at_bound` as false.
+/// The model writer's own form of the row (no group columns) is `fit::tir::WrittenCoefficient`.
 #[derive(Clone, Debug, PartialEq)]
-pub struct CoefficientRow {
+pub struct CoefficientRecord {
     pub tire: String,
     pub rim_in: i64,
     pub pressure_kpa: i64,
@@ -199,9 +201,11 @@ impl QualityRow {
     }
 }
 
-/// A row of `spring_rate` as the report uses it.
+/// A row of the published `spring_rate` table as read back for the report and `compare`: the
+/// columns they show, strings for the enums, `ia_deg_nom` `None` where the table holds -1. The
+/// row the stage computes (every column, typed) is `tirebase_core::fit::spring_rate::SpringRateRow`.
 #[derive(Clone, Debug, PartialEq)]
-pub struct SpringRateRow {
+pub struct SpringRateRecord {
     pub tire: String,
     pub rim_in: i64,
     pub pressure_kpa: i64,
@@ -226,9 +230,11 @@ pub struct ThermalRow {
     pub mu_peak: f64,
 }
 
-/// A row of `thermal_fit` as the report uses it.
+/// A row of the published `thermal_fit` table as read back for the report and `compare`: the
+/// columns they show, a null `converged` read as converged. The row the stage computes is
+/// `tirebase_core::fit::thermal::ThermalFitRow`.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ThermalFitRow {
+pub struct ThermalFitRecord {
     pub tire: String,
     pub rim_in: i64,
     pub pressure_kpa: i64,
@@ -244,9 +250,11 @@ pub struct ThermalFitRow {
     pub converged: bool,
 }
 
-/// A row of `relaxation` as the report uses it.
+/// A row of the published `relaxation` table as read back for the report and `compare`: the
+/// columns they show, strings for the enums, a null `converged` read as converged. The row the
+/// stage computes is `tirebase_core::fit::relaxation::RelaxationRow`.
 #[derive(Clone, Debug, PartialEq)]
-pub struct RelaxationRow {
+pub struct RelaxationRecord {
     pub tire: String,
     pub rim_in: i64,
     pub pressure_kpa: i64,
@@ -275,12 +283,12 @@ pub struct LintRow {
 /// that could not be read: [`Results::notes`] says why).
 #[derive(Clone, Debug, Default)]
 pub struct Results {
-    pub coefficients: Option<Vec<CoefficientRow>>,
+    pub coefficients: Option<Vec<CoefficientRecord>>,
     pub fit_quality: Option<Vec<QualityRow>>,
-    pub spring_rate: Option<Vec<SpringRateRow>>,
+    pub spring_rate: Option<Vec<SpringRateRecord>>,
     pub thermal: Option<Vec<ThermalRow>>,
-    pub thermal_fit: Option<Vec<ThermalFitRow>>,
-    pub relaxation: Option<Vec<RelaxationRow>>,
+    pub thermal_fit: Option<Vec<ThermalFitRecord>>,
+    pub relaxation: Option<Vec<RelaxationRecord>>,
     pub lint: Option<Vec<LintRow>>,
     pub fit_failures: Option<Vec<FitFailure>>,
     /// The rig-inertia results (`None` when the results have none: not every result set comes
@@ -476,7 +484,7 @@ fn floats(v: Vec<Option<f64>>) -> Vec<f64> {
     v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect()
 }
 
-fn coefficient_rows(df: &DataFrame, path: &Path) -> Result<Vec<CoefficientRow>, StoreError> {
+fn coefficient_rows(df: &DataFrame, path: &Path) -> Result<Vec<CoefficientRecord>, StoreError> {
     let (tire, rim, p) = group_keys(df, path)?;
     let (model, family, name) = (
         strings(req_str(df, "model", path)?),
@@ -487,7 +495,7 @@ fn coefficient_rows(df: &DataFrame, path: &Path) -> Result<Vec<CoefficientRow>, 
     let std_error = req_f64(df, "std_error", path)?;
     let at_bound = req_bool(df, "at_bound", path)?;
     Ok((0..df.height())
-        .map(|i| CoefficientRow {
+        .map(|i| CoefficientRecord {
             tire: tire[i].clone(),
             rim_in: rim[i],
             pressure_kpa: p[i],
@@ -558,13 +566,13 @@ fn quality_rows(df: &DataFrame, path: &Path) -> Result<Vec<QualityRow>, StoreErr
         .collect())
 }
 
-fn spring_rate_rows(df: &DataFrame, path: &Path) -> Result<Vec<SpringRateRow>, StoreError> {
+fn spring_rate_rows(df: &DataFrame, path: &Path) -> Result<Vec<SpringRateRecord>, StoreError> {
     let (tire, rim, p) = group_keys(df, path)?;
     let ia = req_i64(df, "ia_deg_nom", path)?;
     let condition = strings(req_str(df, "condition", path)?);
     let cz = floats(req_f64(df, "stiffness_n_per_m", path)?);
     Ok((0..df.height())
-        .map(|i| SpringRateRow {
+        .map(|i| SpringRateRecord {
             tire: tire[i].clone(),
             rim_in: rim[i],
             pressure_kpa: p[i],
@@ -596,7 +604,7 @@ fn thermal_rows(df: &DataFrame, path: &Path) -> Result<Vec<ThermalRow>, StoreErr
         .collect())
 }
 
-fn thermal_fit_rows(df: &DataFrame, path: &Path) -> Result<Vec<ThermalFitRow>, StoreError> {
+fn thermal_fit_rows(df: &DataFrame, path: &Path) -> Result<Vec<ThermalFitRecord>, StoreError> {
     let (tire, rim, p) = group_keys(df, path)?;
     let f = |n: &str| req_f64(df, n, path).map(floats);
     let (t_peak, gain, t_cold, k, hot, mu) = (
@@ -609,7 +617,7 @@ fn thermal_fit_rows(df: &DataFrame, path: &Path) -> Result<Vec<ThermalFitRow>, S
     );
     let converged = req_bool(df, "converged", path)?;
     Ok((0..df.height())
-        .map(|i| ThermalFitRow {
+        .map(|i| ThermalFitRecord {
             tire: tire[i].clone(),
             rim_in: rim[i],
             pressure_kpa: p[i],
@@ -624,7 +632,7 @@ fn thermal_fit_rows(df: &DataFrame, path: &Path) -> Result<Vec<ThermalFitRow>, S
         .collect())
 }
 
-fn relaxation_rows(df: &DataFrame, path: &Path) -> Result<Vec<RelaxationRow>, StoreError> {
+fn relaxation_rows(df: &DataFrame, path: &Path) -> Result<Vec<RelaxationRecord>, StoreError> {
     let (tire, rim, p) = group_keys(df, path)?;
     let (direction, method) = (
         strings(req_str(df, "direction", path)?),
@@ -634,7 +642,7 @@ fn relaxation_rows(df: &DataFrame, path: &Path) -> Result<Vec<RelaxationRow>, St
     let sigma = floats(req_f64(df, "sigma_m", path)?);
     let converged = req_bool(df, "converged", path)?;
     Ok((0..df.height())
-        .map(|i| RelaxationRow {
+        .map(|i| RelaxationRecord {
             tire: tire[i].clone(),
             rim_in: rim[i],
             pressure_kpa: p[i],
