@@ -39,6 +39,7 @@ pub mod run;
 pub mod schema;
 pub mod score;
 pub mod store;
+pub mod synth_round;
 
 /// Stack of every worker thread that may run polars (ingest, fit, report pools). A rayon worker
 /// that waits (in `join`, or for polars' own pool) steals and nests further tasks, and polars'

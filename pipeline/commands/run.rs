@@ -12,7 +12,7 @@ use anyhow::Context;
 use tirebase_core::synth::round::SynthConfig;
 
 use crate::cli::RunArgs;
-use crate::commands::synth::write_round;
+use crate::commands::synth::summary_line;
 use crate::config::Config;
 use crate::ingest::IngestError;
 use crate::manifest::{Problem, ProblemKind, group_problems};
@@ -20,6 +20,7 @@ use crate::progress;
 use crate::run::{self, RunError, RunOptions, RunOutcome, RunReport};
 use crate::store::StoreError;
 use crate::store::lock::LockWait;
+use crate::synth_round::write_round;
 
 /// Where the embedded virtual round is generated, relative to the working directory.
 pub const EMBEDDED_ROUND: &str = "outputs/round";
@@ -144,8 +145,8 @@ fn embedded_round(dir: &Path, jobs: usize) -> anyhow::Result<PathBuf> {
         "generating the embedded virtual round into {} (first use)",
         dir.display()
     );
-    let summary = write_round(&SynthConfig::default(), &tmp, (jobs > 0).then_some(jobs))?;
-    eprintln!("{summary}");
+    let written = write_round(&SynthConfig::default(), &tmp, (jobs > 0).then_some(jobs))?;
+    eprintln!("{}", summary_line(&written, &tmp));
     if dir.exists() && !dir.join("catalog.toml").is_file() {
         std::fs::remove_dir_all(dir)
             .with_context(|| format!("{}: cannot replace an incomplete round", dir.display()))?;
