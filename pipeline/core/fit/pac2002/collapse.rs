@@ -299,18 +299,7 @@ fn branch_average(kind: SweepKind, samples: &[Sample], bin: f64) -> Vec<CurvePoi
     let t: Vec<f64> = samples.iter().map(|s| s.et_s).collect();
     let x: Vec<f64> = samples
         .iter()
-        .map(|s| {
-            swept(
-                kind,
-                &SlipInput {
-                    fz_n: s.fz_n,
-                    kappa: s.kappa,
-                    alpha_rad: s.alpha_rad,
-                    gamma_rad: s.gamma_rad,
-                    vx_mps: s.vx_mps,
-                },
-            )
-        })
+        .map(|s| swept(kind, &s.slip_input()))
         .collect();
     let dx = local_slope(&t, &x, 0.03, 1);
     let mut cells: BTreeMap<i64, [Acc; 2]> = BTreeMap::new();

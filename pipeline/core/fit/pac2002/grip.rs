@@ -332,16 +332,7 @@ mod tests {
     fn worst(sweep: &Sweep, reference: &Pac2002, ch: fn(&Sample) -> f64) -> f64 {
         let (mut err, mut peak) = (0.0_f64, 0.0_f64);
         for s in &sweep.samples {
-            let e = reference.eval(
-                &SlipInput {
-                    fz_n: s.fz_n,
-                    kappa: s.kappa,
-                    alpha_rad: s.alpha_rad,
-                    gamma_rad: s.gamma_rad,
-                    vx_mps: s.vx_mps,
-                },
-                Mode::Raw,
-            );
+            let e = reference.eval(&s.slip_input(), Mode::Raw);
             let m = Sample {
                 fx_n: e.fx_n,
                 fy_n: e.fy_n,

@@ -57,7 +57,7 @@ use super::output::Output;
 use super::segment_data::{MeasuredSegment, SegmentKind};
 use super::sweep_folds::OutOfSampleQuality;
 use crate::numerics::nonlinear_least_squares::{RobustLoss, Termination};
-use crate::tire_model::{Coef, Pac2002};
+use crate::tire_model::{Coef, Pac2002, SlipInput};
 
 pub use crate::numerics::nonlinear_least_squares::Identifiability;
 pub use family::Family;
@@ -150,6 +150,17 @@ pub struct Sample {
 }
 
 impl Sample {
+    /// The sample's operating point, as the tire model takes it.
+    pub fn slip_input(&self) -> SlipInput {
+        SlipInput {
+            fz_n: self.fz_n,
+            kappa: self.kappa,
+            alpha_rad: self.alpha_rad,
+            gamma_rad: self.gamma_rad,
+            vx_mps: self.vx_mps,
+        }
+    }
+
     /// The value of one output channel.
     pub fn output(&self, o: Output) -> f64 {
         match o {
