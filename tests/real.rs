@@ -353,7 +353,7 @@ fn real_data_mf61_fit_against_the_authors_mf61() {
         for fam in &f.families {
             eprintln!(
                 "  {name} {}: n {} free {} rmse {:.2} (start {:.2}) {:?}",
-                fam.family.name(),
+                fam.family.as_str(),
                 fam.n,
                 fam.free.len(),
                 fam.rmse,

@@ -208,7 +208,7 @@ fn record_out_of_sample_flags(out: &mut Mf61Outcome, key: &TireKey, fit: &Mf61Fi
         out.failures.push(FitFailure::new(
             &at,
             STAGE,
-            &format!("family {} out of sample", q.family.name()),
+            &format!("family {} out of sample", q.family.as_str()),
             false,
             format!(
                 "good in sample, bad out of sample: held-out sweeps RMSE {oos:.4} vs {:.4} in \
@@ -260,9 +260,10 @@ fn build(
         .iter()
         .map(|c| WrittenCoefficient {
             coef: c.coef,
-            family: c
-                .family
-                .map_or_else(|| family_of_start(c.coef).to_string(), |f| f.name().into()),
+            family: c.family.map_or_else(
+                || family_of_start(c.coef).to_string(),
+                |f| f.as_str().into(),
+            ),
             value: c.value,
             std_error: c.std_error,
             at_bound: c.at_bound,
@@ -302,7 +303,7 @@ fn header_comments(key: &TireKey, fit: &Mf61Fit, tested_kpa: &[i64]) -> Vec<Stri
     let families: Vec<String> = fit
         .families
         .iter()
-        .map(|f| format!("{} rmse {:.4}", f.family.name(), f.rmse))
+        .map(|f| format!("{} rmse {:.4}", f.family.as_str(), f.rmse))
         .collect();
     let mut out = vec![
         format!("! : TIRE :          {}", key.tire),

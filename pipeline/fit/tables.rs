@@ -250,7 +250,7 @@ pub fn fit_quality(
                 .or_insert_with(|| Frame::new(TableName::FitQuality))
                 .key(&key)
                 .s("model", FitModel::Mf61.as_str())
-                .s("channel", q.family.name())
+                .s("channel", q.family.as_str())
                 .f("oos_rmse", q.oos_rmse.unwrap_or(f64::NAN))
                 .f("rmse", q.rmse)
                 .f("oos_ratio", q.oos_ratio())

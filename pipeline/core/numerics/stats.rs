@@ -1,7 +1,8 @@
-//! Order statistics shared by every stage: the median, in its two conventions.
+//! Order statistics shared by every stage: the median, in its two conventions, and the number
+//! of distinct levels a variable takes.
 //!
 //! In: `f64` values (a scratch slice the functions may reorder, or any iterator). Out: the
-//! median, `None` when there are no values. Two conventions, because results depend on them:
+//! median, `None` when there are no values; a count of levels ([`count_levels`]). Two conventions, because results depend on them:
 //! [`median`] averages the two middle values of an even count (the textbook median);
 //! [`median_high`] takes the upper one (always a member of the data, cheaper, what robust
 //! step and rate estimates use). Order is `f64::total_cmp`, so the result never depends on the
@@ -41,6 +42,22 @@ pub fn finite_median_high(values: impl IntoIterator<Item = f64>) -> Option<f64> 
     median_high(&mut finite(values))
 }
 
+/// Counts the distinct levels of the finite `values`: in sorted order, a value starts a new level
+/// when it exceeds the first value of the current level by more than `tol`.
+pub fn count_levels(values: impl IntoIterator<Item = f64>, tol: f64) -> usize {
+    let mut v = finite(values);
+    v.sort_by(f64::total_cmp);
+    let mut n = 0;
+    let mut last = f64::NEG_INFINITY;
+    for x in v {
+        if x - last > tol {
+            n += 1;
+            last = x;
+        }
+    }
+    n
+}
+
 fn finite(values: impl IntoIterator<Item = f64>) -> Vec<f64> {
     values.into_iter().filter(|v| v.is_finite()).collect()
 }
@@ -49,6 +66,14 @@ fn finite(values: impl IntoIterator<Item = f64>) -> Vec<f64> {
 mod tests {
     use super::*;
     use crate::numerics::random::SplitMix64;
+
+    #[test]
+    fn levels_are_counted_with_tolerance() {
+        assert_eq!(count_levels([222.0, 223.0, 445.0, 444.0, 667.0], 5.0), 3);
+        assert_eq!(count_levels([0.0, 4.0, 8.0, 12.0], 5.0), 2);
+        assert_eq!(count_levels([f64::NAN, 1.0, f64::INFINITY], 1.0), 1);
+        assert_eq!(count_levels([], 1.0), 0);
+    }
 
     /// The definitions by sorting, to compare bits with.
     fn sorted_median(v: &[f64]) -> (f64, f64) {

@@ -43,11 +43,12 @@ mod virtual_round;
 use std::time::Instant;
 
 use crate::fit::output::Output;
-use crate::fit::pac2002::SweepKind;
+use crate::fit::pac2002::{Family, SweepKind};
 use crate::fit::sweep_folds::OutOfSampleQuality;
 use crate::numerics::nonlinear_least_squares::{
     Bounds, Identifiability, Options, RobustLoss, Termination, minimize,
 };
+use crate::numerics::stats::count_levels;
 use crate::tire_model::params::{Coef, Coef::*};
 use crate::tire_model::{Channel, Evaluation, MagicFormula, Pressures, Version};
 
@@ -140,76 +141,32 @@ impl Default for Mf61Config {
     }
 }
 
-/// A refined family.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Mf61Family {
-    /// Pure lateral force (cornering sweeps).
-    Fy0,
-    /// Pure aligning moment (cornering sweeps).
-    Mz0,
-    /// Pure longitudinal force (drive/brake sweeps).
-    Fx0,
-    /// Combined-slip longitudinal force.
-    Fx,
-    /// Combined-slip lateral force.
-    Fy,
-    /// Aligning moment on every sweep: the `Mz0` coefficients (trail, residual torque, `PPZ*`)
-    /// and the arm `SSZ*` of combined slip, jointly.
-    Mz,
-    /// Overturning moment.
-    Mx,
-}
+/// The families the stage refines, in fit order: every [`Family`] but `My` (TTC records no
+/// rolling resistance moment; its coefficients keep their lifted values).
+pub const FAMILIES: [Family; 7] = [
+    Family::Fy0,
+    Family::Mz0,
+    Family::Fx0,
+    Family::Fx,
+    Family::Fy,
+    Family::Mz,
+    Family::Mx,
+];
 
-impl Mf61Family {
-    /// Fit order.
-    pub const ALL: [Mf61Family; 7] = [
-        Mf61Family::Fy0,
-        Mf61Family::Mz0,
-        Mf61Family::Fx0,
-        Mf61Family::Fx,
-        Mf61Family::Fy,
-        Mf61Family::Mz,
-        Mf61Family::Mx,
-    ];
-
-    /// `Fy0`, `Mz0`, ...
-    pub const fn name(self) -> &'static str {
-        match self {
-            Mf61Family::Fy0 => "Fy0",
-            Mf61Family::Mz0 => "Mz0",
-            Mf61Family::Fx0 => "Fx0",
-            Mf61Family::Fx => "Fx",
-            Mf61Family::Fy => "Fy",
-            Mf61Family::Mz => "Mz",
-            Mf61Family::Mx => "Mx",
-        }
-    }
-
-    fn channel(self) -> Channel {
-        match self {
-            Mf61Family::Fy0 => Channel::Fy0,
-            Mf61Family::Mz0 => Channel::Mz0,
-            Mf61Family::Fx0 => Channel::Fx0,
-            Mf61Family::Fx => Channel::Fx,
-            Mf61Family::Fy => Channel::Fy,
-            Mf61Family::Mz => Channel::Mz,
-            Mf61Family::Mx => Channel::Mx,
-        }
-    }
-
-    /// The measured output the family is fitted to, and the sweeps it reads.
-    fn reads(self, kind: SweepKind) -> Option<Output> {
-        use SweepKind::*;
-        match (self, kind) {
-            (Mf61Family::Fy0, Cornering) => Some(Output::Fy),
-            (Mf61Family::Mz0, Cornering) => Some(Output::Mz),
-            (Mf61Family::Fx0, DriveBrake) => Some(Output::Fx),
-            (Mf61Family::Fx, Combined) => Some(Output::Fx),
-            (Mf61Family::Fy, Combined) => Some(Output::Fy),
-            (Mf61Family::Mz, _) => Some(Output::Mz),
-            (Mf61Family::Mx, _) => Some(Output::Mx),
-            _ => None,
-        }
+/// The measured output `family` is fitted to on sweeps of `kind`, `None` for sweeps it does
+/// not read. `Mz` reads every sweep: the `Mz0` coefficients (trail, residual torque, `PPZ*`)
+/// and the arm `SSZ*` of combined slip are refined jointly.
+fn reads(family: Family, kind: SweepKind) -> Option<Output> {
+    use SweepKind::*;
+    match (family, kind) {
+        (Family::Fy0, Cornering) => Some(Output::Fy),
+        (Family::Mz0, Cornering) => Some(Output::Mz),
+        (Family::Fx0, DriveBrake) => Some(Output::Fx),
+        (Family::Fx, Combined) => Some(Output::Fx),
+        (Family::Fy, Combined) => Some(Output::Fy),
+        (Family::Mz, _) => Some(Output::Mz),
+        (Family::Mx, _) => Some(Output::Mx),
+        _ => None,
     }
 }
 
@@ -248,25 +205,26 @@ impl PureData {
     }
 
     /// Whether `family` may read the points of `group`'s sweeps of `kind`.
-    fn allows(&self, family: Mf61Family, kind: SweepKind, group: usize) -> bool {
+    fn allows(&self, family: Family, kind: SweepKind, group: usize) -> bool {
         let lat = self.lateral.contains(&group);
         let lon = self.longitudinal.contains(&group);
         match (family, kind) {
-            (Mf61Family::Fy0 | Mf61Family::Mz0 | Mf61Family::Fx0, _) => true,
-            (Mf61Family::Mz | Mf61Family::Mx, SweepKind::Cornering) => true,
-            (Mf61Family::Fx, _) => lon,
-            (Mf61Family::Fy | Mf61Family::Mx, _) => lat,
-            (Mf61Family::Mz, _) => lat && lon,
+            (Family::Fy0 | Family::Mz0 | Family::Fx0, _) => true,
+            (Family::Mz | Family::Mx, SweepKind::Cornering) => true,
+            (Family::Fx, _) => lon,
+            (Family::Fy | Family::Mx, _) => lat,
+            (Family::Mz, _) => lat && lon,
+            (Family::My, _) => false,
         }
     }
 
     /// What `family` needs at a pressure, for notes.
-    fn need(family: Mf61Family) -> &'static str {
+    fn need(family: Family) -> &'static str {
         match family {
-            Mf61Family::Fy0 | Mf61Family::Mz0 | Mf61Family::Fx0 => "",
-            Mf61Family::Fx => "drive/brake sweeps (Fx0)",
-            Mf61Family::Fy | Mf61Family::Mx => "cornering sweeps (Fy0)",
-            Mf61Family::Mz => "cornering (Fy0, Mz0) and drive/brake (Fx0) sweeps",
+            Family::Fy0 | Family::Mz0 | Family::Fx0 | Family::My => "",
+            Family::Fx => "drive/brake sweeps (Fx0)",
+            Family::Fy | Family::Mx => "cornering sweeps (Fy0)",
+            Family::Mz => "cornering (Fy0, Mz0) and drive/brake (Fx0) sweeps",
         }
     }
 }
@@ -279,22 +237,8 @@ struct Variation {
     cambers: usize,
 }
 
-fn distinct(values: impl Iterator<Item = f64>, tol: f64) -> usize {
-    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
-    v.sort_by(f64::total_cmp);
-    let mut n = 0;
-    let mut last = f64::NEG_INFINITY;
-    for x in v {
-        if x - last > tol {
-            n += 1;
-            last = x;
-        }
-    }
-    n
-}
-
 /// The free coefficients of a family given what the data vary.
-fn free_coefficients(family: Mf61Family, v: Variation) -> Vec<Coef> {
+fn free_coefficients(family: Family, v: Variation) -> Vec<Coef> {
     let camber = v.cambers >= 2;
     let camber2 = v.cambers >= 3;
     let lin = v.pressures >= 2;
@@ -306,7 +250,7 @@ fn free_coefficients(family: Mf61Family, v: Variation) -> Vec<Coef> {
         }
     };
     match family {
-        Mf61Family::Fy0 => {
+        Family::Fy0 => {
             add(&[PCY1, PDY1, PEY1, PEY3, PKY1, PHY1, PVY1], true);
             add(&[PDY2, PEY2, PKY2, PHY2, PVY2], v.loads);
             add(&[PDY3, PEY4, PKY3, PVY3, PKY6], camber);
@@ -315,7 +259,7 @@ fn free_coefficients(family: Mf61Family, v: Variation) -> Vec<Coef> {
             add(&[PPY2, PPY4], quad);
             add(&[PPY5], lin && camber);
         }
-        Mf61Family::Mz0 => {
+        Family::Mz0 => {
             add(
                 &[QBZ1, QBZ9, QBZ10, QCZ1, QDZ1, QDZ6, QEZ1, QEZ4, QHZ1],
                 true,
@@ -328,15 +272,15 @@ fn free_coefficients(family: Mf61Family, v: Variation) -> Vec<Coef> {
             add(&[PPZ1], lin);
             add(&[PPZ2], lin && camber);
         }
-        Mf61Family::Fx0 => {
+        Family::Fx0 => {
             add(&[PCX1, PDX1, PEX1, PEX4, PKX1, PHX1, PVX1], true);
             add(&[PDX2, PEX2, PEX3, PKX2, PKX3, PHX2, PVX2], v.loads);
             add(&[PDX3], camber);
             add(&[PPX1, PPX3], lin);
             add(&[PPX2, PPX4], quad);
         }
-        Mf61Family::Fx => add(&[RBX1, RBX2, RCX1, REX1, RHX1], true),
-        Mf61Family::Fy => {
+        Family::Fx => add(&[RBX1, RBX2, RCX1, REX1, RHX1], true),
+        Family::Fy => {
             add(
                 &[RBY1, RBY2, RBY3, RCY1, REY1, RHY1, RVY1, RVY4, RVY5, RVY6],
                 true,
@@ -344,34 +288,35 @@ fn free_coefficients(family: Mf61Family, v: Variation) -> Vec<Coef> {
             add(&[REY2, RHY2, RVY2], v.loads);
             add(&[RVY3], camber);
         }
-        Mf61Family::Mz => {
+        Family::Mz => {
             // The trail and residual-torque coefficients with the s Fx arm, on every sweep:
             // MF 6.x's combined-slip Mz takes its trail force at zero camber (Fy' = Gyk
             // Fy0(gamma = 0)) and its residual torque at an equivalent slip angle, so the Mz0
             // coefficients chosen on cornering sweeps alone need not carry over to slip-ratio
             // sweeps, and the arm alone cannot make up for them.
-            add(&free_coefficients(Mf61Family::Mz0, v), true);
+            add(&free_coefficients(Family::Mz0, v), true);
             add(&[SSZ1, SSZ2], true);
             add(&[SSZ3], camber);
             add(&[SSZ4], camber && v.loads);
         }
-        Mf61Family::Mx => {
+        Family::Mx => {
             add(&[QSX1, QSX3], true);
             add(&[QSX2], camber);
             add(&[PPMX1], lin && camber);
         }
+        Family::My => {}
     }
     out
 }
 
 /// The pressure terms of a family.
-fn pressure_terms(family: Mf61Family) -> &'static [Coef] {
+fn pressure_terms(family: Family) -> &'static [Coef] {
     match family {
-        Mf61Family::Fy0 => &[PPY1, PPY2, PPY3, PPY4, PPY5],
-        Mf61Family::Mz0 | Mf61Family::Mz => &[PPZ1, PPZ2],
-        Mf61Family::Fx0 => &[PPX1, PPX2, PPX3, PPX4],
-        Mf61Family::Mx => &[PPMX1],
-        Mf61Family::Fx | Mf61Family::Fy => &[],
+        Family::Fy0 => &[PPY1, PPY2, PPY3, PPY4, PPY5],
+        Family::Mz0 | Family::Mz => &[PPZ1, PPZ2],
+        Family::Fx0 => &[PPX1, PPX2, PPX3, PPX4],
+        Family::Mx => &[PPMX1],
+        Family::Fx | Family::Fy | Family::My => &[],
     }
 }
 
@@ -409,7 +354,7 @@ pub fn bound_note(c: Coef, value: f64) -> Option<String> {
 #[derive(Clone, Debug, PartialEq)]
 pub struct FamilyOutcome {
     /// The family.
-    pub family: Mf61Family,
+    pub family: Family,
     /// Points it was refined on.
     pub n: usize,
     /// Free coefficients.
@@ -438,7 +383,7 @@ pub struct Mf61Coefficient {
     /// The coefficient.
     pub coef: Coef,
     /// Its family (`None` for scalars, pressures, vertical and relaxation keys).
-    pub family: Option<Mf61Family>,
+    pub family: Option<Family>,
     /// Value, SI.
     pub value: f64,
     /// Standard error from the joint refinement (`None` unless fitted and off its bounds).
@@ -481,7 +426,7 @@ pub struct FamilyQuality {
     /// The tested pressure, kPa.
     pub pressure_kpa_nom: i64,
     /// The family.
-    pub family: Mf61Family,
+    pub family: Family,
     /// Collapsed points.
     pub n: usize,
     /// In-sample RMSE (N or N m).
@@ -577,11 +522,11 @@ pub enum Mf61Error {
 struct Fitted {
     model: MagicFormula,
     families: Vec<FamilyOutcome>,
-    std_errors: Vec<(Coef, Option<f64>, bool, Mf61Family)>,
+    std_errors: Vec<(Coef, Option<f64>, bool, Family)>,
     notes: Vec<String>,
 }
 
-fn family_data(points: &[Point], family: Mf61Family, pure: &PureData) -> FamilyData {
+fn family_data(points: &[Point], family: Family, pure: &PureData) -> FamilyData {
     family_data_scaled(points, family, pure, |_| 1.0)
 }
 
@@ -590,7 +535,7 @@ fn family_data(points: &[Point], family: Mf61Family, pure: &PureData) -> FamilyD
 /// cornering ones, which would otherwise pull the trail and residual torque away from the
 /// cornering sweeps that `Mz0` was fitted on).
 fn mz_data(points: &[Point], pure: &PureData) -> FamilyData {
-    let family = Mf61Family::Mz;
+    let family = Family::Mz;
     let mut sweeps = [
         std::collections::BTreeSet::new(),
         std::collections::BTreeSet::new(),
@@ -617,13 +562,13 @@ fn mz_data(points: &[Point], pure: &PureData) -> FamilyData {
 
 fn family_data_scaled(
     points: &[Point],
-    family: Mf61Family,
+    family: Family,
     pure: &PureData,
     scale: impl Fn(&Point) -> f64,
 ) -> FamilyData {
     let mut d = FamilyData::default();
     for p in points {
-        let Some(out) = family.reads(p.kind) else {
+        let Some(out) = reads(family, p.kind) else {
             continue;
         };
         if !pure.allows(family, p.kind, p.group) {
@@ -678,9 +623,9 @@ fn fit_points(
     let mut families = Vec::new();
     let mut std_errors = Vec::new();
     let pure = PureData::of(points);
-    for family in Mf61Family::ALL {
+    for family in FAMILIES {
         let started = Instant::now();
-        let data = if family == Mf61Family::Mz {
+        let data = if family == Family::Mz {
             mz_data(points, &pure)
         } else {
             family_data(points, family, &pure)
@@ -688,7 +633,7 @@ fn fit_points(
         let mut left_out: Vec<usize> = points
             .iter()
             .filter(|p| {
-                family.reads(p.kind).is_some_and(|o| {
+                reads(family, p.kind).is_some_and(|o| {
                     p.values[o as usize].is_finite() && p.weights[o as usize] > 0.0
                 }) && !pure.allows(family, p.kind, p.group)
             })
@@ -709,9 +654,9 @@ fn fit_points(
             notes.push(format!(
                 "{}: {} at {} kPa (measured) not fitted: the family needs {} at the same \
                  pressure{}",
-                family.name(),
+                family.as_str(),
                 match family {
-                    Mf61Family::Mz | Mf61Family::Mx => "the slip-ratio sweeps",
+                    Family::Mz | Family::Mx => "the slip-ratio sweeps",
                     _ => "the combined sweeps",
                 },
                 kpa.join(" / "),
@@ -728,7 +673,7 @@ fn fit_points(
         }
         // Without slip-ratio sweeps the joint Mz refinement would only repeat Mz0 (the arm
         // SSZ* multiplies Fx, which is zero there).
-        if family == Mf61Family::Mz
+        if family == Family::Mz
             && !points.iter().any(|p| {
                 p.kind != SweepKind::Cornering
                     && p.value(Output::Mz).is_finite()
@@ -744,7 +689,7 @@ fn fit_points(
             .iter()
             .filter(|p| {
                 pure.allows(family, p.kind, p.group)
-                    && family.reads(p.kind).is_some_and(|o| {
+                    && reads(family, p.kind).is_some_and(|o| {
                         p.values[o as usize].is_finite() && p.weights[o as usize] > 0.0
                     })
             })
@@ -752,11 +697,11 @@ fn fit_points(
             .collect();
         let variation = Variation {
             pressures: levels.len(),
-            loads: distinct(
+            loads: count_levels(
                 data.inputs.iter().map(|p| p.fz_n),
                 0.1 * model.coefs[FNOMIN],
             ) >= 2,
-            cambers: distinct(
+            cambers: count_levels(
                 data.inputs.iter().map(|p| p.gamma_rad),
                 0.25_f64.to_radians(),
             ),
@@ -769,7 +714,7 @@ fn fit_points(
             if !free.contains(term) && model.coefs[*term] != 0.0 {
                 notes.push(format!(
                     "{}: {} = 0 ({} tested pressure(s) with data for the family)",
-                    family.name(),
+                    family.as_str(),
                     term.name(),
                     variation.pressures
                 ));
@@ -809,7 +754,7 @@ fn fit_points(
             notes.push(format!(
                 "{}: refinement rejected (RMSE {rmse:.4} vs start {initial_rmse:.4}); the values \
                  lifted from the PAC2002 fits are kept",
-                family.name()
+                family.as_str()
             ));
         }
         families.push(FamilyOutcome {
@@ -889,7 +834,7 @@ fn group_family_quality(
     model: &MagicFormula,
     points: &[Point],
     group: usize,
-) -> Vec<(Mf61Family, usize, f64, f64, f64)> {
+) -> Vec<(Family, usize, f64, f64, f64)> {
     let pts: Vec<Point> = points
         .iter()
         .filter(|p| p.group == group)
@@ -897,7 +842,7 @@ fn group_family_quality(
         .collect();
     let pure = PureData::of(&pts);
     let mut out = Vec::new();
-    for family in Mf61Family::ALL {
+    for family in FAMILIES {
         let d = family_data(&pts, family, &pure);
         if d.is_empty() {
             continue;
@@ -1054,11 +999,11 @@ pub fn fit_collapsed(
         let mz_sets_mz0 = full
             .families
             .iter()
-            .any(|f| f.family == Mf61Family::Mz && f.accepted);
+            .any(|f| f.family == Family::Mz && f.accepted);
         for outcome in &full.families {
-            let also: &[Mf61Family] = match outcome.family {
-                Mf61Family::Mz0 if mz_sets_mz0 => continue,
-                Mf61Family::Mz => &[Mf61Family::Mz0],
+            let also: &[Family] = match outcome.family {
+                Family::Mz0 if mz_sets_mz0 => continue,
+                Family::Mz => &[Family::Mz0],
                 _ => &[],
             };
             let Some(kf) = out_of_sample::k_fold(&full.model, &points, outcome, also, cfg) else {

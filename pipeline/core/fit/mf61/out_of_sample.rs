@@ -35,8 +35,7 @@ use std::collections::BTreeMap;
 
 use super::problem::{FIT_MODE, FamilyData, Mf61FamilyProblem};
 use super::{
-    FamilyOutcome, Mf61Config, Mf61Family, Point, PureData, bounds_of, family_data, mz_data,
-    rmse_of,
+    Family, FamilyOutcome, Mf61Config, Point, PureData, bounds_of, family_data, mz_data, rmse_of,
 };
 use crate::fit::sweep_folds::{self, DEFICIENT_CONDITION};
 use crate::numerics::nonlinear_least_squares::{Bounds, Options, minimize};
@@ -55,12 +54,12 @@ pub struct KFold {
     pub evaluations: usize,
     /// Per scored family and tested-pressure group: (sum of squared held-out errors, held-out
     /// points).
-    pub by_group: BTreeMap<(Mf61Family, usize), (f64, usize)>,
+    pub by_group: BTreeMap<(Family, usize), (f64, usize)>,
 }
 
 impl KFold {
     /// RMSE of `family`'s held-out predictions at `group` (`None` without points there).
-    pub fn rmse_at(&self, family: Mf61Family, group: usize) -> Option<(f64, usize)> {
+    pub fn rmse_at(&self, family: Family, group: usize) -> Option<(f64, usize)> {
         self.by_group
             .get(&(family, group))
             .filter(|(_, n)| *n > 0)
@@ -125,14 +124,14 @@ pub fn k_fold(
     model: &MagicFormula,
     points: &[Point],
     outcome: &FamilyOutcome,
-    also: &[Mf61Family],
+    also: &[Family],
     cfg: &Mf61Config,
 ) -> Option<KFold> {
     let family = outcome.family;
     let pure = PureData::of(points);
     // The weights of the full fit (the Mz family's balance of cornering and slip-ratio sweeps
     // included) for the training sweeps; the held-out points are the in-sample quality's.
-    let weighted = if family == Mf61Family::Mz {
+    let weighted = if family == Family::Mz {
         mz_data(points, &pure)
     } else {
         family_data(points, family, &pure)

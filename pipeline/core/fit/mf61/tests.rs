@@ -185,7 +185,7 @@ pub(super) fn print_families(fit: &Mf61Fit) {
     for f in &fit.families {
         println!(
             "{}: n {} free {} rmse {:.4e} (start {:.4e}) {:?} {} it",
-            f.family.name(),
+            f.family.as_str(),
             f.n,
             f.free.len(),
             f.rmse,
@@ -231,7 +231,7 @@ fn recovers_a_known_mf61_tire_across_four_pressures() {
         println!(
             "{} kPa {}: in {:.3} out (5-fold) {:.3?} lopo {:.3?}",
             q.pressure_kpa_nom,
-            q.family.name(),
+            q.family.as_str(),
             q.rmse,
             q.oos_rmse,
             q.lopo_rmse
@@ -352,7 +352,7 @@ fn combined_lateral_families_skip_a_pressure_without_cornering_sweeps() {
         fit.family_quality
             .iter()
             .filter(|q| q.pressure_kpa_nom == kpa)
-            .map(|q| q.family.name())
+            .map(|q| q.family.as_str())
             .collect()
     };
     assert_eq!(at(69), ["Fx0", "Fx"]);
@@ -371,7 +371,7 @@ fn drive_brake_only_tire_refines_only_the_longitudinal_families() {
         g.sweeps.retain(|s| s.kind != SweepKind::Cornering);
     }
     let fit = fit(&input, &Mf61Config::default()).unwrap();
-    let refined: Vec<&str> = fit.families.iter().map(|f| f.family.name()).collect();
+    let refined: Vec<&str> = fit.families.iter().map(|f| f.family.as_str()).collect();
     assert_eq!(refined, ["Fx0", "Fx"]);
     for family in ["Fy", "Mz", "Mx"] {
         assert!(
@@ -385,6 +385,6 @@ fn drive_brake_only_tire_refines_only_the_longitudinal_families() {
     assert!(
         fit.family_quality
             .iter()
-            .all(|q| matches!(q.family, Mf61Family::Fx0 | Mf61Family::Fx))
+            .all(|q| matches!(q.family, Family::Fx0 | Family::Fx))
     );
 }

@@ -80,7 +80,7 @@ fn combined_mz_diagnostic() {
     for f in &full.families {
         println!(
             "{}: free {:?} rmse {:.4} (start {:.4})",
-            f.family.name(),
+            f.family.as_str(),
             f.free.iter().map(|c| c.name()).collect::<Vec<_>>(),
             f.rmse,
             f.initial_rmse
@@ -98,9 +98,9 @@ fn combined_mz_diagnostic() {
         let pac = &g.pac2002.as_ref().unwrap().model;
         let mut line = format!("{} kPa:", g.pressure_kpa_nom);
         for (family, ch) in [
-            (Mf61Family::Mz, Channel::Mz),
-            (Mf61Family::Fx, Channel::Fx),
-            (Mf61Family::Fy, Channel::Fy),
+            (Family::Mz, Channel::Mz),
+            (Family::Fx, Channel::Fx),
+            (Family::Fy, Channel::Fy),
         ] {
             let combined: Vec<Point> = pts
                 .iter()
@@ -112,14 +112,14 @@ fn combined_mz_diagnostic() {
             let pct = |m: &MagicFormula| 100.0 * rmse_of(m, ch, &d) / peak;
             line += &format!(
                 " {}: mf61 {:.3} % pac2002 {:.3} % truth {:.3} % (n {}, peak {:.1});",
-                family.name(),
+                family.as_str(),
                 pct(&full.model),
                 pct(pac),
                 pct(truth),
                 d.len(),
                 peak
             );
-            if family == Mf61Family::Mz {
+            if family == Family::Mz {
                 let mut t = d.clone();
                 truth.channel_into_at(
                     Channel::Mz,

@@ -1,14 +1,16 @@
-//! The coefficient families of a PAC2002 fit, in dependency order, and what data each
-//! coefficient needs to be identifiable.
+//! The coefficient families of a PAC2002 fit, in dependency order (the MF 6.1 stage refines the
+//! same families), and what data each PAC2002 coefficient needs to be identifiable.
 //!
 //! In: nothing (static tables) and the levels present in the data ([`Levels`]). Out: per family
-//! its coefficients; per coefficient whether the data determine it and, if not, why and at which
+//! its channel and coefficients; per coefficient whether the data determine it and, if not, why and at which
 //! value it is held. Deliberately not here: bounds that depend on signs found in the data
 //! (`initial`), the residuals (`problem`).
 
+use crate::tire_model::Channel;
 use crate::tire_model::Coef::{self, *};
 
-/// A family of coefficients fitted together against one channel.
+/// A family of coefficients fitted together against one channel: the unit of a staged fit in
+/// both the PAC2002 and the MF 6.1 stage (which chooses its own free coefficients per family).
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Family {
     /// Pure lateral force `Fy0` (cornering sweeps).
@@ -56,31 +58,23 @@ impl Family {
         }
     }
 
-    /// The coefficients the family's own equations introduce.
-    pub const fn coefficients(self) -> &'static [Coef] {
+    /// The model channel the family is fitted against.
+    pub const fn channel(self) -> Channel {
         match self {
-            Family::Fy0 => &[
-                PCY1, PDY1, PDY2, PDY3, PEY1, PEY2, PEY3, PEY4, PKY1, PKY2, PKY3, PHY1, PHY2, PHY3,
-                PVY1, PVY2, PVY3, PVY4,
-            ],
-            Family::Mz0 => &[
-                QBZ1, QBZ2, QBZ3, QBZ4, QBZ5, QBZ9, QBZ10, QCZ1, QDZ1, QDZ2, QDZ3, QDZ4, QDZ6,
-                QDZ7, QDZ8, QDZ9, QEZ1, QEZ2, QEZ3, QEZ4, QEZ5, QHZ1, QHZ2, QHZ3, QHZ4,
-            ],
-            Family::Fx0 => &[
-                PCX1, PDX1, PDX2, PDX3, PEX1, PEX2, PEX3, PEX4, PKX1, PKX2, PKX3, PHX1, PHX2, PVX1,
-                PVX2,
-            ],
-            Family::Fx => &[RBX1, RBX2, RCX1, REX1, REX2, RHX1],
-            Family::Fy => &[
-                RBY1, RBY2, RBY3, RCY1, REY1, REY2, RHY1, RHY2, RVY1, RVY2, RVY3, RVY4, RVY5, RVY6,
-            ],
-            Family::Mz => &[SSZ1, SSZ2, SSZ3, SSZ4],
-            Family::Mx => &[
-                QSX1, QSX2, QSX3, QSX4, QSX5, QSX6, QSX7, QSX8, QSX9, QSX10, QSX11,
-            ],
-            Family::My => &[QSY1, QSY2, QSY3, QSY4],
+            Family::Fy0 => Channel::Fy0,
+            Family::Mz0 => Channel::Mz0,
+            Family::Fx0 => Channel::Fx0,
+            Family::Fx => Channel::Fx,
+            Family::Fy => Channel::Fy,
+            Family::Mz => Channel::Mz,
+            Family::Mx => Channel::Mx,
+            Family::My => Channel::My,
         }
+    }
+
+    /// The PAC2002 coefficients the family's own equations introduce ([`Channel::family`]).
+    pub const fn coefficients(self) -> &'static [Coef] {
+        self.channel().family()
     }
 }
 
@@ -97,21 +91,6 @@ pub struct Levels {
     pub alphas: usize,
     /// Slip-ratio sweeps at slip angles of both signs (beyond +-0.25 deg).
     pub alpha_both_signs: bool,
-}
-
-/// Counts distinct values: sorted, a new level when a value exceeds the previous level by `tol`.
-pub fn count_levels(values: impl IntoIterator<Item = f64>, tol: f64) -> usize {
-    let mut v: Vec<f64> = values.into_iter().filter(|x| x.is_finite()).collect();
-    v.sort_by(f64::total_cmp);
-    let mut n = 0;
-    let mut last = f64::NEG_INFINITY;
-    for x in v {
-        if x - last > tol {
-            n += 1;
-            last = x;
-        }
-    }
-    n
 }
 
 /// Data a coefficient needs: distinct loads, cambers, slip-angle levels, camber signs.
@@ -242,12 +221,6 @@ mod tests {
         all.sort();
         all.dedup();
         assert_eq!(all.len(), n, "a coefficient is in two families");
-    }
-
-    #[test]
-    fn levels_are_counted_with_tolerance() {
-        assert_eq!(count_levels([222.0, 223.0, 445.0, 444.0, 667.0], 5.0), 3);
-        assert_eq!(count_levels([], 1.0), 0);
     }
 
     #[test]

@@ -14,7 +14,7 @@
 use std::time::Instant;
 
 use super::collapse::{CollapseSettings, CollapsedSweep, collapse};
-use super::family::{Family, Levels, count_levels, held_value, unidentifiable};
+use super::family::{Family, Levels, held_value, unidentifiable};
 use super::initial::{self, NoSweepCurve, Setup};
 use super::problem::{ConstrainedQuantity, DataPoint, FamilyProblem, Penalty, channel_value};
 use super::quality;
@@ -26,6 +26,7 @@ use crate::fit::output::Output;
 use crate::numerics::nonlinear_least_squares::{
     Bounds, FitOutcome, Options, Termination, minimize,
 };
+use crate::numerics::stats::count_levels;
 use crate::tire_model::{Coef, Coef::*, Coefs, Pac2002, SlipInput};
 
 /// The tested envelope: ranges of the data and the nominal load.
