@@ -850,7 +850,23 @@ fn heating(dtdt: &[f64], mu: &[f64]) -> (f64, f64, f64) {
     (my, slope, break_even)
 }
 
-/// The piecewise-parabola `mu(T)` model with one level per group.
+/// The `mu(T)` law of the module docs relative to its peak level, `1 - k (T - T_peak)^2` with
+/// `k` from [`grip_curvature`]: the one definition the fit, its peak-shift correction and the
+/// PAC2002 grip correction ([`GripLaw::mu_rel`](crate::fit::pac2002::grip::GripLaw::mu_rel))
+/// evaluate.
+pub fn relative_grip(t_c: f64, t_peak_c: f64, k_cold_per_c2: f64, k_hot_per_c2: f64) -> f64 {
+    let d = t_c - t_peak_c;
+    1.0 - grip_curvature(d, k_cold_per_c2, k_hot_per_c2) * d * d
+}
+
+/// The law's curvature at `d = T - T_peak`, 1/degC^2: `k_cold` below the peak, `k_hot` from the
+/// peak up.
+pub fn grip_curvature(d: f64, k_cold_per_c2: f64, k_hot_per_c2: f64) -> f64 {
+    if d < 0.0 { k_cold_per_c2 } else { k_hot_per_c2 }
+}
+
+/// The piecewise-parabola `mu(T)` model with one level per group: `M_g` times
+/// [`relative_grip`].
 struct MuOfT<'a> {
     t: &'a [f64],
     mu: &'a [f64],
@@ -866,11 +882,18 @@ impl MuOfT<'_> {
         if self.hot { 3 } else { 2 }
     }
 
+    /// `k_h` of the parameters (`k_c` when it is not fitted separately).
+    fn k_hot(&self, p: &[f64]) -> f64 {
+        if self.hot { p[2] } else { p[1] }
+    }
+
+    /// The curvature at `t` ([`grip_curvature`]) and its parameter's index.
     fn curvature(&self, p: &[f64], t: f64) -> (f64, usize) {
-        if t > p[0] && self.hot {
-            (p[2], 2)
+        let k = grip_curvature(t - p[0], p[1], self.k_hot(p));
+        if self.hot && t - p[0] >= 0.0 {
+            (k, 2)
         } else {
-            (p[1], 1)
+            (k, 1)
         }
     }
 }
@@ -886,10 +909,9 @@ impl LeastSquaresProblem for MuOfT<'_> {
 
     fn residuals(&self, p: &[f64], r: &mut [f64]) {
         let off = self.level_offset();
+        let k_hot = self.k_hot(p);
         for (i, ri) in r.iter_mut().enumerate() {
-            let (k, _) = self.curvature(p, self.t[i]);
-            let x = self.t[i] - p[0];
-            *ri = p[off + self.group[i]] * (1.0 - k * x * x) - self.mu[i];
+            *ri = p[off + self.group[i]] * relative_grip(self.t[i], p[0], p[1], k_hot) - self.mu[i];
         }
     }
 
@@ -916,8 +938,8 @@ impl LeastSquaresProblem for MuOfT<'_> {
 /// `mu(T)` fit, `kappa SA'^2 = -2 c2/mu` from the peak's own time parabola. Capped at 5 %.
 fn peak_shift_factor(r: &ThermalSweepRow, t_peak: f64, k_c: f64, k_h: f64) -> f64 {
     let x = r.t_centre_peak_c - t_peak;
-    let k = if x < 0.0 { k_c } else { k_h };
-    let g = 1.0 - k * x * x;
+    let k = grip_curvature(x, k_c, k_h);
+    let g = relative_grip(r.t_centre_peak_c, t_peak, k_c, k_h);
     let curvature = -2.0 * r.mu_time_curvature_per_s2 / r.mu_peak;
     if !(g > 0.0 && curvature > 0.0 && r.dtdt_peak_c_per_s.is_finite()) {
         return 1.0;

@@ -40,9 +40,10 @@
 
 use super::{FitInput, Sample, SweepKind};
 use crate::fit::segment_data::interpolate;
+use crate::fit::thermal::relative_grip;
 
-/// The thermal stage's `mu(T)`, relative to its peak: `1 - k (T - T_peak)^2` with `k_cold` below
-/// the peak and `k_hot` above, floored at [`GripLaw::FLOOR`].
+/// The thermal stage's `mu(T)` ([`relative_grip`]: `1 - k (T - T_peak)^2`, `k_cold` below the
+/// peak, `k_hot` above), floored at [`GripLaw::FLOOR`].
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct GripLaw {
     /// Centre tread temperature of peak grip, degC.
@@ -83,13 +84,7 @@ impl GripLaw {
 
     /// Relative grip `mu(T)/mu(T_peak)`.
     pub fn mu_rel(&self, t_c: f64) -> f64 {
-        let d = t_c - self.t_peak_c;
-        let k = if d < 0.0 {
-            self.k_cold_per_c2
-        } else {
-            self.k_hot_per_c2
-        };
-        (1.0 - k * d * d).max(Self::FLOOR)
+        relative_grip(t_c, self.t_peak_c, self.k_cold_per_c2, self.k_hot_per_c2).max(Self::FLOOR)
     }
 
     /// The temperature on the cold side of the peak with relative grip `mu_rel`, degC.
