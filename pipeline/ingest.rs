@@ -987,7 +987,7 @@ impl FileContext<'_> {
 
 /// The hive partition of a segment's samples.
 fn partition_of(s: &Segment, id: &Identity) -> PartitionKey {
-    let level = |v: Option<i32>| v.map_or(SWEPT, i64::from);
+    let level = |v: Option<i64>| v.unwrap_or(SWEPT);
     PartitionKey {
         test: s.kind.as_str().to_string(),
         tire: id.tire.clone(),
@@ -1182,9 +1182,8 @@ fn min_max(values: impl Iterator<Item = f64>) -> (Option<f64>, Option<f64>) {
 fn segments_frame(ctx: &FileContext, segments: &[Segment]) -> PolarsResult<DataFrame> {
     let run = ctx.run;
     let n = segments.len();
-    let nom = |f: fn(&Segment) -> Option<i32>| -> Vec<Option<i64>> {
-        segments.iter().map(|s| f(s).map(i64::from)).collect()
-    };
+    let nom =
+        |f: fn(&Segment) -> Option<i64>| -> Vec<Option<i64>> { segments.iter().map(f).collect() };
     let mean = |f: fn(&Segment) -> f64| -> Vec<f64> { segments.iter().map(f).collect() };
     let alpha_range: Vec<_> = segments
         .iter()

@@ -227,10 +227,10 @@ fn cornering_mf61_groups(
         let key = TireKey {
             tire: tire.clone(),
             rim_in: rim as i64,
-            pressure_kpa_nom: i64::from(p),
+            pressure_kpa_nom: p,
         };
         by_pressure
-            .entry(i64::from(p))
+            .entry(p)
             .or_default()
             .push(MeasuredSegment::of_run(&table, "cornering.mat", &seg, key));
     }

@@ -22,6 +22,7 @@ use tirebase_core::segment::{Level, QcFlag};
 
 use super::FitError;
 use crate::store::StoreError;
+use crate::store::layout::SWEPT;
 use crate::store::tables;
 
 /// One live row of the segments table (`schemas/segments.toml`).
@@ -186,6 +187,7 @@ pub fn live_segments(store: &Path) -> Result<Vec<SegmentRow>, FitError> {
                     pressure_kpa_nom: r.pressure_kpa_nom,
                 },
                 nominal: NominalLevels {
+                    pressure_kpa: (r.pressure_kpa_nom != SWEPT).then_some(r.pressure_kpa_nom),
                     ia_deg: r.ia_deg_nom,
                     fz_n: r.fz_n_nom,
                     alpha_deg: r.alpha_deg_nom,

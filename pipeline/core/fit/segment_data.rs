@@ -16,7 +16,7 @@ use std::ops::Range;
 use crate::segment::Segment;
 use crate::ttc::RunTable;
 
-pub use crate::segment::SegmentKind;
+pub use crate::segment::{NominalLevels, SegmentKind};
 
 /// The tire, rim and nominal pressure a stage result belongs to (a `.tir` file's identity).
 #[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -37,19 +37,6 @@ impl fmt::Display for TireKey {
             self.tire, self.rim_in, self.pressure_kpa_nom
         )
     }
-}
-
-/// Nominal (binned) levels of a segment, as in the `segments` table; `None` when not held.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct NominalLevels {
-    /// Nominal inclination angle, deg.
-    pub ia_deg: Option<i64>,
-    /// Nominal vertical load, N.
-    pub fz_n: Option<i64>,
-    /// Nominal held slip angle, deg (ISO-W).
-    pub alpha_deg: Option<i64>,
-    /// Nominal road speed, km/h.
-    pub speed_kph: Option<i64>,
 }
 
 /// The sample channels of one segment (equal lengths; a missing sample of a nullable column is
@@ -162,7 +149,8 @@ pub struct MeasuredSegment {
     pub segment_index: i64,
     /// Tire, rim and nominal pressure.
     pub key: TireKey,
-    /// Nominal levels.
+    /// Nominal levels, as in the `segments` table (pressure included: the level `key` groups
+    /// by).
     pub nominal: NominalLevels,
     /// The samples.
     pub channels: Channels,
@@ -178,20 +166,8 @@ impl MeasuredSegment {
             source_file: source_file.to_string(),
             segment_index: seg.index as i64,
             key,
-            nominal: seg.nominal.into(),
+            nominal: seg.nominal,
             channels: Channels::of_run(table, seg.samples.clone()),
-        }
-    }
-}
-
-impl From<crate::segment::NominalLevels> for NominalLevels {
-    /// The segmenter's levels (pressure dropped: it is in the [`TireKey`]).
-    fn from(n: crate::segment::NominalLevels) -> Self {
-        NominalLevels {
-            ia_deg: n.ia_deg.map(i64::from),
-            fz_n: n.fz_n.map(i64::from),
-            alpha_deg: n.alpha_deg.map(i64::from),
-            speed_kph: n.speed_kph.map(i64::from),
         }
     }
 }

@@ -33,7 +33,10 @@ pub fn blank(
         source_file: source.to_string(),
         segment_index: 0,
         key: key.clone(),
-        nominal: NominalLevels::default(),
+        nominal: NominalLevels {
+            pressure_kpa: Some(key.pressure_kpa_nom),
+            ..NominalLevels::default()
+        },
         channels: Channels {
             et_s: (0..n).map(|i| t0_s + i as f64 / rate_hz).collect(),
             speed_kph: vec![speed_kph; n],

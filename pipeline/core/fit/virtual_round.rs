@@ -47,6 +47,7 @@ fn build(config: SynthConfig) -> Round {
                 segment_index: k as i64,
                 key: key_of(&row.tire, row.rim_in, row.pressure_kpa_nom),
                 nominal: NominalLevels {
+                    pressure_kpa: Some(row.pressure_kpa_nom.round() as i64),
                     ia_deg: row.ia_deg_nom.map(|v| v.round() as i64),
                     fz_n: row.fz_n_nom.map(|v| v.round() as i64),
                     alpha_deg: row.alpha_deg_nom.map(|v| v.round() as i64),

@@ -106,11 +106,11 @@ pub(crate) fn nominal_for(
     kind: SegmentKind,
     sweep: Option<SweepVariable>,
     bins: &NominalLevels,
-    held_alpha: Option<Option<i32>>,
+    held_alpha: Option<Option<i64>>,
 ) -> (NominalLevels, Vec<Level>) {
     let [p, ia, fz, alpha, v] = applicable(kind, sweep);
     let alpha_bin = held_alpha.unwrap_or(bins.alpha_deg);
-    let keep = |on: bool, value: Option<i32>| if on { value } else { None };
+    let keep = |on: bool, value: Option<i64>| if on { value } else { None };
     let nominal = NominalLevels {
         pressure_kpa: keep(p, bins.pressure_kpa),
         ia_deg: keep(ia, bins.ia_deg),

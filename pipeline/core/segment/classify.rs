@@ -51,11 +51,11 @@ pub(crate) struct Classified {
 /// The set-point key of a sweep cycle.
 type Key = (
     SweepVariable,
-    Option<i32>,
-    Option<i32>,
-    Option<i32>,
-    Option<i32>,
-    Option<i32>,
+    Option<i64>,
+    Option<i64>,
+    Option<i64>,
+    Option<i64>,
+    Option<i64>,
 );
 
 fn key(d: &Detection, bins: &NominalLevels) -> Option<Key> {
@@ -138,9 +138,9 @@ pub(crate) fn classify(
     bins: &[NominalLevels],
     speed_means_kph: &[f64],
     centre_temp_c: Option<&[f64]>,
-    main_speed_label: Option<i32>,
+    main_speed_label: Option<i64>,
     cfg: &SegmentConfig,
-) -> (Vec<Classified>, Option<i32>) {
+) -> (Vec<Classified>, Option<i64>) {
     let c = &cfg.classify;
     let mut out: Vec<Classified> = dets
         .iter()
@@ -306,8 +306,8 @@ fn matrix_train_length(trains: &[Train], rest: &[usize]) -> usize {
 
 /// The configured main speed (`main`: its label among the run's speed levels) if any data cycle
 /// runs at it, else the most common data speed.
-fn main_speed(out: &[Classified], bins: &[NominalLevels], main: Option<i32>) -> Option<i32> {
-    let mut counts: BTreeMap<Option<i32>, usize> = BTreeMap::new();
+fn main_speed(out: &[Classified], bins: &[NominalLevels], main: Option<i64>) -> Option<i64> {
+    let mut counts: BTreeMap<Option<i64>, usize> = BTreeMap::new();
     for (o, b) in out.iter().zip(bins) {
         if o.kind.is_matrix() {
             *counts.entry(b.speed_kph).or_default() += 1;
@@ -352,7 +352,7 @@ pub(crate) fn run_class(counts: &BTreeMap<SegmentKind, usize>) -> RunClass {
 mod tests {
     use super::*;
 
-    fn sweep(start: usize, rate: f64, load: i32) -> (Detection, NominalLevels) {
+    fn sweep(start: usize, rate: f64, load: i64) -> (Detection, NominalLevels) {
         (
             Detection {
                 samples: start..start + 100,

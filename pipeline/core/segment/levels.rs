@@ -47,7 +47,7 @@ pub(crate) struct Cluster {
     /// Number of member values (detections).
     pub members: usize,
     /// The integer nominal level (a standard level near the centre, else the rounded centre).
-    pub label: i32,
+    pub label: i64,
 }
 
 /// The learned levels of one channel, sorted by centre.
@@ -84,7 +84,7 @@ impl LevelSet {
     }
 
     /// The label of the cluster `value` falls in (its member range widened by `tol`), if any.
-    pub fn label_of(&self, value: f64) -> Option<i32> {
+    pub fn label_of(&self, value: f64) -> Option<i64> {
         let tol = self.tol?;
         if !value.is_finite() {
             return None;
@@ -101,8 +101,8 @@ impl LevelSet {
     }
 
     /// Labels carried by more than one cluster (levels the integer labels cannot tell apart).
-    pub fn shared_labels(&self) -> Vec<(i32, Vec<f64>)> {
-        let mut out: Vec<(i32, Vec<f64>)> = Vec::new();
+    pub fn shared_labels(&self) -> Vec<(i64, Vec<f64>)> {
+        let mut out: Vec<(i64, Vec<f64>)> = Vec::new();
         for c in &self.clusters {
             match out.iter_mut().find(|(l, _)| *l == c.label) {
                 Some((_, centres)) => centres.push(c.centre),
@@ -142,14 +142,14 @@ fn split(v: &[(f64, f64)], tol: Tolerance, out: &mut Vec<Cluster>) {
 }
 
 /// The nearest standard level within `label_tol` (rounded), else the rounded centre.
-fn label(centre: f64, standard: &[f64], label_tol: Tolerance) -> i32 {
+fn label(centre: f64, standard: &[f64], label_tol: Tolerance) -> i64 {
     standard
         .iter()
         .copied()
         .filter(|s| (s - centre).abs() <= label_tol.at(*s))
         .min_by(|a, b| (a - centre).abs().total_cmp(&(b - centre).abs()))
         .unwrap_or(centre)
-        .round() as i32
+        .round() as i64
 }
 
 /// One run's learned levels, every channel.
@@ -243,7 +243,7 @@ mod tests {
             .map(|v| (*v, 100.0))
             .collect();
         let set = LevelSet::learn(&values, cfg.pressure_tol, &kpa, cfg.pressure_label_tol);
-        let labels: Vec<i32> = set.clusters.iter().map(|c| c.label).collect();
+        let labels: Vec<i64> = set.clusters.iter().map(|c| c.label).collect();
         assert_eq!(labels, vec![69, 75, 83, 97, 110]);
         assert_eq!(set.label_of(84.0), Some(83));
         assert_eq!(set.label_of(90.0), None, "between levels");
@@ -260,7 +260,7 @@ mod tests {
         .map(|v| (*v, 1.0))
         .collect();
         let set = LevelSet::learn(&values, cfg.fz_tol, &n, cfg.fz_label_tol);
-        let labels: Vec<i32> = set.clusters.iter().map(|c| c.label).collect();
+        let labels: Vec<i64> = set.clusters.iter().map(|c| c.label).collect();
         // 1088 N (a de-identified 100 lb) is within 3 % of 250 lb (1112 N): labelled so.
         assert_eq!(labels, vec![526, 1112, 1648, 2189, 2741]);
         let off = LevelSet::learn(

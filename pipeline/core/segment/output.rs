@@ -114,21 +114,23 @@ impl SweepVariable {
     }
 }
 
-/// Commanded levels a segment was binned to; `None` when not applicable (the level is swept or
-/// meaningless for the kind) or when the measured mean was off every nominal level (then the
-/// segment carries [`QcFlag::OffNominal`]).
+/// Commanded levels a segment was binned to, as the `segments` table stores them (its nullable
+/// `i64` columns `*_nom`) and the fitting stages read them back
+/// ([`MeasuredSegment::nominal`](crate::fit::segment_data::MeasuredSegment::nominal)); `None`
+/// when not applicable (the level is swept or meaningless for the kind) or when the measured mean
+/// was off every nominal level (then the segment carries [`QcFlag::OffNominal`]).
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
 pub struct NominalLevels {
     /// Inflation pressure, kPa.
-    pub pressure_kpa: Option<i32>,
+    pub pressure_kpa: Option<i64>,
     /// Inclination angle, deg.
-    pub ia_deg: Option<i32>,
+    pub ia_deg: Option<i64>,
     /// Normal load, N (positive).
-    pub fz_n: Option<i32>,
+    pub fz_n: Option<i64>,
     /// Held slip angle, deg, ISO-W sign.
-    pub alpha_deg: Option<i32>,
+    pub alpha_deg: Option<i64>,
     /// Road speed, km/h.
-    pub speed_kph: Option<i32>,
+    pub speed_kph: Option<i64>,
 }
 
 /// Mean and standard deviation of one channel over a segment (dropout samples excluded).
@@ -323,7 +325,7 @@ pub struct RunSegmentation {
     /// Number of gap-free blocks the run was split into.
     pub n_blocks: usize,
     /// The main test speed of the run, km/h (sweeps elsewhere are `speed_sweep`).
-    pub main_speed_kph: Option<i32>,
+    pub main_speed_kph: Option<i64>,
     /// Things a person should look at (one line each).
     pub warnings: Vec<String>,
 }

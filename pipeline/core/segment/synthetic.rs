@@ -286,14 +286,14 @@ impl Rig {
     }
 
     /// Current set-points rounded to nominal integers (pressure, IA, load, speed).
-    pub fn nominal(&self, alpha: Option<i32>) -> NominalLevels {
+    pub fn nominal(&self, alpha: Option<i64>) -> NominalLevels {
         let s = self.state;
         NominalLevels {
-            pressure_kpa: Some(s.p.round() as i32),
-            ia_deg: Some(s.ia.round() as i32),
-            fz_n: Some(s.fz.round() as i32),
+            pressure_kpa: Some(s.p.round() as i64),
+            ia_deg: Some(s.ia.round() as i64),
+            fz_n: Some(s.fz.round() as i64),
             alpha_deg: alpha,
-            speed_kph: Some(s.v.round() as i32),
+            speed_kph: Some(s.v.round() as i64),
         }
     }
 }
@@ -516,7 +516,7 @@ pub(crate) fn round4_drive_brake(p_kpa: f64, keep_dwells: bool, seed: u64) -> Ri
                 } else {
                     SegmentKind::Combined
                 };
-                let nominal = rig.nominal(Some(sa as i32));
+                let nominal = rig.nominal(Some(sa as i64));
                 rig.mark(kind, nominal, |r| {
                     r.sl_path(&[0.2, -0.2, 0.2, 0.0], 0.1);
                 });
@@ -656,7 +656,7 @@ pub(crate) fn round8_transient(seed: u64) -> Rig {
         );
         rig.hold(2.0);
         for sa in [1.0, -1.0, -6.0] {
-            let nominal = rig.nominal(Some(sa as i32));
+            let nominal = rig.nominal(Some(sa as i64));
             rig.mark(SegmentKind::StepSteer, nominal, |r| {
                 r.hold(0.5);
                 r.sa_path(&[sa], 60.0).hold(2.0);
@@ -701,7 +701,7 @@ pub(crate) fn round9_drive_brake_raw(seed: u64) -> Rig {
                 } else {
                     SegmentKind::Combined
                 };
-                let nominal = rig.nominal(Some(sa as i32));
+                let nominal = rig.nominal(Some(sa as i64));
                 rig.mark(kind, nominal, |r| {
                     r.sl_path(&[0.15, -0.15, 0.0], 0.05);
                 });

@@ -26,7 +26,7 @@ fn matches_range(a: &Range<usize>, b: &Range<usize>) -> bool {
 
 /// Levels agree where the truth states one (a detected extra level is fine).
 fn levels_agree(truth: &NominalLevels, got: &NominalLevels) -> bool {
-    let same = |t: Option<i32>, g: Option<i32>| t.is_none() || t == g;
+    let same = |t: Option<i64>, g: Option<i64>| t.is_none() || t == g;
     same(truth.pressure_kpa, got.pressure_kpa)
         && same(truth.ia_deg, got.ia_deg)
         && same(truth.fz_n, got.fz_n)
@@ -135,7 +135,7 @@ fn round4_cornering_run_file_gives_its_25_matrix_sweeps_and_conditioning() {
         "dwells cut: {} blocks",
         report.n_blocks
     );
-    let loads: Vec<i32> = segments
+    let loads: Vec<i64> = segments
         .iter()
         .filter(|s| s.kind == SegmentKind::Cornering)
         .take(5)
@@ -164,7 +164,7 @@ fn round4_cornering_without_cold_start_and_with_dwells_kept() {
     assert_eq!(count(&segments, SegmentKind::Conditioning), 1);
     assert_eq!(count(&segments, SegmentKind::ColdToWarm), 0);
     assert_eq!(report.n_blocks, 1);
-    let p: Vec<Option<i32>> = segments.iter().map(|s| s.nominal.pressure_kpa).collect();
+    let p: Vec<Option<i64>> = segments.iter().map(|s| s.nominal.pressure_kpa).collect();
     assert!(p.iter().all(|p| *p == Some(55)));
 }
 
@@ -180,7 +180,7 @@ fn round4_drive_brake_gives_36_sweeps_at_sa_0_3_6() {
         "two SL cycles, one block"
     );
     assert_eq!(report.run_class, RunClass::DriveBrake);
-    let alphas: Vec<Option<i32>> = segments
+    let alphas: Vec<Option<i64>> = segments
         .iter()
         .filter(|s| s.kind.is_matrix())
         .take(3)
@@ -361,7 +361,7 @@ fn a_load_off_the_standard_list_is_its_own_level_issue_17() {
         .expect("still a cornering sweep");
     let level = hit.nominal.fz_n.expect("a learned load level");
     assert!(
-        (f64::from(level) - hit.measured.fz_n.mean).abs() < 1.0,
+        (level as f64 - hit.measured.fz_n.mean).abs() < 1.0,
         "labelled with its own centre: {level} vs {}",
         hit.measured.fz_n.mean
     );

@@ -42,10 +42,10 @@ fn overlaps(a: (f64, f64), b: (f64, f64)) -> bool {
     ov >= 0.5 * (a.1 - a.0).min(b.1 - b.0)
 }
 
-fn level_ok(truth: Option<f64>, got: Option<i32>, tol: f64) -> bool {
+fn level_ok(truth: Option<f64>, got: Option<i64>, tol: f64) -> bool {
     match (truth, got) {
         (None, _) => true,
-        (Some(t), Some(g)) => (t - f64::from(g)).abs() <= tol,
+        (Some(t), Some(g)) => (t - g as f64).abs() <= tol,
         (Some(_), None) => false,
     }
 }
