@@ -11,6 +11,7 @@
 use std::collections::BTreeMap;
 
 use tirebase_core::compare::envelope::convex_hull;
+use tirebase_core::fit::thermal::relative_grip;
 use tirebase_core::naming::tir_file_name;
 use tirebase_core::tire_model::{Coef, Mode, Pac2002, SlipInput, pac2002::relaxation_lengths};
 
@@ -616,10 +617,7 @@ pub fn mu_temperature(data: &ReportData, tire: &str) -> Vec<Plot> {
             let hot = row.hot_falloff;
             let hot_k = if hot.is_finite() { hot } else { 1.0 } * k;
             let curve: Vec<(f64, f64)> = linspace(lo, hi, CURVE_POINTS)
-                .map(|t| {
-                    let kk = if t > t_peak { hot_k } else { k };
-                    (t, row.mu_peak_mean * (1.0 - kk * (t - t_peak).powi(2)))
-                })
+                .map(|t| (t, row.mu_peak_mean * relative_grip(t, t_peak, k, hot_k)))
                 .collect();
             let plot = groups.entry(key).or_insert_with(|| new_plot(key.0, key.1));
             plot.series

@@ -19,6 +19,7 @@ use std::fmt::Write as _;
 use tirebase_core::compare::{
     LoadFigures, Pac2002Tire, SteadyStateTire, cornering_stiffness, envelope_outline, peak_fy,
 };
+use tirebase_core::fit::thermal::relative_grip;
 
 use polars::prelude::{AnyValue, DataFrame};
 
@@ -301,10 +302,7 @@ fn thermal_chart(
             t_opt - 30.0
         };
         let curve: Vec<(f64, f64)> = linspace(from, t_opt + 25.0, CURVE_POINTS)
-            .map(|t| {
-                let kk = if t > t_opt { hot_k } else { k };
-                (t, 1.0 - kk * (t - t_opt).powi(2))
-            })
+            .map(|t| (t, relative_grip(t, t_opt, k, hot_k)))
             .collect();
         let color = colour[&(r.tire.clone(), r.rim_in)];
         plot.series
