@@ -302,7 +302,12 @@ pub struct FitArgs {
     /// form hoosier_20.5x7.0-13_r25b).
     #[arg(long, value_name = "NAME")]
     pub tire: Option<String>,
-    /// Comma-separated stages to run: spring_rate, pac2002, relaxation, thermal, or all.
+    /// Comma-separated stages to report: spring_rate, pac2002, relaxation, thermal, or all.
+    ///
+    /// A stage's results do not depend on the others asked for: what it depends on runs anyway,
+    /// unreported (spring rate for Cz/R0; relaxation for the de-lag lengths; thermal for the
+    /// grip-temperature correction). The models of `--stages pac2002` are the full fit's but for
+    /// what relaxation writes into them (PTY*/PTX*, USE_MODE + 10, MF 6.1 carcass stiffnesses).
     #[arg(long, value_name = "LIST", default_value = "all")]
     pub stages: String,
     /// Worker threads (0 = one per core). Results do not depend on it.

@@ -369,7 +369,7 @@ pub fn plan_groups(
     let mut groups: BTreeMap<TireKey, Vec<&SegmentRow>> = BTreeMap::new();
     for row in &rows {
         if row.key.pressure_kpa_nom == SWEPT
-            || !group::used_by(&opts.stages, row.kind)
+            || !group::used_by(&opts.stages, &cfg, row.kind)
             || opts
                 .tire
                 .as_deref()
@@ -480,7 +480,7 @@ fn fit_one(
     let started = std::time::Instant::now();
     let mine: Vec<&SegmentRow> = rows
         .iter()
-        .filter(|r| r.key == plan.key && group::used_by(&opts.stages, r.kind))
+        .filter(|r| r.key == plan.key && group::used_by(&opts.stages, cfg, r.kind))
         .collect();
     // polars parallelises reads on its own rayon pool. Called from a worker of our pool, that
     // `install` would let the waiting worker steal and run *another group* meanwhile (nested
@@ -694,7 +694,7 @@ pub fn fit_groups(
                     .spring_rate
                     .as_ref()
                     .is_some_and(|s| !s.rows.is_empty()))
-            || result.thermal.as_ref().is_some_and(|t| !t.rows.is_empty())
+            || (opts.stages.thermal && result.thermal.as_ref().is_some_and(|t| !t.rows.is_empty()))
             || result
                 .relaxation
                 .as_ref()

@@ -773,6 +773,112 @@ fn thermal_alone_writes_the_full_fits_thermal_tables() {
     }
 }
 
+/// A stage's result does not depend on which other stages were asked for: `--stages pac2002`
+/// runs what its model depends on (spring rate for Cz/R0, relaxation for the de-lag lengths,
+/// thermal for the grip-temperature correction, each on the segments the full fit gives it), so
+/// its PAC2002 and MF 6.1 models are the full fit's but for what the relaxation stage writes
+/// into them (the coefficients of family `relaxation`, and the `USE_MODE` that counts its laws).
+#[test]
+fn pac2002_alone_writes_the_full_fits_models() {
+    let f = realistic();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = tirebase(&[
+        "fit",
+        "--store",
+        p(&f.store),
+        "--out",
+        p(&out),
+        "--stages",
+        "pac2002",
+    ]);
+    ok(&o, "fit --stages pac2002");
+    let full_coefficients = read_table(&f.out, "coefficients");
+    let mut relaxation_names: Vec<String> = strs(&full_coefficients, "family")
+        .into_iter()
+        .zip(strs(&full_coefficients, "name"))
+        .filter(|(family, _)| family == "relaxation")
+        .map(|(_, name)| name)
+        .collect();
+    relaxation_names.extend(["USE_MODE".to_string()]);
+    assert!(relaxation_names.iter().any(|n| n == "PTY1"));
+    // The coefficients table without the relaxation family, as CSV rows.
+    let rows = |out: &Path| -> Vec<String> {
+        let mut df = read_table(out, "coefficients");
+        let keep = df
+            .column("family")
+            .unwrap()
+            .str()
+            .unwrap()
+            .not_equal("relaxation");
+        df = df.filter(&keep).unwrap();
+        let mut bytes = Vec::new();
+        CsvWriter::new(&mut bytes).finish(&mut df).unwrap();
+        String::from_utf8(bytes)
+            .unwrap()
+            .lines()
+            .map(str::to_string)
+            .collect()
+    };
+    assert_eq!(rows(&out), rows(&f.out), "coefficients");
+    let without_relaxation = |bytes: &[u8]| -> Vec<String> {
+        String::from_utf8_lossy(bytes)
+            .lines()
+            .filter(|l| {
+                let key = l.split_whitespace().next().unwrap_or("");
+                !relaxation_names.iter().any(|n| n == key)
+            })
+            .map(str::to_string)
+            .collect()
+    };
+    let (alone, full) = (outputs(&out), outputs(&f.out));
+    let tirs: Vec<&String> = full.keys().filter(|k| k.starts_with("tir/")).collect();
+    assert_eq!(
+        alone
+            .keys()
+            .filter(|k| k.starts_with("tir/"))
+            .collect::<Vec<_>>(),
+        tirs
+    );
+    for name in tirs {
+        let (a, b) = (
+            without_relaxation(&alone[name]),
+            without_relaxation(&full[name]),
+        );
+        assert_eq!(a.len(), b.len(), "{name}: line count");
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!(x, y, "{name} differs from the full fit's");
+        }
+    }
+    assert!(
+        alone["fit_quality.parquet"] == full["fit_quality.parquet"],
+        "fit_quality differs from the full fit's"
+    );
+}
+
+/// `--stages relaxation` runs the fits and the grip law its lengths depend on: its table is the
+/// full fit's.
+#[test]
+fn relaxation_alone_writes_the_full_fits_relaxation_table() {
+    let f = realistic();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = tirebase(&[
+        "fit",
+        "--store",
+        p(&f.store),
+        "--out",
+        p(&out),
+        "--stages",
+        "relaxation",
+    ]);
+    ok(&o, "fit --stages relaxation");
+    assert!(
+        outputs(&out)["relaxation.parquet"] == outputs(&f.out)["relaxation.parquet"],
+        "relaxation.parquet differs from the full fit's"
+    );
+}
+
 /// Mark every force segment of one tire, rim and pressure as having a zeroed lateral force (a
 /// QC flag that spoils forces), as a segmenter would for a bad test.
 fn flag_force_segments(store: &Path, tire: &str, rim_in: i64, pressure_kpa: i64) -> usize {
