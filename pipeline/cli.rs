@@ -537,8 +537,8 @@ pub enum TirCommand {
     /// nominal pressure.
     ///
     /// Evaluates the model (combined slip, ISO-W, SI) at every selected sample's measured load,
-    /// slip ratio, slip angle, inclination and speed, and prints CSV to stdout: tire,
-    /// source_file, pressure_kpa_nom (kPa), n_samples, fx_rmse_n, fy_rmse_n (N), mz_rmse_nm
+    /// slip ratio, slip angle, inclination and speed, and prints CSV to stdout: tire, rim_in
+    /// (rim width, in), source_file, pressure_kpa_nom (kPa), n_samples, fx_rmse_n, fy_rmse_n (N), mz_rmse_nm
     /// (N m), and the RMS of the measured values fx_rms_n, fy_rms_n, mz_rms_nm. Every sample of
     /// the store counts (not only the sweeps a fit used), filtered by --max-alpha-deg,
     /// --min-fz-n and --min-speed-kph, then every --every-th sample per source file in time

@@ -263,6 +263,7 @@ fn tir_score_separates_the_truth_from_another_pressures_model_issue_17() {
             r.headers().unwrap().iter().collect::<Vec<_>>(),
             [
                 "tire",
+                "rim_in",
                 "source_file",
                 "pressure_kpa_nom",
                 "n_samples",
@@ -283,7 +284,11 @@ fn tir_score_separates_the_truth_from_another_pressures_model_issue_17() {
     let own = score(pressure, Some(pressure));
     let wrong = score(other, Some(pressure));
     assert!(!own.is_empty());
-    assert!(own.iter().all(|r| r[2] == pressure.to_string()));
+    assert!(own.iter().all(|r| r[3] == pressure.to_string()));
+    // Every row names the rim its samples were measured on.
+    for rows in [&all, &own, &wrong] {
+        assert!(rows.iter().all(|r| r[1] == rim.to_string()), "{rows:?}");
+    }
     // The rows are the files of this tire on this rim, none of another rim.
     let files = tirebase(&[
         "query",
@@ -302,26 +307,26 @@ fn tir_score_separates_the_truth_from_another_pressures_model_issue_17() {
         .records()
         .map(|r| r.unwrap()[0].to_string())
         .collect();
-    let mut scored: Vec<String> = all.iter().map(|r| r[1].clone()).collect();
+    let mut scored: Vec<String> = all.iter().map(|r| r[2].clone()).collect();
     scored.dedup();
     assert_eq!(scored, files, "{tire} on {rim} in: the files scored");
     for row in &own {
         let same = all
             .iter()
-            .find(|r| r[1] == row[1] && r[2] == row[2])
+            .find(|r| r[2] == row[2] && r[3] == row[3])
             .expect("the whole-file score has the row");
         assert_eq!(
             same, row,
             "one pressure or all: the same samples and errors"
         );
-        let bad = wrong.iter().find(|r| r[1] == row[1]).expect("same row");
+        let bad = wrong.iter().find(|r| r[2] == row[2]).expect("same row");
         eprintln!(
             "{} at {pressure} kPa: truth Fy RMSE {} N, {other} kPa truth {} N (RMS {} N, {} samples)",
-            row[1], row[5], bad[5], row[8], row[3]
+            row[2], row[6], bad[6], row[9], row[4]
         );
-        if num(row, 8) > 100.0 {
-            assert!(num(row, 5) < 0.01 * num(row, 8), "{row:?}");
-            assert!(num(bad, 5) > 2.0 * num(row, 5), "{bad:?} vs {row:?}");
+        if num(row, 9) > 100.0 {
+            assert!(num(row, 6) < 0.01 * num(row, 9), "{row:?}");
+            assert!(num(bad, 6) > 2.0 * num(row, 6), "{bad:?} vs {row:?}");
         }
     }
 }
