@@ -940,6 +940,91 @@ mod tests {
         assert!(results.stage_seconds.contains_key(mf61::STAGE));
     }
 
+    /// A fitted MF 6.1 model that is deficient (one tested pressure: no pressure terms) is
+    /// written and reaches `fit_failures` as a partial (non-fatal) row keyed at its pressure.
+    /// The data: cornering sweeps at three loads generated from a PAC2002 file, which is also
+    /// the start (as the group's PAC2002 fit would be).
+    #[test]
+    fn a_deficient_mf61_fit_is_a_partial_fit_failures_row() {
+        use tirebase_core::fit::mf61::{CollapsedGroup, Mf61Sample, Mf61Sweep, Pac2002AtPressure};
+        use tirebase_core::tire_model::tir::TirFile;
+        use tirebase_core::tire_model::{Mode, SlipInput};
+        let text = include_str!("../tests/fixtures/tir/mf52_fittyp6.tir");
+        let model = TirFile::parse(text).unwrap().0.model();
+        let cfg = Config::default().fit.mf61();
+        let p_kpa = 83;
+        let sweeps: Vec<Mf61Sweep> = [600.0, 1100.0, 1600.0]
+            .iter()
+            .enumerate()
+            .map(|(k, &fz_n)| Mf61Sweep {
+                id: format!("run1-{k}"),
+                kind: tirebase_core::fit::pac2002::SweepKind::Cornering,
+                samples: (0..81)
+                    .map(|i| {
+                        let alpha_rad = -0.2 + 0.005 * i as f64;
+                        let input = SlipInput {
+                            fz_n,
+                            kappa: 0.0,
+                            alpha_rad,
+                            gamma_rad: 0.0,
+                            vx_mps: 11.0,
+                        };
+                        let e = model.eval(&input, Mode::Limits);
+                        Mf61Sample {
+                            fz_n,
+                            kappa: 0.0,
+                            alpha_rad,
+                            gamma_rad: 0.0,
+                            vx_mps: 11.0,
+                            p_pa: p_kpa as f64 * 1e3,
+                            fx_n: e.fx_n,
+                            fy_n: e.fy_n,
+                            mz_nm: e.mz_nm,
+                            mx_nm: e.mx_nm,
+                        }
+                    })
+                    .collect(),
+            })
+            .collect();
+        let key = TireKey {
+            tire: "T".into(),
+            rim_in: 7,
+            pressure_kpa_nom: p_kpa,
+        };
+        let part = mf61::Mf61Part {
+            key: key.clone(),
+            group: CollapsedGroup {
+                pressure_kpa_nom: p_kpa,
+                points: tirebase_core::fit::mf61::collapse_group(&sweeps, &cfg.collapse),
+                pac2002: Some(Pac2002AtPressure {
+                    p_pa: p_kpa as f64 * 1e3,
+                    model,
+                    vertical_stiffness_n_per_m: None,
+                    unloaded_radius_m: None,
+                }),
+            },
+            use_mode: Some(4),
+        };
+        let o = fit_mf61("T", 7, &[part], &cfg);
+        assert!(o.model.is_some(), "{:?}", o.failures);
+        let mut results = FitResults::default();
+        results.add_mf61(&o);
+        assert_eq!(results.fatal().count(), 0, "{:?}", results.failures);
+        let df = tables::fit_failures(&results.failures).unwrap();
+        let scopes: Vec<String> = (0..df.height())
+            .map(|i| df.column("scope").unwrap().get(i).unwrap().to_string())
+            .collect();
+        let row = scopes
+            .iter()
+            .position(|s| s == "\"pressure terms\"")
+            .unwrap_or_else(|| panic!("no pressure-terms row in {df}"));
+        let cell = |c: &str| df.column(c).unwrap().get(row).unwrap().to_string();
+        assert_eq!(cell("stage"), format!("\"{}\"", mf61::STAGE));
+        assert_eq!(cell("fatal"), "false");
+        assert_eq!(cell("pressure_kpa"), p_kpa.to_string());
+        assert!(cell("reason").contains("no pressure terms"), "{df}");
+    }
+
     #[test]
     fn stage_sets_print_and_parse_back() {
         for list in [
