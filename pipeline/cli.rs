@@ -302,7 +302,12 @@ pub struct FitArgs {
     /// form hoosier_20.5x7.0-13_r25b).
     #[arg(long, value_name = "NAME")]
     pub tire: Option<String>,
-    /// Comma-separated stages to run: spring_rate, pac2002, relaxation, thermal, or all.
+    /// Comma-separated stages to report: spring_rate, pac2002, relaxation, thermal, or all.
+    ///
+    /// A stage's results do not depend on the others asked for: what it depends on runs anyway,
+    /// unreported (spring rate for Cz/R0; relaxation for the de-lag lengths; thermal for the
+    /// grip-temperature correction). The models of `--stages pac2002` are the full fit's but for
+    /// what relaxation writes into them (PTY*/PTX*, USE_MODE + 10, MF 6.1 carcass stiffnesses).
     #[arg(long, value_name = "LIST", default_value = "all")]
     pub stages: String,
     /// Worker threads (0 = one per core). Results do not depend on it.
@@ -532,8 +537,8 @@ pub enum TirCommand {
     /// nominal pressure.
     ///
     /// Evaluates the model (combined slip, ISO-W, SI) at every selected sample's measured load,
-    /// slip ratio, slip angle, inclination and speed, and prints CSV to stdout: tire,
-    /// source_file, pressure_kpa_nom (kPa), n_samples, fx_rmse_n, fy_rmse_n (N), mz_rmse_nm
+    /// slip ratio, slip angle, inclination and speed, and prints CSV to stdout: tire, rim_in
+    /// (rim width, in), source_file, pressure_kpa_nom (kPa), n_samples, fx_rmse_n, fy_rmse_n (N), mz_rmse_nm
     /// (N m), and the RMS of the measured values fx_rms_n, fy_rms_n, mz_rms_nm. Every sample of
     /// the store counts (not only the sweeps a fit used), filtered by --max-alpha-deg,
     /// --min-fz-n and --min-speed-kph, then every --every-th sample per source file in time

@@ -314,6 +314,17 @@ pub struct FitResults {
 }
 
 impl FitResults {
+    /// Count one tire and rim's MF 6.1 stage: its failures (fatal: no model; partial: a family
+    /// flagged out of sample, one tested pressure, lint errors) become `fit_failures` rows and
+    /// its wall time the `mf61` stage's.
+    fn add_mf61(&mut self, o: &mf61::Mf61Outcome) {
+        self.failures.extend(o.failures.iter().cloned());
+        *self
+            .stage_seconds
+            .entry(mf61::STAGE.to_string())
+            .or_default() += o.seconds;
+    }
+
     /// The fatal failures.
     pub fn fatal(&self) -> impl Iterator<Item = &FitFailure> {
         self.failures.iter().filter(|f| f.fatal)
@@ -369,7 +380,7 @@ pub fn plan_groups(
     let mut groups: BTreeMap<TireKey, Vec<&SegmentRow>> = BTreeMap::new();
     for row in &rows {
         if row.key.pressure_kpa_nom == SWEPT
-            || !group::used_by(&opts.stages, row.kind)
+            || !group::used_by(&opts.stages, &cfg, row.kind)
             || opts
                 .tire
                 .as_deref()
@@ -480,7 +491,7 @@ fn fit_one(
     let started = std::time::Instant::now();
     let mine: Vec<&SegmentRow> = rows
         .iter()
-        .filter(|r| r.key == plan.key && group::used_by(&opts.stages, r.kind))
+        .filter(|r| r.key == plan.key && group::used_by(&opts.stages, cfg, r.kind))
         .collect();
     // polars parallelises reads on its own rayon pool. Called from a worker of our pool, that
     // `install` would let the waiting worker steal and run *another group* meanwhile (nested
@@ -694,7 +705,7 @@ pub fn fit_groups(
                     .spring_rate
                     .as_ref()
                     .is_some_and(|s| !s.rows.is_empty()))
-            || result.thermal.as_ref().is_some_and(|t| !t.rows.is_empty())
+            || (opts.stages.thermal && result.thermal.as_ref().is_some_and(|t| !t.rows.is_empty()))
             || result
                 .relaxation
                 .as_ref()
@@ -740,11 +751,7 @@ pub fn fit_groups(
         outcome.tir_name_notes.extend(note);
     }
     for o in &mf61_outcomes {
-        outcome.failures.extend(o.failures.iter().cloned());
-        *outcome
-            .stage_seconds
-            .entry(mf61::STAGE.to_string())
-            .or_default() += o.seconds;
+        outcome.add_mf61(o);
     }
     let fatal: std::collections::BTreeSet<(&str, i64, i64)> = outcome
         .fatal()
@@ -849,6 +856,173 @@ mod tests {
         let f = &result.failures[0];
         assert!(f.fatal && f.stage == "fit", "{f:?}");
         assert!(f.reason.contains("index out of bounds"), "{f:?}");
+    }
+
+    /// One cornering sweep at `p_kpa`: 41 samples from -0.2 to 0.2 rad at 1000 N.
+    fn cornering_sweep(p_kpa: i64) -> tirebase_core::fit::mf61::Mf61Sweep {
+        use tirebase_core::fit::mf61::{Mf61Sample, Mf61Sweep};
+        Mf61Sweep {
+            id: format!("run1-{p_kpa}"),
+            kind: tirebase_core::fit::pac2002::SweepKind::Cornering,
+            samples: (0..41)
+                .map(|i| {
+                    let alpha = -0.2 + 0.01 * i as f64;
+                    Mf61Sample {
+                        fz_n: 1000.0,
+                        kappa: 0.0,
+                        alpha_rad: alpha,
+                        gamma_rad: 0.0,
+                        vx_mps: 11.0,
+                        p_pa: p_kpa as f64 * 1e3,
+                        fx_n: 0.0,
+                        fy_n: -2500.0 * (8.0 * alpha).atan() / 1.5,
+                        mz_nm: 0.0,
+                        mx_nm: 0.0,
+                    }
+                })
+                .collect(),
+        }
+    }
+
+    /// An MF 6.1 fit that fails reaches `fit_failures` as a fatal row of stage `mf61`, keyed at
+    /// the tire, rim and `NOMPRES` it would have had. The case: a tire and rim whose every
+    /// tested pressure had too few sweeps for its PAC2002 fit (one cornering sweep each), so
+    /// no pressure hands the MF 6.1 stage a PAC2002 model to start from.
+    #[test]
+    fn a_failed_mf61_fit_is_a_fatal_fit_failures_row() {
+        let cfg = Config::default().fit.mf61();
+        let parts: Vec<mf61::Mf61Part> = [69, 83, 97]
+            .iter()
+            .map(|&p| {
+                let key = TireKey {
+                    tire: "T".into(),
+                    rim_in: 7,
+                    pressure_kpa_nom: p,
+                };
+                mf61::Mf61Part::new(&key, &[cornering_sweep(p)], None, None, &cfg)
+            })
+            .collect();
+        // the sweeps are there: what fails is the fit, not the input
+        assert!(parts.iter().all(|p| !p.group.points.is_empty()));
+        let o = fit_mf61("T", 7, &parts, &cfg);
+        assert!(o.model.is_none());
+        let mut results = FitResults::default();
+        results.add_mf61(&o);
+        assert_eq!(results.fatal().count(), 1, "{:?}", results.failures);
+        let df = tables::fit_failures(&results.failures).unwrap();
+        assert_eq!(df.height(), 1);
+        let cell = |c: &str| df.column(c).unwrap().get(0).unwrap().to_string();
+        assert_eq!(cell("tire"), "\"T\"");
+        assert_eq!(cell("rim_in"), "7");
+        assert_eq!(cell("pressure_kpa"), "83", "keyed at NOMPRES");
+        assert_eq!(cell("stage"), format!("\"{}\"", mf61::STAGE));
+        assert_eq!(cell("fatal"), "true");
+        assert!(cell("reason").contains("PAC2002 fit to start from"), "{df}");
+    }
+
+    /// A tire and rim without a usable sweep at any pressure fails its MF 6.1 stage as well.
+    #[test]
+    fn an_mf61_stage_without_sweeps_is_a_fatal_fit_failures_row() {
+        let cfg = Config::default().fit.mf61();
+        let key = TireKey {
+            tire: "T".into(),
+            rim_in: 8,
+            pressure_kpa_nom: 83,
+        };
+        let parts = [mf61::Mf61Part::new(&key, &[], None, None, &cfg)];
+        let mut results = FitResults::default();
+        results.add_mf61(&fit_mf61("T", 8, &parts, &cfg));
+        let df = tables::fit_failures(&results.failures).unwrap();
+        assert_eq!(df.height(), 1);
+        let reason = df.column("reason").unwrap().get(0).unwrap().to_string();
+        assert!(reason.contains("no force-clean"), "{reason}");
+        assert_eq!(results.fatal().count(), 1);
+        assert!(results.stage_seconds.contains_key(mf61::STAGE));
+    }
+
+    /// A fitted MF 6.1 model that is deficient (one tested pressure: no pressure terms) is
+    /// written and reaches `fit_failures` as a partial (non-fatal) row keyed at its pressure.
+    /// The data: cornering sweeps at three loads generated from a PAC2002 file, which is also
+    /// the start (as the group's PAC2002 fit would be).
+    #[test]
+    fn a_deficient_mf61_fit_is_a_partial_fit_failures_row() {
+        use tirebase_core::fit::mf61::{CollapsedGroup, Mf61Sample, Mf61Sweep, Pac2002AtPressure};
+        use tirebase_core::tire_model::tir::TirFile;
+        use tirebase_core::tire_model::{Mode, SlipInput};
+        let text = include_str!("../tests/fixtures/tir/mf52_fittyp6.tir");
+        let model = TirFile::parse(text).unwrap().0.model();
+        let cfg = Config::default().fit.mf61();
+        let p_kpa = 83;
+        let sweeps: Vec<Mf61Sweep> = [600.0, 1100.0, 1600.0]
+            .iter()
+            .enumerate()
+            .map(|(k, &fz_n)| Mf61Sweep {
+                id: format!("run1-{k}"),
+                kind: tirebase_core::fit::pac2002::SweepKind::Cornering,
+                samples: (0..81)
+                    .map(|i| {
+                        let alpha_rad = -0.2 + 0.005 * i as f64;
+                        let input = SlipInput {
+                            fz_n,
+                            kappa: 0.0,
+                            alpha_rad,
+                            gamma_rad: 0.0,
+                            vx_mps: 11.0,
+                        };
+                        let e = model.eval(&input, Mode::Limits);
+                        Mf61Sample {
+                            fz_n,
+                            kappa: 0.0,
+                            alpha_rad,
+                            gamma_rad: 0.0,
+                            vx_mps: 11.0,
+                            p_pa: p_kpa as f64 * 1e3,
+                            fx_n: e.fx_n,
+                            fy_n: e.fy_n,
+                            mz_nm: e.mz_nm,
+                            mx_nm: e.mx_nm,
+                        }
+                    })
+                    .collect(),
+            })
+            .collect();
+        let key = TireKey {
+            tire: "T".into(),
+            rim_in: 7,
+            pressure_kpa_nom: p_kpa,
+        };
+        let part = mf61::Mf61Part {
+            key: key.clone(),
+            group: CollapsedGroup {
+                pressure_kpa_nom: p_kpa,
+                points: tirebase_core::fit::mf61::collapse_group(&sweeps, &cfg.collapse),
+                pac2002: Some(Pac2002AtPressure {
+                    p_pa: p_kpa as f64 * 1e3,
+                    model,
+                    vertical_stiffness_n_per_m: None,
+                    unloaded_radius_m: None,
+                }),
+            },
+            use_mode: Some(4),
+        };
+        let o = fit_mf61("T", 7, &[part], &cfg);
+        assert!(o.model.is_some(), "{:?}", o.failures);
+        let mut results = FitResults::default();
+        results.add_mf61(&o);
+        assert_eq!(results.fatal().count(), 0, "{:?}", results.failures);
+        let df = tables::fit_failures(&results.failures).unwrap();
+        let scopes: Vec<String> = (0..df.height())
+            .map(|i| df.column("scope").unwrap().get(i).unwrap().to_string())
+            .collect();
+        let row = scopes
+            .iter()
+            .position(|s| s == "\"pressure terms\"")
+            .unwrap_or_else(|| panic!("no pressure-terms row in {df}"));
+        let cell = |c: &str| df.column(c).unwrap().get(row).unwrap().to_string();
+        assert_eq!(cell("stage"), format!("\"{}\"", mf61::STAGE));
+        assert_eq!(cell("fatal"), "false");
+        assert_eq!(cell("pressure_kpa"), p_kpa.to_string());
+        assert!(cell("reason").contains("no pressure terms"), "{df}");
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! In: a store root (the live `samples` table, as `query` sees it), a parsed `.tir` file and a
 //! [`Selection`] of samples (by default the one of the real-data README: `|alpha| <= 12.5 deg`,
 //! `Fz > 100 N`, `V > 5 km/h`, every 5th sample in time order of each source file). Out: one
-//! [`ScoreRow`] per (source file, nominal pressure): sample count, RMSE of the model against the
+//! [`ScoreRow`] per (tire, rim, source file, nominal pressure): sample count, RMSE of the model against the
 //! measured Fx, Fy, Mz and the RMS of the measured values (for scale). The model is evaluated at
 //! each sample's measured load, slip, inclination and speed (ISO-W, SI), combined slip, in the
 //! chosen [`Mode`].
@@ -65,6 +65,8 @@ impl Default for Selection {
 pub struct ScoreRow {
     /// Tire name as stored.
     pub tire: String,
+    /// Rim width, whole inches (the `rim_in` partition; -1 when unknown).
+    pub rim_in: i64,
     /// Source file name.
     pub source_file: String,
     /// Nominal pressure partition, kPa (-1 when not held).
@@ -136,8 +138,8 @@ struct Measured {
     mz_nm: f64,
 }
 
-/// Score `tir` on the store's samples chosen by `selection`; rows sorted by (tire, source file,
-/// pressure).
+/// Score `tir` on the store's samples chosen by `selection`; rows sorted by (tire, rim, source
+/// file, pressure).
 pub fn score(
     store: &Path,
     tir: &TirFile,
@@ -149,7 +151,7 @@ pub fn score(
     }
     let groups = selected_samples(store, selection)?;
     let mut rows = Vec::with_capacity(groups.len());
-    for ((tire, source_file, pressure_kpa_nom), samples) in groups {
+    for ((tire, rim_in, source_file, pressure_kpa_nom), samples) in groups {
         let points: Vec<SlipInput> = samples.iter().map(|s| s.point).collect();
         let pressures: Vec<f64> = samples.iter().map(|s| s.pressure_kpa).collect();
         let model = evaluate(tir, &points, &pressures, mode);
@@ -158,6 +160,7 @@ pub fn score(
         };
         rows.push(ScoreRow {
             tire,
+            rim_in,
             source_file,
             pressure_kpa_nom,
             n_samples: samples.len(),
@@ -209,10 +212,11 @@ fn rms(values: impl Iterator<Item = f64>) -> f64 {
     }
 }
 
-type GroupKey = (String, String, i64);
+/// (tire, rim width in, source file, nominal pressure kPa).
+type GroupKey = (String, i64, String, i64);
 
-/// The selected samples, grouped by (tire, source file, nominal pressure), each group in time
-/// order of its file.
+/// The selected samples, grouped by (tire, rim, source file, nominal pressure), each group in
+/// time order of its file.
 fn selected_samples(
     store: &Path,
     selection: &Selection,
@@ -266,6 +270,7 @@ fn selected_samples(
     };
     let (tire, file) = (text("tire")?, text("source_file")?);
     let p_nom = number("pressure_kpa_nom")?;
+    let rim = number("rim_in")?;
     let [fz, kappa, alpha, gamma, v, p, fx, fy, mz] = MEASURED.map(number);
     let (fz, kappa, alpha, gamma, v, p, fx, fy, mz) =
         (fz?, kappa?, alpha?, gamma?, v?, p?, fx?, fy?, mz?);
@@ -285,17 +290,19 @@ fn selected_samples(
         if !take {
             continue;
         }
-        let nominal = if p_nom[i].is_finite() {
-            p_nom[i] as i64
-        } else {
-            -1
-        };
+        let whole_or_unknown = |v: f64| if v.is_finite() { v as i64 } else { -1 };
+        let nominal = whole_or_unknown(p_nom[i]);
         // After the decimation: the chosen samples do not depend on the pressure asked for.
         if selection.pressure_kpa_nom.is_some_and(|p| p != nominal) {
             continue;
         }
         groups
-            .entry((tire[i].clone(), file[i].clone(), nominal))
+            .entry((
+                tire[i].clone(),
+                whole_or_unknown(rim[i]),
+                file[i].clone(),
+                nominal,
+            ))
             .or_default()
             .push(Measured {
                 point: SlipInput {

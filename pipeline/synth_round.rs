@@ -137,11 +137,16 @@ pub fn write_round(
     })
 }
 
+/// Write `bytes` to the file `path`; an error names that file ("cannot write").
+fn write_file(path: &Path, bytes: impl AsRef<[u8]>) -> Result<(), SynthWriteError> {
+    fs::write(path, bytes).map_err(io_err(path, "cannot write"))
+}
+
 /// Write `file` under `root` via a temporary name and a rename.
 fn write_atomic(root: &Path, file: &OutFile) -> Result<(), SynthWriteError> {
     let path: PathBuf = root.join(&file.path);
     let tmp = path.with_extension("tmp-synth");
-    fs::write(&tmp, &file.bytes).map_err(io_err(&tmp, "cannot write"))?;
+    write_file(&tmp, &file.bytes)?;
     fs::rename(&tmp, &path).map_err(io_err(&path, "cannot rename"))?;
     Ok(())
 }
@@ -154,14 +159,14 @@ pub fn write_session(root: &Path, s: &SyntheticSession) -> Result<PathBuf, Synth
         fs::remove_dir_all(&dir).map_err(io_err(&dir, "cannot replace"))?;
     }
     fs::create_dir_all(&dir).map_err(io_err(&dir, "cannot create"))?;
-    fs::write(dir.join("session.toml"), &s.session_toml).map_err(io_err(&dir, "write"))?;
-    fs::write(dir.join("expected.toml"), s.expected_toml()).map_err(io_err(&dir, "write"))?;
+    write_file(&dir.join("session.toml"), &s.session_toml)?;
+    write_file(&dir.join("expected.toml"), s.expected_toml())?;
     for (rel, contents) in &s.files {
         let path = dir.join(rel);
         if let Some(parent) = path.parent() {
             fs::create_dir_all(parent).map_err(io_err(parent, "cannot create"))?;
         }
-        fs::write(&path, contents).map_err(io_err(&path, "write"))?;
+        write_file(&path, contents)?;
     }
     Ok(dir)
 }
@@ -191,5 +196,28 @@ mod tests {
             "{printed}"
         );
         fs::remove_dir_all(&tmp).unwrap();
+    }
+
+    /// A file that cannot be written is named, with the same action as every other write
+    /// ("cannot write"): here a run file whose path is a directory another run file created.
+    #[test]
+    fn unwritable_session_file_is_named_with_cannot_write() {
+        let tmp =
+            std::env::temp_dir().join(format!("tirebase-synth-session-{}", std::process::id()));
+        let mut session = demo_car_sessions(1).into_iter().next().unwrap();
+        session.files.push(("sub/a.csv".into(), "x".into()));
+        session.files.push(("sub".into(), "x".into()));
+        let err = write_session(&tmp, &session).unwrap_err();
+        let file = tmp.join(&session.name).join("sub");
+        fs::remove_dir_all(&tmp).unwrap();
+        assert!(
+            matches!(&err, SynthWriteError::Io { path, action: "cannot write", .. } if *path == file),
+            "{err:?}"
+        );
+        let printed = format!("{:#}", anyhow::Error::from(err));
+        assert!(
+            printed.starts_with(&format!("{}: cannot write: ", file.display())),
+            "{printed}"
+        );
     }
 }

@@ -263,6 +263,7 @@ fn tir_score_separates_the_truth_from_another_pressures_model_issue_17() {
             r.headers().unwrap().iter().collect::<Vec<_>>(),
             [
                 "tire",
+                "rim_in",
                 "source_file",
                 "pressure_kpa_nom",
                 "n_samples",
@@ -283,7 +284,11 @@ fn tir_score_separates_the_truth_from_another_pressures_model_issue_17() {
     let own = score(pressure, Some(pressure));
     let wrong = score(other, Some(pressure));
     assert!(!own.is_empty());
-    assert!(own.iter().all(|r| r[2] == pressure.to_string()));
+    assert!(own.iter().all(|r| r[3] == pressure.to_string()));
+    // Every row names the rim its samples were measured on.
+    for rows in [&all, &own, &wrong] {
+        assert!(rows.iter().all(|r| r[1] == rim.to_string()), "{rows:?}");
+    }
     // The rows are the files of this tire on this rim, none of another rim.
     let files = tirebase(&[
         "query",
@@ -302,26 +307,26 @@ fn tir_score_separates_the_truth_from_another_pressures_model_issue_17() {
         .records()
         .map(|r| r.unwrap()[0].to_string())
         .collect();
-    let mut scored: Vec<String> = all.iter().map(|r| r[1].clone()).collect();
+    let mut scored: Vec<String> = all.iter().map(|r| r[2].clone()).collect();
     scored.dedup();
     assert_eq!(scored, files, "{tire} on {rim} in: the files scored");
     for row in &own {
         let same = all
             .iter()
-            .find(|r| r[1] == row[1] && r[2] == row[2])
+            .find(|r| r[2] == row[2] && r[3] == row[3])
             .expect("the whole-file score has the row");
         assert_eq!(
             same, row,
             "one pressure or all: the same samples and errors"
         );
-        let bad = wrong.iter().find(|r| r[1] == row[1]).expect("same row");
+        let bad = wrong.iter().find(|r| r[2] == row[2]).expect("same row");
         eprintln!(
             "{} at {pressure} kPa: truth Fy RMSE {} N, {other} kPa truth {} N (RMS {} N, {} samples)",
-            row[1], row[5], bad[5], row[8], row[3]
+            row[2], row[6], bad[6], row[9], row[4]
         );
-        if num(row, 8) > 100.0 {
-            assert!(num(row, 5) < 0.01 * num(row, 8), "{row:?}");
-            assert!(num(bad, 5) > 2.0 * num(row, 5), "{bad:?} vs {row:?}");
+        if num(row, 9) > 100.0 {
+            assert!(num(row, 6) < 0.01 * num(row, 9), "{row:?}");
+            assert!(num(bad, 6) > 2.0 * num(row, 6), "{bad:?} vs {row:?}");
         }
     }
 }
@@ -771,6 +776,112 @@ fn thermal_alone_writes_the_full_fits_thermal_tables() {
             "{table} differs from the full fit's"
         );
     }
+}
+
+/// A stage's result does not depend on which other stages were asked for: `--stages pac2002`
+/// runs what its model depends on (spring rate for Cz/R0, relaxation for the de-lag lengths,
+/// thermal for the grip-temperature correction, each on the segments the full fit gives it), so
+/// its PAC2002 and MF 6.1 models are the full fit's but for what the relaxation stage writes
+/// into them (the coefficients of family `relaxation`, and the `USE_MODE` that counts its laws).
+#[test]
+fn pac2002_alone_writes_the_full_fits_models() {
+    let f = realistic();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = tirebase(&[
+        "fit",
+        "--store",
+        p(&f.store),
+        "--out",
+        p(&out),
+        "--stages",
+        "pac2002",
+    ]);
+    ok(&o, "fit --stages pac2002");
+    let full_coefficients = read_table(&f.out, "coefficients");
+    let mut relaxation_names: Vec<String> = strs(&full_coefficients, "family")
+        .into_iter()
+        .zip(strs(&full_coefficients, "name"))
+        .filter(|(family, _)| family == "relaxation")
+        .map(|(_, name)| name)
+        .collect();
+    relaxation_names.extend(["USE_MODE".to_string()]);
+    assert!(relaxation_names.iter().any(|n| n == "PTY1"));
+    // The coefficients table without the relaxation family, as CSV rows.
+    let rows = |out: &Path| -> Vec<String> {
+        let mut df = read_table(out, "coefficients");
+        let keep = df
+            .column("family")
+            .unwrap()
+            .str()
+            .unwrap()
+            .not_equal("relaxation");
+        df = df.filter(&keep).unwrap();
+        let mut bytes = Vec::new();
+        CsvWriter::new(&mut bytes).finish(&mut df).unwrap();
+        String::from_utf8(bytes)
+            .unwrap()
+            .lines()
+            .map(str::to_string)
+            .collect()
+    };
+    assert_eq!(rows(&out), rows(&f.out), "coefficients");
+    let without_relaxation = |bytes: &[u8]| -> Vec<String> {
+        String::from_utf8_lossy(bytes)
+            .lines()
+            .filter(|l| {
+                let key = l.split_whitespace().next().unwrap_or("");
+                !relaxation_names.iter().any(|n| n == key)
+            })
+            .map(str::to_string)
+            .collect()
+    };
+    let (alone, full) = (outputs(&out), outputs(&f.out));
+    let tirs: Vec<&String> = full.keys().filter(|k| k.starts_with("tir/")).collect();
+    assert_eq!(
+        alone
+            .keys()
+            .filter(|k| k.starts_with("tir/"))
+            .collect::<Vec<_>>(),
+        tirs
+    );
+    for name in tirs {
+        let (a, b) = (
+            without_relaxation(&alone[name]),
+            without_relaxation(&full[name]),
+        );
+        assert_eq!(a.len(), b.len(), "{name}: line count");
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!(x, y, "{name} differs from the full fit's");
+        }
+    }
+    assert!(
+        alone["fit_quality.parquet"] == full["fit_quality.parquet"],
+        "fit_quality differs from the full fit's"
+    );
+}
+
+/// `--stages relaxation` runs the fits and the grip law its lengths depend on: its table is the
+/// full fit's.
+#[test]
+fn relaxation_alone_writes_the_full_fits_relaxation_table() {
+    let f = realistic();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = tirebase(&[
+        "fit",
+        "--store",
+        p(&f.store),
+        "--out",
+        p(&out),
+        "--stages",
+        "relaxation",
+    ]);
+    ok(&o, "fit --stages relaxation");
+    assert!(
+        outputs(&out)["relaxation.parquet"] == outputs(&f.out)["relaxation.parquet"],
+        "relaxation.parquet differs from the full fit's"
+    );
 }
 
 /// Mark every force segment of one tire, rim and pressure as having a zeroed lateral force (a

@@ -68,10 +68,10 @@ fn score(
     }
     let row = csv_rows(&o)
         .into_iter()
-        .find(|r| r[1] == "cornering.mat")
+        .find(|r| r[2] == "cornering.mat")
         .ok_or_else(|| "no cornering.mat row".to_string())?;
     let f = |i: usize| row[i].parse::<f64>().unwrap();
-    Ok((f(5), f(6), f(4), row[3].parse().unwrap()))
+    Ok((f(6), f(7), f(5), row[4].parse().unwrap()))
 }
 
 #[test]

@@ -318,6 +318,7 @@ fn score(args: &TirScoreArgs) -> anyhow::Result<ExitCode> {
     let mut out = csv::Writer::from_writer(std::io::stdout().lock());
     out.write_record([
         "tire",
+        "rim_in",
         "source_file",
         "pressure_kpa_nom",
         "n_samples",
@@ -332,6 +333,7 @@ fn score(args: &TirScoreArgs) -> anyhow::Result<ExitCode> {
         let f = |v: f64| format!("{v:.3}");
         out.write_record([
             r.tire,
+            r.rim_in.to_string(),
             r.source_file,
             r.pressure_kpa_nom.to_string(),
             r.n_samples.to_string(),

@@ -25,15 +25,25 @@
 //! then reads the sweeps brought to a reference tread temperature with the group's `mu(T)`
 //! ([`grip::correct`]); without a `mu(T)` fit the sweeps are fitted as measured.
 //!
-//! Other stage sets and settings drop steps from that list:
+//! A stage's result does not depend on which other stages were asked for: every step it
+//! depends on runs, asked for or not, and only the stages asked for report their tables and
+//! failures. `--stages pac2002` writes the full fit's PAC2002 and MF 6.1 models but for what the
+//! relaxation stage writes into them, which is there only when relaxation was asked for: the
+//! `PTY*`/`PTX*` laws (`USE_MODE` + 10) and MF 6.1's carcass stiffnesses and their pressure
+//! terms (coefficient family `relaxation`). So other stage sets drop only what nothing they
+//! report depends on:
 //! - without de-lagging (or without relaxation segments) the first PAC2002 fit is the written
 //!   one (every family, k-fold) and relaxation, when asked for, runs once with it;
 //! - relaxation without PAC2002: every fit is forces only and none is written (the moment
 //!   families cost the most and relaxation reads only `Fy` and `Fx`); without de-lagging it is
 //!   one fit;
 //! - PAC2002 without relaxation still runs relaxation for the de-lag lengths, not its final
-//!   pass; spring rate not asked for still runs for `Cz`/`R0` (its table and failures are then
-//!   not reported).
+//!   pass; spring rate not asked for still runs for `Cz`/`R0`, thermal not asked for still runs
+//!   first for the grip-temperature correction (their tables and failures are then not
+//!   reported).
+//!
+//! What a group loads is derived from the same plan ([`used_by`]: the segment kinds some step
+//! reads), so the segments read and the steps run cannot disagree.
 //!
 //! A step whose input is missing (no model, no vertical stiffness) records why when its stage
 //! was asked for; every other stage still runs.
@@ -86,7 +96,8 @@ pub struct GroupResult {
     pub pac2002: Option<Pac2002Fit>,
     /// Relaxation output (with the final model).
     pub relaxation: Option<RelaxationOutput>,
-    /// Thermal output.
+    /// Thermal output; also present when the stage only ran for the grip-temperature
+    /// correction's sake (its tables are then not written).
     pub thermal: Option<ThermalOutput>,
     /// The reference temperatures the PAC2002 sweeps were brought to by the grip-temperature
     /// correction (`None`: fitted as measured).
@@ -180,6 +191,12 @@ fn relaxation_kind(kind: SegmentKind) -> bool {
     )
 }
 
+/// Kinds the thermal stage reads: the cold-to-warm tests, and the air temperature of every
+/// classified segment (the mu(T) gain's cold reference).
+fn thermal_kind(kind: SegmentKind) -> bool {
+    kind != SegmentKind::Other
+}
+
 fn spring_rate_segment(s: &LoadedSegment) -> bool {
     s.row.forces_ok && spring_rate_kind(s.segment.kind)
 }
@@ -194,22 +211,27 @@ fn relaxation_segment(s: &LoadedSegment) -> bool {
     s.row.forces_ok && relaxation_kind(s.segment.kind)
 }
 
-/// The segment kinds any enabled stage reads (what a group's plan and hash cover).
-/// Not derived from [`plan`]: it filters rows before groups (and `has_relax_segments`) exist,
-/// and it is narrower than the steps (`--stages pac2002` leaves out the cold-to-warm and
-/// step-steer segments its de-lag relaxation step would read), so deriving it changes outputs.
-pub fn used_by(stages: &StageSet, kind: SegmentKind) -> bool {
-    let pac = kind.is_matrix();
-    let spring = spring_rate_kind(kind);
-    // The cold-to-warm tests, and the air temperature of every classified segment (the mu(T)
-    // gain's cold reference): `--stages thermal` reads what the full fit reads.
-    let thermal = kind != SegmentKind::Other;
-    let relax = relaxation_kind(kind);
-    // PAC2002 needs the spring-rate segments for Cz/R0 and relaxation needs the PAC2002 model.
-    (stages.pac2002 && (pac || spring))
-        || (stages.spring_rate && spring)
-        || (stages.thermal && thermal)
-        || (stages.relaxation && (relax || pac || spring))
+impl Step {
+    /// Whether the step reads segments of `kind` (before the QC filter of its stage).
+    fn reads(self, kind: SegmentKind) -> bool {
+        match self {
+            Step::SpringRate | Step::SpringRateAtFittedFnomin => spring_rate_kind(kind),
+            Step::Pac2002 { .. } | Step::Pac2002Delagged { .. } => kind.is_matrix(),
+            Step::Relaxation | Step::RelaxationFinal => relaxation_kind(kind),
+            Step::Thermal => thermal_kind(kind),
+            Step::Record => false,
+        }
+    }
+}
+
+/// Whether a group's fit reads segments of `kind` (what the store loads for it and what its
+/// hash covers): some step of its [`plan`] reads them. Decided before the groups exist, so from
+/// the plan of a group with relaxation segments, whose steps include those of the plan
+/// without.
+pub fn used_by(stages: &StageSet, cfg: &StageConfigs, kind: SegmentKind) -> bool {
+    plan(stages, cfg.pac2002.delag, true, cfg.pac2002.grip_correction)
+        .iter()
+        .any(|step| step.reads(kind))
 }
 
 /// `FNOMIN` as the PAC2002 stage chooses it ([`pac2002::middle_nominal_load`]), from the
@@ -368,7 +390,8 @@ pub enum Step {
     Record,
     /// Spring rate again when the fit chose another `FNOMIN` (the RE law is normalised by it).
     SpringRateAtFittedFnomin,
-    /// mu(T) from the cold-to-warm tests (independent of the other stages).
+    /// mu(T) from the cold-to-warm tests (independent of the other stages; first when the
+    /// PAC2002 fits read it for the grip-temperature correction).
     Thermal,
 }
 
@@ -383,8 +406,9 @@ pub fn plan(
     let mut steps = Vec::new();
     // Relaxation needs the PAC2002 model; both need the spring rate's Cz and R0.
     let fits = stages.pac2002 || stages.relaxation;
-    // The grip-temperature correction of the PAC2002 sweeps reads the thermal stage's mu(T).
-    let thermal_first = stages.thermal && fits && grip_correction;
+    // The grip-temperature correction of the PAC2002 sweeps reads the thermal stage's mu(T):
+    // it runs first, asked for or not, so that the models do not depend on the stage set.
+    let thermal_first = fits && grip_correction;
     if thermal_first {
         steps.push(Step::Thermal);
     }
@@ -748,9 +772,13 @@ impl Walk<'_> {
         }
     }
 
+    /// The thermal stage. When it was not asked for, it ran only for the grip-temperature
+    /// correction's sake: its failures are not reported (its tables are not written).
     fn thermal(&mut self) {
         let started = Instant::now();
+        let report = self.stages.thermal;
         let out = &mut self.out;
+        let failures_before = out.failures.len();
         let segs: Vec<MeasuredSegment> = self
             .all
             .iter()
@@ -771,6 +799,9 @@ impl Walk<'_> {
                 out.fail("thermal", "thermal", true, "no mu(T) fit");
             }
             out.thermal = Some(th);
+        }
+        if !report {
+            out.failures.truncate(failures_before);
         }
         out.time("thermal", started);
     }
@@ -980,12 +1011,99 @@ mod tests {
                 SpringRateAtFittedFnomin,
             ]
         );
-        // without the thermal stage there is no law: the plan is the uncorrected one
+        // thermal not asked for still runs first: the law is the full fit's
         assert_eq!(
             plan(&stages("pac2002"), true, true, true),
-            plan(&stages("pac2002"), true, true, false)
+            [
+                Thermal,
+                SpringRate,
+                FORCES,
+                Relaxation,
+                DELAGGED,
+                Record,
+                SpringRateAtFittedFnomin,
+            ]
         );
         assert_eq!(plan(&stages("thermal"), true, true, true), [Thermal]);
+    }
+
+    /// The steps up to and including the fit that is written.
+    fn through_written_fit(p: &[Step]) -> &[Step] {
+        let last = p.iter().rposition(|s| {
+            matches!(
+                s,
+                Pac2002 { written: true, .. } | Pac2002Delagged { written: true, .. }
+            )
+        });
+        &p[..=last.expect("a written fit")]
+    }
+
+    #[test]
+    fn the_written_model_has_the_same_steps_whatever_else_was_asked_for() {
+        for list in [
+            "pac2002",
+            "pac2002,thermal",
+            "pac2002,relaxation",
+            "pac2002,spring_rate",
+        ] {
+            for (delag, has_relax, grip) in (0..8).map(|k| (k & 1 == 1, k & 2 == 2, k & 4 == 4)) {
+                assert_eq!(
+                    through_written_fit(&plan(&stages(list), delag, has_relax, grip)),
+                    through_written_fit(&plan(&stages("all"), delag, has_relax, grip)),
+                    "{list} delag {delag} relaxation segments {has_relax} grip {grip}"
+                );
+            }
+        }
+    }
+
+    fn configs(delag: bool, grip_correction: bool) -> StageConfigs {
+        let mut cfg = crate::fit::stage_configs(&crate::config::Config::default());
+        cfg.pac2002.delag = delag;
+        cfg.pac2002.grip_correction = grip_correction;
+        cfg
+    }
+
+    #[test]
+    fn every_kind_a_step_reads_is_loaded() {
+        for list in [
+            "all",
+            "pac2002",
+            "relaxation",
+            "thermal",
+            "spring_rate",
+            "pac2002,relaxation",
+            "relaxation,spring_rate",
+        ] {
+            let s = stages(list);
+            for (delag, has_relax, grip) in (0..8).map(|k| (k & 1 == 1, k & 2 == 2, k & 4 == 4)) {
+                let cfg = configs(delag, grip);
+                for step in plan(&s, delag, has_relax, grip) {
+                    for kind in SegmentKind::ALL.into_iter().filter(|k| step.reads(*k)) {
+                        assert!(
+                            used_by(&s, &cfg, kind),
+                            "{list} delag {delag} grip {grip}: {step:?} reads {kind} segments"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn pac2002_alone_loads_what_its_delag_and_grip_law_read() {
+        let s = stages("pac2002");
+        for kind in [SegmentKind::ColdToWarm, SegmentKind::StepSteer] {
+            assert!(used_by(&s, &configs(true, false), kind), "{kind}");
+        }
+        // no de-lag relaxation, no grip law: no step reads step steers
+        assert!(!used_by(&s, &configs(false, false), SegmentKind::StepSteer));
+        assert!(used_by(&s, &configs(false, true), SegmentKind::IaSweep));
+        // nothing reads unclassified segments
+        assert!(!used_by(
+            &stages("all"),
+            &configs(true, true),
+            SegmentKind::Other
+        ));
     }
 
     #[test]
@@ -1100,10 +1218,10 @@ mod tests {
                     if grip && s.thermal {
                         assert!(thermal.is_some_and(|t| first_fit.is_some_and(|f| t < f)));
                     }
-                    // thermal runs once, when asked for
+                    // thermal runs once, when asked for or read by the grip correction
                     assert_eq!(
                         p.iter().filter(|x| **x == Thermal).count(),
-                        usize::from(s.thermal)
+                        usize::from(s.thermal || grip)
                     );
                 }
             }

@@ -23,7 +23,9 @@ pub struct AccelerationFit {
     pub u_alpha_rad_s2: f64,
     /// Drag constant `c = k_a / J` (1/rad) of the ln cosh model; 0 for the quadratic model.
     pub drag_c_per_rad: f64,
-    /// Standard uncertainty of `c`.
+    /// Standard uncertainty of `c`. When the `ln cosh` fit leaves `c` on its bound 0 (no drag
+    /// seen), the uncertainty of `c` with the bound released (see [`fit_lncosh`]): how large a
+    /// drag the run cannot tell from none. NaN only when the fit's normal matrix is singular.
     pub u_drag_c_per_rad: f64,
     /// Number of events used.
     pub events: usize,
@@ -158,9 +160,35 @@ impl LeastSquaresProblem for LnCosh<'_> {
     }
 }
 
+/// Standard uncertainty of `c` at a fit that ended on the bound `c = 0`, where the solver gives
+/// no covariance: `c` treated as free, from `s^2 (J^T J)^-1` of all four parameters at the
+/// solution (`s^2` over `n - 4` degrees of freedom), the one-sided derivative in `c` standing
+/// for the model's. `None` when the normal matrix is singular or there is no spare point.
+fn u_drag_on_bound(model: &LnCosh, p: &[f64]) -> Option<f64> {
+    let m = model.t.len();
+    if m <= 4 {
+        return None;
+    }
+    let (mut r, mut jac) = (vec![0.0; m], vec![0.0; m * 4]);
+    model.residuals_and_jacobian(p, &mut r, &mut jac);
+    let j = DMatrix::from_row_slice(m, 4, &jac);
+    // Unit-diagonal scaling before inverting: the parameters differ by orders of magnitude.
+    let normal = j.transpose() * &j;
+    let d = DVector::from_fn(4, |k, _| normal[(k, k)].sqrt());
+    if d.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+        return None;
+    }
+    let scaled = DMatrix::from_fn(4, 4, |a, b| normal[(a, b)] / (d[a] * d[b]));
+    let inv = scaled.cholesky()?.inverse();
+    let s2 = r.iter().map(|x| x * x).sum::<f64>() / (m - 4) as f64;
+    let var = s2 * inv[(3, 3)] / (d[3] * d[3]);
+    (var.is_finite() && var >= 0.0).then(|| var.sqrt())
+}
+
 /// Drag-aware fit of `theta1 + ln cosh(sqrt(alpha0 c)(t - t1)) / c` (section 2.3), seeded from
 /// the quadratic fit. `alpha0` is the acceleration at zero speed, so the torque balance applies
-/// to it unchanged, and `k_a = c J`.
+/// to it unchanged, and `k_a = c J`. A fit that ends on `c = 0` reports the uncertainty of `c`
+/// with the bound released ([`AccelerationFit::u_drag_c_per_rad`]).
 pub fn fit_lncosh(times_s: &[f64], angles_rad: &[f64]) -> Result<AccelerationFit, MethodError> {
     let quad = polyfit_centered(times_s, angles_rad, 2)?;
     let (a, b, c0) = (quad.coeffs[2], quad.coeffs[1], quad.coeffs[0]);
@@ -212,7 +240,13 @@ pub fn fit_lncosh(times_s: &[f64], angles_rad: &[f64]) -> Result<AccelerationFit
         alpha_rad_s2: p[2],
         u_alpha_rad_s2: out.std_errors[2].unwrap_or(f64::NAN),
         drag_c_per_rad: p[3],
-        u_drag_c_per_rad: out.std_errors[3].unwrap_or(f64::NAN),
+        u_drag_c_per_rad: out.std_errors[3]
+            .or_else(|| {
+                out.at_bounds[3]
+                    .then(|| u_drag_on_bound(&model, p))
+                    .flatten()
+            })
+            .unwrap_or(f64::NAN),
         events: times_s.len(),
         residual_rms_rad: out.rmse,
         peak_omega_rad_s: peak,
@@ -348,6 +382,45 @@ mod tests {
                 "{closed} {series} (u = {u})"
             );
         }
+    }
+
+    #[test]
+    fn drag_on_its_bound_has_the_uncertainty_of_the_released_fit() {
+        // A drop without drag whose noise bends the other way (a small `+x^4` term the model
+        // cannot follow with c >= 0): the fit ends on c = 0.
+        let (alpha, t0) = (0.0744, 0.3);
+        let times: Vec<f64> = (0..240).map(|k| t0 + 0.04 * k as f64).collect();
+        let angles: Vec<f64> = times
+            .iter()
+            .enumerate()
+            .map(|(k, &t)| {
+                let noise = 2e-4 * ((k as f64 * 1.7).sin() + 0.5 * (k as f64 * 0.61).cos());
+                0.5 * alpha * t * t + 1e-7 * t.powi(4) + noise
+            })
+            .collect();
+        let fit = fit_lncosh(&times, &angles).unwrap();
+        assert_eq!(fit.drag_c_per_rad, 0.0, "the fit should end on c = 0");
+        let u = fit.u_drag_c_per_rad;
+        assert!(u.is_finite() && u > 0.0, "u(c) = {u}");
+
+        // At c = 0 the model moves, to first order, in the span of 1, x, x^2 and
+        // -alpha0^2 x^4 / 12 (x = t - t1): u(c) is 12 / alpha0^2 times the standard error of the
+        // x^4 coefficient of that linear regression, with the bound fit's residual variance.
+        let quad = polyfit_centered(&times, &angles, 2).unwrap();
+        let (a, b) = (quad.coeffs[2], quad.coeffs[1]);
+        let t1 = quad.t_center - b / (2.0 * a);
+        let n = times.len();
+        let design = DMatrix::from_fn(n, 4, |i, k| (times[i] - t1).powi([0, 1, 2, 4][k]));
+        let reg = least_squares::solve(&design, &DVector::from_column_slice(&angles)).unwrap();
+        let rss_bound = quad.fit.rms().powi(2) * n as f64;
+        let expected =
+            12.0 / fit.alpha_rad_s2.powi(2) * reg.std_err(3) * (rss_bound / reg.rss).sqrt();
+        assert!(
+            (u - expected).abs() <= 1e-4 * expected,
+            "u(c) {u} vs the linearised regression's {expected}"
+        );
+        // The automatic model choice keeps the quadratic fit: c is not above 5 u(c).
+        assert!(fit.drag_c_per_rad <= 5.0 * u);
     }
 
     #[test]
