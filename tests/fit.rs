@@ -507,6 +507,41 @@ fn quirked_round_within_2_percent_forces_5_percent_mz_issue_17() {
     check_models(f, [2.0, 2.0, 5.0]);
 }
 
+/// Issue 18, Done when 1 (out of sample) on the every-quirk round: every PAC2002 `fit_quality`
+/// row predicts its held-out sweeps within 20 % of its in-sample RMSE (`oos_ratio <= 1.2`) and
+/// none is flagged. The loose load control's swing puts the up and down passes of a sweep at
+/// different loads; the fit predicts each collapsed point by the mean of the model at the two
+/// passes' operating points (`fit::pac2002::collapse::BranchInputs`).
+#[test]
+fn quirked_round_out_of_sample_within_20_percent_issue_18() {
+    let f = quirked();
+    assert_eq!(f.fit.status.code(), Some(0), "fit exit code");
+    let q = read_table(&f.out, "fit_quality");
+    let (model, tire, pressure, channel) = (
+        strs(&q, "model"),
+        strs(&q, "tire"),
+        f64s(&q, "pressure_kpa"),
+        strs(&q, "channel"),
+    );
+    let (ratio, flag) = (f64s(&q, "oos_ratio"), strs(&q, "oos_flag"));
+    let mut rows = 0;
+    for i in 0..model.len() {
+        if model[i] != "pac2002" {
+            continue;
+        }
+        rows += 1;
+        let what = format!("{} {} kPa {}", tire[i], pressure[i], channel[i]);
+        eprintln!("{what}: oos_ratio {:.3}", ratio[i]);
+        assert!(
+            ratio[i].is_finite() && ratio[i] <= 1.2,
+            "{what}: oos_ratio {}",
+            ratio[i]
+        );
+        assert_eq!(flag[i], "false", "{what}");
+    }
+    assert_eq!(rows, 8 * 7, "{q}");
+}
+
 /// The same with the older-round quirk alone (SR only, 50 Hz, loose load control, radii in a
 /// wrong unit, at the standard levels).
 #[test]

@@ -19,7 +19,12 @@
 //! 4. Collapse: each sample is an up- or down-branch sample by the sign of the local slope of the
 //!    swept slip; within each grid cell the mean of each branch is taken, then the mean of the
 //!    two branch means (one branch only at the extremes). Up/down lag hysteresis cancels to first
-//!    order and the remaining bias is second order in the lag (`tau^2 F''`).
+//!    order and the remaining bias is second order in the lag (`tau^2 F''`). The point keeps each
+//!    branch's mean operating point beside the averaged one ([`BranchInputs`]): the collapsed
+//!    value is the mean of the two branches' values, so the model's prediction of it is the mean
+//!    of the model at the two branches' inputs. The two differ where a loose load control swings
+//!    `Fz` between passes (older rounds): the model at the averaged load misses the average of
+//!    its values at the two loads by the curvature in load (second order in the swing).
 //!
 //! Deliberately not here: choosing which sweeps to use (the stage) and any model.
 
@@ -30,11 +35,55 @@ use crate::fit::output::Output;
 use crate::numerics::stats::median;
 use crate::tire_model::SlipInput;
 
+/// The mean operating point of each branch (up, down) a collapsed value averages: one or two.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct BranchInputs {
+    inputs: [SlipInput; 2],
+    n: usize,
+}
+
+impl BranchInputs {
+    /// One operating point (a value that averages nothing, or one branch only).
+    pub fn one(input: SlipInput) -> Self {
+        BranchInputs {
+            inputs: [input; 2],
+            n: 1,
+        }
+    }
+
+    /// Two branches' operating points.
+    pub fn two(up: SlipInput, down: SlipInput) -> Self {
+        BranchInputs {
+            inputs: [up, down],
+            n: 2,
+        }
+    }
+
+    /// The operating points (one or two).
+    pub fn as_slice(&self) -> &[SlipInput] {
+        &self.inputs[..self.n]
+    }
+
+    /// The mean of `f` over the operating points: what a model predicts for the collapsed value.
+    pub fn mean_of<T>(&self, mut f: impl FnMut(&SlipInput) -> T) -> T
+    where
+        T: std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
+    {
+        match self.n {
+            1 => f(&self.inputs[0]),
+            _ => (f(&self.inputs[0]) + f(&self.inputs[1])) * 0.5,
+        }
+    }
+}
+
 /// One point of a collapsed curve: averaged inputs and outputs (NaN if the channel is missing).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct CurvePoint {
-    /// Averaged operating point.
+    /// Averaged operating point (the mean of the branches' operating points).
     pub input: SlipInput,
+    /// Each averaged branch's mean operating point: the model's prediction of `outputs` is the
+    /// mean of its values there ([`BranchInputs::mean_of`]).
+    pub branches: BranchInputs,
     /// `[Fx, Fy, Mz, Mx]`, indexed like [`Output::ALL`].
     pub outputs: [f64; 4],
 }
@@ -318,12 +367,27 @@ fn branch_average(kind: SweepKind, samples: &[Sample], bin: f64) -> Vec<CurvePoi
         .values()
         .map(|branches| {
             let present: Vec<&Acc> = branches.iter().filter(|a| a.n > 0).collect();
+            let branch_input = |a: &Acc| {
+                let m = a.inputs.map(|v| v / a.n as f64);
+                SlipInput {
+                    fz_n: m[0],
+                    kappa: m[1],
+                    alpha_rad: m[2],
+                    gamma_rad: m[3],
+                    vx_mps: m[4],
+                }
+            };
             let mut inputs = [0.0; 5];
             for a in &present {
                 for (v, s) in inputs.iter_mut().zip(a.inputs) {
                     *v += s / a.n as f64 / present.len() as f64;
                 }
             }
+            let branch_inputs = match present.as_slice() {
+                [up, down] => BranchInputs::two(branch_input(up), branch_input(down)),
+                [one] => BranchInputs::one(branch_input(one)),
+                _ => unreachable!("a grid cell holds at least one sample"),
+            };
             let mut outputs = [0.0; 4];
             for (k, out) in outputs.iter_mut().enumerate() {
                 let means: Vec<f64> = branches
@@ -345,6 +409,7 @@ fn branch_average(kind: SweepKind, samples: &[Sample], bin: f64) -> Vec<CurvePoi
                     gamma_rad: inputs[3],
                     vx_mps: inputs[4],
                 },
+                branches: branch_inputs,
                 outputs,
             }
         })
@@ -434,6 +499,61 @@ mod tests {
             let err = p.output(Output::Fy) + 1000.0 * p.input.alpha_rad;
             assert!(err.abs() < 2.0, "alpha {} err {err}", p.input.alpha_rad);
         }
+    }
+
+    /// A load that differs between the up and down passes (loose load control): each point
+    /// keeps both branches' operating points, and the mean of a load-curved channel at them is
+    /// the collapsed value, where the channel at the averaged load is not.
+    #[test]
+    fn branch_inputs_carry_each_pass_load() {
+        let curve = |alpha: f64, fz: f64| -alpha * fz * (2.0 - fz / 2000.0);
+        let (dt, rate) = (0.01, 0.07);
+        let mut s = Vec::new();
+        let (mut t, mut a) = (0.0, -0.2);
+        while a < 0.2 {
+            let mut x = sample(t, a, curve(a, 1200.0));
+            x.fz_n = 1200.0;
+            s.push(x);
+            a += rate * dt;
+            t += dt;
+        }
+        while a > -0.2 {
+            let mut x = sample(t, a, curve(a, 800.0));
+            x.fz_n = 800.0;
+            s.push(x);
+            a -= rate * dt;
+            t += dt;
+        }
+        let c = collapse(
+            &sweep(s),
+            &CollapseSettings {
+                bin: 0.005,
+                despike_sigmas: 6.0,
+                relaxation: None,
+            },
+        );
+        let inner: Vec<&CurvePoint> = c
+            .points
+            .iter()
+            .filter(|p| p.input.alpha_rad.abs() < 0.19)
+            .collect();
+        assert!(inner.len() > 60);
+        let mut worst_mean_input = 0.0f64;
+        for p in inner {
+            let loads: Vec<f64> = p.branches.as_slice().iter().map(|b| b.fz_n).collect();
+            assert_eq!(loads, [1200.0, 800.0], "alpha {}", p.input.alpha_rad);
+            assert!((p.input.fz_n - 1000.0).abs() < 1e-9);
+            let y = p.output(Output::Fy);
+            let by_branch = p.branches.mean_of(|b| curve(b.alpha_rad, b.fz_n));
+            assert!(
+                (by_branch - y).abs() < 1e-6 * y.abs().max(1.0),
+                "{by_branch} vs {y}"
+            );
+            worst_mean_input =
+                worst_mean_input.max((curve(p.input.alpha_rad, p.input.fz_n) - y).abs());
+        }
+        // The curvature in load: |alpha| * 200^2 / 2000 = 20 N per rad of slip angle.
+        assert!(worst_mean_input > 3.0, "{worst_mean_input}");
     }
 
     /// De-lagging a first-order-lagged ramp recovers the steady state.

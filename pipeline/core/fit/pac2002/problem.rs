@@ -5,7 +5,8 @@
 //! exact Jacobian (forward-mode [`Dual`] numbers through the generic PAC2002 equations) for
 //! [`crate::numerics::nonlinear_least_squares::minimize`].
 //!
-//! Residuals, in order: data `w_i (model_i - measured_i)`, then penalties: priors
+//! Residuals, in order: data `w_i (model_i - measured_i)` (`model_i` the mean of the model at the
+//! point's branch operating points, [`super::collapse::BranchInputs`]), then penalties: priors
 //! `w (c - centre)` and one-sided constraints `w max(0, q(c) - limit)` for the physical rules
 //! (curvature factors `E <= 1` before clamping, `Gxa, Gyk > 0`, `Bt > 0` over the tested
 //! envelope). The model is evaluated without input limiting (`Mode::Raw`): inside the tested
@@ -21,6 +22,7 @@ use crate::tire_model::pac2002::{
 };
 use crate::tire_model::{Coef, Coef::*, Coefs, Dual, Real, SlipInput};
 
+use super::collapse::BranchInputs;
 use super::family::Family;
 
 /// Evaluation mode of every fit.
@@ -55,8 +57,10 @@ pub fn channel_value<T: Real>(c: &Coefs<T>, input: &SlipInput, family: Family) -
 /// One measured point of the family's channel.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct DataPoint {
-    /// Operating point.
+    /// Operating point (the mean of `branches`).
     pub input: SlipInput,
+    /// The operating points whose values the measured value averages.
+    pub branches: BranchInputs,
     /// Measured (collapsed) value, N or N m.
     pub value: f64,
     /// Residual weight (1 / (sweep peak * sqrt(points in sweep * sweeps))).
@@ -214,7 +218,10 @@ pub struct FamilyProblem<'a> {
     pub points: &'a [DataPoint],
     /// Penalties.
     pub penalties: &'a [Penalty],
+    /// The fixed families at every branch operating point of every point, in point order.
     fixed: Vec<Fixed>,
+    /// Index in `fixed` of each point's first branch.
+    first_fixed: Vec<usize>,
 }
 
 impl<'a> FamilyProblem<'a> {
@@ -235,10 +242,12 @@ impl<'a> FamilyProblem<'a> {
                 "FamilyProblem: {family:?} caches {f:?} but one of its coefficients is free"
             );
         }
-        let fixed = points
-            .iter()
-            .map(|pt| {
-                let l = load(base, &pt.input, FIT_MODE);
+        let mut first_fixed = Vec::with_capacity(points.len());
+        let mut fixed = Vec::with_capacity(2 * points.len());
+        for pt in points {
+            first_fixed.push(fixed.len());
+            fixed.extend(pt.branches.as_slice().iter().map(|input| {
+                let l = load(base, input, FIT_MODE);
                 let px = pure_fx0(base, &l);
                 let py = pure_fy0(base, &l);
                 Fixed {
@@ -248,8 +257,8 @@ impl<'a> FamilyProblem<'a> {
                     fx: combined_fx(base, &l, px.fx0),
                     fy: combined_fy(base, &l, &py),
                 }
-            })
-            .collect();
+            }));
+        }
         FamilyProblem {
             base,
             free,
@@ -257,6 +266,7 @@ impl<'a> FamilyProblem<'a> {
             points,
             penalties,
             fixed,
+            first_fixed,
         }
     }
 
@@ -269,10 +279,18 @@ impl<'a> FamilyProblem<'a> {
         c
     }
 
-    /// The channel at point `i` with the fixed families taken from the cache.
+    /// The channel's prediction of point `i`: its mean over the point's branch operating points.
     fn value<T: Real>(&self, c: &Coefs<T>, i: usize) -> T {
-        let input = &self.points[i].input;
-        let fixed = &self.fixed[i];
+        let mut k = self.first_fixed[i];
+        self.points[i].branches.mean_of(|input| {
+            let v = self.value_at(c, input, &self.fixed[k]);
+            k += 1;
+            v
+        })
+    }
+
+    /// The channel at one operating point with the fixed families taken from the cache.
+    fn value_at<T: Real>(&self, c: &Coefs<T>, input: &SlipInput, fixed: &Fixed) -> T {
         let l = load(c, input, FIT_MODE);
         match self.family {
             Family::Fy0 => pure_fy0(c, &l).fy0,
@@ -388,6 +406,7 @@ mod tests {
                 .iter()
                 .map(|input| DataPoint {
                     input: *input,
+                    branches: BranchInputs::one(*input),
                     value: 1.0,
                     weight: 0.01,
                 })

@@ -15,7 +15,8 @@
 //!   from the family's own stage (where its in-sample figure was measured; the combined `Mz`
 //!   family later refits the `Mz0` coefficients on every sweep) with a short budget
 //!   ([`super::FitConfig::kfold_iterations`], one robust-loss round), and the held-out sweeps'
-//!   collapsed points are predicted. The RMSE over every held-out point is on the same points
+//!   collapsed points are predicted (each by the mean of the model at its branch operating
+//!   points, as in the fit). The RMSE over every held-out point is on the same points
 //!   as the in-sample `rmse`. Families fitted earlier (e.g. `Fy0` under `Mz0`) keep their
 //!   full-data values: a family's own coefficients are what is cross-validated.
 //! - Trend deviation: between neighbouring collapsed points of every sweep the operating point
@@ -140,9 +141,15 @@ pub fn out_of_sample(
             .flat_map(|(s, _)| s.points.iter())
             .filter(|p| p.output(output).is_finite())
             .collect();
-        let mut inputs: Vec<SlipInput> = held_out.iter().map(|p| p.input).collect();
-        let predicted = channel_batch(family, &refit, &mut inputs);
-        for (p, m) in held_out.iter().zip(predicted) {
+        // Every held-out point's branch operating points, then their means.
+        let mut inputs: Vec<SlipInput> = held_out
+            .iter()
+            .flat_map(|p| p.branches.as_slice().iter().copied())
+            .collect();
+        let values = channel_batch(family, &refit, &mut inputs);
+        let mut next = values.into_iter();
+        for p in &held_out {
+            let m = p.branches.mean_of(|_| next.next().unwrap_or(f64::NAN));
             let e = m - p.output(output);
             if e.is_finite() {
                 ss += e * e;

@@ -611,6 +611,7 @@ pub(super) fn data_points(
             };
             DataPoint {
                 input: valid[i].input,
+                branches: valid[i].branches,
                 value: valid[i].output(output),
                 weight: w,
             }
@@ -985,7 +986,7 @@ fn refine(
 fn rmse_on_points(points: &[DataPoint], c: &Coefs<f64>, family: Family) -> f64 {
     let ss: f64 = points
         .iter()
-        .map(|p| (channel_value(c, &p.input, family) - p.value).powi(2))
+        .map(|p| (p.branches.mean_of(|x| channel_value(c, x, family)) - p.value).powi(2))
         .sum();
     (ss / points.len().max(1) as f64).sqrt()
 }
