@@ -179,7 +179,13 @@ fn spring_rate_kind(kind: SegmentKind) -> bool {
     )
 }
 
-/// Kinds the relaxation stage reads.
+/// Kinds the relaxation stage reads for the measurement lag of one speed: the spring-rate
+/// holds' load steps.
+fn load_step_kind(kind: SegmentKind) -> bool {
+    relaxation::load_steps::is_hold(kind)
+}
+
+/// Kinds the relaxation stage fits relaxation lengths to.
 fn relaxation_kind(kind: SegmentKind) -> bool {
     matches!(
         kind,
@@ -217,7 +223,9 @@ impl Step {
         match self {
             Step::SpringRate | Step::SpringRateAtFittedFnomin => spring_rate_kind(kind),
             Step::Pac2002 { .. } | Step::Pac2002Delagged { .. } => kind.is_matrix(),
-            Step::Relaxation | Step::RelaxationFinal => relaxation_kind(kind),
+            Step::Relaxation | Step::RelaxationFinal => {
+                relaxation_kind(kind) || load_step_kind(kind)
+            }
             Step::Thermal => thermal_kind(kind),
             Step::Record => false,
         }
@@ -516,7 +524,8 @@ struct Walk<'a> {
     input: Option<FitInput>,
     /// The latest successful PAC2002 fit.
     model: Option<Model>,
-    /// The segments relaxation reads (filled by the first relaxation).
+    /// The segments relaxation reads, spring-rate holds included (filled by the first
+    /// relaxation).
     relax_segments: Vec<MeasuredSegment>,
     /// Unloaded radius, m, and vertical stiffness, N/m, relaxation runs with.
     vertical_for_relaxation: Option<(f64, f64)>,
@@ -648,7 +657,9 @@ impl Walk<'_> {
         self.relax_segments = self
             .all
             .iter()
-            .filter(|s| relaxation_segment(s))
+            .filter(|s| {
+                relaxation_segment(s) || (s.row.forces_ok && load_step_kind(s.segment.kind))
+            })
             .map(|s| s.segment.clone())
             .collect();
         self.relax();

@@ -5,7 +5,8 @@
 //! In: per tire/rim/pressure a [`RelaxationInput`]: the fitted steady-state PAC2002 model, the
 //! dynamic unloaded radius and vertical stiffness (spring-rate stage), and the segments
 //! (cornering, cold-to-warm and speed sweeps and step steers: lateral; drive/brake sweeps:
-//! longitudinal; other kinds are ignored). Out: [`RelaxationOutput`]: one [`RelaxationRow`] per
+//! longitudinal; spring-rate holds: the measurement lag at one speed, [`load_steps`]; other
+//! kinds are ignored). Out: [`RelaxationOutput`]: one [`RelaxationRow`] per
 //! (direction, method, nominal load, slip rate) pooling its segments, one [`RelaxationLaw`] per
 //! tire/rim/pressure, failures as data.
 //!
@@ -61,6 +62,8 @@ use super::segment_data::{
     MeasuredSegment, SegmentKind, StageFailure, TireKey, finite_mean, finite_median, moving_average,
 };
 use crate::tire_model::{Coef, Mode, Pac2002, SlipInput};
+
+pub mod load_steps;
 
 /// Lateral (`Fy` vs slip angle) or longitudinal (`Fx` vs slip ratio).
 #[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -185,9 +188,14 @@ pub struct RelaxationConfig {
     pub measurement_lag_form: LagForm,
     /// Search interval of the measurement lag when rows at two or more speeds identify it, s.
     pub measurement_lag_range_s: (f64, f64),
-    /// Measurement lag assumed when the data cannot separate it (one speed): 0 leaves every
-    /// lag in the relaxation length, s.
+    /// Measurement lag assumed when the data cannot separate it (one speed, and the spring-rate
+    /// load steps do not support a lag): 0 leaves every lag in the relaxation length, s.
     pub measurement_lag_s: f64,
+    /// Half width of the moving average applied to both the load and the loaded radius of the
+    /// spring-rate holds before their lag is fitted ([`load_steps`]), s.
+    pub load_step_smoothing_half_s: f64,
+    /// Fit a vertical damping term `c dRL/dt` beside the spring in the load-step lag.
+    pub load_step_damping: bool,
 }
 
 /// How the rig's measurement chain lags the forces, in time.
@@ -257,11 +265,14 @@ pub struct MeasurementLagFit {
     pub key: TireKey,
     /// The lag used for every row, s.
     pub lag: MeasurementLag,
-    /// True when identified from rows at two or more road speeds (at one load); false when
-    /// the configured value was assumed (one speed: the lag is not separable from `sigma`).
+    /// True when identified from rows at two or more road speeds (at one load) or, at one
+    /// speed, from the spring-rate load steps; false when the configured value was assumed.
     pub identified: bool,
-    /// Road speeds of the rows it was identified from, km/h.
+    /// Road speeds of the rows it was identified from, km/h (empty: not from the speeds).
     pub speeds_kph: Vec<f64>,
+    /// The lag of the spring-rate load steps, when the input has holds that carry one (used at
+    /// one speed; reported beside the speed-based lag otherwise).
+    pub load_steps: Option<load_steps::LoadStepLag>,
     /// On a bound of its search interval.
     pub at_bound: bool,
     /// Why the lag is what it is: identified (with its test statistic), assumed (one speed),
@@ -288,6 +299,8 @@ impl Default for RelaxationConfig {
             measurement_lag_form: LagForm::Delay,
             measurement_lag_range_s: (0.0, 0.1),
             measurement_lag_s: 0.0,
+            load_step_smoothing_half_s: 0.1,
+            load_step_damping: false,
         }
     }
 }
@@ -509,7 +522,8 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
                 }),
             }
         }
-        let lag = identify_measurement_lag(&input.key, &groups, cfg);
+        let steps = load_steps::identify(input.segments, cfg);
+        let lag = identify_measurement_lag(&input.key, &groups, steps, cfg);
         for members in groups.values_mut() {
             for m in members.iter_mut() {
                 m.problem.measurement = lag.lag;
@@ -941,7 +955,8 @@ const LAG_LR_THRESHOLD: f64 = 9.0;
 const MAX_AUTOCORRELATION_LAG: usize = 500;
 
 /// The rig's measurement lag of one input: identified by a profile over the lag when some load
-/// has sweep segments at two or more road speeds, else the configured value. At every trial lag
+/// has sweep segments at two or more road speeds, else from the spring-rate load steps
+/// (`steps`, see [`load_steps`]) when they support a lag, else the configured value. At every trial lag
 /// each such load gets one `sigma` shared by all its sweep segments, whatever their speed and
 /// slip rate (a relaxation length does not depend on speed; a lag in time adds `V lag` to the
 /// apparent length, so only the right lag lets one `sigma` fit every speed), and the summed
@@ -958,9 +973,13 @@ const MAX_AUTOCORRELATION_LAG: usize = 500;
 fn identify_measurement_lag(
     key: &TireKey,
     groups: &BTreeMap<GroupKey, Vec<Prepared>>,
+    steps: Option<load_steps::LoadStepLag>,
     cfg: &RelaxationConfig,
 ) -> MeasurementLagFit {
-    let assumed = MeasurementLagFit {
+    let steps_note = steps
+        .as_ref()
+        .map_or(String::new(), |s| format!("; load steps: {}", s.summary()));
+    let assumed = |why: &str| MeasurementLagFit {
         key: key.clone(),
         lag: MeasurementLag {
             form: cfg.measurement_lag_form,
@@ -968,12 +987,35 @@ fn identify_measurement_lag(
         },
         identified: false,
         speeds_kph: Vec::new(),
+        load_steps: steps.clone(),
         at_bound: false,
         note: format!(
-            "assumed {:.1} ms: no load swept at two or more speeds, the lag is not separable \
-             from sigma",
+            "assumed {:.1} ms: no load swept at two or more speeds, {why}",
             1e3 * cfg.measurement_lag_s
         ),
+    };
+    let from_steps = || -> MeasurementLagFit {
+        match &steps {
+            Some(s) if s.supported => MeasurementLagFit {
+                key: key.clone(),
+                lag: s.lag,
+                identified: true,
+                speeds_kph: Vec::new(),
+                load_steps: steps.clone(),
+                at_bound: s.at_bound,
+                note: format!(
+                    "identified from the load steps (one speed): {}",
+                    s.summary()
+                ),
+            },
+            Some(s) => assumed(&format!(
+                "and the load steps do not support a lag: the best {}",
+                s.summary()
+            )),
+            None => {
+                assumed("no spring-rate hold with a load step: the lag is not separable from sigma")
+            }
+        }
     };
     // Sweep groups by (direction, nominal load): one shared sigma each.
     let mut by_load: BTreeMap<(Direction, i64), Vec<&GroupKey>> = BTreeMap::new();
@@ -991,7 +1033,7 @@ fn identify_measurement_lag(
         .map(|ks| ks.iter().flat_map(|k| groups[*k].iter()).collect())
         .collect();
     if informative.is_empty() {
-        return assumed;
+        return from_steps();
     }
     let (lo, hi) = cfg.sigma_range_m;
     let lag_of = |lag_s: f64| MeasurementLag {
@@ -1024,7 +1066,7 @@ fn identify_measurement_lag(
         max_iters: 100,
     };
     let Ok(best) = scalar::minimize(&profile, a, b, &options) else {
-        return assumed;
+        return from_steps();
     };
     let mut speeds_kph: Vec<f64> = informative
         .iter()
@@ -1064,8 +1106,9 @@ fn identify_measurement_lag(
             lag: best_lag,
             identified: true,
             speeds_kph,
+            load_steps: steps,
             at_bound: best.at_bound,
-            note: format!("identified: {summary}"),
+            note: format!("identified: {summary}{steps_note}"),
         }
     } else {
         MeasurementLagFit {
@@ -1073,8 +1116,9 @@ fn identify_measurement_lag(
             lag: lag_of(0.0),
             identified: false,
             speeds_kph,
+            load_steps: steps,
             at_bound: false,
-            note: format!("not separated, 0 used: the best lag {summary}"),
+            note: format!("not separated, 0 used: the best lag {summary}{steps_note}"),
         }
     }
 }
