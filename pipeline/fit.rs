@@ -42,6 +42,7 @@ use rayon::prelude::*;
 use tirebase_core::fit::mf61::Mf61Config;
 use tirebase_core::fit::segment_data::TireKey;
 use tirebase_core::naming::{sanitize_tire, unique_mf61_names, unique_tir_names};
+use tirebase_core::numerics::cpu_clock::thread_cpu_seconds;
 use tirebase_core::tire_model::tir::lint::Severity;
 
 pub use crate::store::results::FitFailure;
@@ -268,17 +269,6 @@ impl fmt::Display for GroupStats {
         }
         Ok(())
     }
-}
-
-/// CPU time of the calling thread, s, from `/proc/thread-self/stat` (Linux, 100 ticks/s);
-/// `None` elsewhere.
-fn thread_cpu_seconds() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/thread-self/stat").ok()?;
-    let rest = &stat[stat.rfind(')')? + 1..];
-    let fields: Vec<&str> = rest.split_whitespace().collect();
-    let utime: f64 = fields.get(11)?.parse().ok()?;
-    let stime: f64 = fields.get(12)?.parse().ok()?;
-    Some((utime + stime) / 100.0)
 }
 
 /// Everything a fit produced.

@@ -570,6 +570,32 @@ fn segments_by_kind(store: &Path) -> BTreeMap<String, u64> {
     out
 }
 
+/// How `now` differs from `prev` by key: (added, changed, removed) counts, a key present in both
+/// counting as changed when `differs(prev, now)`.
+fn key_changes<K: Ord, V>(
+    prev: &BTreeMap<K, V>,
+    now: &BTreeMap<K, V>,
+    differs: impl Fn(&V, &V) -> bool,
+) -> (usize, usize, usize) {
+    let added = now.keys().filter(|k| !prev.contains_key(*k)).count();
+    let removed = prev.keys().filter(|k| !now.contains_key(*k)).count();
+    let changed = now
+        .iter()
+        .filter(|(k, v)| prev.get(*k).is_some_and(|p| differs(p, v)))
+        .count();
+    (added, changed, removed)
+}
+
+/// "n what" for each of (added, changed, removed) that is not zero.
+fn push_counts(parts: &mut Vec<String>, counts: (usize, usize, usize), what: [&str; 3]) {
+    let (added, changed, removed) = counts;
+    for (n, what) in [added, changed, removed].into_iter().zip(what) {
+        if n > 0 {
+            parts.push(format!("{n} {what}"));
+        }
+    }
+}
+
 /// One line: what `now` changed against `prev`.
 pub fn describe_changes(prev: Option<&Manifest>, now: &Manifest) -> String {
     let Some(prev) = prev else {
@@ -590,27 +616,12 @@ pub fn describe_changes(prev: Option<&Manifest>, now: &Manifest) -> String {
         .iter()
         .map(|f| (f.name.as_str(), f.sha256.as_str()))
         .collect();
-    let added = files_now
-        .keys()
-        .filter(|k| !files_prev.contains_key(*k))
-        .count();
-    let removed = files_prev
-        .keys()
-        .filter(|k| !files_now.contains_key(*k))
-        .count();
-    let changed = files_now
-        .iter()
-        .filter(|(k, v)| files_prev.get(*k).is_some_and(|p| p != *v))
-        .count();
-    for (n, what) in [
-        (added, "files added"),
-        (changed, "files changed"),
-        (removed, "files removed"),
-    ] {
-        if n > 0 {
-            parts.push(format!("{n} {what}"));
-        }
-    }
+    let files = key_changes(&files_prev, &files_now, |p, v| p != v);
+    push_counts(
+        &mut parts,
+        files,
+        ["files added", "files changed", "files removed"],
+    );
     if prev.tool_version != now.tool_version {
         parts.push(format!(
             "tool {} -> {}",
@@ -628,31 +639,15 @@ pub fn describe_changes(prev: Option<&Manifest>, now: &Manifest) -> String {
     }
     let keys_prev: BTreeMap<_, _> = prev.groups.iter().map(|g| (g.key(), g)).collect();
     let keys_now: BTreeMap<_, _> = now.groups.iter().map(|g| (g.key(), g)).collect();
-    let g_added = keys_now
-        .keys()
-        .filter(|k| !keys_prev.contains_key(*k))
-        .count();
-    let g_removed = keys_prev
-        .keys()
-        .filter(|k| !keys_now.contains_key(*k))
-        .count();
-    let g_refit = keys_now
-        .iter()
-        .filter(|(k, g)| {
-            keys_prev
-                .get(*k)
-                .is_some_and(|p| p.input_sha256 != g.input_sha256)
-        })
-        .count();
-    for (n, what) in [
-        (g_added, "groups added"),
-        (g_refit, "groups refit"),
-        (g_removed, "groups removed"),
-    ] {
-        if n > 0 {
-            parts.push(format!("{n} {what}"));
-        }
-    }
+    let groups = key_changes(&keys_prev, &keys_now, |p, g| {
+        p.input_sha256 != g.input_sha256
+    });
+    let (g_added, g_refit, _) = groups;
+    push_counts(
+        &mut parts,
+        groups,
+        ["groups added", "groups refit", "groups removed"],
+    );
     let reused = now.groups.len() - g_added - g_refit;
     parts.push(format!("{reused} groups reused"));
     parts.join(", ")

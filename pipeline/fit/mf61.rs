@@ -27,7 +27,7 @@ use tirebase_core::fit::spring_rate::TirVertical;
 use tirebase_core::fit::sweep_folds::OutOfSampleQuality;
 use tirebase_core::naming::mf61_tir_file_name;
 use tirebase_core::tire_model::tir::TirFile;
-use tirebase_core::tire_model::tir::lint::{self, Severity};
+use tirebase_core::tire_model::tir::lint::Severity;
 use tirebase_core::tire_model::{Coef, Section, Version};
 
 use super::FitFailure;
@@ -279,22 +279,12 @@ fn build(
     rows.sort_by_key(|r| r.coef);
     file.use_mode = use_mode.or(Some(4));
     file.header_comments = header_comments(key, fit, tested_kpa);
-    let text = file.render().map_err(|source| TirBuildError::Render {
-        model: FitModel::Mf61,
-        source,
-    })?;
-    let (read_back, _) = TirFile::parse(&text).map_err(|source| TirBuildError::ReadBack {
-        model: FitModel::Mf61,
-        source,
-    })?;
-    Ok(WrittenModel {
-        model: FitModel::Mf61,
-        file_name: mf61_tir_file_name(&key.tire, key.rim_in as f64),
-        lint: lint::lint(&read_back),
-        file: read_back,
-        text,
-        coefficients: rows,
-    })
+    WrittenModel::checked(
+        FitModel::Mf61,
+        &file,
+        mf61_tir_file_name(&key.tire, key.rim_in as f64),
+        rows,
+    )
 }
 
 fn header_comments(key: &TireKey, fit: &Mf61Fit, tested_kpa: &[i64]) -> Vec<String> {

@@ -100,6 +100,30 @@ pub struct WrittenModel {
     pub lint: LintReport,
 }
 
+impl WrittenModel {
+    /// `file` rendered, read back from its text (what a user's tool will read) and linted.
+    pub(super) fn checked(
+        model: FitModel,
+        file: &TirFile,
+        file_name: String,
+        coefficients: Vec<WrittenCoefficient>,
+    ) -> Result<WrittenModel, TirBuildError> {
+        let text = file
+            .render()
+            .map_err(|source| TirBuildError::Render { model, source })?;
+        let (read_back, _) =
+            TirFile::parse(&text).map_err(|source| TirBuildError::ReadBack { model, source })?;
+        Ok(WrittenModel {
+            model,
+            file_name,
+            lint: lint::lint(&read_back),
+            file: read_back,
+            text,
+            coefficients,
+        })
+    }
+}
+
 fn rows_of(fit: &Pac2002Fit) -> Vec<WrittenCoefficient> {
     fit.coefficients
         .iter()
@@ -279,22 +303,12 @@ pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, Tir
         nominal_pa: Some(nominal_pa),
     };
     file.header_comments = header_comments(result, fit, notes);
-    let text = file.render().map_err(|source| TirBuildError::Render {
-        model: FitModel::Pac2002,
-        source,
-    })?;
-    let (read_back, _) = TirFile::parse(&text).map_err(|source| TirBuildError::ReadBack {
-        model: FitModel::Pac2002,
-        source,
-    })?;
-    Ok(WrittenModel {
-        model: FitModel::Pac2002,
-        file_name: tir_file_name(&key.tire, key.rim_in as f64, key.pressure_kpa_nom as f64),
-        lint: lint::lint(&read_back),
-        file: read_back,
-        text,
-        coefficients: rows,
-    })
+    WrittenModel::checked(
+        FitModel::Pac2002,
+        &file,
+        tir_file_name(&key.tire, key.rim_in as f64, key.pressure_kpa_nom as f64),
+        rows,
+    )
 }
 
 /// Tire size from a name: `16x7.5-10` (overall diameter x section width - rim diameter, in;

@@ -789,15 +789,7 @@ pub fn mf61_names(groups: &BTreeSet<GroupKey>) -> TirNames {
         .iter()
         .map(|(t, r, _)| (t.as_str(), *r as f64))
         .collect();
-    let mut names = BTreeMap::new();
-    let mut notes = Vec::new();
-    for (key, (name, note)) in keys.into_iter().zip(unique_mf61_names(&args)) {
-        if let Some(n) = note {
-            notes.push((key.clone(), n));
-        }
-        names.insert(key.clone(), name);
-    }
-    (names, notes)
+    by_group(keys, unique_mf61_names(&args))
 }
 
 /// A fitted model as a result directory's `tir/` holds it.
@@ -863,6 +855,20 @@ pub fn read_tir_models(tir_dir: &Path) -> (BTreeMap<String, TirModel>, Vec<Strin
 /// `.tir` file names by group, and the notes of the disambiguated ones.
 pub type TirNames = (BTreeMap<GroupKey, String>, Vec<(GroupKey, String)>);
 
+/// Names of `keys` (in their order) as [`TirNames`]: each key's name, and its note when the
+/// name was disambiguated.
+fn by_group(keys: Vec<&GroupKey>, named: Vec<(String, Option<String>)>) -> TirNames {
+    let mut names = BTreeMap::new();
+    let mut notes = Vec::new();
+    for (key, (name, note)) in keys.into_iter().zip(named) {
+        if let Some(n) = note {
+            notes.push((key.clone(), n));
+        }
+        names.insert(key.clone(), name);
+    }
+    (names, notes)
+}
+
 /// The `.tir` file name of every group of a set (`naming::unique_tir_names`: a version names
 /// each model among all of its models), with the notes of the disambiguated ones.
 pub fn tir_names(groups: &BTreeSet<GroupKey>) -> TirNames {
@@ -871,15 +877,7 @@ pub fn tir_names(groups: &BTreeSet<GroupKey>) -> TirNames {
         .iter()
         .map(|(t, r, p)| (t.as_str(), *r as f64, *p as f64))
         .collect();
-    let mut names = BTreeMap::new();
-    let mut notes = Vec::new();
-    for (key, (name, note)) in keys.into_iter().zip(unique_tir_names(&args)) {
-        if let Some(n) = note {
-            notes.push((key.clone(), n));
-        }
-        names.insert(key.clone(), name);
-    }
-    (names, notes)
+    by_group(keys, unique_tir_names(&args))
 }
 
 #[cfg(test)]

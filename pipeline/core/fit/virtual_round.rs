@@ -337,29 +337,25 @@ fn check_round(round: &Round) {
         }
     }
     println!("relaxation worst |error| (row, law): {worst:?}");
-    if !rx.failures.is_empty() {
-        violations.push(format!("relaxation failures: {:?}", rx.failures));
-    }
-    if rx.laws.len() != truth.len() {
-        violations.push(format!(
-            "{} relaxation laws for {} tires",
-            rx.laws.len(),
-            truth.len()
-        ));
-    }
+    check_per_tire(
+        &mut violations,
+        "relaxation",
+        &rx.failures,
+        "relaxation laws",
+        rx.laws.len(),
+        truth.len(),
+    );
 
     // Thermal.
     let th = thermal::run(&round.segments, &ThermalConfig::default());
-    if !th.failures.is_empty() {
-        violations.push(format!("thermal failures: {:?}", th.failures));
-    }
-    if th.fits.len() != truth.len() {
-        violations.push(format!(
-            "{} thermal fits for {} tires",
-            th.fits.len(),
-            truth.len()
-        ));
-    }
+    check_per_tire(
+        &mut violations,
+        "thermal",
+        &th.failures,
+        "thermal fits",
+        th.fits.len(),
+        truth.len(),
+    );
     let mut worst_th = (0.0_f64, 0.0_f64);
     for f in &th.fits {
         let ci = round
@@ -413,6 +409,24 @@ fn check_round(round: &Round) {
         "{} violations of issue 6's tolerances (listed above)",
         violations.len()
     );
+}
+
+/// A stage that fits one result per tire: any failure, and a count of results (`what`) other
+/// than one per tire, is a violation.
+fn check_per_tire<F: std::fmt::Debug>(
+    violations: &mut Vec<String>,
+    stage: &str,
+    failures: &[F],
+    what: &str,
+    results: usize,
+    tires: usize,
+) {
+    if !failures.is_empty() {
+        violations.push(format!("{stage} failures: {failures:?}"));
+    }
+    if results != tires {
+        violations.push(format!("{results} {what} for {tires} tires"));
+    }
 }
 
 /// The sweeps of one tire as the PAC2002 stage wants them.

@@ -6,9 +6,11 @@
 //! [`nonlinear_least_squares::FitOutcome`]) in [`nonlinear_least_squares`], used by every stage;
 //! the one-dimensional minimiser of `fit::scalar` is argmin's Brent method, a different problem
 //! (a scalar cost, no residuals). Also the seeded generator [`random::SplitMix64`] and the
-//! medians of [`stats`]. Deliberately pure: no file system, no serde, no Arrow or polars, no
-//! knowledge of tires or rigs.
+//! medians of [`stats`], and the thread CPU clock of [`cpu_clock`] that times the fits.
+//! Deliberately pure: no file system (bar that clock, read from `/proc`), no serde, no Arrow or
+//! polars, no knowledge of tires or rigs.
 
+pub mod cpu_clock;
 pub mod damped_sine;
 pub mod least_squares;
 pub mod nonlinear_least_squares;

@@ -702,6 +702,22 @@ pub fn pendulum_session(name: &str, p: &PendulumParams, seed: u64) -> SyntheticS
 // The validation cases of inertia-methods.md section 9
 // ------------------------------------------------------------------------------------------------
 
+/// The yaw table's encoder in the validation cases: V1b's 20 us timing jitter and 0.02 deg
+/// band error when `noisy`, exact edges otherwise.
+fn yaw_encoder(noisy: bool) -> EncoderOutput {
+    if noisy {
+        EncoderOutput::Events {
+            jitter_s: 20e-6,
+            band_error_deg: 0.02,
+        }
+    } else {
+        EncoderOutput::Events {
+            jitter_s: 0.0,
+            band_error_deg: 0.0,
+        }
+    }
+}
+
 fn v1_params(noisy: bool) -> YawParams {
     YawParams {
         radius_m: 0.15,
@@ -719,17 +735,7 @@ fn v1_params(noisy: bool) -> YawParams {
         }],
         constants_given: true,
         analysis: "friction_method = \"given\"\nyaw_model = \"const_alpha\"".into(),
-        output: if noisy {
-            EncoderOutput::Events {
-                jitter_s: 20e-6,
-                band_error_deg: 0.02,
-            }
-        } else {
-            EncoderOutput::Events {
-                jitter_s: 0.0,
-                band_error_deg: 0.0,
-            }
-        },
+        output: yaw_encoder(noisy),
     }
 }
 
@@ -810,17 +816,7 @@ fn three_run_yaw(output: EncoderOutput, analysis: &str) -> YawParams {
 
 /// V2a: tare plus calibration body identifies table inertia and friction.
 pub fn v2a(noisy: bool, seed: u64) -> SyntheticSession {
-    let out = if noisy {
-        EncoderOutput::Events {
-            jitter_s: 20e-6,
-            band_error_deg: 0.02,
-        }
-    } else {
-        EncoderOutput::Events {
-            jitter_s: 0.0,
-            band_error_deg: 0.0,
-        }
-    };
+    let out = yaw_encoder(noisy);
     let name = if noisy {
         "v2a_yaw_tare_calibration_noisy"
     } else {
@@ -939,10 +935,7 @@ pub fn v2b(seed: u64) -> SyntheticSession {
 /// V2c: the thesis's multiplicative calibration factor, requested explicitly, is biased -0.26 %.
 pub fn v2c(seed: u64) -> SyntheticSession {
     let mut p = three_run_yaw(
-        EncoderOutput::Events {
-            jitter_s: 0.0,
-            band_error_deg: 0.0,
-        },
+        yaw_encoder(false),
         "friction_method = \"calibration_factor\"\nyaw_model = \"const_alpha\"",
     );
     p.runs.retain(|r| r.role != "tare");
@@ -1290,13 +1283,7 @@ pub fn demo_car_sessions(seed: u64) -> Vec<SyntheticSession> {
         );
         session
     };
-    let mut yaw = three_run_yaw(
-        EncoderOutput::Events {
-            jitter_s: 20e-6,
-            band_error_deg: 0.02,
-        },
-        "yaw_model = \"const_alpha\"",
-    );
+    let mut yaw = three_run_yaw(yaw_encoder(true), "yaw_model = \"const_alpha\"");
     yaw.runs[2].load_inertia = demo_car::YAW_INERTIA;
     let mut yaw = named(yaw_session("car_yaw", &yaw, s(1)), "demo car");
     // V2a's noise study: sd 0.0101 % of the car's inertia.

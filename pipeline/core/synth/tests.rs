@@ -29,6 +29,31 @@ fn run_of(plan: &RoundPlan, index: usize, realism: &Realism) -> (Program, RunSam
     (program, s)
 }
 
+/// Per half cycle of `seg` (a run of samples with one slip-angle sign): the sample of peak
+/// grip `|Fy / Fz|` and the half cycle's length.
+fn half_cycle_peaks(seg: &[usize], s: &RunSamples) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut k = 0;
+    while k < seg.len() {
+        let i0 = k;
+        let sign = s.alpha_rad[seg[k]].signum();
+        while k < seg.len() && s.alpha_rad[seg[k]].signum() == sign {
+            k += 1;
+        }
+        let best = seg[i0..k]
+            .iter()
+            .copied()
+            .max_by(|&a, &b| {
+                (s.fy_n[a] / s.fz_n[a])
+                    .abs()
+                    .total_cmp(&(s.fy_n[b] / s.fz_n[b]).abs())
+            })
+            .unwrap();
+        out.push((best, k - i0));
+    }
+    out
+}
+
 fn samples_of(program: &Program, s: &RunSamples, kind: SegmentKind) -> Vec<Vec<usize>> {
     program
         .segments
@@ -109,22 +134,7 @@ fn calibration_printout() {
             // Cold-to-warm per half cycle peaks.
             for seg in samples_of(&program, &s, SegmentKind::ColdToWarm) {
                 let mut line = String::from("  c2w peaks (T, mu):");
-                let mut k = 0;
-                while k < seg.len() {
-                    let i0 = k;
-                    let sign = s.alpha_rad[seg[k]].signum();
-                    while k < seg.len() && s.alpha_rad[seg[k]].signum() == sign {
-                        k += 1;
-                    }
-                    let best = seg[i0..k]
-                        .iter()
-                        .max_by(|&&a, &&b| {
-                            (s.fy_n[a] / s.fz_n[a])
-                                .abs()
-                                .total_cmp(&(s.fy_n[b] / s.fz_n[b]).abs())
-                        })
-                        .copied()
-                        .unwrap();
+                for (best, _) in half_cycle_peaks(&seg, &s) {
                     line += &format!(
                         " ({:.0},{:.2})",
                         s.surface_true_c[best],
@@ -310,27 +320,11 @@ fn cold_to_warm_peak_mu_rises_then_falls() {
     let index = first_run(&plan, combo, RunKind::Cornering);
     let (program, s) = run_of(&plan, index, plan.realism());
     let seg = &samples_of(&program, &s, SegmentKind::ColdToWarm)[0];
-    let mut peaks = Vec::new();
-    let mut k = 0;
-    while k < seg.len() {
-        let i0 = k;
-        let sign = s.alpha_rad[seg[k]].signum();
-        while k < seg.len() && s.alpha_rad[seg[k]].signum() == sign {
-            k += 1;
-        }
-        let best = seg[i0..k]
-            .iter()
-            .copied()
-            .max_by(|&a, &b| {
-                (s.fy_n[a] / s.fz_n[a])
-                    .abs()
-                    .total_cmp(&(s.fy_n[b] / s.fz_n[b]).abs())
-            })
-            .unwrap();
-        if k - i0 > 20 {
-            peaks.push((s.tread_centre_c[best], (s.fy_n[best] / s.fz_n[best]).abs()));
-        }
-    }
+    let peaks: Vec<(f64, f64)> = half_cycle_peaks(seg, &s)
+        .into_iter()
+        .filter(|&(_, len)| len > 20)
+        .map(|(best, _)| (s.tread_centre_c[best], (s.fy_n[best] / s.fz_n[best]).abs()))
+        .collect();
     let (imax, &(t_at_max, mu_max)) = peaks
         .iter()
         .enumerate()

@@ -141,18 +141,6 @@ impl Default for Mf61Config {
     }
 }
 
-/// The families the stage refines, in fit order: every [`Family`] but `My` (TTC records no
-/// rolling resistance moment; its coefficients keep their lifted values).
-pub const FAMILIES: [Family; 7] = [
-    Family::Fy0,
-    Family::Mz0,
-    Family::Fx0,
-    Family::Fx,
-    Family::Fy,
-    Family::Mz,
-    Family::Mx,
-];
-
 /// The measured output `family` is fitted to on sweeps of `kind`, `None` for sweeps it does
 /// not read. `Mz` reads every sweep: the `Mz0` coefficients (trail, residual torque, `PPZ*`)
 /// and the arm `SSZ*` of combined slip are refined jointly.
@@ -623,7 +611,9 @@ fn fit_points(
     let mut families = Vec::new();
     let mut std_errors = Vec::new();
     let pure = PureData::of(points);
-    for family in FAMILIES {
+    // `My` is not refined: TTC records no rolling resistance moment, so its coefficients keep
+    // their lifted values.
+    for family in Family::MEASURED {
         let started = Instant::now();
         let data = if family == Family::Mz {
             mz_data(points, &pure)
@@ -818,13 +808,8 @@ fn group_quality(
         if pairs.is_empty() {
             continue;
         }
-        let n = pairs.len();
-        let sse: f64 = pairs.iter().map(|(m, y)| (m - y) * (m - y)).sum();
-        let mean_y = pairs.iter().map(|(_, y)| y).sum::<f64>() / n as f64;
-        let sst: f64 = pairs.iter().map(|(_, y)| (y - mean_y) * (y - mean_y)).sum();
-        let peak = pairs.iter().fold(0.0_f64, |m, (_, y)| m.max(y.abs()));
-        let r2 = if sst > 0.0 { 1.0 - sse / sst } else { f64::NAN };
-        out.push((o, n, (sse / n as f64).sqrt(), peak, r2));
+        let (n, rmse, peak, r2) = agreement(pairs.iter().copied());
+        out.push((o, n, rmse, peak, r2));
     }
     out
 }
@@ -842,7 +827,7 @@ fn group_family_quality(
         .collect();
     let pure = PureData::of(&pts);
     let mut out = Vec::new();
-    for family in FAMILIES {
+    for family in Family::MEASURED {
         let d = family_data(&pts, family, &pure);
         if d.is_empty() {
             continue;
@@ -855,19 +840,25 @@ fn group_family_quality(
             FIT_MODE,
             &mut v,
         );
-        let n = d.len();
-        let sse: f64 = v
-            .iter()
-            .zip(&d.measured)
-            .map(|(m, y)| (m - y) * (m - y))
-            .sum();
-        let mean_y = d.measured.iter().sum::<f64>() / n as f64;
-        let sst: f64 = d.measured.iter().map(|y| (y - mean_y) * (y - mean_y)).sum();
-        let peak = d.measured.iter().fold(0.0_f64, |m, y| m.max(y.abs()));
-        let r2 = if sst > 0.0 { 1.0 - sse / sst } else { f64::NAN };
-        out.push((family, n, (sse / n as f64).sqrt(), peak, r2));
+        let (n, rmse, peak, r2) = agreement(v.iter().copied().zip(d.measured.iter().copied()));
+        out.push((family, n, rmse, peak, r2));
     }
     out
+}
+
+/// How a model agrees with measurements, from (model, measured) pairs (at least one): the count,
+/// the RMSE, the peak `|measured|` and `R^2` (NaN when the measurements do not vary).
+fn agreement(pairs: impl Iterator<Item = (f64, f64)> + Clone) -> (usize, f64, f64, f64) {
+    let n = pairs.clone().count();
+    let sse: f64 = pairs.clone().map(|(m, y)| (m - y) * (m - y)).sum();
+    let mean_y = pairs.clone().map(|(_, y)| y).sum::<f64>() / n as f64;
+    let sst: f64 = pairs
+        .clone()
+        .map(|(_, y)| (y - mean_y) * (y - mean_y))
+        .sum();
+    let peak = pairs.fold(0.0_f64, |m, (_, y)| m.max(y.abs()));
+    let r2 = if sst > 0.0 { 1.0 - sse / sst } else { f64::NAN };
+    (n, (sse / n as f64).sqrt(), peak, r2)
 }
 
 /// One tested pressure's sweeps, already collapsed ([`collapse_group`]): what a caller keeps in

@@ -44,6 +44,13 @@ impl Family {
         Family::My,
     ];
 
+    /// The families with a measured channel, in fit order: every family but `My` (TTC records no
+    /// rolling resistance moment, so its coefficients are never fitted to data).
+    pub const MEASURED: [Family; 7] = {
+        let [fy0, mz0, fx0, fx, fy, mz, mx, _my] = Family::FIT_ORDER;
+        [fy0, mz0, fx0, fx, fy, mz, mx]
+    };
+
     /// Channel name used in the quality table (`Fy0`, `Mz0`, `Fx0`, `Fx`, `Fy`, `Mz`, `Mx`, `My`).
     pub const fn as_str(self) -> &'static str {
         match self {

@@ -8,6 +8,7 @@ use super::synthetic::{
     EnvelopeErrors, RoundSpec, envelope_errors, fsae_demo, truth_relaxation, ttc_round,
 };
 use super::*;
+use crate::numerics::cpu_clock::thread_cpu_seconds;
 use crate::tire_model::{Coef::*, Coefs, Real};
 
 fn report(name: &str, fit: &Pac2002Fit, e: &EnvelopeErrors) {
@@ -267,17 +268,6 @@ fn fit_is_deterministic() {
     for (x, y) in a.model.coefs.0.iter().zip(&c.model.coefs.0) {
         assert_eq!(x.to_bits(), y.to_bits());
     }
-}
-
-/// CPU time of the calling thread, s, from `/proc/thread-self/stat` (Linux, 100 ticks/s);
-/// `None` elsewhere. Wall-clock time is meaningless on a shared, loaded machine.
-fn thread_cpu_seconds() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/thread-self/stat").ok()?;
-    let rest = &stat[stat.rfind(')')? + 1..];
-    let fields: Vec<&str> = rest.split_whitespace().collect();
-    let utime: f64 = fields.get(11)?.parse().ok()?;
-    let stime: f64 = fields.get(12)?.parse().ok()?;
-    Some((utime + stime) / 100.0)
 }
 
 /// Issue 5 speed target: a full fit (all families) of one tire and pressure under 2 s on one
