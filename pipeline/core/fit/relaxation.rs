@@ -1085,15 +1085,12 @@ fn identify_measurement_lag(
                 .map(move |m| m.problem.residuals_with(sigma0 * m.factor, &best_lag))
         })
         .collect();
-    let n: usize = residuals.iter().flatten().filter(|r| r.is_some()).count();
-    let inflation = autocorrelation_inflation(&residuals);
-    let n_eff = n as f64 / inflation;
-    let cost_at_zero = profile(0.0_f64.max(a));
-    let statistic = if best.cost > 0.0 && n > 0 {
-        (cost_at_zero - best.cost).max(0.0) * n_eff / best.cost
-    } else {
-        f64::INFINITY
-    };
+    let LagTest {
+        n,
+        inflation,
+        n_eff,
+        statistic,
+    } = LagTest::new(&residuals, profile(0.0_f64.max(a)), best.cost);
     let summary = format!(
         "{:.2} ms lowers the pooled cost below no lag by {statistic:.1} effective noise \
          variances ({n} samples, {n_eff:.0} effective: residual autocorrelation time {inflation:.1} \
@@ -1119,6 +1116,40 @@ fn identify_measurement_lag(
             load_steps: steps,
             at_bound: false,
             note: format!("not separated, 0 used: the best lag {summary}{steps_note}"),
+        }
+    }
+}
+
+/// The test of a best lag against none: the counted residuals, their autocorrelation time, the
+/// effective sample count, and the fall of the cost from no lag to the best lag in effective
+/// noise variances (compared with [`LAG_LR_THRESHOLD`]).
+pub(super) struct LagTest {
+    pub n: usize,
+    pub inflation: f64,
+    pub n_eff: f64,
+    pub statistic: f64,
+}
+
+impl LagTest {
+    /// The test from the residuals at the best lag and the costs without lag and at the best.
+    pub(super) fn new(
+        residuals: &[Vec<Option<f64>>],
+        cost_at_zero: f64,
+        best_cost: f64,
+    ) -> LagTest {
+        let n: usize = residuals.iter().flatten().filter(|r| r.is_some()).count();
+        let inflation = autocorrelation_inflation(residuals);
+        let n_eff = n as f64 / inflation;
+        let statistic = if best_cost > 0.0 && n > 0 {
+            (cost_at_zero - best_cost).max(0.0) * n_eff / best_cost
+        } else {
+            f64::INFINITY
+        };
+        LagTest {
+            n,
+            inflation,
+            n_eff,
+            statistic,
         }
     }
 }

@@ -31,7 +31,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::{LAG_LR_THRESHOLD, MeasurementLag, RelaxationConfig, autocorrelation_inflation};
+use super::{LAG_LR_THRESHOLD, LagTest, MeasurementLag, RelaxationConfig};
 use crate::fit::scalar::{self, ScalarOptions};
 use crate::fit::segment_data::{MeasuredSegment, SegmentKind, moving_average};
 
@@ -138,15 +138,12 @@ pub fn identify(segments: &[MeasuredSegment], cfg: &RelaxationConfig) -> Option<
         .filter_map(|h| fit_hold(h, &best_lag, cfg.load_step_damping))
         .collect();
     let residuals: Vec<Vec<Option<f64>>> = fits.iter().map(|f| f.residuals.clone()).collect();
-    let n: usize = residuals.iter().flatten().filter(|r| r.is_some()).count();
-    let inflation = autocorrelation_inflation(&residuals);
-    let n_eff = n as f64 / inflation;
-    let cost_at_zero = profile(0.0_f64.max(lo));
-    let statistic = if best.cost > 0.0 && n > 0 {
-        (cost_at_zero - best.cost).max(0.0) * n_eff / best.cost
-    } else {
-        f64::INFINITY
-    };
+    let LagTest {
+        n,
+        n_eff,
+        statistic,
+        ..
+    } = LagTest::new(&residuals, profile(0.0_f64.max(lo)), best.cost);
     let median = |mut v: Vec<f64>| -> f64 {
         v.sort_by(f64::total_cmp);
         if v.is_empty() {
