@@ -1058,14 +1058,7 @@ fn identify_measurement_lag(
     };
     let profile = |lag_s: f64| -> f64 { per_load(&lag_of(lag_s)).iter().map(|p| p.1).sum() };
     let (a, b) = cfg.measurement_lag_range_s;
-    let options = ScalarOptions {
-        grid: 21,
-        log_grid: false,
-        rel_tol: 1e-6,
-        abs_tol: 1e-5,
-        max_iters: 100,
-    };
-    let Ok(best) = scalar::minimize(&profile, a, b, &options) else {
+    let Ok(best) = scalar::minimize(&profile, a, b, &LAG_SEARCH) else {
         return from_steps();
     };
     let mut speeds_kph: Vec<f64> = informative
@@ -1119,6 +1112,15 @@ fn identify_measurement_lag(
         }
     }
 }
+
+/// The search over the measurement lag, s, in both lag paths (speeds and load steps).
+pub(super) const LAG_SEARCH: ScalarOptions = ScalarOptions {
+    grid: 21,
+    log_grid: false,
+    rel_tol: 1e-6,
+    abs_tol: 1e-5,
+    max_iters: 100,
+};
 
 /// The test of a best lag against none: the counted residuals, their autocorrelation time, the
 /// effective sample count, and the fall of the cost from no lag to the best lag in effective

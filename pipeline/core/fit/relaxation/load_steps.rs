@@ -31,8 +31,8 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::{LAG_LR_THRESHOLD, LagTest, MeasurementLag, RelaxationConfig};
-use crate::fit::scalar::{self, ScalarOptions};
+use super::{LAG_LR_THRESHOLD, LAG_SEARCH, LagTest, MeasurementLag, RelaxationConfig};
+use crate::fit::scalar;
 use crate::fit::segment_data::{MeasuredSegment, SegmentKind, moving_average};
 
 /// A hold segment needs at least this load span (5th to 95th percentile of the measured load)
@@ -124,14 +124,7 @@ pub fn identify(segments: &[MeasuredSegment], cfg: &RelaxationConfig) -> Option<
             .sum()
     };
     let (lo, hi) = cfg.measurement_lag_range_s;
-    let options = ScalarOptions {
-        grid: 21,
-        log_grid: false,
-        rel_tol: 1e-6,
-        abs_tol: 1e-5,
-        max_iters: 100,
-    };
-    let best = scalar::minimize(&profile, lo, hi, &options).ok()?;
+    let best = scalar::minimize(&profile, lo, hi, &LAG_SEARCH).ok()?;
     let best_lag = lag_of(best.x);
     let fits: Vec<HoldFit> = holds
         .iter()
