@@ -194,6 +194,9 @@ pub struct RelaxationConfig {
     /// Half width of the moving average applied to both the load and the loaded radius of the
     /// spring-rate holds before their lag is fitted ([`load_steps`]), s.
     pub load_step_smoothing_half_s: f64,
+    /// A spring-rate hold is used for the load-step lag only when its measured load spans at
+    /// least this much (5th to 95th percentile of the counted samples), N.
+    pub load_step_min_span_n: f64,
     /// Fit a vertical damping term `c dRL/dt` beside the spring in the load-step lag.
     pub load_step_damping: bool,
 }
@@ -300,6 +303,7 @@ impl Default for RelaxationConfig {
             measurement_lag_range_s: (0.0, 0.1),
             measurement_lag_s: 0.0,
             load_step_smoothing_half_s: 0.1,
+            load_step_min_span_n: 100.0,
             load_step_damping: false,
         }
     }

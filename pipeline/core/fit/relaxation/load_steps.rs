@@ -35,10 +35,6 @@ use super::{LAG_LR_THRESHOLD, LAG_SEARCH, LagTest, MeasurementLag, RelaxationCon
 use crate::fit::scalar;
 use crate::fit::segment_data::{MeasuredSegment, SegmentKind, moving_average};
 
-/// A hold segment needs at least this load span (5th to 95th percentile of the measured load)
-/// to carry a step, N.
-const MIN_LOAD_SPAN_N: f64 = 100.0;
-
 /// The lag identified from the load steps of one tire/rim/pressure.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LoadStepLag {
@@ -200,7 +196,7 @@ fn hold(s: &MeasuredSegment, cfg: &RelaxationConfig) -> Option<Hold> {
     }
     loads.sort_by(f64::total_cmp);
     let pct = |p: f64| loads[((loads.len() - 1) as f64 * p).round() as usize];
-    if pct(0.95) - pct(0.05) < MIN_LOAD_SPAN_N {
+    if pct(0.95) - pct(0.05) < cfg.load_step_min_span_n {
         return None;
     }
     // The chain needs finite inputs everywhere: a missing radius holds its neighbour's value.
@@ -368,5 +364,20 @@ mod tests {
             s.channels.fz_n = vec![1000.0; n];
         }
         assert!(identify(&segs, &cfg(LagForm::Delay)).is_none());
+    }
+
+    #[test]
+    fn holds_spanning_less_load_than_the_configured_minimum_give_nothing_issue_18() {
+        // The staircases span 222..1557 N.
+        let segs = holds(0.02, 0.0, 1);
+        let with_min = |span_n: f64| RelaxationConfig {
+            load_step_min_span_n: span_n,
+            ..cfg(LagForm::Delay)
+        };
+        assert_eq!(
+            identify(&segs, &with_min(1000.0)).map(|r| r.segments),
+            Some(7)
+        );
+        assert!(identify(&segs, &with_min(2000.0)).is_none());
     }
 }
