@@ -25,8 +25,8 @@ use tirebase_core::tire_model::{Coef, Evaluation, Mode, Pac2002, Pressures, Slip
 
 use crate::manifest::{Manifest, ManifestError};
 use crate::schema::TableName;
-use crate::store::StoreError;
 use crate::store::results;
+use crate::store::{IoOp, StoreError};
 
 /// Relative difference below which two values are the same.
 const SAME_REL: f64 = 1e-12;
@@ -164,7 +164,7 @@ fn read_tir(path: &Path) -> Result<Option<TirFile>, DiffError> {
     if !path.is_file() {
         return Ok(None);
     }
-    let bytes = std::fs::read(path).map_err(|e| StoreError::io(path, e))?;
+    let bytes = std::fs::read(path).map_err(|e| StoreError::io(IoOp::Read, path, e))?;
     let (file, _) = TirFile::parse_bytes(&bytes).map_err(|e| DiffError::Tir {
         path: path.display().to_string(),
         message: e.to_string(),

@@ -77,6 +77,14 @@ pub enum IngestError {
     /// The store could not be read or written.
     #[error(transparent)]
     Store(#[from] StoreError),
+    /// The worker pool could not start.
+    #[error("cannot start {jobs} worker threads: {message}")]
+    Pool {
+        /// Threads asked for.
+        jobs: usize,
+        /// Why.
+        message: String,
+    },
 }
 
 /// What to ingest into where.
@@ -437,7 +445,10 @@ pub fn run_locked(
         .num_threads(opts.jobs)
         .stack_size(crate::WORKER_STACK_BYTES)
         .build()
-        .map_err(|e| StoreError::io(opts.store, std::io::Error::other(e)))?;
+        .map_err(|e| IngestError::Pool {
+            jobs: opts.jobs,
+            message: e.to_string(),
+        })?;
     // Threads left over when there are fewer files than workers write a file's partitions.
     let threads = pool.current_num_threads();
     let shared = Shared {

@@ -11,9 +11,9 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::store::StoreError;
 use crate::store::files::write_bytes_atomic;
 use crate::store::tables::RunStatus;
+use crate::store::{IoOp, StoreError};
 
 /// File name of the manifest inside a version directory.
 pub const MANIFEST_FILE: &str = "manifest.toml";
@@ -363,7 +363,8 @@ impl Manifest {
     /// Read `DIR/manifest.toml`.
     pub fn read(version_dir: &Path) -> Result<Manifest, ManifestError> {
         let path = version_dir.join(MANIFEST_FILE);
-        let text = std::fs::read_to_string(&path).map_err(|e| StoreError::io(&path, e))?;
+        let text =
+            std::fs::read_to_string(&path).map_err(|e| StoreError::io(IoOp::Read, &path, e))?;
         toml::from_str(&text).map_err(|e| ManifestError::Parse {
             path,
             message: e.to_string().trim().replace('\n', " "),

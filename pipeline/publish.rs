@@ -31,13 +31,13 @@ use crate::progress::Progress;
 use crate::report;
 use crate::run::{Fingerprint, RunError, RunOptions, count_duplicates};
 use crate::schema::TableName;
-use crate::store::StoreError;
 use crate::store::results::{
     self, GROUP_COLUMNS, INERTIA_TABLE, MF61, Results, TirNames, has_group_columns, is_model,
     mf61_groups, mf61_names, model_groups, rows_of_groups, tir_names,
 };
 use crate::store::tables::{self, RunStatus};
 use crate::store::versions::VersionBuilder;
+use crate::store::{IoOp, StoreError};
 
 pub use crate::store::results::GroupKey;
 
@@ -412,7 +412,7 @@ fn publish_tir(
             let from = prev.join("tir").join(&prev_names[key]);
             let to = dir.join(&names[key]);
             if from.is_file() && !to.exists() && fs::hard_link(&from, &to).is_err() {
-                fs::copy(&from, &to).map_err(|e| StoreError::io(&to, e))?;
+                fs::copy(&from, &to).map_err(|e| StoreError::io(IoOp::Copy, &to, e))?;
             }
         }
     }

@@ -412,7 +412,7 @@ fn fingerprint(opts: &RunOptions) -> Result<Fingerprint, RunError> {
 /// A file-system error on an input path, as an input error.
 fn input_error(e: StoreError) -> RunError {
     match e {
-        StoreError::Io { path, error } => RunError::Input(InputError { path, error }),
+        StoreError::Io { path, error, .. } => RunError::Input(InputError { path, error }),
         other => RunError::Store(other),
     }
 }

@@ -33,7 +33,11 @@ pub fn run(args: &IngestArgs) -> anyhow::Result<ExitCode> {
     let progress = progress::for_stderr();
     let report = match ingest::run(&args.paths, &opts, progress.as_ref()) {
         Ok(r) => r,
-        Err(e @ (ingest::IngestError::MissingInput(_) | ingest::IngestError::Input(_))) => {
+        Err(
+            e @ (ingest::IngestError::MissingInput(_)
+            | ingest::IngestError::Input(_)
+            | ingest::IngestError::Pool { .. }),
+        ) => {
             eprintln!("error: {e}");
             return Ok(ExitCode::from(2));
         }

@@ -15,16 +15,18 @@ use polars::prelude::*;
 use polars_arrow::record_batch::RecordBatchT;
 use sha2::{Digest, Sha256};
 
-use super::StoreError;
 use super::layout::temp_path;
+use super::{IoOp, StoreError};
 
 /// Hex SHA-256 of a file's content, streamed (1 MiB buffer).
 pub fn sha256_file(path: &Path) -> Result<String, StoreError> {
-    let mut file = File::open(path).map_err(|e| StoreError::io(path, e))?;
+    let mut file = File::open(path).map_err(|e| StoreError::io(IoOp::Read, path, e))?;
     let mut hasher = Sha256::new();
     let mut buf = vec![0u8; 1 << 20];
     loop {
-        let n = file.read(&mut buf).map_err(|e| StoreError::io(path, e))?;
+        let n = file
+            .read(&mut buf)
+            .map_err(|e| StoreError::io(IoOp::Read, path, e))?;
         if n == 0 {
             break;
         }
@@ -54,7 +56,7 @@ fn unique_suffix() -> String {
 
 /// Create `dir` and its parents.
 pub fn ensure_dir(dir: &Path) -> Result<(), StoreError> {
-    fs::create_dir_all(dir).map_err(|e| StoreError::io(dir, e))
+    fs::create_dir_all(dir).map_err(|e| StoreError::io(IoOp::CreateDir, dir, e))
 }
 
 /// fsync a directory so a rename inside it survives a crash (no-op where unsupported).
@@ -91,10 +93,10 @@ pub fn sync_filesystem(path: &Path) -> Result<(), StoreError> {
     #[cfg(target_os = "linux")]
     {
         use std::os::fd::AsRawFd;
-        let dir = File::open(path).map_err(|e| StoreError::io(path, e))?;
+        let dir = File::open(path).map_err(|e| StoreError::io(IoOp::Sync, path, e))?;
         // SAFETY: `dir` is an open file descriptor for the duration of the call.
         if unsafe { libc::syncfs(dir.as_raw_fd()) } != 0 {
-            return Err(StoreError::io(path, io::Error::last_os_error()));
+            return Err(StoreError::io(IoOp::Sync, path, io::Error::last_os_error()));
         }
     }
     #[cfg(not(target_os = "linux"))]
@@ -113,17 +115,20 @@ where
     ensure_dir(parent)?;
     let tmp = temp_path(path, &unique_suffix());
     let result = (|| {
-        let file = File::create(&tmp).map_err(|e| StoreError::io(&tmp, e))?;
+        let file = File::create(&tmp).map_err(|e| StoreError::io(IoOp::Write, &tmp, e))?;
         let mut writer = BufWriter::new(file);
         fill(&mut writer)?;
-        writer.flush().map_err(|e| StoreError::io(&tmp, e))?;
+        writer
+            .flush()
+            .map_err(|e| StoreError::io(IoOp::Write, &tmp, e))?;
         let file = writer
             .into_inner()
-            .map_err(|e| StoreError::io(&tmp, e.into_error()))?;
+            .map_err(|e| StoreError::io(IoOp::Write, &tmp, e.into_error()))?;
         if sync_now {
-            file.sync_all().map_err(|e| StoreError::io(&tmp, e))?;
+            file.sync_all()
+                .map_err(|e| StoreError::io(IoOp::Write, &tmp, e))?;
         }
-        fs::rename(&tmp, path).map_err(|e| StoreError::io(path, e))
+        fs::rename(&tmp, path).map_err(|e| StoreError::io(IoOp::Rename, path, e))
     })();
     if result.is_err() {
         let _ = fs::remove_file(&tmp);
@@ -136,7 +141,8 @@ where
 /// Write bytes atomically.
 pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<(), StoreError> {
     write_atomic(path, |w| {
-        w.write_all(bytes).map_err(|e| StoreError::io(path, e))
+        w.write_all(bytes)
+            .map_err(|e| StoreError::io(IoOp::Write, path, e))
     })
 }
 
@@ -347,7 +353,7 @@ pub fn write_arrow_parquet_atomic_with(
 
 /// Read one Parquet file into memory.
 pub fn read_parquet(path: &Path) -> Result<DataFrame, StoreError> {
-    let file = File::open(path).map_err(|e| StoreError::io(path, e))?;
+    let file = File::open(path).map_err(|e| StoreError::io(IoOp::Read, path, e))?;
     ParquetReader::new(file)
         .finish()
         .map_err(|e| StoreError::polars(path, e))
@@ -359,10 +365,12 @@ pub fn files_in(dir: &Path) -> Result<Vec<PathBuf>, StoreError> {
     let entries = match fs::read_dir(dir) {
         Ok(e) => e,
         Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(out),
-        Err(e) => return Err(StoreError::io(dir, e)),
+        Err(e) => return Err(StoreError::io(IoOp::List, dir, e)),
     };
     for entry in entries {
-        let path = entry.map_err(|e| StoreError::io(dir, e))?.path();
+        let path = entry
+            .map_err(|e| StoreError::io(IoOp::List, dir, e))?
+            .path();
         if path.is_file() {
             out.push(path);
         }
@@ -386,10 +394,10 @@ pub fn parquet_files_below(dir: &Path) -> Result<Vec<PathBuf>, StoreError> {
         let entries = match fs::read_dir(&d) {
             Ok(e) => e,
             Err(e) if e.kind() == io::ErrorKind::NotFound => continue,
-            Err(e) => return Err(StoreError::io(&d, e)),
+            Err(e) => return Err(StoreError::io(IoOp::List, &d, e)),
         };
         for entry in entries {
-            let path = entry.map_err(|e| StoreError::io(&d, e))?.path();
+            let path = entry.map_err(|e| StoreError::io(IoOp::List, &d, e))?.path();
             if path.is_dir() {
                 stack.push(path);
             } else if path.extension().is_some_and(|x| x == "parquet") {
@@ -420,12 +428,50 @@ mod tests {
     }
 
     #[test]
+    fn io_errors_say_what_was_being_done_and_on_which_path_issue_18() {
+        let dir = tempfile::tempdir().unwrap();
+        let says = |err: StoreError, op: IoOp, path: &Path| {
+            let text = err.to_string();
+            assert!(
+                matches!(&err, StoreError::Io { op: o, path: p, .. } if *o == op && p == path),
+                "{err:?}"
+            );
+            assert!(
+                text.starts_with(&format!("{op} {}: ", path.display())),
+                "{text}"
+            );
+        };
+        let missing = dir.path().join("missing.parquet");
+        says(read_parquet(&missing).unwrap_err(), IoOp::Read, &missing);
+        says(sha256_file(&missing).unwrap_err(), IoOp::Read, &missing);
+        let file = dir.path().join("file");
+        fs::write(&file, b"x").unwrap();
+        says(files_in(&file).unwrap_err(), IoOp::List, &file);
+        says(
+            write_bytes_atomic(&file.join("sub/t.bin"), b"y").unwrap_err(),
+            IoOp::CreateDir,
+            &file.join("sub"),
+        );
+        let occupied = dir.path().join("occupied");
+        fs::create_dir_all(occupied.join("inside")).unwrap();
+        says(
+            write_bytes_atomic(&occupied, b"y").unwrap_err(),
+            IoOp::Rename,
+            &occupied,
+        );
+    }
+
+    #[test]
     fn failed_fill_leaves_previous_content() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("x.parquet");
         write_bytes_atomic(&path, b"old").unwrap();
         let err = write_atomic(&path, |_| {
-            Err(StoreError::io(&path, io::Error::other("simulated")))
+            Err(StoreError::io(
+                IoOp::Write,
+                &path,
+                io::Error::other("simulated"),
+            ))
         });
         assert!(err.is_err());
         assert_eq!(fs::read(&path).unwrap(), b"old");

@@ -9,7 +9,7 @@ use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::Path;
 
 use super::layout::LOCK_FILE;
-use super::{StoreError, files::ensure_dir};
+use super::{IoOp, StoreError, files::ensure_dir};
 
 /// What to do when another process holds the lock.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -43,7 +43,7 @@ impl StoreLock {
             .create(true)
             .truncate(false)
             .open(&path)
-            .map_err(|e| StoreError::io(&path, e))?;
+            .map_err(|e| StoreError::io(IoOp::Lock, &path, e))?;
         match file.try_lock() {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) => {
@@ -59,11 +59,12 @@ impl StoreLock {
                     }
                     LockWait::Wait => {
                         on_wait(&holder);
-                        file.lock().map_err(|e| StoreError::io(&path, e))?;
+                        file.lock()
+                            .map_err(|e| StoreError::io(IoOp::Lock, &path, e))?;
                     }
                 }
             }
-            Err(TryLockError::Error(e)) => return Err(StoreError::io(&path, e)),
+            Err(TryLockError::Error(e)) => return Err(StoreError::io(IoOp::Lock, &path, e)),
         }
         let note = format!("pid {} ({what})\n", std::process::id());
         let _ = file.set_len(0);

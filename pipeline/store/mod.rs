@@ -16,13 +16,16 @@ pub mod versions;
 
 use std::path::{Path, PathBuf};
 
-/// Store errors; each names the file it concerns.
+/// Store errors; each names the file it concerns (an OS error also what was being done to it).
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
-    /// Operating-system error on a path. (The OS error is part of the message, not a separate
-    /// `source`, so a printed error chain names it once.)
-    #[error("{path}: {error}")]
+    /// Operating-system error on a path, e.g. `writing /store/runs.parquet.tmp: No space left on
+    /// device`. (The OS error is part of the message, not a separate `source`, so a printed error
+    /// chain names it once.)
+    #[error("{op} {path}: {error}")]
     Io {
+        /// What was being done.
+        op: IoOp,
         /// The file or directory.
         path: PathBuf,
         /// The OS error.
@@ -56,10 +59,51 @@ pub enum StoreError {
     },
 }
 
+/// What the store was doing on a path when the operating system refused: the verb of a
+/// [`StoreError::Io`] message.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum IoOp {
+    /// Reading (or hashing) a file.
+    Read,
+    /// Writing a file (or the temporary sibling it is written through).
+    Write,
+    /// Creating a directory and its parents.
+    CreateDir,
+    /// Listing a directory.
+    List,
+    /// Renaming a finished temporary file or directory onto the path.
+    Rename,
+    /// Copying a file to the path.
+    Copy,
+    /// Removing a file or directory.
+    Remove,
+    /// Opening or taking the store lock file.
+    Lock,
+    /// Flushing the filesystem holding the path to disk.
+    Sync,
+}
+
+impl std::fmt::Display for IoOp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            IoOp::Read => "reading",
+            IoOp::Write => "writing",
+            IoOp::CreateDir => "creating directory",
+            IoOp::List => "listing directory",
+            IoOp::Rename => "renaming onto",
+            IoOp::Copy => "copying to",
+            IoOp::Remove => "removing",
+            IoOp::Lock => "locking",
+            IoOp::Sync => "syncing the filesystem of",
+        })
+    }
+}
+
 impl StoreError {
-    /// Wrap an I/O error with its path.
-    pub fn io(path: &Path, source: std::io::Error) -> Self {
+    /// Wrap an I/O error with what was being done and its path.
+    pub fn io(op: IoOp, path: &Path, source: std::io::Error) -> Self {
         StoreError::Io {
+            op,
             path: path.to_path_buf(),
             error: source,
         }

@@ -21,7 +21,6 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use polars_arrow::record_batch::RecordBatchT;
 
-use super::StoreError;
 use super::columns::{opt_f64, opt_i64, opt_str, polars_at, req_bool, req_f64, req_i64, req_str};
 use super::files::{
     Durability, ensure_dir, parquet_files_below, parquet_files_in, read_parquet, sha256_bytes,
@@ -31,6 +30,7 @@ use super::layout::{
     PartitionKey, SAMPLES_DIR, SEGMENTS_DIR, SWEPT, TEMP_SUFFIX, partition_dir, runs_file,
     source_part_name,
 };
+use super::{IoOp, StoreError};
 use crate::schema::{self, TableName};
 
 /// `runs.status`: what the store holds for an input file.
@@ -479,7 +479,7 @@ pub fn read_sample_columns(
     optional: &[&str],
     parallel: bool,
 ) -> Result<DataFrame, StoreError> {
-    let file = fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
+    let file = fs::File::open(path).map_err(|e| StoreError::io(IoOp::Read, path, e))?;
     let mut reader = ParquetReader::new(file);
     let schema = reader.schema().map_err(polars_at(path))?;
     let wanted = columns
@@ -562,10 +562,10 @@ pub fn relabel_parts(
             ensure_dir(dir)?;
         }
         if to.exists() {
-            fs::remove_file(to).map_err(|e| StoreError::io(to, e))?;
+            fs::remove_file(to).map_err(|e| StoreError::io(IoOp::Remove, to, e))?;
         }
         if fs::hard_link(from, to).is_err() {
-            fs::copy(from, to).map_err(|e| StoreError::io(to, e))?;
+            fs::copy(from, to).map_err(|e| StoreError::io(IoOp::Copy, to, e))?;
         }
     }
     Ok(true)
@@ -579,7 +579,7 @@ pub fn collect_garbage(store: &Path, rows: &BTreeMap<String, RunRow>) -> Result<
     candidates.extend(parquet_files_below(&store.join(SAMPLES_DIR))?);
     for path in candidates {
         if !live.contains(file_name(&path)) {
-            fs::remove_file(&path).map_err(|e| StoreError::io(&path, e))?;
+            fs::remove_file(&path).map_err(|e| StoreError::io(IoOp::Remove, &path, e))?;
         }
     }
     remove_temp_and_empty(&store.join(SAMPLES_DIR))?;
@@ -597,12 +597,12 @@ fn remove_temp_and_empty(dir: &Path) -> Result<bool, StoreError> {
         let path = entry.path();
         if path.is_dir() {
             if remove_temp_and_empty(&path)? {
-                fs::remove_dir(&path).map_err(|e| StoreError::io(&path, e))?;
+                fs::remove_dir(&path).map_err(|e| StoreError::io(IoOp::Remove, &path, e))?;
             } else {
                 empty = false;
             }
         } else if path.to_string_lossy().ends_with(TEMP_SUFFIX) {
-            fs::remove_file(&path).map_err(|e| StoreError::io(&path, e))?;
+            fs::remove_file(&path).map_err(|e| StoreError::io(IoOp::Remove, &path, e))?;
         } else {
             empty = false;
         }

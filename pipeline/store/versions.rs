@@ -9,9 +9,9 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use super::StoreError;
 use super::files::{ensure_dir, sync_dir};
 use super::layout::{VERSIONS_DIR, parse_version_dir, version_dir};
+use super::{IoOp, StoreError};
 
 /// Published versions under `root`, ascending: (number, absolute directory).
 pub fn list(root: &Path) -> Result<Vec<(u32, PathBuf)>, StoreError> {
@@ -20,10 +20,10 @@ pub fn list(root: &Path) -> Result<Vec<(u32, PathBuf)>, StoreError> {
     let entries = match fs::read_dir(&dir) {
         Ok(e) => e,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(out),
-        Err(e) => return Err(StoreError::io(&dir, e)),
+        Err(e) => return Err(StoreError::io(IoOp::List, &dir, e)),
     };
     for entry in entries {
-        let entry = entry.map_err(|e| StoreError::io(&dir, e))?;
+        let entry = entry.map_err(|e| StoreError::io(IoOp::List, &dir, e))?;
         let name = entry.file_name();
         if let Some(n) = name.to_str().and_then(parse_version_dir)
             && entry.path().is_dir()
@@ -53,7 +53,8 @@ pub fn remove_incomplete(root: &Path) -> Result<usize, StoreError> {
             .to_str()
             .is_some_and(|n| n.starts_with('.') && n.contains(".building"))
         {
-            fs::remove_dir_all(entry.path()).map_err(|e| StoreError::io(&entry.path(), e))?;
+            fs::remove_dir_all(entry.path())
+                .map_err(|e| StoreError::io(IoOp::Remove, &entry.path(), e))?;
             removed += 1;
         }
     }
@@ -79,7 +80,7 @@ impl VersionBuilder {
             .join(VERSIONS_DIR)
             .join(format!(".v{number:06}.building-{}", std::process::id()));
         if staging.exists() {
-            fs::remove_dir_all(&staging).map_err(|e| StoreError::io(&staging, e))?;
+            fs::remove_dir_all(&staging).map_err(|e| StoreError::io(IoOp::Remove, &staging, e))?;
         }
         ensure_dir(&staging)?;
         Ok(VersionBuilder {
@@ -103,7 +104,8 @@ impl VersionBuilder {
     /// Make the version visible (one rename) and return its final directory.
     pub fn commit(mut self) -> Result<PathBuf, StoreError> {
         sync_tree(&self.staging);
-        fs::rename(&self.staging, &self.target).map_err(|e| StoreError::io(&self.target, e))?;
+        fs::rename(&self.staging, &self.target)
+            .map_err(|e| StoreError::io(IoOp::Rename, &self.target, e))?;
         if let Some(parent) = self.target.parent() {
             sync_dir(parent);
         }
