@@ -185,6 +185,31 @@ pub struct FitSettings {
     pub thermal: ThermalConfig,
     /// `[fit.relaxation]`: relaxation lengths, contact length, PTY/PTX laws.
     pub relaxation: RelaxationConfig,
+    /// `[fit.mf61]`: the MF 6.1 stage's solver and its leave-one-pressure-out check (its sweep grid, robust loss and k-fold check are `[fit]`'s).
+    pub mf61: Mf61Settings,
+}
+
+/// `[fit.mf61]`: the MF 6.1 stage's solver and its leave-one-pressure-out check (its sweep grid, robust loss and k-fold check are `[fit]`'s).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Mf61Settings {
+    /// Iteration budget per family refinement and robust-loss round.
+    pub max_iterations: usize,
+    /// A family refinement stops when an accepted step lowers its cost by less than this fraction, -.
+    pub ftol: f64,
+    /// With three or more tested pressures, also rerun the whole fit with each pressure left out and score that pressure (fit_quality lopo_rmse, lopo_ratio): one more whole fit per tested pressure.
+    pub leave_one_pressure_out: bool,
+}
+
+impl Default for Mf61Settings {
+    fn default() -> Self {
+        let core = Mf61Config::default();
+        Mf61Settings {
+            max_iterations: core.max_iterations,
+            ftol: core.ftol,
+            leave_one_pressure_out: core.leave_one_pressure_out,
+        }
+    }
 }
 
 impl Default for FitSettings {
@@ -222,6 +247,7 @@ impl Default for FitSettings {
             spring_rate: SpringRateConfig::default(),
             thermal: ThermalConfig::default(),
             relaxation: RelaxationConfig::default(),
+            mf61: Mf61Settings::default(),
         }
     }
 }
@@ -241,11 +267,13 @@ impl FitSettings {
                 kappa_bin: pac.kappa_bin,
                 max_points_per_sweep: pac.max_points_per_sweep,
             },
+            max_iterations: self.mf61.max_iterations,
+            ftol: self.mf61.ftol,
             loss: pac.loss,
             kfold: pac.kfold,
             kfold_iterations: pac.kfold_iterations,
             oos_ratio_limit: pac.oos_ratio_limit,
-            ..Mf61Config::default()
+            leave_one_pressure_out: self.mf61.leave_one_pressure_out,
         }
     }
 
@@ -307,6 +335,12 @@ impl FitSettings {
         }
         if self.max_iterations == 0 {
             return bad("max_iterations", "must be positive");
+        }
+        if self.mf61.max_iterations == 0 {
+            return bad("mf61.max_iterations", "must be positive");
+        }
+        if !(self.mf61.ftol > 0.0 && self.mf61.ftol < 1.0) {
+            return bad("mf61.ftol", "must be in (0, 1)");
         }
         if self.kfold >= 2 && self.kfold_iterations == 0 {
             return bad("kfold_iterations", "must be positive when kfold >= 2");

@@ -19,9 +19,9 @@
 //! plain numbers (limits and switches), so their Jacobian columns are zero.
 
 use super::pac2002::{
-    Evaluation, MagicFormula, Mode, Pressures, SlipInput, TrailPeak, combined_fx, combined_fy,
-    combined_mz, load_with, overturning_mx, pure_fx0, pure_fy0, pure_mz0_with, rolling_my,
-    trail_terms,
+    Evaluation, MagicFormula, Mode, Pressures, PureFy, SlipInput, TrailPeak, combined_fx,
+    combined_fy, combined_mz, combined_mz_given, load_with, mz_trail_force, mz0_trail_force,
+    overturning_mx, pure_fx0, pure_fy0, pure_mz0_given, pure_mz0_with, rolling_my, trail_terms,
 };
 use super::params::{Coef, Coef::*, Coefs};
 use super::real::{Dual, Real};
@@ -178,6 +178,63 @@ pub fn channel_value_with<T: Real>(
         Channel::Mx => overturning_mx(c, &l, combined_fy(c, &l, &pure_fy0(c, &l)).fy),
         Channel::My => rolling_my(c, &l, combined_fx(c, &l, pure_fx0(c, &l).fx0)),
     }
+}
+
+/// Coefficients read only by the trail, residual-torque and arm equations of `Mz0` and `Mz`
+/// (never by the load, `Fx` or `Fy` equations): with every free coefficient among them, those
+/// forces are constants of the Jacobian ([`moment_value_split`]).
+const MOMENT_OWN: [Coef; 33] = [
+    QBZ1, QBZ2, QBZ3, QBZ4, QBZ5, QBZ9, QBZ10, QCZ1, QDZ1, QDZ2, QDZ3, QDZ4, QDZ6, QDZ7, QDZ8,
+    QDZ9, QDZ10, QDZ11, QEZ1, QEZ2, QEZ3, QEZ4, QEZ5, QHZ1, QHZ2, QHZ3, QHZ4, PPZ1, PPZ2, SSZ1,
+    SSZ2, SSZ3, SSZ4,
+];
+
+/// `Mz0` or `Mz` ([`channel_value_with`]) with the load, `Fx` and `Fy` equations evaluated in
+/// `f64` from `c64` and only the moment's own equations in `T` from `c`: the same values, and
+/// the same derivatives when every coefficient `c` seeds is in [`MOMENT_OWN`] (the forces'
+/// derivatives are then zero), for a fraction of the dual-number work.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn moment_value_split<T: Real>(
+    c: &Coefs<T>,
+    c64: &Coefs<f64>,
+    input: &SlipInput,
+    mode: Mode,
+    trail_peak: TrailPeak,
+    version: Version,
+    p_pa: f64,
+    channel: Channel,
+) -> T {
+    let l = load_with(c, input, mode, version, p_pa);
+    let l64 = load_with(c64, input, mode, version, p_pa);
+    let py64 = pure_fy0(c64, &l64);
+    let py = PureFy {
+        fy0: T::cst(py64.fy0),
+        muy: T::cst(py64.muy),
+        kya: T::cst(py64.kya),
+        by: T::cst(py64.by),
+        cy: T::cst(py64.cy),
+        shy: T::cst(py64.shy),
+        svy: T::cst(py64.svy),
+    };
+    let tt = trail_terms(c, &l, &py, trail_peak);
+    if channel == Channel::Mz0 {
+        return pure_mz0_given(&l, &tt, T::cst(mz0_trail_force(c64, &l64, &py64)));
+    }
+    debug_assert_eq!(channel, Channel::Mz);
+    let px64 = pure_fx0(c64, &l64);
+    let fx64 = combined_fx(c64, &l64, px64.fx0);
+    let fy64 = combined_fy(c64, &l64, &py64);
+    combined_mz_given(
+        c,
+        &l,
+        T::cst(px64.kxk),
+        &tt,
+        T::cst(fx64),
+        T::cst(fy64.fy),
+        T::cst(mz_trail_force(c64, &l64, &fy64)),
+    )
+    .mz
 }
 
 impl MagicFormula {
@@ -402,6 +459,8 @@ impl MagicFormula {
             c[coef] = Dual::var(self.coefs[coef], k);
         }
         let width = cols.free.len();
+        let split = matches!(channel, Channel::Mz0 | Channel::Mz)
+            && cols.free.iter().all(|f| MOMENT_OWN.contains(f));
         for (i, ((p, v), row)) in rows
             .points
             .iter()
@@ -409,15 +468,21 @@ impl MagicFormula {
             .zip(jac.chunks_exact_mut(cols.n_free))
             .enumerate()
         {
-            let r = channel_value_with(
-                &c,
-                p,
-                mode,
-                self.trail_peak,
-                self.version,
-                rows.pressures.at(i),
-                channel,
-            );
+            let p_pa = rows.pressures.at(i);
+            let r = if split {
+                moment_value_split(
+                    &c,
+                    &self.coefs,
+                    p,
+                    mode,
+                    self.trail_peak,
+                    self.version,
+                    p_pa,
+                    channel,
+                )
+            } else {
+                channel_value_with(&c, p, mode, self.trail_peak, self.version, p_pa, channel)
+            };
             *v = r.v;
             row[cols.first..cols.first + width].copy_from_slice(&r.d[..width]);
         }
@@ -884,6 +949,54 @@ mod tests {
                     coef.name(),
                     one[i]
                 );
+            }
+        }
+    }
+
+    /// With only the moment's own coefficients free, `Mz0` and `Mz` take the split path (load
+    /// and forces in `f64`); it gives the values and derivatives of the all-dual path, for
+    /// PAC2002 and MF 6.1 tires, both modes, per-point pressures, in blocks of `MAX_BLOCK`, to
+    /// round-off (the dual numbers divide as `a * (1/b)`, the `f64` path as `a / b`: an ulp or
+    /// two in the forces).
+    #[test]
+    fn moment_split_matches_the_all_dual_path() {
+        for t in [0, 1, 2] {
+            let tire = tire(t);
+            let points =
+                crate::tire_model::test_support::random_points(300, 21, tire.coefs[FNOMIN]);
+            let pressures = random_pressures(300, 22, tire.default_pressure_pa(), 0.6, 1.4);
+            let own: Vec<Coef> = MOMENT_OWN
+                .iter()
+                .copied()
+                .filter(|c| c.carried_by(tire.version))
+                .collect();
+            for block in own.chunks(MAX_BLOCK) {
+                let mut c: Coefs<Dual<MAX_BLOCK>> = Coefs(tire.coefs.0.map(Dual::cst));
+                for (k, &coef) in block.iter().enumerate() {
+                    c[coef] = Dual::var(tire.coefs[coef], k);
+                }
+                for ch in [Channel::Mz0, Channel::Mz] {
+                    for mode in [Mode::Raw, Mode::Limits] {
+                        for (p, &p_pa) in points.iter().zip(&pressures) {
+                            let (tp, v) = (tire.trail_peak, tire.version);
+                            let all = channel_value_with(&c, p, mode, tp, v, p_pa, ch);
+                            let split =
+                                moment_value_split(&c, &tire.coefs, p, mode, tp, v, p_pa, ch);
+                            let same = |a: f64, b: f64| {
+                                (a - b).abs() <= 1e-12 * a.abs().max(b.abs())
+                                    || (a.is_nan() && b.is_nan())
+                            };
+                            assert!(same(all.v, split.v), "{t} {ch:?} {mode:?} {p:?}");
+                            for ((coef, a), b) in block.iter().zip(all.d).zip(split.d) {
+                                assert!(
+                                    same(a, b),
+                                    "{t} {ch:?} {mode:?} {}: {a} vs {b}",
+                                    coef.name()
+                                );
+                            }
+                        }
+                    }
+                }
             }
         }
     }

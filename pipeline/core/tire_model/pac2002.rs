@@ -548,22 +548,33 @@ fn trail<T: Real>(tt: &TrailTerms<T>, alpha_t: T) -> T {
 /// Pure aligning moment `Mz0 = -t0 Fy0 + Mzr0`, N m.
 #[inline(always)]
 pub fn pure_mz0<T: Real>(l: &Load<T>, fy: &PureFy<T>, tt: &TrailTerms<T>) -> T {
-    let t0 = trail(tt, tt.alpha_t) * l.low_speed;
-    let mzr0 = tt.dr * (tt.br * tt.alpha_r).cos_atan() * l.low_speed;
-    -(t0 * fy.fy0) + mzr0
+    pure_mz0_given(l, tt, fy.fy0)
 }
 
 /// Pure aligning moment of any version: PAC2002's [`pure_mz0`]; MF 6.x takes the trail's
 /// lateral force at zero inclination, `Mz0 = -t0 Fy0(gamma = 0) + Mzr0`.
 #[inline(always)]
 pub fn pure_mz0_with<T: Real>(c: &Coefs<T>, l: &Load<T>, fy: &PureFy<T>, tt: &TrailTerms<T>) -> T {
-    if !l.version.is_mf6() {
-        return pure_mz0(l, fy, tt);
+    pure_mz0_given(l, tt, mz0_trail_force(c, l, fy))
+}
+
+/// The lateral force pure `Mz0`'s trail multiplies: `Fy0`, MF 6.x's at zero inclination.
+#[inline(always)]
+pub fn mz0_trail_force<T: Real>(c: &Coefs<T>, l: &Load<T>, fy: &PureFy<T>) -> T {
+    if l.version.is_mf6() {
+        pure_fy0(c, &without_camber(l)).fy0
+    } else {
+        fy.fy0
     }
-    let fy0_flat = pure_fy0(c, &without_camber(l)).fy0;
+}
+
+/// Pure aligning moment `Mz0 = -t0 fy_trail + Mzr0` given the trail's lateral force
+/// ([`mz0_trail_force`]), N m.
+#[inline(always)]
+pub fn pure_mz0_given<T: Real>(l: &Load<T>, tt: &TrailTerms<T>, fy_trail: T) -> T {
     let t0 = trail(tt, tt.alpha_t) * l.low_speed;
     let mzr0 = tt.dr * (tt.br * tt.alpha_r).cos_atan() * l.low_speed;
-    -(t0 * fy0_flat) + mzr0
+    -(t0 * fy_trail) + mzr0
 }
 
 /// Combined-slip longitudinal force `Fx = Gxa Fx0` (`docs` section 8.1), N.
@@ -648,6 +659,33 @@ pub fn combined_mz<T: Real>(
     fx: T,
     fy: &CombinedFy<T>,
 ) -> CombinedMz<T> {
+    combined_mz_given(c, l, kxk, tt, fx, fy.fy, mz_trail_force(c, l, fy))
+}
+
+/// The lateral force combined `Mz`'s trail multiplies: PAC2002's `Fy - SVyk`, MF 6.x's
+/// `Fy' = Gyk Fy0(gamma = 0)`.
+#[inline(always)]
+pub fn mz_trail_force<T: Real>(c: &Coefs<T>, l: &Load<T>, fy: &CombinedFy<T>) -> T {
+    if l.version.is_mf6() {
+        gyk(c, l) * pure_fy0(c, &without_camber(l)).fy0
+    } else {
+        fy.fy - fy.svyk
+    }
+}
+
+/// Combined-slip aligning moment given `Kx_kappa`, the trail terms, the combined forces `fx`,
+/// `fy` and the trail's lateral force ([`mz_trail_force`]). Reads only the coefficients of the
+/// trail, residual torque and arm (`SSZ*`) beyond `l` and the given values.
+#[inline(always)]
+pub fn combined_mz_given<T: Real>(
+    c: &Coefs<T>,
+    l: &Load<T>,
+    kxk: T,
+    tt: &TrailTerms<T>,
+    fx: T,
+    fy: T,
+    fy_trail: T,
+) -> CombinedMz<T> {
     let (alpha_t_eq, alpha_r_eq) = if l.kappa.value() == 0.0 {
         // atan(sqrt(tan^2 a)) sgn(a) = a exactly; skipping the square root keeps derivatives
         // finite at a = 0.
@@ -661,13 +699,8 @@ pub fn combined_mz<T: Real>(
     let mzr = tt.dr * (tt.br * alpha_r_eq).cos_atan() * l.low_speed;
     let gz = l.gamma * c[LGAZ];
     let s = c[UNLOADED_RADIUS]
-        * (c[SSZ1] + c[SSZ2] * (fy.fy / c[FNOMIN]) + (c[SSZ3] + c[SSZ4] * l.dfz) * gz)
+        * (c[SSZ1] + c[SSZ2] * (fy / c[FNOMIN]) + (c[SSZ3] + c[SSZ4] * l.dfz) * gz)
         * c[LS];
-    let fy_trail = if l.version.is_mf6() {
-        gyk(c, l) * pure_fy0(c, &without_camber(l)).fy0
-    } else {
-        fy.fy - fy.svyk
-    };
     CombinedMz {
         mz: -(t * fy_trail) + mzr + s * fx,
         trail: t,
