@@ -189,15 +189,72 @@ const MOMENT_OWN: [Coef; 33] = [
     SSZ2, SSZ3, SSZ4,
 ];
 
-/// `Mz0` or `Mz` ([`channel_value_with`]) with the load, `Fx` and `Fy` equations evaluated in
-/// `f64` from `c64` and only the moment's own equations in `T` from `c`: the same values, and
+/// What `Mz0` or `Mz` reads from the load, `Fx` and `Fy` equations at one point, in `f64`:
+/// constants of a Jacobian whose free coefficients are all in [`MOMENT_OWN`], so a solver can
+/// compute them once per refinement ([`MagicFormula::moment_forces`]).
+#[derive(Copy, Clone, Debug)]
+pub struct MomentForces {
+    /// The pure lateral force's factors (trail and residual torque read them).
+    py: PureFy<f64>,
+    /// The lateral force the trail multiplies ([`mz0_trail_force`] or [`mz_trail_force`]), N.
+    fy_trail: f64,
+    /// `Kx_kappa` (combined `Mz` only), N.
+    kxk: f64,
+    /// Combined `Fx` (combined `Mz` only), N.
+    fx: f64,
+    /// Combined `Fy` (combined `Mz` only), N.
+    fy: f64,
+}
+
+impl MomentForces {
+    /// The forces of `channel` (`Mz0` or `Mz`) at one point.
+    fn at(
+        c: &Coefs<f64>,
+        input: &SlipInput,
+        mode: Mode,
+        version: Version,
+        p_pa: f64,
+        channel: Channel,
+    ) -> MomentForces {
+        let l = load_with(c, input, mode, version, p_pa);
+        let py = pure_fy0(c, &l);
+        if channel == Channel::Mz0 {
+            return MomentForces {
+                py,
+                fy_trail: mz0_trail_force(c, &l, &py),
+                kxk: f64::NAN,
+                fx: f64::NAN,
+                fy: f64::NAN,
+            };
+        }
+        debug_assert_eq!(channel, Channel::Mz);
+        let px = pure_fx0(c, &l);
+        let fy = combined_fy(c, &l, &py);
+        MomentForces {
+            py,
+            fy_trail: mz_trail_force(c, &l, &fy),
+            kxk: px.kxk,
+            fx: combined_fx(c, &l, px.fx0),
+            fy: fy.fy,
+        }
+    }
+}
+
+/// True when `channel`'s Jacobian with respect to `free` can take the forces as constants
+/// ([`MomentForces`]): `Mz0` or `Mz` with every free coefficient in [`MOMENT_OWN`].
+pub fn moment_split(channel: Channel, free: &[Coef]) -> bool {
+    matches!(channel, Channel::Mz0 | Channel::Mz) && free.iter().all(|f| MOMENT_OWN.contains(f))
+}
+
+/// `Mz0` or `Mz` ([`channel_value_with`]) with the load, `Fx` and `Fy` quantities given in
+/// `f64` (`forces`) and only the moment's own equations in `T` from `c`: the same values, and
 /// the same derivatives when every coefficient `c` seeds is in [`MOMENT_OWN`] (the forces'
 /// derivatives are then zero), for a fraction of the dual-number work.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn moment_value_split<T: Real>(
     c: &Coefs<T>,
-    c64: &Coefs<f64>,
+    forces: &MomentForces,
     input: &SlipInput,
     mode: Mode,
     trail_peak: TrailPeak,
@@ -206,33 +263,29 @@ fn moment_value_split<T: Real>(
     channel: Channel,
 ) -> T {
     let l = load_with(c, input, mode, version, p_pa);
-    let l64 = load_with(c64, input, mode, version, p_pa);
-    let py64 = pure_fy0(c64, &l64);
+    let f = forces;
     let py = PureFy {
-        fy0: T::cst(py64.fy0),
-        muy: T::cst(py64.muy),
-        kya: T::cst(py64.kya),
-        by: T::cst(py64.by),
-        cy: T::cst(py64.cy),
-        shy: T::cst(py64.shy),
-        svy: T::cst(py64.svy),
+        fy0: T::cst(f.py.fy0),
+        muy: T::cst(f.py.muy),
+        kya: T::cst(f.py.kya),
+        by: T::cst(f.py.by),
+        cy: T::cst(f.py.cy),
+        shy: T::cst(f.py.shy),
+        svy: T::cst(f.py.svy),
     };
     let tt = trail_terms(c, &l, &py, trail_peak);
     if channel == Channel::Mz0 {
-        return pure_mz0_given(&l, &tt, T::cst(mz0_trail_force(c64, &l64, &py64)));
+        return pure_mz0_given(&l, &tt, T::cst(f.fy_trail));
     }
     debug_assert_eq!(channel, Channel::Mz);
-    let px64 = pure_fx0(c64, &l64);
-    let fx64 = combined_fx(c64, &l64, px64.fx0);
-    let fy64 = combined_fy(c64, &l64, &py64);
     combined_mz_given(
         c,
         &l,
-        T::cst(px64.kxk),
+        T::cst(f.kxk),
         &tt,
-        T::cst(fx64),
-        T::cst(fy64.fy),
-        T::cst(mz_trail_force(c64, &l64, &fy64)),
+        T::cst(f.fx),
+        T::cst(f.fy),
+        T::cst(f.fy_trail),
     )
     .mz
 }
@@ -346,6 +399,58 @@ impl MagicFormula {
         values: &mut [f64],
         jac: &mut [f64],
     ) {
+        self.jacobian_into_with(channel, free, points, pressures, mode, None, values, jac);
+    }
+
+    /// The forces `Mz0` or `Mz` read at every point ([`MomentForces`]), for
+    /// [`MagicFormula::jacobian_into_with`]: a refinement whose free coefficients are all the
+    /// moment's own ([`moment_split`]) computes them once instead of in every Jacobian.
+    ///
+    /// # Panics
+    /// If `channel` is not `Mz0` or `Mz`, or the pressures' length differs from the points'.
+    pub fn moment_forces(
+        &self,
+        channel: Channel,
+        points: &[SlipInput],
+        pressures: Pressures<'_>,
+        mode: Mode,
+    ) -> Vec<MomentForces> {
+        assert!(
+            matches!(channel, Channel::Mz0 | Channel::Mz),
+            "moment_forces: {channel:?} is not an aligning moment"
+        );
+        if let Pressures::PerPoint(p) = pressures {
+            assert_eq!(p.len(), points.len(), "moment_forces: pressures length");
+        }
+        points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                MomentForces::at(&self.coefs, p, mode, self.version, pressures.at(i), channel)
+            })
+            .collect()
+    }
+
+    /// [`MagicFormula::jacobian_into_at`], optionally with the forces of
+    /// [`MagicFormula::moment_forces`] computed beforehand by a model that differs from this one
+    /// at most in the free coefficients (without them, and whenever [`moment_split`] holds, the
+    /// forces are computed here, once for every block).
+    ///
+    /// # Panics
+    /// As [`MagicFormula::jacobian_into_at`]; also if `forces` is given when [`moment_split`]
+    /// does not hold, or its length differs from the points'.
+    #[allow(clippy::too_many_arguments)]
+    pub fn jacobian_into_with(
+        &self,
+        channel: Channel,
+        free: &[Coef],
+        points: &[SlipInput],
+        pressures: Pressures<'_>,
+        mode: Mode,
+        forces: Option<&[MomentForces]>,
+        values: &mut [f64],
+        jac: &mut [f64],
+    ) {
         assert_eq!(points.len(), values.len(), "jacobian_into: values length");
         if let Pressures::PerPoint(p) = pressures {
             assert_eq!(p.len(), points.len(), "jacobian_into: pressures length");
@@ -367,7 +472,27 @@ impl MagicFormula {
             return;
         }
         let n_free = free.len();
-        let rows = Rows { points, pressures };
+        let own;
+        let forces = match forces {
+            Some(f) => {
+                assert!(
+                    moment_split(channel, free),
+                    "jacobian_into: given forces, but {channel:?} depends on a free force coefficient"
+                );
+                assert_eq!(f.len(), points.len(), "jacobian_into: forces length");
+                Some(f)
+            }
+            None if moment_split(channel, free) => {
+                own = self.moment_forces(channel, points, pressures, mode);
+                Some(own.as_slice())
+            }
+            None => None,
+        };
+        let rows = Rows {
+            points,
+            pressures,
+            forces,
+        };
         for (b, block) in free.chunks(MAX_BLOCK).enumerate() {
             let cols = Columns {
                 free: block,
@@ -459,8 +584,6 @@ impl MagicFormula {
             c[coef] = Dual::var(self.coefs[coef], k);
         }
         let width = cols.free.len();
-        let split = matches!(channel, Channel::Mz0 | Channel::Mz)
-            && cols.free.iter().all(|f| MOMENT_OWN.contains(f));
         for (i, ((p, v), row)) in rows
             .points
             .iter()
@@ -469,10 +592,10 @@ impl MagicFormula {
             .enumerate()
         {
             let p_pa = rows.pressures.at(i);
-            let r = if split {
+            let r = if let Some(forces) = rows.forces {
                 moment_value_split(
                     &c,
-                    &self.coefs,
+                    &forces[i],
                     p,
                     mode,
                     self.trail_peak,
@@ -489,13 +612,16 @@ impl MagicFormula {
     }
 }
 
-/// The operating points of a Jacobian and their inflation pressures.
+/// The operating points of a Jacobian, their inflation pressures and, when the channel's
+/// forces are constants of it ([`moment_split`]), those forces.
 #[derive(Copy, Clone)]
 struct Rows<'a> {
     /// Operating points.
     points: &'a [SlipInput],
     /// Their pressures.
     pressures: Pressures<'a>,
+    /// Per point, the forces `Mz0`/`Mz` read (`Some` exactly when the split applies).
+    forces: Option<&'a [MomentForces]>,
 }
 
 /// Where one block of free coefficients lands in the Jacobian row.
@@ -889,6 +1015,7 @@ mod tests {
             let rows = Rows {
                 points: &points,
                 pressures: Pressures::Uniform(tire.default_pressure_pa()),
+                forces: None,
             };
             let args = (Channel::Mz, cols, rows, Mode::Limits);
             if dispatched {
@@ -980,8 +1107,8 @@ mod tests {
                         for (p, &p_pa) in points.iter().zip(&pressures) {
                             let (tp, v) = (tire.trail_peak, tire.version);
                             let all = channel_value_with(&c, p, mode, tp, v, p_pa, ch);
-                            let split =
-                                moment_value_split(&c, &tire.coefs, p, mode, tp, v, p_pa, ch);
+                            let f = MomentForces::at(&tire.coefs, p, mode, v, p_pa, ch);
+                            let split = moment_value_split(&c, &f, p, mode, tp, v, p_pa, ch);
                             let same = |a: f64, b: f64| {
                                 (a - b).abs() <= 1e-12 * a.abs().max(b.abs())
                                     || (a.is_nan() && b.is_nan())

@@ -14,7 +14,7 @@ pub mod real;
 pub mod tir;
 pub mod version;
 
-pub use jacobian::{Channel, MAX_BLOCK};
+pub use jacobian::{Channel, MAX_BLOCK, MomentForces, moment_split};
 pub use pac2002::{Evaluation, MagicFormula, Mode, Pac2002, Pressures, SlipInput, TrailPeak};
 pub use params::{Coef, Coefs, Section};
 pub use real::{Dual, Real};

@@ -721,12 +721,7 @@ fn fit_points(
         }
         let channel = family.channel();
         let initial_rmse = rmse_of(&model, channel, &data);
-        let problem = Mf61FamilyProblem {
-            base: &model,
-            free: &free,
-            channel,
-            data: &data,
-        };
+        let problem = Mf61FamilyProblem::new(&model, &free, channel, &data);
         let bounds = Bounds {
             lower: free.iter().map(|c| bounds_of(*c).0).collect(),
             upper: free.iter().map(|c| bounds_of(*c).1).collect(),

@@ -163,12 +163,7 @@ pub fn k_fold(
             out.deficient_folds += 1;
             model.clone()
         } else {
-            let problem = Mf61FamilyProblem {
-                base: model,
-                free,
-                channel,
-                data: &train,
-            };
+            let problem = Mf61FamilyProblem::new(model, free, channel, &train);
             let o = minimize(&problem, &start, &bounds, &options);
             out.evaluations += o.evaluations;
             let id = &o.identifiability;

@@ -11,7 +11,9 @@
 //! Deliberately not here: which points and coefficients a family uses (`mod.rs`).
 
 use crate::numerics::nonlinear_least_squares::LeastSquaresProblem;
-use crate::tire_model::{Channel, Coef, MagicFormula, Mode, Pressures, SlipInput};
+use crate::tire_model::{
+    Channel, Coef, MagicFormula, Mode, MomentForces, Pressures, SlipInput, moment_split,
+};
 
 /// Evaluation mode of the fit.
 pub const FIT_MODE: Mode = Mode::Raw;
@@ -55,9 +57,36 @@ pub struct Mf61FamilyProblem<'a> {
     pub channel: Channel,
     /// The data.
     pub data: &'a FamilyData,
+    /// The forces an aligning-moment channel reads, computed once from `base` when no free
+    /// coefficient changes them ([`moment_split`]).
+    forces: Option<Vec<MomentForces>>,
 }
 
-impl Mf61FamilyProblem<'_> {
+impl<'a> Mf61FamilyProblem<'a> {
+    /// The problem of fitting `free` of `base` to `data` on `channel`.
+    pub fn new(
+        base: &'a MagicFormula,
+        free: &'a [Coef],
+        channel: Channel,
+        data: &'a FamilyData,
+    ) -> Self {
+        let forces = moment_split(channel, free).then(|| {
+            base.moment_forces(
+                channel,
+                &data.inputs,
+                Pressures::PerPoint(&data.pressures),
+                FIT_MODE,
+            )
+        });
+        Mf61FamilyProblem {
+            base,
+            free,
+            channel,
+            data,
+            forces,
+        }
+    }
+
     /// The model at parameters `p`.
     pub fn model_at(&self, p: &[f64]) -> MagicFormula {
         let mut m = self.base.clone();
@@ -97,12 +126,13 @@ impl LeastSquaresProblem for Mf61FamilyProblem<'_> {
 
     fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
         let m = self.model_at(p);
-        m.jacobian_into_at(
+        m.jacobian_into_with(
             self.channel,
             self.free,
             &self.data.inputs,
             Pressures::PerPoint(&self.data.pressures),
             FIT_MODE,
+            self.forces.as_deref(),
             r,
             jac,
         );

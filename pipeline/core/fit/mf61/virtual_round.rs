@@ -233,12 +233,7 @@ fn combined_mz_diagnostic() {
             100.0 * rmse_of(&full.model, Channel::Mz, data) / peak
         );
         for (name, free) in variants {
-            let problem = Mf61FamilyProblem {
-                base: &full.model,
-                free,
-                channel: Channel::Mz,
-                data,
-            };
+            let problem = Mf61FamilyProblem::new(&full.model, free, Channel::Mz, data);
             let bounds = Bounds {
                 lower: vec![f64::NEG_INFINITY; free.len()],
                 upper: vec![f64::INFINITY; free.len()],
