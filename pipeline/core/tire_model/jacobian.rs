@@ -19,9 +19,9 @@
 //! plain numbers (limits and switches), so their Jacobian columns are zero.
 
 use super::pac2002::{
-    Evaluation, MagicFormula, Mode, Pressures, PureFy, SlipInput, TrailPeak, combined_fx,
-    combined_fy, combined_mz, combined_mz_given, load_with, mz_trail_force, mz0_trail_force,
-    overturning_mx, pure_fx0, pure_fy0, pure_mz0_given, pure_mz0_with, rolling_my, trail_terms,
+    Evaluation, Load, MagicFormula, Mode, Pressures, PureFy, SlipInput, TrailPeak, combined_fx,
+    combined_fy, combined_mz_given, load_with, mz_trail_force, mz0_trail_force, overturning_mx,
+    pure_fx0, pure_fy0, pure_mz0_given, rolling_my, trail_terms,
 };
 use super::params::{Coef, Coef::*, Coefs};
 use super::real::{Dual, Real};
@@ -160,20 +160,11 @@ pub fn channel_value_with<T: Real>(
     match channel {
         Channel::Fx0 => pure_fx0(c, &l).fx0,
         Channel::Fy0 => pure_fy0(c, &l).fy0,
-        Channel::Mz0 => {
-            let py = pure_fy0(c, &l);
-            let tt = trail_terms(c, &l, &py, trail_peak);
-            pure_mz0_with(c, &l, &py, &tt)
-        }
         Channel::Fx => combined_fx(c, &l, pure_fx0(c, &l).fx0),
         Channel::Fy => combined_fy(c, &l, &pure_fy0(c, &l)).fy,
-        Channel::Mz => {
-            let px = pure_fx0(c, &l);
-            let py = pure_fy0(c, &l);
-            let tt = trail_terms(c, &l, &py, trail_peak);
-            let fx = combined_fx(c, &l, px.fx0);
-            let fy = combined_fy(c, &l, &py);
-            combined_mz(c, &l, px.kxk, &tt, fx, &fy).mz
+        Channel::Mz0 | Channel::Mz => {
+            let forces = MomentForces::at(c, &l, channel);
+            moment_from_forces(c, &l, &forces, trail_peak, channel)
         }
         Channel::Mx => overturning_mx(c, &l, combined_fy(c, &l, &pure_fy0(c, &l)).fy),
         Channel::My => rolling_my(c, &l, combined_fx(c, &l, pure_fx0(c, &l).fx0)),
@@ -182,112 +173,96 @@ pub fn channel_value_with<T: Real>(
 
 /// Coefficients read only by the trail, residual-torque and arm equations of `Mz0` and `Mz`
 /// (never by the load, `Fx` or `Fy` equations): with every free coefficient among them, those
-/// forces are constants of the Jacobian ([`moment_value_split`]).
+/// forces are constants of the Jacobian ([`MomentForces`], [`moment_from_forces`]).
 const MOMENT_OWN: [Coef; 33] = [
     QBZ1, QBZ2, QBZ3, QBZ4, QBZ5, QBZ9, QBZ10, QCZ1, QDZ1, QDZ2, QDZ3, QDZ4, QDZ6, QDZ7, QDZ8,
     QDZ9, QDZ10, QDZ11, QEZ1, QEZ2, QEZ3, QEZ4, QEZ5, QHZ1, QHZ2, QHZ3, QHZ4, PPZ1, PPZ2, SSZ1,
     SSZ2, SSZ3, SSZ4,
 ];
 
-/// What `Mz0` or `Mz` reads from the load, `Fx` and `Fy` equations at one point, in `f64`:
-/// constants of a Jacobian whose free coefficients are all in [`MOMENT_OWN`], so a solver can
-/// compute them once per refinement ([`MagicFormula::moment_forces`]).
+/// What `Mz0` or `Mz` reads from the load, `Fx` and `Fy` equations at one point. In `f64` (the
+/// default, what a solver caches), constants of a Jacobian whose free coefficients are all in
+/// [`MOMENT_OWN`]: a solver can compute them once per refinement
+/// ([`MagicFormula::moment_forces`]) and lift them into dual-number constants
+/// ([`MomentForces::map`]).
 #[derive(Copy, Clone, Debug)]
-pub struct MomentForces {
+pub struct MomentForces<T = f64> {
     /// The pure lateral force's factors (trail and residual torque read them).
-    py: PureFy<f64>,
+    py: PureFy<T>,
     /// The lateral force the trail multiplies ([`mz0_trail_force`] or [`mz_trail_force`]), N.
-    fy_trail: f64,
-    /// `Kx_kappa` (combined `Mz` only), N.
-    kxk: f64,
-    /// Combined `Fx` (combined `Mz` only), N.
-    fx: f64,
-    /// Combined `Fy` (combined `Mz` only), N.
-    fy: f64,
+    fy_trail: T,
+    /// `Kx_kappa` (combined `Mz` only, else NaN), N.
+    kxk: T,
+    /// Combined `Fx` (combined `Mz` only, else NaN), N.
+    fx: T,
+    /// Combined `Fy` (combined `Mz` only, else NaN), N.
+    fy: T,
 }
 
-impl MomentForces {
-    /// The forces of `channel` (`Mz0` or `Mz`) at one point.
-    fn at(
-        c: &Coefs<f64>,
-        input: &SlipInput,
-        mode: Mode,
-        version: Version,
-        p_pa: f64,
-        channel: Channel,
-    ) -> MomentForces {
-        let l = load_with(c, input, mode, version, p_pa);
-        let py = pure_fy0(c, &l);
+impl<T: Real> MomentForces<T> {
+    /// The forces `channel` (`Mz0` or `Mz`) reads at the load `l`.
+    #[inline(always)]
+    fn at(c: &Coefs<T>, l: &Load<T>, channel: Channel) -> MomentForces<T> {
+        let py = pure_fy0(c, l);
         if channel == Channel::Mz0 {
             return MomentForces {
                 py,
-                fy_trail: mz0_trail_force(c, &l, &py),
-                kxk: f64::NAN,
-                fx: f64::NAN,
-                fy: f64::NAN,
+                fy_trail: mz0_trail_force(c, l, &py),
+                kxk: T::cst(f64::NAN),
+                fx: T::cst(f64::NAN),
+                fy: T::cst(f64::NAN),
             };
         }
         debug_assert_eq!(channel, Channel::Mz);
-        let px = pure_fx0(c, &l);
-        let fy = combined_fy(c, &l, &py);
+        let px = pure_fx0(c, l);
+        let fy = combined_fy(c, l, &py);
         MomentForces {
             py,
-            fy_trail: mz_trail_force(c, &l, &fy),
+            fy_trail: mz_trail_force(c, l, &fy),
             kxk: px.kxk,
-            fx: combined_fx(c, &l, px.fx0),
+            fx: combined_fx(c, l, px.fx0),
             fy: fy.fy,
         }
     }
+}
+
+impl<T: Copy> MomentForces<T> {
+    /// Every force through `f` (e.g. `f64` forces lifted into dual-number constants).
+    #[inline(always)]
+    fn map<U>(&self, f: impl Fn(T) -> U) -> MomentForces<U> {
+        MomentForces {
+            py: self.py.map(&f),
+            fy_trail: f(self.fy_trail),
+            kxk: f(self.kxk),
+            fx: f(self.fx),
+            fy: f(self.fy),
+        }
+    }
+}
+
+/// `Mz0` or `Mz` at the load `l` from the forces it reads: the moment's own equations (trail,
+/// residual torque, arm `s`), the only ones that read the coefficients of [`MOMENT_OWN`].
+#[inline(always)]
+fn moment_from_forces<T: Real>(
+    c: &Coefs<T>,
+    l: &Load<T>,
+    forces: &MomentForces<T>,
+    trail_peak: TrailPeak,
+    channel: Channel,
+) -> T {
+    let f = forces;
+    let tt = trail_terms(c, l, &f.py, trail_peak);
+    if channel == Channel::Mz0 {
+        return pure_mz0_given(l, &tt, f.fy_trail);
+    }
+    debug_assert_eq!(channel, Channel::Mz);
+    combined_mz_given(c, l, f.kxk, &tt, f.fx, f.fy, f.fy_trail).mz
 }
 
 /// True when `channel`'s Jacobian with respect to `free` can take the forces as constants
 /// ([`MomentForces`]): `Mz0` or `Mz` with every free coefficient in [`MOMENT_OWN`].
 pub fn moment_split(channel: Channel, free: &[Coef]) -> bool {
     matches!(channel, Channel::Mz0 | Channel::Mz) && free.iter().all(|f| MOMENT_OWN.contains(f))
-}
-
-/// `Mz0` or `Mz` ([`channel_value_with`]) with the load, `Fx` and `Fy` quantities given in
-/// `f64` (`forces`) and only the moment's own equations in `T` from `c`: the same values, and
-/// the same derivatives when every coefficient `c` seeds is in [`MOMENT_OWN`] (the forces'
-/// derivatives are then zero), for a fraction of the dual-number work.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn moment_value_split<T: Real>(
-    c: &Coefs<T>,
-    forces: &MomentForces,
-    input: &SlipInput,
-    mode: Mode,
-    trail_peak: TrailPeak,
-    version: Version,
-    p_pa: f64,
-    channel: Channel,
-) -> T {
-    let l = load_with(c, input, mode, version, p_pa);
-    let f = forces;
-    let py = PureFy {
-        fy0: T::cst(f.py.fy0),
-        muy: T::cst(f.py.muy),
-        kya: T::cst(f.py.kya),
-        by: T::cst(f.py.by),
-        cy: T::cst(f.py.cy),
-        shy: T::cst(f.py.shy),
-        svy: T::cst(f.py.svy),
-    };
-    let tt = trail_terms(c, &l, &py, trail_peak);
-    if channel == Channel::Mz0 {
-        return pure_mz0_given(&l, &tt, T::cst(f.fy_trail));
-    }
-    debug_assert_eq!(channel, Channel::Mz);
-    combined_mz_given(
-        c,
-        &l,
-        T::cst(f.kxk),
-        &tt,
-        T::cst(f.fx),
-        T::cst(f.fy),
-        T::cst(f.fy_trail),
-    )
-    .mz
 }
 
 impl MagicFormula {
@@ -426,7 +401,8 @@ impl MagicFormula {
             .iter()
             .enumerate()
             .map(|(i, p)| {
-                MomentForces::at(&self.coefs, p, mode, self.version, pressures.at(i), channel)
+                let l = load_with(&self.coefs, p, mode, self.version, pressures.at(i));
+                MomentForces::at(&self.coefs, &l, channel)
             })
             .collect()
     }
@@ -593,16 +569,11 @@ impl MagicFormula {
         {
             let p_pa = rows.pressures.at(i);
             let r = if let Some(forces) = rows.forces {
-                moment_value_split(
-                    &c,
-                    &forces[i],
-                    p,
-                    mode,
-                    self.trail_peak,
-                    self.version,
-                    p_pa,
-                    channel,
-                )
+                // The forces are constants of this Jacobian (`moment_split`): only the moment's
+                // own equations run in dual numbers.
+                let l = load_with(&c, p, mode, self.version, p_pa);
+                let forces = forces[i].map(Dual::cst);
+                moment_from_forces(&c, &l, &forces, self.trail_peak, channel)
             } else {
                 channel_value_with(&c, p, mode, self.trail_peak, self.version, p_pa, channel)
             };
@@ -1081,17 +1052,18 @@ mod tests {
     }
 
     /// With only the moment's own coefficients free, `Mz0` and `Mz` take the split path (load
-    /// and forces in `f64`); it gives the values and derivatives of the all-dual path, for
-    /// PAC2002 and MF 6.1 tires, both modes, per-point pressures, in blocks of `MAX_BLOCK`, to
-    /// round-off (the dual numbers divide as `a * (1/b)`, the `f64` path as `a / b`: an ulp or
-    /// two in the forces).
+    /// and forces in `f64`, lifted into dual-number constants): its values and Jacobian equal
+    /// the all-dual path's (every force in dual numbers, `channel_value_with`), for PAC2002 and
+    /// MF 6.1 tires, both modes, per-point pressures, in blocks of `MAX_BLOCK`, to round-off
+    /// (the dual numbers divide as `a * (1/b)`, the `f64` path as `a / b`: an ulp or two in the
+    /// forces).
     #[test]
     fn moment_split_matches_the_all_dual_path() {
+        let n = 300;
         for t in [0, 1, 2] {
             let tire = tire(t);
-            let points =
-                crate::tire_model::test_support::random_points(300, 21, tire.coefs[FNOMIN]);
-            let pressures = random_pressures(300, 22, tire.default_pressure_pa(), 0.6, 1.4);
+            let points = crate::tire_model::test_support::random_points(n, 21, tire.coefs[FNOMIN]);
+            let pressures = random_pressures(n, 22, tire.default_pressure_pa(), 0.6, 1.4);
             let own: Vec<Coef> = MOMENT_OWN
                 .iter()
                 .copied()
@@ -1103,18 +1075,22 @@ mod tests {
                     c[coef] = Dual::var(tire.coefs[coef], k);
                 }
                 for ch in [Channel::Mz0, Channel::Mz] {
+                    assert!(moment_split(ch, block), "{ch:?}: the split path must apply");
                     for mode in [Mode::Raw, Mode::Limits] {
-                        for (p, &p_pa) in points.iter().zip(&pressures) {
+                        let mut values = vec![0.0; n];
+                        let mut jac = vec![0.0; n * block.len()];
+                        let p = Pressures::PerPoint(&pressures);
+                        tire.jacobian_into_at(ch, block, &points, p, mode, &mut values, &mut jac);
+                        for (i, (p, &p_pa)) in points.iter().zip(&pressures).enumerate() {
                             let (tp, v) = (tire.trail_peak, tire.version);
                             let all = channel_value_with(&c, p, mode, tp, v, p_pa, ch);
-                            let f = MomentForces::at(&tire.coefs, p, mode, v, p_pa, ch);
-                            let split = moment_value_split(&c, &f, p, mode, tp, v, p_pa, ch);
+                            let split = &jac[i * block.len()..(i + 1) * block.len()];
                             let same = |a: f64, b: f64| {
                                 (a - b).abs() <= 1e-12 * a.abs().max(b.abs())
                                     || (a.is_nan() && b.is_nan())
                             };
-                            assert!(same(all.v, split.v), "{t} {ch:?} {mode:?} {p:?}");
-                            for ((coef, a), b) in block.iter().zip(all.d).zip(split.d) {
+                            assert!(same(all.v, values[i]), "{t} {ch:?} {mode:?} {p:?}");
+                            for ((coef, &a), &b) in block.iter().zip(&all.d).zip(split) {
                                 assert!(
                                     same(a, b),
                                     "{t} {ch:?} {mode:?} {}: {a} vs {b}",

@@ -348,6 +348,22 @@ pub struct PureFy<T> {
     pub svy: T,
 }
 
+impl<T: Copy> PureFy<T> {
+    /// Every factor through `f` (e.g. `f64` factors lifted into dual-number constants).
+    #[inline(always)]
+    pub fn map<U>(&self, f: impl Fn(T) -> U) -> PureFy<U> {
+        PureFy {
+            fy0: f(self.fy0),
+            muy: f(self.muy),
+            kya: f(self.kya),
+            by: f(self.by),
+            cy: f(self.cy),
+            shy: f(self.shy),
+            svy: f(self.svy),
+        }
+    }
+}
+
 /// `Fy0(alpha)` at the load `l`.
 #[inline(always)]
 pub fn pure_fy0<T: Real>(c: &Coefs<T>, l: &Load<T>) -> PureFy<T> {
@@ -551,14 +567,8 @@ pub fn pure_mz0<T: Real>(l: &Load<T>, fy: &PureFy<T>, tt: &TrailTerms<T>) -> T {
     pure_mz0_given(l, tt, fy.fy0)
 }
 
-/// Pure aligning moment of any version: PAC2002's [`pure_mz0`]; MF 6.x takes the trail's
-/// lateral force at zero inclination, `Mz0 = -t0 Fy0(gamma = 0) + Mzr0`.
-#[inline(always)]
-pub fn pure_mz0_with<T: Real>(c: &Coefs<T>, l: &Load<T>, fy: &PureFy<T>, tt: &TrailTerms<T>) -> T {
-    pure_mz0_given(l, tt, mz0_trail_force(c, l, fy))
-}
-
-/// The lateral force pure `Mz0`'s trail multiplies: `Fy0`, MF 6.x's at zero inclination.
+/// The lateral force pure `Mz0`'s trail multiplies: PAC2002's `Fy0`; MF 6.x's at zero
+/// inclination, `Mz0 = -t0 Fy0(gamma = 0) + Mzr0`.
 #[inline(always)]
 pub fn mz0_trail_force<T: Real>(c: &Coefs<T>, l: &Load<T>, fy: &PureFy<T>) -> T {
     if l.version.is_mf6() {
