@@ -181,10 +181,9 @@ const MOMENT_OWN: [Coef; 33] = [
 ];
 
 /// What `Mz0` or `Mz` reads from the load, `Fx` and `Fy` equations at one point. In `f64` (the
-/// default, what a solver caches), constants of a Jacobian whose free coefficients are all in
-/// [`MOMENT_OWN`]: a solver can compute them once per refinement
-/// ([`MagicFormula::moment_forces`]) and lift them into dual-number constants
-/// ([`MomentForces::map`]).
+/// default, what a solver caches), constants of a Jacobian whose free coefficients are all the
+/// moment's own ([`moment_split`]): a solver can compute them once per refinement
+/// ([`MagicFormula::moment_forces`]), and each Jacobian lifts them into dual-number constants.
 #[derive(Copy, Clone, Debug)]
 pub struct MomentForces<T = f64> {
     /// The pure lateral force's factors (trail and residual torque read them).
@@ -260,7 +259,8 @@ fn moment_from_forces<T: Real>(
 }
 
 /// True when `channel`'s Jacobian with respect to `free` can take the forces as constants
-/// ([`MomentForces`]): `Mz0` or `Mz` with every free coefficient in [`MOMENT_OWN`].
+/// ([`MomentForces`]): `Mz0` or `Mz` with every free coefficient in `MOMENT_OWN` (the
+/// `QBZ*`, `QCZ1`, `QDZ*`, `QEZ*`, `QHZ*`, `PPZ*` and `SSZ*` coefficients).
 pub fn moment_split(channel: Channel, free: &[Coef]) -> bool {
     matches!(channel, Channel::Mz0 | Channel::Mz) && free.iter().all(|f| MOMENT_OWN.contains(f))
 }
@@ -282,7 +282,7 @@ impl MagicFormula {
     ///
     /// The pure channels run the scalar per-family equations (only the families they need);
     /// the combined channels and `Mx`, `My` need almost the whole model and run the batch
-    /// evaluator of [`Pac2002::eval_batch`] (within `1e-12` relative of the scalar path).
+    /// evaluator of [`MagicFormula::eval_batch`] (within `1e-12` relative of the scalar path).
     ///
     /// # Panics
     /// If the lengths differ.
