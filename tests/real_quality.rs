@@ -12,6 +12,9 @@
 //! `cornering.mat`, Fx of `drivebrake.mat`, on the same samples for every model. Also printed:
 //! the relaxation rows (speeds, lag identifiability) beside the thesis's Table 15.
 //!
+//! Also: no `.tir` the fit writes (per pressure, MF 6.1) has a lint error (printed: every
+//! finding, and the MF 6.1 rows' 5-fold and left-out-pressure ratios).
+//!
 //! Ignored by default (GPL data, development only, read where it lies):
 //! `cargo test --test integration real_data_out_of_sample -- --ignored --nocapture`
 //! (`TIREBASE_REAL_DIR` overrides where the files are looked for). Asserts issue 18's target:
@@ -236,6 +239,25 @@ fn real_data_out_of_sample_against_the_authors_fits_issue_18() {
     );
     let fit = tirebase(&["fit", "--store", p(&store), "--out", p(&out), "--jobs", "2"]);
     eprintln!("{}", String::from_utf8_lossy(&fit.stderr));
+    let lint_errors = lint_errors(&out);
+    let mf61 = table(&out, "fit_quality");
+    eprintln!(
+        "MF 6.1 rows (tire | pressure | family | rmse | 5-fold ratio | left-out-pressure ratio):"
+    );
+    for i in 0..mf61.height() {
+        let get = |c: &str| mf61.column(c).unwrap().get(i).unwrap().to_string();
+        if get("model").contains("mf61") {
+            eprintln!(
+                "  {} | {} | {} | {} | {} | {}",
+                get("tire"),
+                get("pressure_kpa"),
+                get("channel"),
+                get("rmse"),
+                get("oos_ratio"),
+                get("lopo_ratio")
+            );
+        }
+    }
 
     // The force segments of every tire/pressure, in file order, dealt into folds.
     let segs = query(
@@ -388,4 +410,32 @@ fn real_data_out_of_sample_against_the_authors_fits_issue_18() {
         "issue 18 real-data targets missed:\n{}",
         misses.join("\n")
     );
+    assert!(
+        lint_errors.is_empty(),
+        "issue 18: written .tir files with lint errors:\n{}",
+        lint_errors.join("\n")
+    );
+}
+
+/// A result table of a fit's output directory.
+fn table(out: &Path, name: &str) -> DataFrame {
+    ParquetReader::new(std::fs::File::open(out.join(format!("{name}.parquet"))).unwrap())
+        .finish()
+        .unwrap()
+}
+
+/// The lint findings of every written `.tir` (printed), and the errors among them.
+fn lint_errors(out: &Path) -> Vec<String> {
+    let lint = table(out, "lint");
+    let mut errors = Vec::new();
+    eprintln!("lint findings of the written .tir files: {}", lint.height());
+    for i in 0..lint.height() {
+        let get = |c: &str| lint.column(c).unwrap().get(i).unwrap().to_string();
+        let line = format!("{} {}: {}", get("file"), get("code"), get("message"));
+        eprintln!("  {} {line}", get("severity"));
+        if get("severity").contains("error") {
+            errors.push(line);
+        }
+    }
+    errors
 }

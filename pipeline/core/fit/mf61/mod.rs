@@ -22,7 +22,12 @@
 //!    quadratic ones with three), camber terms only where the data vary the camber, load terms
 //!    only where they vary the load. `PKY4 = 2`, `PKY5 = PEY5 = 0`, `RBX3 = RBY4 = 0` are held:
 //!    the PAC2002 fits they start from have no such terms. A family without data keeps its
-//!    lifted values.
+//!    lifted values. Shape factors `PCX1`, `PCY1` and peak frictions `|PDX1|`, `|PDY1|` keep the
+//!    PAC2002 stage's boxes (`C` in [1, 2.5], `|mu|` in [0.02, 4]).
+//! 4. After `Fx0` and `Fy0`: the peak friction evaluated over the tested envelope (loads,
+//!    inclinations, pressures); above the lint's limit (4) the family is refined again with the
+//!    friction's pressure terms, then also its load and camber terms, held at 0, and the first
+//!    physical result is kept with a note (none physical: a note, and the lint flags the file).
 //!
 //! Deliberately not here: reading the store, writing files or tables (the `tirebase` crate),
 //! relaxation and spring-rate fitting (their per-pressure results are inputs; the relaxation
@@ -48,11 +53,15 @@ use crate::fit::output::Output;
 use crate::fit::pac2002::{Family, SweepKind};
 use crate::fit::sweep_folds::OutOfSampleQuality;
 use crate::numerics::nonlinear_least_squares::{
-    Bounds, Identifiability, Options, RobustLoss, Termination, minimize,
+    Bounds, FitOutcome, Identifiability, Options, RobustLoss, Termination, minimize,
 };
 use crate::numerics::stats::count_levels;
+use crate::tire_model::factors::slip_factors;
+use crate::tire_model::pac2002::load_with;
 use crate::tire_model::params::{Coef, Coef::*};
-use crate::tire_model::{Channel, Evaluation, MagicFormula, Pressures, Version};
+use crate::tire_model::tir::lint::MU_MAX;
+use crate::tire_model::tir::units::PLACEHOLDER;
+use crate::tire_model::{Channel, Evaluation, MagicFormula, Pressures, SlipInput, Version};
 
 pub use data::{CollapseConfig, Mf61Sample, Mf61Sweep, Point};
 pub use initial::Pac2002AtPressure;
@@ -316,10 +325,25 @@ fn pressure_terms(family: Family) -> &'static [Coef] {
     }
 }
 
-/// Box bounds of a coefficient in the refinement.
-fn bounds_of(c: Coef) -> (f64, f64) {
+/// Box bounds of a coefficient in the refinement. `reference` (the start's value, or the fitted
+/// value, which keeps that sign) orients the signed boxes of the friction coefficients.
+///
+/// The shape and friction boxes are the PAC2002 stage's: below `C = 1` the curve never reaches
+/// `D` (at `C` it tends to `D sin(C pi / 2)`), so a refinement on sweeps that do not reach the
+/// friction peak trades `C` down against `D` up without bound, and `D` stops being the peak
+/// friction the file claims.
+fn bounds_of(c: Coef, reference: f64) -> (f64, f64) {
+    let signed = |lo: f64, hi: f64| {
+        if reference < 0.0 {
+            (-hi, -lo)
+        } else {
+            (lo, hi)
+        }
+    };
     match c {
-        PCY1 | PCX1 | QCZ1 | RCX1 | RCY1 => (0.3, 4.0),
+        PCY1 | PCX1 => (1.0, 2.5),
+        QCZ1 | RCX1 | RCY1 => (0.3, 4.0),
+        PDY1 | PDX1 => signed(MU_MIN, MU_MAX),
         PPX1 | PPX2 | PPX3 | PPX4 | PPY1 | PPY2 | PPY3 | PPY4 | PPY5 | PPZ1 | PPZ2 | PPMX1 => {
             (-5.0, 5.0)
         }
@@ -327,12 +351,24 @@ fn bounds_of(c: Coef) -> (f64, f64) {
     }
 }
 
+/// Smallest `|PDX1|`, `|PDY1|` of the refinement: a tire without grip is no tire.
+const MU_MIN: f64 = 0.02;
+
 /// Why a fitted coefficient sits on its bound of the refinement ([`bounds_of`]) and what that
 /// bound means; `None` for a coefficient without bounds.
 pub fn bound_note(c: Coef, value: f64) -> Option<String> {
-    let (lo, hi) = bounds_of(c);
+    let (lo, hi) = bounds_of(c, value);
     let why = match c {
-        PCY1 | PCX1 | QCZ1 | RCX1 | RCY1 => "shape factor in [0.3, 4], the refinement's box",
+        PCY1 | PCX1 => {
+            "shape factor C in [1, 2.5]; at 1 the sweeps do not reach the friction peak and D \
+             is the force's asymptote (below 1 the peak factor would grow without bound); at \
+             2.5 the force reverses after its peak"
+        }
+        QCZ1 | RCX1 | RCY1 => "shape factor in [0.3, 4], the refinement's box",
+        PDY1 | PDX1 => {
+            "peak friction |mu| at FNOMIN and NOMPRES in [0.02, 4]: beyond 4 not physical (the \
+             lint's limit)"
+        }
         PPX1 | PPX2 | PPX3 | PPX4 | PPY1 | PPY2 | PPY3 | PPY4 | PPY5 | PPZ1 | PPZ2 | PPMX1 => {
             "pressure term within 5 per unit of dpi = (P - NOMPRES) / NOMPRES: steeper would \
              change its factor by more than 100 % over a 20 % pressure change"
@@ -604,6 +640,127 @@ fn rmse_of(model: &MagicFormula, channel: Channel, d: &FamilyData) -> f64 {
         .sqrt()
 }
 
+/// One family's bounded refinement of `free` from `model`: the solver's outcome and the model
+/// at its solution.
+fn refine(
+    model: &MagicFormula,
+    free: &[Coef],
+    channel: Channel,
+    data: &FamilyData,
+    cfg: &Mf61Config,
+) -> (FitOutcome, MagicFormula) {
+    let problem = Mf61FamilyProblem::new(model, free, channel, data);
+    let bounds = Bounds {
+        lower: free
+            .iter()
+            .map(|c| bounds_of(*c, model.coefs[*c]).0)
+            .collect(),
+        upper: free
+            .iter()
+            .map(|c| bounds_of(*c, model.coefs[*c]).1)
+            .collect(),
+    };
+    let start: Vec<f64> = free.iter().map(|c| model.coefs[*c]).collect();
+    let options = Options {
+        max_iterations: cfg.max_iterations,
+        ftol: cfg.ftol,
+        loss: cfg.loss,
+        ..Options::default()
+    };
+    let outcome = minimize(&problem, &start, &bounds, &options);
+    let candidate = problem.model_at(&outcome.params);
+    (outcome, candidate)
+}
+
+/// The friction terms a repair holds at their neutral value 0, in the order tried (each set
+/// includes the previous): the pressure terms of the peak friction, then its load and camber
+/// terms too.
+fn neutral_friction_terms(family: Family) -> [&'static [Coef]; 2] {
+    match family {
+        Family::Fx0 => [&[PPX3, PPX4], &[PPX3, PPX4, PDX2, PDX3]],
+        Family::Fy0 => [&[PPY3, PPY4], &[PPY3, PPY4, PDY2, PDY3]],
+        _ => [&[], &[]],
+    }
+}
+
+/// Where the peak friction of `family` (`mu_x` for `Fx0`, `mu_y` for `Fy0`) exceeds the lint's
+/// [`MU_MAX`] over the envelope the family's data span (their loads, inclinations and measured
+/// pressures, each widened to the model's declared range where set, as the lint samples it;
+/// 9 x 3 x 3 points, corners included): the worst, described; `None` when it stays within it
+/// or for other families.
+fn friction_above_limit(model: &MagicFormula, family: Family, data: &FamilyData) -> Option<String> {
+    if !matches!(family, Family::Fx0 | Family::Fy0) || data.is_empty() {
+        return None;
+    }
+    let range = |v: &mut dyn Iterator<Item = f64>| {
+        v.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+            (lo.min(x), hi.max(x))
+        })
+    };
+    // The data's span, widened to the ranges the model declares where they are set (the lint
+    // samples those: loads capped to [0.05, 4] FNOMIN).
+    let c = &model.coefs;
+    let widen = |r: (f64, f64), lo: f64, hi: f64| {
+        if lo.is_finite() && hi.is_finite() && lo < hi && hi.abs() < PLACEHOLDER {
+            (r.0.min(lo), r.1.max(hi))
+        } else {
+            r
+        }
+    };
+    let fz = widen(
+        range(&mut data.inputs.iter().map(|p| p.fz_n)),
+        c[FZMIN].max(0.05 * c[FNOMIN]),
+        c[FZMAX].min(4.0 * c[FNOMIN]),
+    );
+    let gamma = widen(
+        range(&mut data.inputs.iter().map(|p| p.gamma_rad)),
+        c[CAMMIN],
+        c[CAMMAX],
+    );
+    let p = widen(
+        range(&mut data.pressures.iter().copied()),
+        c[PRESMIN],
+        c[PRESMAX],
+    );
+    let at = |r: (f64, f64), i: usize, n: usize| r.0 + (r.1 - r.0) * i as f64 / (n - 1) as f64;
+    let mut worst: Option<(f64, f64, f64, f64)> = None;
+    for i in 0..9 {
+        for j in 0..3 {
+            for k in 0..3 {
+                let input = SlipInput {
+                    fz_n: at(fz, i, 9),
+                    kappa: 0.0,
+                    alpha_rad: 0.0,
+                    gamma_rad: at(gamma, j, 3),
+                    vx_mps: data.inputs[0].vx_mps,
+                };
+                let p_pa = at(p, k, 3);
+                let l = load_with(&model.coefs, &input, FIT_MODE, Version::Mf61, p_pa);
+                let f = slip_factors(&model.coefs, &l);
+                let mu = if family == Family::Fx0 { f.mux } else { f.muy };
+                if !mu.is_finite() || mu.abs() > MU_MAX {
+                    let m = if mu.is_finite() {
+                        mu.abs()
+                    } else {
+                        f64::INFINITY
+                    };
+                    if worst.is_none_or(|w| m > w.0) {
+                        worst = Some((m, input.fz_n, input.gamma_rad, p_pa));
+                    }
+                }
+            }
+        }
+    }
+    worst.map(|(mu, fz, gamma, p)| {
+        format!(
+            "|mu_{}| {mu:.2} > {MU_MAX} at Fz {fz:.0} N, inclination {:.2} deg, {:.1} kPa",
+            if family == Family::Fx0 { "x" } else { "y" },
+            gamma.to_degrees(),
+            p / 1e3
+        )
+    })
+}
+
 fn fit_points(
     models: &[Pac2002AtPressure],
     points: &[Point],
@@ -704,7 +861,7 @@ fn fit_points(
                 0.25_f64.to_radians(),
             ),
         };
-        let free = free_coefficients(family, variation);
+        let mut free = free_coefficients(family, variation);
         // A pressure term the family's data cannot determine (its sweeps at fewer tested
         // pressures than the term needs) is 0, not the start's trend: that trend may come from
         // a pressure whose PAC2002 fit had no data for the family (its defaults).
@@ -721,24 +878,56 @@ fn fit_points(
         }
         let channel = family.channel();
         let initial_rmse = rmse_of(&model, channel, &data);
-        let problem = Mf61FamilyProblem::new(&model, &free, channel, &data);
-        let bounds = Bounds {
-            lower: free.iter().map(|c| bounds_of(*c).0).collect(),
-            upper: free.iter().map(|c| bounds_of(*c).1).collect(),
-        };
-        let start: Vec<f64> = free.iter().map(|c| model.coefs[*c]).collect();
-        let options = Options {
-            max_iterations: cfg.max_iterations,
-            ftol: cfg.ftol,
-            loss: cfg.loss,
-            ..Options::default()
-        };
-        let outcome = minimize(&problem, &start, &bounds, &options);
-        let candidate = problem.model_at(&outcome.params);
-        let rmse = rmse_of(&candidate, channel, &data);
+        let (mut outcome, mut candidate) = refine(&model, &free, channel, &data, cfg);
+        let mut rmse = rmse_of(&candidate, channel, &data);
+        // A peak friction above the lint's limit inside the tested envelope: the friction's
+        // load, camber and pressure terms were pulled beyond what the data hold (typically
+        // sweeps that stop short of the friction peak, where D is an asymptote). Refine again
+        // with those terms held neutral, the pressure terms first, and keep the first physical
+        // result; otherwise keep the refinement and say so (the written file's lint flags it).
+        let mut repaired_friction = false;
+        if let Some(worst) = friction_above_limit(&candidate, family, &data) {
+            let mut repaired = None;
+            for held in neutral_friction_terms(family) {
+                let held: Vec<Coef> = held.iter().copied().filter(|c| free.contains(c)).collect();
+                if held.is_empty() {
+                    continue;
+                }
+                let mut base = model.clone();
+                held.iter().for_each(|c| base.coefs[*c] = 0.0);
+                let kept: Vec<Coef> = free.iter().copied().filter(|c| !held.contains(c)).collect();
+                let (o, m) = refine(&base, &kept, channel, &data, cfg);
+                let r = rmse_of(&m, channel, &data);
+                if r.is_finite() && friction_above_limit(&m, family, &data).is_none() {
+                    repaired = Some((o, m, r, kept, held));
+                    break;
+                }
+            }
+            match repaired {
+                Some((o, m, r, kept, held)) => {
+                    notes.push(format!(
+                        "{}: peak friction {worst} within the tested envelope; refined again with \
+                         {} held at 0: RMSE {rmse:.2} -> {r:.2}",
+                        family.as_str(),
+                        held.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ")
+                    ));
+                    (outcome, candidate, rmse, free) = (o, m, r, kept);
+                    repaired_friction = true;
+                }
+                None => notes.push(format!(
+                    "{}: peak friction {worst} within the tested envelope, also with its load, \
+                     camber and pressure terms held at 0",
+                    family.as_str()
+                )),
+            }
+        }
         // Keep the refinement only if it did not make the family worse (a diverged or
-        // non-finite start keeps the lifted values).
-        let accepted = rmse.is_finite() && (initial_rmse.is_nan() || rmse <= initial_rmse);
+        // non-finite start keeps the lifted values), or if it repaired a friction above the
+        // limit that the start has too (the start's lower RMSE is then no reason to keep it).
+        let accepted = rmse.is_finite()
+            && (initial_rmse.is_nan()
+                || rmse <= initial_rmse
+                || (repaired_friction && friction_above_limit(&model, family, &data).is_some()));
         if accepted {
             model = candidate;
             for (j, c) in free.iter().enumerate() {

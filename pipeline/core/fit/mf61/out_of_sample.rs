@@ -145,8 +145,14 @@ pub fn k_fold(
     let k = fold_of.values().max()? + 1;
     let free = &outcome.free;
     let bounds = Bounds {
-        lower: free.iter().map(|c| bounds_of(*c).0).collect(),
-        upper: free.iter().map(|c| bounds_of(*c).1).collect(),
+        lower: free
+            .iter()
+            .map(|c| bounds_of(*c, model.coefs[*c]).0)
+            .collect(),
+        upper: free
+            .iter()
+            .map(|c| bounds_of(*c, model.coefs[*c]).1)
+            .collect(),
     };
     // Warm start from the full fit (`minimize` clamps it into the box).
     let start: Vec<f64> = free.iter().map(|c| model.coefs[*c]).collect();

@@ -388,3 +388,43 @@ fn drive_brake_only_tire_refines_only_the_longitudinal_families() {
             .all(|q| matches!(q.family, Family::Fx0 | Family::Fx))
     );
 }
+
+/// The friction check sees a peak friction above the lint's limit inside the tested envelope
+/// and the fit repairs it: data of the truth with `PDX2` steepened to -3 (`|mu_x|` about 4.35 at
+/// the lowest tested load, 0.4 FNOMIN, 5.4 at the file's FZMIN 100 N) give a model whose
+/// `|mu_x|` stays within the limit over that envelope, with a note naming what was held; the
+/// truth itself passes the check.
+#[test]
+fn a_friction_above_the_limit_in_the_tested_envelope_is_repaired_and_noted() {
+    let steep = {
+        let mut m = truth();
+        m.coefs[PDX2] = -3.0;
+        m
+    };
+    let input = input(&steep, &[69, 97]);
+    let points = collapse_group(&input.groups[0].sweeps, &CollapseConfig::default());
+    let pure = PureData::of(&points);
+    let data = family_data(&points, Family::Fx0, &pure);
+    let flagged = friction_above_limit(&steep, Family::Fx0, &data);
+    println!("steep truth: {flagged:?}");
+    assert!(flagged.is_some_and(|w| w.starts_with("|mu_x| ")));
+    assert_eq!(friction_above_limit(&truth(), Family::Fx0, &data), None);
+    let fit = fit(&input, &model_only()).unwrap();
+    let all: Vec<Point> = input
+        .groups
+        .iter()
+        .flat_map(|g| collapse_group(&g.sweeps, &CollapseConfig::default()))
+        .collect();
+    let all_data = family_data(&all, Family::Fx0, &PureData::of(&all));
+    assert_eq!(
+        friction_above_limit(&fit.model, Family::Fx0, &all_data),
+        None
+    );
+    let note = fit
+        .notes
+        .iter()
+        .find(|n| n.starts_with("Fx0: peak friction"))
+        .expect("a note on the repair");
+    println!("{note}");
+    assert!(note.contains("held at 0: RMSE"), "{note}");
+}

@@ -47,6 +47,9 @@ use std::f64::consts::PI;
 
 mod dense;
 
+/// Largest friction `|F| / Fz` and peak factor `|mu|` the lint accepts.
+pub use dense::MU_MAX;
+
 use super::TirFile;
 use super::units::PLACEHOLDER;
 use crate::tire_model::factors::slip_factors;
