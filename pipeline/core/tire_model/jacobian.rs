@@ -201,7 +201,7 @@ pub struct MomentForces<T = f64> {
 impl<T: Real> MomentForces<T> {
     /// The forces `channel` (`Mz0` or `Mz`) reads at the load `l`.
     #[inline(always)]
-    fn at(c: &Coefs<T>, l: &Load<T>, channel: Channel) -> MomentForces<T> {
+    pub(crate) fn at(c: &Coefs<T>, l: &Load<T>, channel: Channel) -> MomentForces<T> {
         let py = pure_fy0(c, l);
         if channel == Channel::Mz0 {
             return MomentForces {
@@ -228,7 +228,7 @@ impl<T: Real> MomentForces<T> {
 impl<T: Copy> MomentForces<T> {
     /// Every force through `f` (e.g. `f64` forces lifted into dual-number constants).
     #[inline(always)]
-    fn map<U>(&self, f: impl Fn(T) -> U) -> MomentForces<U> {
+    pub(crate) fn map<U>(&self, f: impl Fn(T) -> U) -> MomentForces<U> {
         MomentForces {
             py: self.py.map(&f),
             fy_trail: f(self.fy_trail),
@@ -242,7 +242,7 @@ impl<T: Copy> MomentForces<T> {
 /// `Mz0` or `Mz` at the load `l` from the forces it reads: the moment's own equations (trail,
 /// residual torque, arm `s`), the only ones that read the coefficients of [`MOMENT_OWN`].
 #[inline(always)]
-fn moment_from_forces<T: Real>(
+pub(crate) fn moment_from_forces<T: Real>(
     c: &Coefs<T>,
     l: &Load<T>,
     forces: &MomentForces<T>,

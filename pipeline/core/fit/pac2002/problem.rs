@@ -16,11 +16,12 @@
 //! Deliberately not here: choosing weights, bounds or penalties (the stage does), the solver.
 
 use crate::numerics::nonlinear_least_squares::LeastSquaresProblem;
+use crate::tire_model::jacobian::{self, moment_from_forces};
 use crate::tire_model::pac2002::{
-    CombinedFy, Mode, PureFy, TrailPeak, combined_fx, combined_fy, combined_mz, gxa, load,
-    overturning_mx, pure_fx0, pure_fy0, pure_mz0, trail_terms, weighting,
+    Mode, PureFy, TrailPeak, combined_fx, combined_fy, gxa, load, overturning_mx, pure_fx0,
+    pure_fy0, weighting,
 };
-use crate::tire_model::{Coef, Coef::*, Coefs, Dual, Real, SlipInput};
+use crate::tire_model::{Coef, Coef::*, Coefs, Dual, MomentForces, Real, SlipInput};
 
 use super::collapse::BranchInputs;
 use super::family::Family;
@@ -28,29 +29,11 @@ use super::family::Family;
 /// Evaluation mode of every fit.
 pub const FIT_MODE: Mode = Mode::Raw;
 
-/// The channel a family is fitted against; `None` for `My` (never fitted).
+/// The channel a family is fitted against; NaN for `My` (never fitted).
 pub fn channel_value<T: Real>(c: &Coefs<T>, input: &SlipInput, family: Family) -> T {
-    let l = load(c, input, FIT_MODE);
     match family {
-        Family::Fy0 => pure_fy0(c, &l).fy0,
-        Family::Mz0 => {
-            let py = pure_fy0(c, &l);
-            let tt = trail_terms(c, &l, &py, TrailPeak::Standard);
-            pure_mz0(&l, &py, &tt)
-        }
-        Family::Fx0 => pure_fx0(c, &l).fx0,
-        Family::Fx => combined_fx(c, &l, pure_fx0(c, &l).fx0),
-        Family::Fy => combined_fy(c, &l, &pure_fy0(c, &l)).fy,
-        Family::Mz => {
-            let px = pure_fx0(c, &l);
-            let py = pure_fy0(c, &l);
-            let tt = trail_terms(c, &l, &py, TrailPeak::Standard);
-            let fx = combined_fx(c, &l, px.fx0);
-            let fy = combined_fy(c, &l, &py);
-            combined_mz(c, &l, px.kxk, &tt, fx, &fy).mz
-        }
-        Family::Mx => overturning_mx(c, &l, combined_fy(c, &l, &pure_fy0(c, &l)).fy),
         Family::My => T::cst(f64::NAN),
+        _ => jacobian::channel_value(c, input, FIT_MODE, TrailPeak::Standard, family.channel()),
     }
 }
 
@@ -171,26 +154,15 @@ impl Penalty {
 /// What the families held fixed contribute at one point (computed once per problem).
 #[derive(Copy, Clone, Debug)]
 struct Fixed {
-    /// Pure lateral force factors (`Fy0` family).
+    /// Pure lateral force factors (`Fy0` family), read by `Fy`.
     py: PureFy<f64>,
-    /// Pure longitudinal force and slip stiffness (`Fx0` family).
+    /// Pure longitudinal force (`Fx0` family), read by `Fx`.
     fx0: f64,
-    kxk: f64,
-    /// Combined forces (`Fx`, `Fy` families).
-    fx: f64,
-    fy: CombinedFy<f64>,
-}
-
-fn lift_fy<T: Real>(p: &PureFy<f64>) -> PureFy<T> {
-    PureFy {
-        fy0: T::cst(p.fy0),
-        muy: T::cst(p.muy),
-        kya: T::cst(p.kya),
-        by: T::cst(p.by),
-        cy: T::cst(p.cy),
-        shy: T::cst(p.shy),
-        svy: T::cst(p.svy),
-    }
+    /// Combined lateral force (`Fy` family), read by `Mx`.
+    fy: f64,
+    /// The forces `Mz0` or `Mz` reads (`Fy0`, `Fx0`, `Fx`, `Fy` families); `None` for the
+    /// other families.
+    moment: Option<MomentForces>,
 }
 
 /// The families whose values a family's problem caches (their coefficients must not be free).
@@ -242,6 +214,7 @@ impl<'a> FamilyProblem<'a> {
                 "FamilyProblem: {family:?} caches {f:?} but one of its coefficients is free"
             );
         }
+        let moment_channel = matches!(family, Family::Mz0 | Family::Mz).then(|| family.channel());
         let mut first_fixed = Vec::with_capacity(points.len());
         let mut fixed = Vec::with_capacity(2 * points.len());
         for pt in points {
@@ -253,9 +226,8 @@ impl<'a> FamilyProblem<'a> {
                 Fixed {
                     py,
                     fx0: px.fx0,
-                    kxk: px.kxk,
-                    fx: combined_fx(base, &l, px.fx0),
-                    fy: combined_fy(base, &l, &py),
+                    fy: combined_fy(base, &l, &py).fy,
+                    moment: moment_channel.map(|ch| MomentForces::at(base, &l, ch)),
                 }
             }));
         }
@@ -295,23 +267,16 @@ impl<'a> FamilyProblem<'a> {
         match self.family {
             Family::Fy0 => pure_fy0(c, &l).fy0,
             Family::Fx0 => pure_fx0(c, &l).fx0,
-            Family::Mz0 => {
-                let py = lift_fy(&fixed.py);
-                let tt = trail_terms(c, &l, &py, TrailPeak::Standard);
-                pure_mz0(&l, &py, &tt)
+            Family::Mz0 | Family::Mz => {
+                let forces = fixed
+                    .moment
+                    .expect("FamilyProblem::new caches the moment's forces")
+                    .map(T::cst);
+                moment_from_forces(c, &l, &forces, TrailPeak::Standard, self.family.channel())
             }
             Family::Fx => combined_fx(c, &l, T::cst(fixed.fx0)),
-            Family::Fy => combined_fy(c, &l, &lift_fy(&fixed.py)).fy,
-            Family::Mz => {
-                let py = lift_fy(&fixed.py);
-                let tt = trail_terms(c, &l, &py, TrailPeak::Standard);
-                let fy = CombinedFy {
-                    fy: T::cst(fixed.fy.fy),
-                    svyk: T::cst(fixed.fy.svyk),
-                };
-                combined_mz(c, &l, T::cst(fixed.kxk), &tt, T::cst(fixed.fx), &fy).mz
-            }
-            Family::Mx => overturning_mx(c, &l, T::cst(fixed.fy.fy)),
+            Family::Fy => combined_fy(c, &l, &fixed.py.map(T::cst)).fy,
+            Family::Mx => overturning_mx(c, &l, T::cst(fixed.fy)),
             Family::My => T::cst(f64::NAN),
         }
     }
