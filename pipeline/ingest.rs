@@ -44,7 +44,6 @@ pub use decide::{Decision, Now, decide};
 
 use crate::catalog::Catalog;
 use crate::progress::Progress;
-use crate::store::StoreError;
 use crate::store::files::{sha256_bytes, sync_filesystem};
 use crate::store::layout::{PartitionKey, SWEPT, source_part_name};
 use crate::store::lock::{LockWait, StoreLock};
@@ -53,6 +52,7 @@ use crate::store::tables::{
     RunStatus, collect_garbage, has_runs, parts_sha256, read_runs, relabel_parts, write_runs,
     write_samples_part, write_segments_part,
 };
+use crate::store::{IoOp, StoreError};
 
 /// An input (a file or directory given or found under one) could not be read: an input problem,
 /// not a store error. `ingest` and `run` both report it.
@@ -1030,7 +1030,8 @@ fn write_file_parts(
         write_samples_part(store, key, part_name, rows, arrays)
     };
     let segments_table = || -> Result<(), StoreError> {
-        let df = segments_frame(ctx, segments).map_err(|e| StoreError::polars(store, e))?;
+        let df =
+            segments_frame(ctx, segments).map_err(|e| StoreError::polars(IoOp::Write, store, e))?;
         write_segments_part(store, ctx.part, df)
     };
     // Partitions are independent files (a run has ~30): the calling thread and `writers - 1`

@@ -21,9 +21,9 @@ use tirebase_core::fit::segment_data::{
 use tirebase_core::segment::{Level, QcFlag};
 
 use super::FitError;
-use crate::store::StoreError;
 use crate::store::layout::SWEPT;
 use crate::store::tables;
+use crate::store::{IoOp, StoreError};
 
 /// One live row of the segments table (`schemas/segments.toml`).
 #[derive(Clone, Debug, PartialEq)]
@@ -132,7 +132,7 @@ pub fn judge_qc(qc_flags: &str) -> (bool, bool) {
 }
 
 fn polars_err(path: &Path) -> impl Fn(PolarsError) -> FitError + '_ {
-    move |e| FitError::Store(StoreError::polars(path, e))
+    move |e| FitError::Store(StoreError::polars(IoOp::Read, path, e))
 }
 
 fn str_column(df: &DataFrame, name: &str, path: &Path) -> Result<Vec<Option<String>>, FitError> {

@@ -10,11 +10,11 @@ use std::path::Path;
 
 use polars::prelude::*;
 
-use super::StoreError;
+use super::{IoOp, StoreError};
 
-/// A polars error at `path` as a store error.
-pub fn polars_at(path: &Path) -> impl Fn(PolarsError) -> StoreError + '_ {
-    move |e| StoreError::polars(path, e)
+/// A polars error while doing `op` at `path` as a store error.
+pub fn polars_at(op: IoOp, path: &Path) -> impl Fn(PolarsError) -> StoreError + '_ {
+    move |e| StoreError::polars(op, path, e)
 }
 
 /// A string column (other types cast); `None` when the column is absent.
@@ -26,10 +26,12 @@ pub fn opt_str(
     let Ok(c) = df.column(name) else {
         return Ok(None);
     };
-    let c = c.cast(&DataType::String).map_err(polars_at(path))?;
+    let c = c
+        .cast(&DataType::String)
+        .map_err(polars_at(IoOp::Read, path))?;
     Ok(Some(
         c.str()
-            .map_err(polars_at(path))?
+            .map_err(polars_at(IoOp::Read, path))?
             .iter()
             .map(|v| v.map(str::to_string))
             .collect(),
@@ -45,8 +47,15 @@ pub fn opt_i64(
     let Ok(c) = df.column(name) else {
         return Ok(None);
     };
-    let c = c.cast(&DataType::Int64).map_err(polars_at(path))?;
-    Ok(Some(c.i64().map_err(polars_at(path))?.iter().collect()))
+    let c = c
+        .cast(&DataType::Int64)
+        .map_err(polars_at(IoOp::Read, path))?;
+    Ok(Some(
+        c.i64()
+            .map_err(polars_at(IoOp::Read, path))?
+            .iter()
+            .collect(),
+    ))
 }
 
 /// A float column (other numeric types cast); `None` when the column is absent.
@@ -58,8 +67,15 @@ pub fn opt_f64(
     let Ok(c) = df.column(name) else {
         return Ok(None);
     };
-    let c = c.cast(&DataType::Float64).map_err(polars_at(path))?;
-    Ok(Some(c.f64().map_err(polars_at(path))?.iter().collect()))
+    let c = c
+        .cast(&DataType::Float64)
+        .map_err(polars_at(IoOp::Read, path))?;
+    Ok(Some(
+        c.f64()
+            .map_err(polars_at(IoOp::Read, path))?
+            .iter()
+            .collect(),
+    ))
 }
 
 /// A boolean column; `None` when the column is absent.
@@ -71,7 +87,12 @@ pub fn opt_bool(
     let Ok(c) = df.column(name) else {
         return Ok(None);
     };
-    Ok(Some(c.bool().map_err(polars_at(path))?.iter().collect()))
+    Ok(Some(
+        c.bool()
+            .map_err(polars_at(IoOp::Read, path))?
+            .iter()
+            .collect(),
+    ))
 }
 
 /// The error of a required column that is absent.

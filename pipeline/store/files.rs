@@ -158,7 +158,7 @@ pub fn write_parquet_atomic_with(
     df: &mut DataFrame,
 ) -> Result<(), StoreError> {
     write_atomic_with(path, durability, |w| {
-        write_parquet(w, df).map_err(|e| StoreError::polars(path, e))
+        write_parquet(w, df).map_err(|e| StoreError::polars(IoOp::Write, path, e))
     })
 }
 
@@ -347,7 +347,8 @@ pub fn write_arrow_parquet_atomic_with(
     batch: RecordBatchT<ArrayRef>,
 ) -> Result<(), StoreError> {
     write_atomic_with(path, durability, |w| {
-        write_arrow_parquet(w, schema, vec![batch]).map_err(|e| StoreError::polars(path, e))
+        write_arrow_parquet(w, schema, vec![batch])
+            .map_err(|e| StoreError::polars(IoOp::Write, path, e))
     })
 }
 
@@ -356,7 +357,7 @@ pub fn read_parquet(path: &Path) -> Result<DataFrame, StoreError> {
     let file = File::open(path).map_err(|e| StoreError::io(IoOp::Read, path, e))?;
     ParquetReader::new(file)
         .finish()
-        .map_err(|e| StoreError::polars(path, e))
+        .map_err(|e| StoreError::polars(IoOp::Read, path, e))
 }
 
 /// Every regular file directly in `dir` (sorted; empty if `dir` does not exist).
@@ -458,6 +459,23 @@ mod tests {
             write_bytes_atomic(&occupied, b"y").unwrap_err(),
             IoOp::Rename,
             &occupied,
+        );
+    }
+
+    #[test]
+    fn table_errors_say_what_was_being_done_and_on_which_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let corrupt = dir.path().join("runs.parquet");
+        fs::write(&corrupt, b"not a parquet file").unwrap();
+        let err = read_parquet(&corrupt).unwrap_err();
+        assert!(
+            matches!(&err, StoreError::Polars { op: IoOp::Read, path, .. } if *path == corrupt),
+            "{err:?}"
+        );
+        let text = err.to_string();
+        assert!(
+            text.starts_with(&format!("reading {}: ", corrupt.display())),
+            "{text}"
         );
     }
 

@@ -31,9 +31,12 @@ pub enum StoreError {
         /// The OS error.
         error: std::io::Error,
     },
-    /// polars failed to read or write a table.
-    #[error("{path}: {error}")]
+    /// polars failed to read or write a table, e.g. `reading /store/runs.parquet: parquet: File
+    /// out of specification`.
+    #[error("{op} {path}: {error}")]
     Polars {
+        /// What was being done.
+        op: IoOp,
         /// The table file.
         path: PathBuf,
         /// The polars error.
@@ -109,9 +112,10 @@ impl StoreError {
         }
     }
 
-    /// Wrap a polars error with its path.
-    pub fn polars(path: &Path, source: polars::error::PolarsError) -> Self {
+    /// Wrap a polars error with what was being done and its path.
+    pub fn polars(op: IoOp, path: &Path, source: polars::error::PolarsError) -> Self {
         StoreError::Polars {
+            op,
             path: path.to_path_buf(),
             error: source,
         }

@@ -308,7 +308,7 @@ pub fn write_runs(store: &Path, rows: &BTreeMap<String, RunRow>) -> Result<(), S
         "tool_version" => s(|x| x.tool_version.clone()),
         "parts_sha256" => s(|x| x.parts_sha256.clone()),
     )
-    .map_err(polars_at(&path))?;
+    .map_err(polars_at(IoOp::Write, &path))?;
     let mut df = schema::table(TableName::Runs).conform(df)?;
     super::files::write_parquet_atomic(&path, &mut df)
 }
@@ -481,7 +481,7 @@ pub fn read_sample_columns(
 ) -> Result<DataFrame, StoreError> {
     let file = fs::File::open(path).map_err(|e| StoreError::io(IoOp::Read, path, e))?;
     let mut reader = ParquetReader::new(file);
-    let schema = reader.schema().map_err(polars_at(path))?;
+    let schema = reader.schema().map_err(polars_at(IoOp::Read, path))?;
     let wanted = columns
         .iter()
         .chain(optional.iter().filter(|c| schema.contains(c)))
@@ -493,7 +493,7 @@ pub fn read_sample_columns(
     } else {
         reader.read_parallel(ParallelStrategy::None)
     };
-    reader.finish().map_err(polars_at(path))
+    reader.finish().map_err(polars_at(IoOp::Read, path))
 }
 
 /// Write one file's part of the segments table (`segments/<part>`), conformed to its schema.
@@ -518,7 +518,7 @@ pub fn write_samples_part(
 ) -> Result<(), StoreError> {
     let (schema, arrays) = schema::table(TableName::Samples).conform_arrays(arrays)?;
     let batch = RecordBatchT::try_new(rows, Arc::new(schema.clone()), arrays)
-        .map_err(|e| StoreError::polars(store, e))?;
+        .map_err(|e| StoreError::polars(IoOp::Write, store, e))?;
     let dir = store.join(partition_dir(key));
     ensure_dir(&dir)?;
     write_arrow_parquet_atomic_with(&dir.join(part), Durability::Deferred, schema, batch)
@@ -555,7 +555,7 @@ pub fn relabel_parts(
     let n = df.height();
     df.with_column(Column::new("tire".into(), vec![tire; n]))
         .and_then(|df| df.with_column(Column::new("rim_in".into(), vec![rim_in; n])))
-        .map_err(polars_at(&old_segments))?;
+        .map_err(polars_at(IoOp::Write, &old_segments))?;
     write_segments_part(store, new_part, df)?;
     for (from, to) in &links {
         if let Some(dir) = to.parent() {
