@@ -640,6 +640,12 @@ fn rmse_of(model: &MagicFormula, channel: Channel, d: &FamilyData) -> f64 {
         .sqrt()
 }
 
+/// The refinement's box ([`bounds_of`]) of each of `free`, oriented by `model`'s values.
+fn refinement_bounds(model: &MagicFormula, free: &[Coef]) -> Bounds {
+    let (lower, upper) = free.iter().map(|c| bounds_of(*c, model.coefs[*c])).unzip();
+    Bounds { lower, upper }
+}
+
 /// One family's bounded refinement of `free` from `model`: the solver's outcome and the model
 /// at its solution.
 fn refine(
@@ -650,16 +656,7 @@ fn refine(
     cfg: &Mf61Config,
 ) -> (FitOutcome, MagicFormula) {
     let problem = Mf61FamilyProblem::new(model, free, channel, data);
-    let bounds = Bounds {
-        lower: free
-            .iter()
-            .map(|c| bounds_of(*c, model.coefs[*c]).0)
-            .collect(),
-        upper: free
-            .iter()
-            .map(|c| bounds_of(*c, model.coefs[*c]).1)
-            .collect(),
-    };
+    let bounds = refinement_bounds(model, free);
     let start: Vec<f64> = free.iter().map(|c| model.coefs[*c]).collect();
     let options = Options {
         max_iterations: cfg.max_iterations,

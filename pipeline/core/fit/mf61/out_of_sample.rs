@@ -35,10 +35,11 @@ use std::collections::BTreeMap;
 
 use super::problem::{FIT_MODE, FamilyData, Mf61FamilyProblem};
 use super::{
-    Family, FamilyOutcome, Mf61Config, Point, PureData, bounds_of, family_data, mz_data, rmse_of,
+    Family, FamilyOutcome, Mf61Config, Point, PureData, family_data, mz_data, refinement_bounds,
+    rmse_of,
 };
 use crate::fit::sweep_folds::{self, DEFICIENT_CONDITION};
-use crate::numerics::nonlinear_least_squares::{Bounds, Options, minimize};
+use crate::numerics::nonlinear_least_squares::{Options, minimize};
 use crate::tire_model::params::Coef::FNOMIN;
 use crate::tire_model::{MagicFormula, Pressures};
 
@@ -144,16 +145,7 @@ pub fn k_fold(
     }
     let k = fold_of.values().max()? + 1;
     let free = &outcome.free;
-    let bounds = Bounds {
-        lower: free
-            .iter()
-            .map(|c| bounds_of(*c, model.coefs[*c]).0)
-            .collect(),
-        upper: free
-            .iter()
-            .map(|c| bounds_of(*c, model.coefs[*c]).1)
-            .collect(),
-    };
+    let bounds = refinement_bounds(model, free);
     // Warm start from the full fit (`minimize` clamps it into the box).
     let start: Vec<f64> = free.iter().map(|c| model.coefs[*c]).collect();
     let options = Options::warm_refit(cfg.kfold_iterations, cfg.loss);
