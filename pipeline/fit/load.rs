@@ -21,9 +21,9 @@ use tirebase_core::fit::segment_data::{
 use tirebase_core::segment::{Level, QcFlag};
 
 use super::FitError;
+use crate::store::columns::{opt_bool, req_bool, req_f64, req_i64, req_str};
 use crate::store::layout::SWEPT;
 use crate::store::tables;
-use crate::store::{IoOp, StoreError};
 
 /// One live row of the segments table (`schemas/segments.toml`).
 #[derive(Clone, Debug, PartialEq)]
@@ -129,37 +129,6 @@ pub fn judge_qc(qc_flags: &str) -> (bool, bool) {
         }
     }
     (forces_ok, temperatures_ok)
-}
-
-fn polars_err(path: &Path) -> impl Fn(PolarsError) -> FitError + '_ {
-    move |e| FitError::Store(StoreError::polars(IoOp::Read, path, e))
-}
-
-fn str_column(df: &DataFrame, name: &str, path: &Path) -> Result<Vec<Option<String>>, FitError> {
-    let c = df.column(name).map_err(polars_err(path))?;
-    let c = c.cast(&DataType::String).map_err(polars_err(path))?;
-    Ok(c.str()
-        .map_err(polars_err(path))?
-        .iter()
-        .map(|v| v.map(str::to_string))
-        .collect())
-}
-
-fn i64_column(df: &DataFrame, name: &str, path: &Path) -> Result<Vec<Option<i64>>, FitError> {
-    let c = df.column(name).map_err(polars_err(path))?;
-    let c = c.cast(&DataType::Int64).map_err(polars_err(path))?;
-    Ok(c.i64().map_err(polars_err(path))?.iter().collect())
-}
-
-fn f64_column(df: &DataFrame, name: &str, path: &Path) -> Result<Vec<Option<f64>>, FitError> {
-    let c = df.column(name).map_err(polars_err(path))?;
-    let c = c.cast(&DataType::Float64).map_err(polars_err(path))?;
-    Ok(c.f64().map_err(polars_err(path))?.iter().collect())
-}
-
-fn bool_column(df: &DataFrame, name: &str, path: &Path) -> Result<Vec<Option<bool>>, FitError> {
-    let c = df.column(name).map_err(polars_err(path))?;
-    Ok(c.bool().map_err(polars_err(path))?.iter().collect())
 }
 
 /// Every live segment of the store (`store::tables` says what is live), sorted by (tire, rim,
@@ -288,25 +257,22 @@ impl SampleColumns {
     fn read(df: &DataFrame, path: &Path) -> Result<SampleColumns, FitError> {
         let mut required = BTreeMap::new();
         for name in REQUIRED {
-            required.insert(name, f64_column(df, name, path)?);
+            required.insert(name, req_f64(df, name, path)?);
         }
         let mut optional = BTreeMap::new();
         for name in OPTIONAL {
-            optional.insert(name, f64_column(df, name, path)?);
+            optional.insert(name, req_f64(df, name, path)?);
         }
         let mut rows_of: BTreeMap<String, Vec<usize>> = BTreeMap::new();
-        for (i, id) in str_column(df, "segment_id", path)?.into_iter().enumerate() {
+        for (i, id) in req_str(df, "segment_id", path)?.into_iter().enumerate() {
             rows_of.entry(id.unwrap_or_default()).or_default().push(i);
         }
         Ok(SampleColumns {
             rows_of,
-            sample_index: i64_column(df, "sample_index", path)?,
-            kappa_measured: bool_column(df, "kappa_measured", path)?,
-            kappa_derived: if df.column("kappa_derived").is_ok() {
-                bool_column(df, "kappa_derived", path)?
-            } else {
-                vec![None; df.height()]
-            },
+            sample_index: req_i64(df, "sample_index", path)?,
+            kappa_measured: req_bool(df, "kappa_measured", path)?,
+            kappa_derived: opt_bool(df, "kappa_derived", path)?
+                .unwrap_or_else(|| vec![None; df.height()]),
             required,
             optional,
         })

@@ -1,5 +1,6 @@
 //! Typed columns of a table read from the store: the one set of helpers every typed reader of
-//! the store module (`tables`, `results`) uses.
+//! a stored table uses (`store::tables`, `store::results`, the fit stages' sample loader
+//! `fit::load`, the report's `report::data`).
 //!
 //! In: a DataFrame read from a file and a column name. Out: the column's values as
 //! `Option<T>` per row (other numeric types cast), `None` for an absent optional column, a
