@@ -534,7 +534,7 @@ impl Config {
         }
     }
 
-    /// Check values serde cannot: every number (see [`check_numbers`]), then each stage's
+    /// Check values serde cannot: every number (see `check_numbers`), then each stage's
     /// own rules.
     pub fn validate(&self) -> Result<(), ConfigError> {
         let table = toml::Table::try_from(self)

@@ -811,7 +811,7 @@ fn fit_combinations(
     out
 }
 
-/// Writes OUT/<table>.parquet for every table and OUT/tir/*.tir (atomic writes). Files of
+/// Writes `OUT/<table>.parquet` for every table and `OUT/tir/*.tir` (atomic writes). Files of
 /// tables or models this outcome does not hold are left alone.
 pub fn write_outcome(outcome: &FitResults, out: &Path) -> Result<(), FitError> {
     ensure_dir(out)?;

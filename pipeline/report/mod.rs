@@ -80,7 +80,7 @@ pub struct ReportSummary {
 
 /// Writes a self-contained HTML report (index.html + one page per tire, inline SVG, no network)
 /// into `out_dir` from the store's samples/segments and a finished result directory laid out as
-/// write_outcome writes it (tables as <name>.parquet, tir/*.tir); the index opens with the
+/// write_outcome writes it (tables as `<name>.parquet`, `tir/*.tir`); the index opens with the
 /// tire selection for `car`.
 pub fn write_report(
     store: &Path,

@@ -172,7 +172,7 @@ pub fn write_parquet_atomic_with(
 /// an answer that is always no for a measured channel. So floats are written `PLAIN`; so are
 /// strings, except a column made of a few long runs (a partition's file name, hash and segment
 /// ids), found by comparing neighbours and written as a dictionary
-/// ([`dictionary_encode_string_runs`]); integers keep polars' choice (a dictionary when their
+/// (`dictionary_encode_string_runs`); integers keep polars' choice (a dictionary when their
 /// range is small, decided from min and max, no counting). Compression is Snappy, the Parquet
 /// default every reader has: on a 470-row, 27-column partition (release build) writing took
 /// 0.66 ms with Snappy, 0.86 ms with LZ4 (whose C encoder clears a 16 KiB table for every page)

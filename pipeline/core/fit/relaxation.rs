@@ -38,7 +38,7 @@
 //!    load. The three-parameter longitudinal law keeps `PTX3 = 0` unless the rows demand it
 //!    (its lowest load has no neighbour below 667 N; a free `PTX3` followed its noise).
 //! 6. Each row's reported `sigma_m` is its own estimate (`sigma_row_m`) partially pooled with the
-//!    law fitted to the tire's other rows ([`pool_with_law`]): at the lowest load one row's own
+//!    law fitted to the tire's other rows (`pool_with_law`): at the lowest load one row's own
 //!    estimate is noise-limited (3 sweeps at 50 Hz leave ~5 %, the Cramer-Rao bound of the
 //!    force noise), and its neighbours know more about it than its own sweeps do. How much
 //!    each row leans on the law is estimated from how well the law predicts held-out rows.

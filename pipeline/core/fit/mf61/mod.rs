@@ -5,7 +5,7 @@
 //! sweeps (samples with the measured pressure), its PAC2002 fit and its spring-rate results.
 //! Out: an [`Mf61Fit`]: the model (`NOMPRES` = [`Mf61Input::nominal_pa`], pressure range the
 //! tested one), per-coefficient facts, per-pressure fit quality in sample and out of sample
-//! (k-fold by sweep per family, [`out_of_sample`], as the PAC2002 stage; with three or more
+//! (k-fold by sweep per family, `out_of_sample`, as the PAC2002 stage; with three or more
 //! tested pressures also by leaving each pressure out: the whole fit, starting values included,
 //! rerun without it, the left-out pressure predicted), per-family solver facts and notes.
 //!
@@ -354,7 +354,7 @@ fn bounds_of(c: Coef, reference: f64) -> (f64, f64) {
 /// Smallest `|PDX1|`, `|PDY1|` of the refinement: a tire without grip is no tire.
 const MU_MIN: f64 = 0.02;
 
-/// Why a fitted coefficient sits on its bound of the refinement ([`bounds_of`]) and what that
+/// Why a fitted coefficient sits on its bound of the refinement (`bounds_of`) and what that
 /// bound means; `None` for a coefficient without bounds.
 pub fn bound_note(c: Coef, value: f64) -> Option<String> {
     let (lo, hi) = bounds_of(c, value);

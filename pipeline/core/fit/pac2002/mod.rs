@@ -10,17 +10,17 @@
 //! ([`FittedCoefficient`]).
 //!
 //! Method, per family (details in the sub-modules):
-//! 1. [`collapse`]: per sweep, despike (running median + MAD test), optionally de-lag with the
+//! 1. `collapse`: per sweep, despike (running median + MAD test), optionally de-lag with the
 //!    relaxation length (`F_ss = F + sigma/V dF/dt`), then collapse the up/down hysteresis by
 //!    averaging the up-branch and down-branch means on a slip grid. The joint fits run on these
 //!    collapsed curves, not on the raw samples: each slip region of each sweep counts once
 //!    whatever the sweep rate and the number of passes, the lag hysteresis cancels to first
 //!    order, and a fit costs ~20x fewer model evaluations (the whole tire fits in well under a
 //!    second). Quality is also reported against the raw samples.
-//! 2. [`initial`]: starting values the way the thesis did by hand (seed section 8.2): per sweep a
+//! 2. `initial`: starting values the way the thesis did by hand (seed section 8.2): per sweep a
 //!    single Magic Formula curve (`B C D E SH SV K`) or trail curve, then linear least squares
 //!    (and 1-D scans for the few nonlinear load laws) for their load and camber dependence.
-//! 3. [`problem`]: joint refinement of the family's coefficients with the bounded
+//! 3. `problem`: joint refinement of the family's coefficients with the bounded
 //!    Levenberg-Marquardt of [`crate::numerics::nonlinear_least_squares`] on the collapsed points,
 //!    residuals normalised by each sweep's peak (every sweep counts the same), optional
 //!    Huber/Cauchy loss by IRLS, penalties for `E <= 1` (before clamping) and `Gxa, Gyk > 0` over

@@ -5,7 +5,7 @@
 //! the load `FZ`, which passes through it; the chain's lag is the time shift between the two.
 //!
 //! Model, per hold segment: `FZ_measured(t) = chain[a + b RL(t) (+ c dRL/dt)](t)` with `chain`
-//! the configured [`LagForm`] (delay or first-order filter) at the trial lag. `a` and `b` (the
+//! the configured [`LagForm`](super::LagForm) (delay or first-order filter) at the trial lag. `a` and `b` (the
 //! segment's spring line; static and rolling holds and each inclination have their own) and,
 //! when asked for, a damping coefficient `c` are linear given the lag and solved in closed form
 //! (variable projection); the lag minimises the summed residual sum of squares by grid + Brent
@@ -24,7 +24,7 @@
 //! The lag is kept only when the data support it over none: the drop of the summed cost from
 //! lag 0 to the minimum, in residual variances per effective sample (counted samples over the
 //! residuals' autocorrelation time, as in the speed-based identification), must exceed
-//! [`super::LAG_LR_THRESHOLD`].
+//! the stage's `LAG_LR_THRESHOLD`.
 //!
 //! Deliberately not here: deciding which lag the relaxation rows use (the stage's
 //! `identify_measurement_lag`), the vertical stiffness the spring-rate stage reports.

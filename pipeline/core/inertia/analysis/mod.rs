@@ -5,9 +5,9 @@
 //! results: vehicle inertia per rig, CG position, table inertia and friction) each with a
 //! propagated standard uncertainty, plus one [`InertiaRunError`] per failed run. Three steps:
 //! 1. plan every run ([`Session::plan`]: the sections it needs are valid),
-//! 2. measure it ([`measure`]: read its file, one row per run),
-//! 3. combine the measured runs per rig ([`combine_yaw`], [`combine_trifilar`],
-//!    [`combine_pendulum`]).
+//! 2. measure it (`measure`: read its file, one row per run),
+//! 3. combine the measured runs per rig (`combine_yaw`, `combine_trifilar`,
+//!    `combine_pendulum`).
 //!
 //! A failed run never stops the others; a result that needs a failed or absent run (e.g. a
 //! vehicle swing without a platform tare) is reported as an error of the dependent run.

@@ -3,9 +3,9 @@
 //! In: the text of `session.toml` and, per run, the text of its CSV (read through a closure, so
 //! synthetic sessions are analysed in memory; the pipeline's `inertia` module reads the files).
 //! Out: [`Session`] with SI values and uncertainties, and per run a [`RunPlan`]. Three steps, one
-//! module each: [`parse`] (text -> raw records, `CsvTable`), [`validate`] (raw records ->
+//! module each: `parse` (text -> raw records, `CsvTable`), `validate` (raw records ->
 //! [`Session`]; each rig section and each run keeps its own result, so a bad `[trifilar]` table
-//! or a bad run only fails the runs that need it) and [`plan`] (a run -> the validated sections
+//! or a bad run only fails the runs that need it) and `plan` (a run -> the validated sections
 //! it needs, or the reason it cannot be measured). The format is specified in
 //! `schemas/inertia_session.md`: keys carry their unit as a suffix (`_m`, `_kg`, `_s`, `_deg`,
 //! `_kg_m2`, `_n_m`, `_m_s2`); a measured value is a number or `{ v = .., u = .. }` (standard

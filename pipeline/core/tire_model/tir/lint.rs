@@ -13,7 +13,7 @@
 //! is unlimited), each point evaluated by the file's own equations. Checks run only for the force
 //! families the declared `USE_MODE` uses (1 Fx, 2 Fy + Mz, 3 both uncombined, 4 combined,
 //! +10 relaxation; 4 when absent). Two kinds:
-//! - [`dense`]: every channel evaluated through the model's batch API along dense slip sweeps
+//! - `dense`: every channel evaluated through the model's batch API along dense slip sweeps
 //!   (MF 6.x: at each sampled pressure; a finding already made at another pressure is not
 //!   repeated)
 //!   (fine grids around zero slip and the force's zero crossing): spikes and discontinuities,
