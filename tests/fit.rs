@@ -26,8 +26,8 @@ use tirebase::core::tire_model::tir::TirFile;
 use tirebase::core::tire_model::{Coef, SlipInput};
 
 use crate::harness::{
-    ENVELOPE_COLUMNS, ENVELOPE_WHERE, copy_tree, demo_round, envelope_points, f64s, ok, p, strs,
-    synth_round, tirebase,
+    ENVELOPE_COLUMNS, ENVELOPE_WHERE, copy_tree, demo_round, envelope_points, f64s, flag_segments,
+    ingest, ok, p, strs, synth_round, tirebase,
 };
 
 /// A demo round, its store and one fit of it.
@@ -55,17 +55,10 @@ fn prepare_with(synth_flags: &[&str], fit_flags: &[&str]) -> Fitted {
         synth_round(&round, synth_flags);
         round
     };
-    let catalog = round.join("catalog.toml");
-    ok(
-        &tirebase(&[
-            "ingest",
-            p(&round.join("raw")),
-            "--store",
-            p(&store),
-            "--catalog",
-            p(&catalog),
-        ]),
-        "ingest",
+    ingest(
+        &round.join("raw"),
+        &store,
+        Some(&round.join("catalog.toml")),
     );
     let mut fit_args = vec!["fit", "--store", p(&store), "--out", p(&out), "--jobs", "2"];
     fit_args.extend_from_slice(fit_flags);
@@ -944,16 +937,11 @@ fn relaxation_alone_writes_the_full_fits_relaxation_table() {
     );
 }
 
-/// Mark every force segment of one tire, rim and pressure as having a zeroed lateral force (a
-/// QC flag that spoils forces), as a segmenter would for a bad test.
+/// Flag every force segment of one tire, rim and pressure with a zeroed lateral force (a QC
+/// flag that spoils forces), as a segmenter would for a bad test; returns how many were flagged.
 fn flag_force_segments(store: &Path, tire: &str, rim_in: i64, pressure_kpa: i64) -> usize {
-    let mut flagged = 0;
-    for entry in std::fs::read_dir(store.join("segments")).unwrap() {
-        let path = entry.unwrap().path();
-        let df = ParquetReader::new(std::fs::File::open(&path).unwrap())
-            .finish()
-            .unwrap();
-        let hit: Vec<bool> = (0..df.height())
+    flag_segments(store, "zeroed_channel:fy_n", |df| {
+        (0..df.height())
             .map(|i| {
                 let s = |c: &str| df.column(c).unwrap().get(i).unwrap().to_string();
                 s("tire").trim_matches('"') == tire
@@ -962,43 +950,8 @@ fn flag_force_segments(store: &Path, tire: &str, rim_in: i64, pressure_kpa: i64)
                     && ["cornering", "drive_brake", "combined"]
                         .contains(&s("kind").trim_matches('"'))
             })
-            .collect();
-        let n = hit.iter().filter(|h| **h).count();
-        if n == 0 {
-            continue;
-        }
-        flagged += n;
-        let flags: Vec<String> = strs(&df, "qc_flags")
-            .into_iter()
-            .zip(&hit)
-            .map(|(f, h)| {
-                if *h {
-                    "zeroed_channel:fy_n".to_string()
-                } else {
-                    f
-                }
-            })
-            .collect();
-        let qc_ok: Vec<bool> = df
-            .column("qc_ok")
-            .unwrap()
-            .bool()
-            .unwrap()
-            .iter()
-            .zip(&hit)
-            .map(|(q, h)| q.unwrap_or(false) && !*h)
-            .collect();
-        let mut df = df
-            .lazy()
-            .with_columns([
-                lit(Series::new("qc_flags".into(), flags)).alias("qc_flags"),
-                lit(Series::new("qc_ok".into(), qc_ok)).alias("qc_ok"),
-            ])
             .collect()
-            .unwrap();
-        tirebase::store::files::write_parquet_atomic(&path, &mut df).unwrap();
-    }
-    flagged
+    })
 }
 
 #[test]
@@ -1098,18 +1051,7 @@ fn drive_brake_only_group_is_written_with_use_mode_1() {
     std::fs::create_dir_all(&raw).unwrap();
     // B2410run2.dat: the 20.5 in tire at 83 kPa, drive/brake and combined sweeps.
     std::fs::copy(f.round.join("raw/B2410run2.dat"), raw.join("B2410run2.dat")).unwrap();
-    let catalog = f.round.join("catalog.toml");
-    ok(
-        &tirebase(&[
-            "ingest",
-            p(&raw),
-            "--store",
-            p(&store),
-            "--catalog",
-            p(&catalog),
-        ]),
-        "ingest",
-    );
+    ingest(&raw, &store, Some(&f.round.join("catalog.toml")));
     let o = tirebase(&["fit", "--store", p(&store), "--out", p(&out), "--jobs", "1"]);
     ok(&o, "fit");
     let name = tir_file_name("Hoosier 20.5x7.0-13 R25B", 7.0, 83.0);
@@ -1238,17 +1180,7 @@ fn geometry_is_known_or_left_out_and_every_bound_is_explained_issue_18() {
         .replace("Hoosier 20.5x7.0-13 R25B", "Team test tire B");
     let catalog_path = dir.path().join("catalog.toml");
     std::fs::write(&catalog_path, catalog).unwrap();
-    ok(
-        &tirebase(&[
-            "ingest",
-            p(&raw),
-            "--store",
-            p(&store),
-            "--catalog",
-            p(&catalog_path),
-        ]),
-        "ingest",
-    );
+    ingest(&raw, &store, Some(&catalog_path));
     let o = tirebase(&["fit", "--store", p(&store), "--out", p(&out), "--jobs", "1"]);
     ok(&o, "fit");
     let path = out

@@ -14,7 +14,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
 
-use polars::prelude::{DataFrame, DataType};
+use polars::prelude::{
+    DataFrame, DataType, IntoLazy, NamedFrom, ParquetReader, SerReader, Series, lit,
+};
 use tirebase::core::tire_model::SlipInput;
 
 /// The binary under test, as a command to add arguments to.
@@ -45,6 +47,14 @@ pub fn ok(output: &Output, what: &str) {
     );
 }
 
+/// CSV rows (header dropped) of a command's stdout.
+pub fn csv_rows(o: &Output) -> Vec<Vec<String>> {
+    let mut r = csv::Reader::from_reader(o.stdout.as_slice());
+    r.records()
+        .map(|rec| rec.unwrap().iter().map(str::to_string).collect())
+        .collect()
+}
+
 /// A path as an argument string (temp paths are UTF-8).
 pub fn p(path: &Path) -> &str {
     path.to_str().expect("UTF-8 path")
@@ -59,6 +69,18 @@ pub fn synth_round(out: &Path, extra: &[&str]) -> Output {
         .output()
         .expect("run tirebase");
     ok(&o, "synth round");
+    o
+}
+
+/// `tirebase ingest RAW --store STORE [--catalog CATALOG]`, asserted to succeed.
+pub fn ingest(raw: &Path, store: &Path, catalog: Option<&Path>) -> Output {
+    let mut cmd = bin();
+    cmd.arg("ingest").arg(raw).arg("--store").arg(store);
+    if let Some(catalog) = catalog {
+        cmd.arg("--catalog").arg(catalog);
+    }
+    let o = cmd.output().expect("run tirebase");
+    ok(&o, "ingest");
     o
 }
 
@@ -150,6 +172,54 @@ pub fn f64s(df: &DataFrame, col: &str) -> Vec<f64> {
         .iter()
         .map(|v| v.unwrap_or(f64::NAN))
         .collect()
+}
+
+/// Add the QC flag `flag` to the rows of a store's segments table that `hit` picks (given one
+/// part file's rows, one bool per row) and clear their `qc_ok`, as a segmenter would for a bad
+/// sweep; returns how many rows were flagged. A flag that spoils the forces (or one the fit does
+/// not know) keeps those segments out of every force fit.
+pub fn flag_segments(store: &Path, flag: &str, hit: impl Fn(&DataFrame) -> Vec<bool>) -> usize {
+    let mut flagged = 0;
+    for entry in fs::read_dir(store.join("segments")).unwrap() {
+        let path = entry.unwrap().path();
+        let df = ParquetReader::new(fs::File::open(&path).unwrap())
+            .finish()
+            .unwrap();
+        let hit = hit(&df);
+        let n = hit.iter().filter(|h| **h).count();
+        if n == 0 {
+            continue;
+        }
+        flagged += n;
+        let flags: Vec<String> = strs(&df, "qc_flags")
+            .into_iter()
+            .zip(&hit)
+            .map(|(f, h)| match (*h, f.is_empty()) {
+                (false, _) => f,
+                (true, true) => flag.to_string(),
+                (true, false) => format!("{f},{flag}"),
+            })
+            .collect();
+        let qc_ok: Vec<bool> = df
+            .column("qc_ok")
+            .unwrap()
+            .bool()
+            .unwrap()
+            .iter()
+            .zip(&hit)
+            .map(|(q, h)| q.unwrap_or(false) && !*h)
+            .collect();
+        let mut df = df
+            .lazy()
+            .with_columns([
+                lit(Series::new("qc_flags".into(), flags)).alias("qc_flags"),
+                lit(Series::new("qc_ok".into(), qc_ok)).alias("qc_ok"),
+            ])
+            .collect()
+            .unwrap();
+        tirebase::store::files::write_parquet_atomic(&path, &mut df).unwrap();
+    }
+    flagged
 }
 
 /// Every file below `root`: its `/`-separated relative path and its path.

@@ -24,7 +24,7 @@ use tirebase::core::tire_model::tir::TirFile;
 use tirebase::core::tire_model::{Coef, MagicFormula, SlipInput};
 
 use crate::harness::{
-    ENVELOPE_COLUMNS, ENVELOPE_WHERE, envelope_points, ok, p, run, synth_round, tirebase,
+    ENVELOPE_COLUMNS, ENVELOPE_WHERE, envelope_points, ingest, ok, p, run, synth_round, tirebase,
 };
 
 const TIRE: &str = "Hoosier 16.0x7.5-10 R25B";
@@ -235,16 +235,10 @@ fn full_envelope() -> &'static BTreeMap<i64, Vec<SlipInput>> {
         let round = round();
         let dir = tempfile::tempdir().unwrap();
         let store = dir.path().join("store");
-        ok(
-            &tirebase(&[
-                "ingest",
-                p(&round.join("raw")),
-                "--store",
-                p(&store),
-                "--catalog",
-                p(&round.join("catalog.toml")),
-            ]),
-            "ingest",
+        ingest(
+            &round.join("raw"),
+            &store,
+            Some(&round.join("catalog.toml")),
         );
         tested_envelope(&store)
     })

@@ -13,33 +13,30 @@
 //! larger than the MF 6.1 fit's.
 
 use std::path::{Path, PathBuf};
-use std::process::Output;
 
 use tirebase::core::naming::tir_file_name;
 
-use crate::harness::{ok, p, tirebase};
+use crate::harness::{csv_rows, ingest, ok, p, tirebase};
 
 /// The MF 6.1 fit's figures from `shared/real/README.md`: (pressure kPa, Fy RMSE N, Mz RMSE N m).
 const MF61_README: [(i64, f64, f64); 3] = [(69, 177.0, 14.6), (83, 158.0, 13.7), (97, 162.0, 13.3)];
 
-fn real_dir() -> Option<PathBuf> {
+/// The directory of the real files (`TIREBASE_REAL_DIR`, else `shared/real` beside or above the
+/// checkout); `None`, with a note on stderr, when there is none and the check is skipped.
+pub(crate) fn real_dir() -> Option<PathBuf> {
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
-    std::env::var_os("TIREBASE_REAL_DIR")
+    let found = std::env::var_os("TIREBASE_REAL_DIR")
         .map(PathBuf::from)
         .into_iter()
         .chain([
             manifest.join("../shared/real"),
             manifest.join("../../shared/real"),
         ])
-        .find(|d| d.join("cornering.mat").is_file())
-}
-
-/// CSV rows (header dropped) of a command's stdout.
-fn csv_rows(o: &Output) -> Vec<Vec<String>> {
-    let mut r = csv::Reader::from_reader(o.stdout.as_slice());
-    r.records()
-        .map(|rec| rec.unwrap().iter().map(str::to_string).collect())
-        .collect()
+        .find(|d| d.join("cornering.mat").is_file());
+    if found.is_none() {
+        eprintln!("real-data check skipped: no shared/real/cornering.mat (set TIREBASE_REAL_DIR)");
+    }
+    found
 }
 
 /// `(fy_rmse_n, mz_rmse_nm, fx_rmse_n, n_samples)` of `cornering.mat` at `pressure` from a
@@ -78,15 +75,11 @@ fn score(
 #[ignore = "needs the real files of shared/real/ (development only); run with --ignored"]
 fn real_data_cornering_fit_against_mf61() {
     let Some(real) = real_dir() else {
-        eprintln!("real-data check skipped: no shared/real/cornering.mat (set TIREBASE_REAL_DIR)");
         return;
     };
     let dir = tempfile::tempdir().unwrap();
     let (store, out) = (dir.path().join("store"), dir.path().join("fit"));
-    ok(
-        &tirebase(&["ingest", p(&real), "--store", p(&store)]),
-        "ingest",
-    );
+    ingest(&real, &store, None);
     let fit = tirebase(&["fit", "--store", p(&store), "--out", p(&out)]);
     let fit_log = String::from_utf8_lossy(&fit.stderr).into_owned();
     let kinds = tirebase(&[
@@ -319,20 +312,11 @@ fn real_data_mf61_fit_against_the_authors_mf61() {
     use tirebase::core::tire_model::tir::TirFile;
 
     let Some(real) = real_dir() else {
-        eprintln!("real-data check skipped: no shared/real/cornering.mat (set TIREBASE_REAL_DIR)");
         return;
     };
     let dir = tempfile::tempdir().unwrap();
     let store = dir.path().join("store");
-    ok(
-        &tirebase(&[
-            "ingest",
-            p(&real.join("cornering.mat")),
-            "--store",
-            p(&store),
-        ]),
-        "ingest",
-    );
+    ingest(&real.join("cornering.mat"), &store, None);
     let stored = tirebase(&[
         "query",
         "--store",

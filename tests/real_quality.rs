@@ -32,14 +32,16 @@
 //! every channel and pressure.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
 use polars::prelude::*;
 use tirebase::core::fit::sweep_folds;
 use tirebase::core::naming::tir_file_name;
 use tirebase::core::tire_model::tir::TirFile;
 use tirebase::core::tire_model::{Evaluation, Mode, SlipInput};
+
+use crate::harness::{copy_tree, csv_rows, flag_segments, ingest, ok, p, strs, tirebase};
+use crate::real::real_dir;
 
 /// Folds of the out-of-sample check by sweep.
 const FOLDS: usize = 5;
@@ -48,119 +50,21 @@ const COLUMNS: usize = 4;
 /// Held-out marker written into `qc_flags` (unknown flags spoil the forces for the fit).
 const HELD_OUT: &str = "held_out_by_test";
 
-fn tirebase(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tirebase"))
-        .args(args)
-        .output()
-        .expect("run tirebase")
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
-
-fn ok(o: &Output, what: &str) {
-    assert!(
-        o.status.success(),
-        "{what} failed ({:?}): {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn real_dir() -> Option<PathBuf> {
-    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
-    std::env::var_os("TIREBASE_REAL_DIR")
-        .map(PathBuf::from)
-        .into_iter()
-        .chain([
-            manifest.join("../shared/real"),
-            manifest.join("../../shared/real"),
-        ])
-        .find(|d| d.join("cornering.mat").is_file())
-}
-
 /// CSV rows (header dropped) of a `query --format csv`.
 fn query(store: &Path, sql: &str) -> Vec<Vec<String>> {
     let o = tirebase(&["query", "--store", p(store), "--format", "csv", sql]);
     ok(&o, sql);
-    let mut r = csv::Reader::from_reader(o.stdout.as_slice());
-    r.records()
-        .map(|rec| rec.unwrap().iter().map(str::to_string).collect())
-        .collect()
-}
-
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for entry in std::fs::read_dir(from).unwrap() {
-        let entry = entry.unwrap();
-        let target = to.join(entry.file_name());
-        if entry.file_type().unwrap().is_dir() {
-            copy_dir(&entry.path(), &target);
-        } else {
-            std::fs::copy(entry.path(), target).unwrap();
-        }
-    }
+    csv_rows(&o)
 }
 
 /// Mark the segments `ids` of the store as held out; returns how many were marked.
 fn hold_out(store: &Path, ids: &BTreeSet<String>) -> usize {
-    let mut marked = 0;
-    for entry in std::fs::read_dir(store.join("segments")).unwrap() {
-        let path = entry.unwrap().path();
-        let df = ParquetReader::new(std::fs::File::open(&path).unwrap())
-            .finish()
-            .unwrap();
-        let seg: Vec<String> = df
-            .column("segment_id")
-            .unwrap()
-            .str()
-            .unwrap()
+    flag_segments(store, HELD_OUT, |df| {
+        strs(df, "segment_id")
             .iter()
-            .map(|s| s.unwrap_or_default().to_string())
-            .collect();
-        let hit: Vec<bool> = seg.iter().map(|s| ids.contains(s)).collect();
-        let n = hit.iter().filter(|h| **h).count();
-        if n == 0 {
-            continue;
-        }
-        marked += n;
-        let flags: Vec<String> = df
-            .column("qc_flags")
-            .unwrap()
-            .str()
-            .unwrap()
-            .iter()
-            .zip(&hit)
-            .map(|(f, h)| {
-                let f = f.unwrap_or_default();
-                match (*h, f.is_empty()) {
-                    (false, _) => f.to_string(),
-                    (true, true) => HELD_OUT.to_string(),
-                    (true, false) => format!("{f},{HELD_OUT}"),
-                }
-            })
-            .collect();
-        let qc_ok: Vec<bool> = df
-            .column("qc_ok")
-            .unwrap()
-            .bool()
-            .unwrap()
-            .iter()
-            .zip(&hit)
-            .map(|(q, h)| q.unwrap_or(false) && !*h)
-            .collect();
-        let mut df = df
-            .lazy()
-            .with_columns([
-                lit(Series::new("qc_flags".into(), flags)).alias("qc_flags"),
-                lit(Series::new("qc_ok".into(), qc_ok)).alias("qc_ok"),
-            ])
+            .map(|s| ids.contains(s))
             .collect()
-            .unwrap();
-        tirebase::store::files::write_parquet_atomic(&path, &mut df).unwrap();
-    }
-    marked
+    })
 }
 
 /// One measured sweep sample (ISO-W, SI) and where it belongs.
@@ -241,15 +145,11 @@ fn rmse(acc: (f64, usize)) -> f64 {
 #[ignore = "needs the real files of shared/real/ (development only); run with --ignored"]
 fn real_data_out_of_sample_against_the_authors_fits_issue_18() {
     let Some(real) = real_dir() else {
-        eprintln!("real-data check skipped: no shared/real/cornering.mat (set TIREBASE_REAL_DIR)");
         return;
     };
     let dir = tempfile::tempdir().unwrap();
     let (store, out) = (dir.path().join("store"), dir.path().join("fit"));
-    ok(
-        &tirebase(&["ingest", p(&real), "--store", p(&store)]),
-        "ingest",
-    );
+    ingest(&real, &store, None);
     let fit = tirebase(&["fit", "--store", p(&store), "--out", p(&out), "--jobs", "2"]);
     eprintln!("{}", String::from_utf8_lossy(&fit.stderr));
     let lint_errors = lint_errors(&out);
@@ -355,7 +255,7 @@ fn real_data_out_of_sample_against_the_authors_fits_issue_18() {
             .collect();
         let fold_store = dir.path().join(format!("store_{column}_{fold}"));
         let fold_out = dir.path().join(format!("fit_{column}_{fold}"));
-        copy_dir(&store, &fold_store);
+        copy_tree(&store, &fold_store);
         assert_eq!(hold_out(&fold_store, &held), held.len());
         let o = tirebase(&[
             "fit",

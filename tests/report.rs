@@ -20,7 +20,7 @@ use std::process::Command;
 
 use polars::prelude::*;
 
-use crate::harness::{copy_tree, demo_published, demo_round, ok, tirebase};
+use crate::harness::{copy_tree, demo_published, demo_round, ingest, ok, tirebase};
 
 /// The browser: $TIREBASE_CHROMIUM, else chromium or chromium-browser on PATH.
 fn chromium() -> PathBuf {
@@ -479,16 +479,10 @@ fn report_renders_every_plot_in_headless_chromium() {
     let browser = chromium(); // fail early, with instructions, when it is missing
     let tmp = tempfile::tempdir().unwrap();
     let (round, store) = (demo_round(), tmp.path().join("store"));
-    ok(
-        &tirebase(&[
-            "ingest".as_ref(),
-            round.join("raw").as_os_str(),
-            "--store".as_ref(),
-            store.as_os_str(),
-            "--catalog".as_ref(),
-            round.join("catalog.toml").as_os_str(),
-        ]),
-        "ingest",
+    ingest(
+        &round.join("raw"),
+        &store,
+        Some(&round.join("catalog.toml")),
     );
 
     // Full result directory: every chart must be drawn on every tire page.
