@@ -776,21 +776,21 @@ fn outputs(out: &Path) -> BTreeMap<String, Vec<u8>> {
     files
 }
 
+/// `fit FLAGS` of `f`'s store again, into a new temp directory, asserted to succeed: the
+/// directory (the caller keeps it alive) and the output directory in it.
+fn refit(f: &Fitted, flags: &[&str]) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let mut args = vec!["fit", "--store", p(&f.store), "--out", p(&out)];
+    args.extend_from_slice(flags);
+    ok(&tirebase(&args), &format!("fit {}", flags.join(" ")));
+    (dir, out)
+}
+
 #[test]
 fn jobs_1_and_jobs_2_give_identical_outputs() {
     let f = ideal();
-    let dir = tempfile::tempdir().unwrap();
-    let out1 = dir.path().join("out1");
-    let o = tirebase(&[
-        "fit",
-        "--store",
-        p(&f.store),
-        "--out",
-        p(&out1),
-        "--jobs",
-        "1",
-    ]);
-    ok(&o, "fit --jobs 1");
+    let (_dir, out1) = refit(f, &["--jobs", "1"]);
     let (a, b) = (outputs(&out1), outputs(&f.out));
     assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
     assert_eq!(
@@ -810,18 +810,7 @@ fn jobs_1_and_jobs_2_give_identical_outputs() {
 #[test]
 fn thermal_alone_writes_the_full_fits_thermal_tables() {
     let f = realistic();
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("out");
-    let o = tirebase(&[
-        "fit",
-        "--store",
-        p(&f.store),
-        "--out",
-        p(&out),
-        "--stages",
-        "thermal",
-    ]);
-    ok(&o, "fit --stages thermal");
+    let (_dir, out) = refit(f, &["--stages", "thermal"]);
     let (alone, full) = (outputs(&out), outputs(&f.out));
     for table in ["thermal.parquet", "thermal_fit.parquet"] {
         assert!(
@@ -839,18 +828,7 @@ fn thermal_alone_writes_the_full_fits_thermal_tables() {
 #[test]
 fn pac2002_alone_writes_the_full_fits_models() {
     let f = realistic();
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("out");
-    let o = tirebase(&[
-        "fit",
-        "--store",
-        p(&f.store),
-        "--out",
-        p(&out),
-        "--stages",
-        "pac2002",
-    ]);
-    ok(&o, "fit --stages pac2002");
+    let (_dir, out) = refit(f, &["--stages", "pac2002"]);
     let full_coefficients = read_table(&f.out, "coefficients");
     let mut relaxation_names: Vec<String> = strs(&full_coefficients, "family")
         .into_iter()
@@ -919,18 +897,7 @@ fn pac2002_alone_writes_the_full_fits_models() {
 #[test]
 fn relaxation_alone_writes_the_full_fits_relaxation_table() {
     let f = realistic();
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("out");
-    let o = tirebase(&[
-        "fit",
-        "--store",
-        p(&f.store),
-        "--out",
-        p(&out),
-        "--stages",
-        "relaxation",
-    ]);
-    ok(&o, "fit --stages relaxation");
+    let (_dir, out) = refit(f, &["--stages", "relaxation"]);
     assert!(
         outputs(&out)["relaxation.parquet"] == outputs(&f.out)["relaxation.parquet"],
         "relaxation.parquet differs from the full fit's"
