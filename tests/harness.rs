@@ -5,7 +5,8 @@
 //! whose shared target directory's `tirebase` may be replaced by another worktree's build
 //! mid-test). Out: command outputs and read-only fixtures. The cached fixtures ([`demo_round`],
 //! [`demo_published`]) live in temp directories until the process exits; a test that changes
-//! them works on a copy ([`copy_tree`]). Deliberately not here: what a test checks.
+//! them works on a copy ([`copy_tree`]), e.g. with QC flags added to segments of its store
+//! ([`flag_segments`]). Deliberately not here: what a test checks.
 
 use std::collections::BTreeMap;
 use std::ffi::OsStr;
