@@ -83,14 +83,19 @@ pub fn to_frame(c: &Comparison) -> Result<DataFrame, StoreError> {
         ),
         Column::new(
             "camber_gain_pct".into(),
-            f(&|r| 100.0 * r.figures.camber_gain),
+            o(&|r| Some(100.0 * r.figures.camber_gain)),
         ),
-        Column::new("lateral_mu".into(), f(&|r| r.figures.lateral_mu)),
-        Column::new("longitudinal_mu".into(), f(&|r| r.figures.longitudinal_mu)),
+        Column::new("lateral_mu".into(), o(&|r| Some(r.figures.lateral_mu))),
+        Column::new(
+            "longitudinal_mu".into(),
+            o(&|r| Some(r.figures.longitudinal_mu)),
+        ),
     ];
     for (k, fz) in c.car.loads_whole_n().iter().enumerate() {
-        let at = |g: &dyn Fn(&tirebase_core::compare::LoadFigures) -> f64| -> Vec<f64> {
-            rows.iter().map(|r| g(&r.figures.loads[k])).collect()
+        let at = |g: &dyn Fn(&tirebase_core::compare::LoadFigures) -> f64| -> Vec<Option<f64>> {
+            rows.iter()
+                .map(|r| opt(Some(g(&r.figures.loads[k]))))
+                .collect()
         };
         cols.push(Column::new(
             format!("fy_peak_n_fz{fz}").into(),
@@ -116,19 +121,19 @@ pub fn to_frame(c: &Comparison) -> Result<DataFrame, StoreError> {
     cols.extend([
         Column::new(
             "mu_y_load_sensitivity_per_kn".into(),
-            f(&|r| 1000.0 * r.figures.mu_y_load_sensitivity_per_n),
+            o(&|r| Some(1000.0 * r.figures.mu_y_load_sensitivity_per_n)),
         ),
         Column::new(
             "mu_x_load_sensitivity_per_kn".into(),
-            f(&|r| 1000.0 * r.figures.mu_x_load_sensitivity_per_n),
+            o(&|r| Some(1000.0 * r.figures.mu_x_load_sensitivity_per_n)),
         ),
         Column::new(
             "cornering_stiffness_n_per_rad".into(),
-            f(&|r| r.figures.cornering_stiffness_n_per_rad),
+            o(&|r| Some(r.figures.cornering_stiffness_n_per_rad)),
         ),
         Column::new(
             "longitudinal_stiffness_n".into(),
-            f(&|r| r.figures.longitudinal_stiffness_n),
+            o(&|r| Some(r.figures.longitudinal_stiffness_n)),
         ),
         Column::new(
             "envelope_area_kn2".into(),

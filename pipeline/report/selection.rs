@@ -197,7 +197,8 @@ fn choice_charts(
     let max_load = hi.max(cond.nominal_load_n);
     for &i in &choice.rows {
         let r = &c.rows[i];
-        let Some(tire) = tire_of(data, r, max_load) else {
+        // every chart here is lateral: a model without Fy (USE_MODE 1) has no curve
+        let Some(tire) = tire_of(data, r, max_load).filter(|t| t.has_lateral()) else {
             continue;
         };
         let color = colour[&(r.tire.clone(), r.rim_in)];

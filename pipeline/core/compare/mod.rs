@@ -29,6 +29,10 @@
 //! - lateral and longitudinal capacity (the ranking objectives): `sum |F|peak / sum Fz` over the
 //!   car's loads: the friction coefficient of a set of tires at those corner loads.
 //!
+//! A model without a lateral or a longitudinal part (`USE_MODE` 1: Fx only, 2: Fy and Mz only)
+//! has NaN for every figure of the missing direction, never a number from evaluating an absent
+//! family.
+//!
 //! Loads above the model's `FZMAX` are evaluated by the model's own load law (the Magic Formula
 //! extrapolates smoothly in load) instead of clipped, and reported in
 //! [`Figures::extrapolated_loads_n`], so a figure never silently belongs to another load.
@@ -132,6 +136,15 @@ pub trait SteadyStateTire {
     fn ranges(&self) -> ValidRanges;
     /// Does the model carry a fitted combined-slip part (friction envelope)?
     fn has_combined_slip(&self) -> bool;
+    /// Does the model carry a lateral part (Fy)? Without it every lateral figure is NaN.
+    fn has_lateral(&self) -> bool {
+        true
+    }
+    /// Does the model carry a longitudinal part (Fx)? Without it every longitudinal figure is
+    /// NaN.
+    fn has_longitudinal(&self) -> bool {
+        true
+    }
     /// Relaxation lengths `(sigma_kappa, sigma_alpha)`, m, when the model carries fitted ones.
     fn relaxation_lengths(&self, fz_n: f64, gamma_rad: f64) -> Option<(f64, f64)>;
     /// Vertical stiffness, N/m, when known.
@@ -145,12 +158,15 @@ pub struct Pac2002Tire {
     ranges: ValidRanges,
     combined: bool,
     relaxation: bool,
+    lateral: bool,
+    longitudinal: bool,
 }
 
 impl Pac2002Tire {
     /// `use_mode` is the file's `USE_MODE` (Adams: 1 Fx, 2 Fy+Mz, 3 uncombined, 4 combined, +10
-    /// transient): combined slip when its last digit is 4, relaxation when it is >= 10. `None`
-    /// (no `USE_MODE`) takes both as present. `max_load_n`: the highest load to be evaluated;
+    /// transient): combined slip when its last digit is 4, relaxation when it is >= 10, a
+    /// lateral part unless the last digit is 0 or 1, a longitudinal part unless it is 0 or 2.
+    /// `None` (no `USE_MODE`) takes every part as present. `max_load_n`: the highest load to be evaluated;
     /// `FZMAX` is raised to it so loads above the tested range extrapolate instead of clipping.
     pub fn new(model: &Pac2002, use_mode: Option<i64>, max_load_n: f64) -> Pac2002Tire {
         let c = &model.coefs;
@@ -164,15 +180,20 @@ impl Pac2002Tire {
         if max_load_n.is_finite() && max_load_n > model.coefs[Coef::FZMAX] {
             model.coefs[Coef::FZMAX] = max_load_n;
         }
-        let (combined, relaxation) = match use_mode {
-            Some(m) => (m.rem_euclid(10) == 4, m >= 10),
-            None => (true, true),
+        let (combined, relaxation, lateral, longitudinal) = match use_mode {
+            Some(m) => {
+                let d = m.rem_euclid(10);
+                (d == 4, m >= 10, !matches!(d, 0 | 1), !matches!(d, 0 | 2))
+            }
+            None => (true, true, true, true),
         };
         Pac2002Tire {
             model,
             ranges,
             combined,
             relaxation,
+            lateral,
+            longitudinal,
         }
     }
 }
@@ -188,6 +209,14 @@ impl SteadyStateTire for Pac2002Tire {
 
     fn has_combined_slip(&self) -> bool {
         self.combined
+    }
+
+    fn has_lateral(&self) -> bool {
+        self.lateral
+    }
+
+    fn has_longitudinal(&self) -> bool {
+        self.longitudinal
     }
 
     fn relaxation_lengths(&self, fz_n: f64, gamma_rad: f64) -> Option<(f64, f64)> {
@@ -360,6 +389,9 @@ fn maximise(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, grid: usize) -> (f64, f64,
 /// Peak `|Fy|` over the slip angle at load `fz_n` and inclination `gamma_rad` (pure side slip):
 /// the larger of the peaks in the two directions.
 pub fn peak_fy(tire: &dyn SteadyStateTire, cond: &Conditions, fz_n: f64, gamma_rad: f64) -> f64 {
+    if !tire.has_lateral() {
+        return f64::NAN;
+    }
     let (lo, hi) = tire.ranges().alpha_rad;
     let fy = |a: f64| tire.eval(&point(cond, fz_n, a, 0.0, gamma_rad)).fy_n;
     let up = maximise(&|a| fy(a), lo, hi, PEAK_GRID).1;
@@ -370,6 +402,9 @@ pub fn peak_fy(tire: &dyn SteadyStateTire, cond: &Conditions, fz_n: f64, gamma_r
 /// Peak `|Fx|` over the slip ratio at load `fz_n` and inclination `gamma_rad` (pure
 /// longitudinal slip): the larger of the drive and brake peaks.
 pub fn peak_fx(tire: &dyn SteadyStateTire, cond: &Conditions, fz_n: f64, gamma_rad: f64) -> f64 {
+    if !tire.has_longitudinal() {
+        return f64::NAN;
+    }
     let (lo, hi) = tire.ranges().kappa;
     let fx = |k: f64| tire.eval(&point(cond, fz_n, 0.0, k, gamma_rad)).fx_n;
     let drive = maximise(&|k| fx(k), lo, hi, PEAK_GRID).1;
@@ -384,6 +419,9 @@ pub fn cornering_stiffness(
     fz_n: f64,
     gamma_rad: f64,
 ) -> f64 {
+    if !tire.has_lateral() {
+        return f64::NAN;
+    }
     let fy = |a: f64| tire.eval(&point(cond, fz_n, a, 0.0, gamma_rad)).fy_n;
     ((fy(SLIP_STEP) - fy(-SLIP_STEP)) / (2.0 * SLIP_STEP)).abs()
 }
@@ -395,17 +433,24 @@ pub fn longitudinal_stiffness(
     fz_n: f64,
     gamma_rad: f64,
 ) -> f64 {
+    if !tire.has_longitudinal() {
+        return f64::NAN;
+    }
     let fx = |k: f64| tire.eval(&point(cond, fz_n, 0.0, k, gamma_rad)).fx_n;
     ((fx(SLIP_STEP) - fx(-SLIP_STEP)) / (2.0 * SLIP_STEP)).abs()
 }
 
 /// The inclination in the car's range (clipped to the model's) maximising the peak `|Fy|` at
-/// the nominal load: `(gamma*, at an end of the searched range)`.
+/// the nominal load: `(gamma*, at an end of the searched range)`. A model without a lateral
+/// part has nothing to maximise: the low end of that range, flagged as a bound.
 pub fn design_camber(tire: &dyn SteadyStateTire, cond: &Conditions) -> (f64, bool) {
     let (m_lo, m_hi) = tire.ranges().gamma_rad;
     let (c_lo, c_hi) = cond.camber_rad;
     let lo = c_lo.clamp(m_lo.min(m_hi), m_hi.max(m_lo));
     let hi = c_hi.clamp(m_lo.min(m_hi), m_hi.max(m_lo));
+    if !tire.has_lateral() {
+        return (lo, true);
+    }
     let (g, _, at_bound) = maximise(
         &|g| peak_fy(tire, cond, cond.nominal_load_n, g),
         lo,

@@ -183,6 +183,67 @@ fn what_the_file_does_not_declare_is_not_reported() {
     );
 }
 
+#[test]
+fn a_model_without_one_direction_reports_nan_for_it_and_the_other_as_usual() {
+    let c = clean_coefs();
+    let fz0 = c[Coef::FNOMIN];
+    let cond = cond(&[0.5 * fz0, fz0], fz0);
+    let both = evaluate(&tire(c.clone(), Some(3)), &cond);
+    let fx_only = evaluate(&tire(c.clone(), Some(1)), &cond);
+    for f in [
+        fx_only.lateral_mu,
+        fx_only.mu_y_load_sensitivity_per_n,
+        fx_only.cornering_stiffness_n_per_rad,
+        fx_only.fy_peak_nominal_n,
+        fx_only.camber_gain,
+    ]
+    .into_iter()
+    .chain(
+        fx_only
+            .loads
+            .iter()
+            .flat_map(|l| [l.fy_peak_n, l.mu_y_peak, l.cornering_stiffness_n_per_rad]),
+    ) {
+        assert!(f.is_nan(), "{fx_only:?}");
+    }
+    assert!(fx_only.camber_at_bound);
+    assert!(
+        Objective::Lateral
+            .value_of(&tire(c.clone(), Some(1)), &cond)
+            .is_nan()
+    );
+    // Its longitudinal figures are those of the full model at the same camber.
+    let at = |g: f64| peak_fx(&tire(c.clone(), Some(3)), &cond, fz0, g);
+    assert!(close(
+        fx_only.loads[1].fx_peak_n,
+        at(fx_only.camber_rad),
+        1e-12
+    ));
+    assert!(fx_only.longitudinal_mu.is_finite() && fx_only.longitudinal_stiffness_n > 0.0);
+    let fy_only = evaluate(&tire(c.clone(), Some(2)), &cond);
+    for f in [
+        fy_only.longitudinal_mu,
+        fy_only.mu_x_load_sensitivity_per_n,
+        fy_only.longitudinal_stiffness_n,
+    ]
+    .into_iter()
+    .chain(
+        fy_only
+            .loads
+            .iter()
+            .flat_map(|l| [l.fx_peak_n, l.mu_x_peak]),
+    ) {
+        assert!(f.is_nan(), "{fy_only:?}");
+    }
+    assert_eq!(fy_only.camber_rad, both.camber_rad);
+    assert_eq!(fy_only.lateral_mu, both.lateral_mu);
+    assert!(
+        Objective::Longitudinal
+            .value_of(&tire(c, Some(12)), &cond)
+            .is_nan()
+    );
+}
+
 fn relaxation_lengths_of(c: &Coefs<f64>, fz: f64, gamma: f64) -> (f64, f64) {
     crate::tire_model::pac2002::relaxation_lengths(c, fz, gamma)
 }
