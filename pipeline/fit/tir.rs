@@ -19,6 +19,7 @@
 //! Deliberately not here: any fitting, writing files.
 
 use tirebase_core::fit::pac2002::{CoefficientOrigin, Pac2002Fit};
+use tirebase_core::fit::spring_rate::EffectiveRadiusLaw;
 use tirebase_core::naming::tir_file_name;
 use tirebase_core::tire_model::Coef;
 use tirebase_core::tire_model::tir::lint::{self, LintReport};
@@ -166,6 +167,34 @@ pub(super) fn set(
     }
 }
 
+/// `BREFF`, `DREFF`, `FREFF` from the spring-rate stage's effective-radius law; a `BREFF` on
+/// an end of its search interval is marked so, with the reason, like a fitted coefficient on a
+/// bound.
+pub(super) fn set_effective_radius(
+    file: &mut TirFile,
+    rows: &mut Vec<WrittenCoefficient>,
+    law: &EffectiveRadiusLaw,
+) {
+    for (coef, value) in [
+        (Coef::BREFF, law.breff),
+        (Coef::DREFF, law.dreff),
+        (Coef::FREFF, law.freff),
+    ] {
+        set(file, rows, coef, value, "vertical", "spring_rate");
+    }
+    if law.at_bound
+        && let Some(r) = rows.iter_mut().find(|r| r.coef == Coef::BREFF)
+    {
+        r.at_bound = true;
+        r.note = Some(
+            "on an end of its search interval ([spring_rate] breff_range): the measured \
+             effective radius does not determine the curvature of RE over load, so DREFF and \
+             FREFF may offset each other; RE over the tested loads is what the law reproduces"
+                .to_string(),
+        );
+    }
+}
+
 /// The geometry coefficients the fits do not use: `WIDTH`, `ASPECT_RATIO`, `RIM_RADIUS`,
 /// `RIM_WIDTH`.
 pub(super) const GEOMETRY: [Coef; 4] = [
@@ -234,13 +263,7 @@ pub fn build(result: &GroupResult, notes: &[String]) -> Result<WrittenModel, Tir
         && let Some(law) = &v.effective_radius
         && (law.fnomin_n - fnomin).abs() <= 1e-6 * fnomin.abs().max(1.0)
     {
-        for (coef, value) in [
-            (Coef::BREFF, law.breff),
-            (Coef::DREFF, law.dreff),
-            (Coef::FREFF, law.freff),
-        ] {
-            set(&mut file, &mut rows, coef, value, "vertical", "spring_rate");
-        }
+        set_effective_radius(&mut file, &mut rows, law);
     }
     let mut relaxation_laws = 0;
     if let Some(law) = result.relaxation.as_ref().and_then(|r| r.laws.first()) {
@@ -406,5 +429,32 @@ mod tests {
         assert!((s.rim_radius_m - 6.5 * 0.0254).abs() < 1e-12);
         assert_eq!(TireSize::from_name("projectunknown-rununknown"), None);
         assert_eq!(TireSize::from_name("Tire A"), None);
+    }
+
+    #[test]
+    fn an_effective_radius_law_on_its_breff_bound_says_so() {
+        let law = |at_bound| EffectiveRadiusLaw {
+            breff: 0.05,
+            dreff: -125.8,
+            freff: 6.58,
+            fnomin_n: 1646.0,
+            rmse_m: 1e-4,
+            n: 500,
+            at_bound,
+        };
+        let mut file = TirFile::from_coefs(tirebase_core::tire_model::Coefs::defaults());
+        let mut rows = Vec::new();
+        set_effective_radius(&mut file, &mut rows, &law(true));
+        let breff = rows.iter().find(|r| r.coef == Coef::BREFF).unwrap();
+        assert!(breff.at_bound, "{rows:?}");
+        assert!(breff.note.as_deref().unwrap().contains("breff_range"));
+        assert_eq!(file.coefs[Coef::DREFF], -125.8);
+        assert!(rows.iter().filter(|r| r.at_bound).count() == 1);
+        set_effective_radius(&mut file, &mut rows, &law(false));
+        assert!(
+            rows.iter().all(|r| !r.at_bound && r.note.is_none()),
+            "{rows:?}"
+        );
+        assert_eq!(rows.len(), 3);
     }
 }
