@@ -544,7 +544,8 @@ pub enum TirCommand {
     /// Evaluates the model (combined slip, ISO-W, SI) at every selected sample's measured load,
     /// slip ratio, slip angle, inclination and speed, and prints CSV to stdout: tire, rim_in
     /// (rim width, in), source_file, pressure_kpa_nom (kPa), n_samples, fx_rmse_n, fy_rmse_n (N), mz_rmse_nm
-    /// (N m), and the RMS of the measured values fx_rms_n, fy_rms_n, mz_rms_nm. Every sample of
+    /// (N m) (empty for a channel the file's USE_MODE does not model: 1 Fx only, 2 Fy and Mz
+    /// only), and the RMS of the measured values fx_rms_n, fy_rms_n, mz_rms_nm. Every sample of
     /// the store counts (not only the sweeps a fit used), filtered by --max-alpha-deg,
     /// --min-fz-n and --min-speed-kph, then every --every-th sample per source file in time
     /// order. The defaults are the selection of the real-data check (|alpha| <= 12.5 deg,

@@ -73,11 +73,12 @@ pub struct ScoreRow {
     pub pressure_kpa_nom: i64,
     /// Samples scored.
     pub n_samples: usize,
-    /// RMS of (model - measured) Fx, N.
+    /// RMS of (model - measured) Fx, N (NaN when the model has no Fx, see
+    /// [`modelled_channels`]).
     pub fx_rmse_n: f64,
-    /// RMS of (model - measured) Fy, N.
+    /// RMS of (model - measured) Fy, N (NaN when the model has no Fy).
     pub fy_rmse_n: f64,
-    /// RMS of (model - measured) Mz, N m.
+    /// RMS of (model - measured) Mz, N m (NaN when the model has no Mz).
     pub mz_rmse_nm: f64,
     /// RMS of the measured Fx, N.
     pub fx_rms_n: f64,
@@ -149,14 +150,17 @@ pub fn score(
     if selection.every == 0 {
         return Err(ScoreError::Selection("every must be >= 1".into()));
     }
+    let [fx_used, fy_used, mz_used] = modelled_channels(tir.use_mode);
     let groups = selected_samples(store, selection)?;
     let mut rows = Vec::with_capacity(groups.len());
     for ((tire, rim_in, source_file, pressure_kpa_nom), samples) in groups {
         let points: Vec<SlipInput> = samples.iter().map(|s| s.point).collect();
         let pressures: Vec<f64> = samples.iter().map(|s| s.pressure_kpa).collect();
         let model = evaluate(tir, &points, &pressures, mode);
-        let rmse = |f: fn(&Evaluation<f64>) -> f64, m: fn(&Measured) -> f64| {
-            rms(model.iter().zip(&samples).map(|(e, s)| f(e) - m(s)))
+        let rmse = |used: bool, f: fn(&Evaluation<f64>) -> f64, m: fn(&Measured) -> f64| match used
+        {
+            true => rms(model.iter().zip(&samples).map(|(e, s)| f(e) - m(s))),
+            false => f64::NAN,
         };
         rows.push(ScoreRow {
             tire,
@@ -164,15 +168,27 @@ pub fn score(
             source_file,
             pressure_kpa_nom,
             n_samples: samples.len(),
-            fx_rmse_n: rmse(|e| e.fx_n, |s| s.fx_n),
-            fy_rmse_n: rmse(|e| e.fy_n, |s| s.fy_n),
-            mz_rmse_nm: rmse(|e| e.mz_nm, |s| s.mz_nm),
+            fx_rmse_n: rmse(fx_used, |e| e.fx_n, |s| s.fx_n),
+            fy_rmse_n: rmse(fy_used, |e| e.fy_n, |s| s.fy_n),
+            mz_rmse_nm: rmse(mz_used, |e| e.mz_nm, |s| s.mz_nm),
             fx_rms_n: rms(samples.iter().map(|s| s.fx_n)),
             fy_rms_n: rms(samples.iter().map(|s| s.fy_n)),
             mz_rms_nm: rms(samples.iter().map(|s| s.mz_nm)),
         });
     }
     Ok(rows)
+}
+
+/// Which of Fx, Fy, Mz the file's `USE_MODE` models (last digit 1: Fx only, 2: Fy and Mz
+/// only, 0: none; no `USE_MODE` or another digit: all). A channel the model does not carry has
+/// no error to report: its evaluated value (zero or NaN) is no prediction.
+pub fn modelled_channels(use_mode: Option<i64>) -> [bool; 3] {
+    match use_mode.map(|m| m.unsigned_abs() % 10) {
+        Some(0) => [false; 3],
+        Some(1) => [true, false, false],
+        Some(2) => [false, true, true],
+        _ => [true; 3],
+    }
 }
 
 /// The model's forces and moments at `points`, each at its measured inflation pressure (kPa;
@@ -324,6 +340,17 @@ fn selected_samples(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn only_the_channels_use_mode_declares_are_scored() {
+        assert_eq!(modelled_channels(Some(1)), [true, false, false]);
+        assert_eq!(modelled_channels(Some(11)), [true, false, false]);
+        assert_eq!(modelled_channels(Some(2)), [false, true, true]);
+        assert_eq!(modelled_channels(Some(0)), [false; 3]);
+        assert_eq!(modelled_channels(Some(14)), [true; 3]);
+        assert_eq!(modelled_channels(Some(3)), [true; 3]);
+        assert_eq!(modelled_channels(None), [true; 3]);
+    }
 
     #[test]
     fn rms_skips_non_finite() {

@@ -40,7 +40,7 @@ pub(crate) fn real_dir() -> Option<PathBuf> {
 }
 
 /// `(fy_rmse_n, mz_rmse_nm, fx_rmse_n, n_samples)` of `cornering.mat` at `pressure` from a
-/// `tir score` output, or the error text.
+/// `tir score` output (NaN for a channel the model lacks), or the error text.
 fn score(
     store: &Path,
     tir: &Path,
@@ -67,7 +67,11 @@ fn score(
         .into_iter()
         .find(|r| r[2] == "cornering.mat")
         .ok_or_else(|| "no cornering.mat row".to_string())?;
-    let f = |i: usize| row[i].parse::<f64>().unwrap();
+    // an empty cell: a channel the model does not carry (NaN)
+    let f = |i: usize| match row[i].as_str() {
+        "" => f64::NAN,
+        v => v.parse::<f64>().unwrap(),
+    };
     Ok((f(6), f(7), f(5), row[4].parse().unwrap()))
 }
 

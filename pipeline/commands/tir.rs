@@ -330,7 +330,11 @@ fn score(args: &TirScoreArgs) -> anyhow::Result<ExitCode> {
         "mz_rms_nm",
     ])?;
     for r in rows {
-        let f = |v: f64| format!("{v:.3}");
+        // empty: a channel the model does not carry, or no finite sample
+        let f = |v: f64| match v.is_finite() {
+            true => format!("{v:.3}"),
+            false => String::new(),
+        };
         out.write_record([
             r.tire,
             r.rim_in.to_string(),
