@@ -695,3 +695,28 @@ fn lint_accepts_supplier_conventions_and_catches_planted_defects_issue_18() {
         }
     }
 }
+
+/// A file that leaves range keys blank (the author's MF 6.1 fit of the real data does) is
+/// linted over defaults (+-15 deg inclination): the summary names those keys, so an error
+/// found there reads as outside the tested data, not as a defect inside it.
+#[test]
+fn lint_summary_names_the_ranges_taken_from_defaults() {
+    let dir = tempfile::tempdir().unwrap();
+    let summary = |path: &Path| {
+        let o = tirebase(&["tir", "lint", path.to_str().unwrap()]);
+        let out = text(&o.stdout);
+        out.lines()
+            .find(|l| l.contains(" errors, "))
+            .unwrap_or_else(|| panic!("no summary line: {out}"))
+            .to_string()
+    };
+    let full = summary(&supplier_variant(dir.path(), "full.tir", &[]));
+    assert!(!full.contains("no value in the file"), "{full}");
+    let blank = supplier_variant(dir.path(), "blank.tir", &[("CAMMIN", ""), ("CAMMAX", "")]);
+    let line = summary(&blank);
+    assert!(
+        line.contains("no value in the file for CAMMIN CAMMAX: sampled at the defaults"),
+        "{line}"
+    );
+    assert!(line.contains("inclination -15.00..15.00 deg"), "{line}");
+}

@@ -215,6 +215,30 @@ fn write_results(
     Ok(())
 }
 
+/// The range keys the lint envelope took from defaults because the file states no value for
+/// them, as a note for the summary line (empty when it states them all): a finding at such an
+/// end may lie far outside the data the model was fitted to.
+fn defaulted_ranges(file: &TirFile) -> String {
+    use Coef::*;
+    let mut keys = vec![FZMIN, FZMAX, KPUMIN, KPUMAX, ALPMIN, ALPMAX, CAMMIN, CAMMAX];
+    if file.version.is_mf6() {
+        keys.extend([PRESMIN, PRESMAX]);
+    }
+    let missing: Vec<&str> = keys
+        .into_iter()
+        .filter(|&k| !file.present[k])
+        .map(|k| k.name())
+        .collect();
+    match missing.is_empty() {
+        true => String::new(),
+        false => format!(
+            "; no value in the file for {}: sampled at the defaults, which may reach beyond the \
+             tested data",
+            missing.join(" ")
+        ),
+    }
+}
+
 fn lint_file(args: &TirLintArgs) -> anyhow::Result<ExitCode> {
     let path = args.file.display();
     let (file, warnings) = read_tir(&args.file)?;
@@ -254,9 +278,10 @@ fn lint_file(args: &TirLintArgs) -> anyhow::Result<ExitCode> {
         },
     );
     println!(
-        "{path}: {} errors, {} warnings (envelope: {envelope})",
+        "{path}: {} errors, {} warnings (envelope: {envelope}){}",
         report.errors(),
-        report.warnings() + warnings.len()
+        report.warnings() + warnings.len(),
+        defaulted_ranges(&file)
     );
     Ok(if report.errors() > 0 {
         ExitCode::from(1)
