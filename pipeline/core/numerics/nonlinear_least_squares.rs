@@ -309,6 +309,7 @@ pub fn minimize(
         evaluations: 0,
         jacobian_evaluations: 0,
         iterations: 0,
+        last_jacobian: None,
     };
     let mut p: Vec<f64> = (0..n).map(|j| bounds.clamp(j, start[j])).collect();
     let rounds = match options.loss {
@@ -369,6 +370,29 @@ struct Solver<'a, P: LeastSquaresProblem> {
     evaluations: usize,
     jacobian_evaluations: usize,
     iterations: usize,
+    /// The last unweighted residuals and Jacobian and where they were evaluated: a round stops
+    /// on the point it evaluated them at, and the next IRLS round and the final statistics
+    /// start there (only the weights change), so they reuse them instead of evaluating again.
+    last_jacobian: Option<Evaluated>,
+}
+
+/// Unweighted residuals and Jacobian at a point.
+struct Evaluated {
+    at: Vec<f64>,
+    r: Vec<f64>,
+    jac: Vec<f64>,
+}
+
+impl Evaluated {
+    /// True when evaluated at exactly `p` (bit for bit: the same point gives the same values).
+    fn is_at(&self, p: &[f64]) -> bool {
+        self.at.len() == p.len()
+            && self
+                .at
+                .iter()
+                .zip(p)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+    }
 }
 
 impl<P: LeastSquaresProblem> Solver<'_, P> {
@@ -382,9 +406,22 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
     }
 
     fn weighted_jacobian(&mut self, p: &[f64], r: &mut [f64], jac: &mut [f64]) -> f64 {
-        self.problem.residuals_and_jacobian(p, r, jac);
-        self.evaluations += 1;
-        self.jacobian_evaluations += 1;
+        match self.last_jacobian.as_ref().filter(|last| last.is_at(p)) {
+            Some(last) => {
+                r.copy_from_slice(&last.r);
+                jac.copy_from_slice(&last.jac);
+            }
+            None => {
+                self.problem.residuals_and_jacobian(p, r, jac);
+                self.evaluations += 1;
+                self.jacobian_evaluations += 1;
+                self.last_jacobian = Some(Evaluated {
+                    at: p.to_vec(),
+                    r: r.to_vec(),
+                    jac: jac.to_vec(),
+                });
+            }
+        }
         let n = self.n;
         for (i, (x, w)) in r.iter_mut().zip(&self.weights).enumerate() {
             *x *= w;
@@ -574,8 +611,11 @@ fn normal_equations(jac: &[f64], r: &[f64], n: usize) -> Normal {
                 continue;
             }
             g[j] += rj * ri;
-            for k in j..n {
-                a[j * n + k] += rj * row[k];
+            // Slices rather than indices: the loop compiles to vector code without bounds
+            // checks (each element's sum runs in the same order, so the values do not change).
+            let upper = &mut a[j * n + j..(j + 1) * n];
+            for (x, r) in upper.iter_mut().zip(&row[j..]) {
+                *x += rj * r;
             }
         }
     }
@@ -879,6 +919,50 @@ mod tests {
             plain.params
         );
         assert!(robust.robust_weights[7] < 0.1 && robust.robust_weights[31] < 0.1);
+    }
+
+    /// Records where its Jacobian is evaluated.
+    struct Recording {
+        inner: Exp,
+        at: std::cell::RefCell<Vec<Vec<f64>>>,
+    }
+
+    impl LeastSquaresProblem for Recording {
+        fn n_params(&self) -> usize {
+            self.inner.n_params()
+        }
+        fn n_residuals(&self) -> usize {
+            self.inner.n_residuals()
+        }
+        fn residuals(&self, p: &[f64], r: &mut [f64]) {
+            self.inner.residuals(p, r)
+        }
+        fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
+            self.at.borrow_mut().push(p.to_vec());
+            self.inner.residuals_and_jacobian(p, r, jac)
+        }
+    }
+
+    /// The IRLS rounds and the final statistics start where the previous round stopped: they
+    /// reuse its Jacobian instead of evaluating it at the same point again.
+    #[test]
+    fn irls_rounds_evaluate_each_jacobian_once() {
+        let problem = Recording {
+            inner: exp_data(true),
+            at: Default::default(),
+        };
+        let options = Options {
+            loss: RobustLoss::Huber { k: 1.5 },
+            irls_rounds: 4,
+            ..Options::default()
+        };
+        let out = minimize(&problem, &[1.0, 0.0, 0.0], &Bounds::unbounded(3), &options);
+        let at = problem.at.borrow();
+        assert_eq!(out.jacobian_evaluations, at.len());
+        // Bit-identical points are what the reuse looks for.
+        let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(at.windows(2).all(|w| !same(&w[0], &w[1])), "{at:?}");
+        assert!(out.termination.converged(), "{:?}", out.termination);
     }
 
     /// A parameter without effect at the start (zero Jacobian column) does not stall the solver.
