@@ -27,6 +27,10 @@
 //!    the tested envelope, bounds for `C > 0`, and a small prior pulling the asymmetric
 //!    combined-slip shifts (`RHX1`, `RBY3`) to zero (combined data exist for one sign of slip
 //!    angle only).
+//! 4. [`select`]: a short table of term groups (camber and load-curvature terms, combined-slip
+//!    shape terms) that, when free and weakly identified, are held at their neutral values if
+//!    that lowers the family's k-fold-by-sweep prediction error by a clear margin at no
+//!    material in-sample cost.
 //!
 //! Conventions: ISO-W. Signs are never assumed: the cornering stiffness takes the sign the data
 //! has. The Magic Formula is unchanged when `B` and `D` flip sign together, so the sign of the
@@ -46,6 +50,7 @@ mod initial;
 mod linear;
 mod problem;
 mod quality;
+mod select;
 mod stage;
 
 #[cfg(test)]

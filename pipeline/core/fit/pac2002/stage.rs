@@ -5,7 +5,8 @@
 //! scalars (`FNOMIN` = middle nominal load of the matrix, `LONGVL`, radius, stiffness, ranges),
 //! then `Fy0 -> Mz0 -> Fx0 -> Fx -> Fy -> Mz -> Mx`, each: data points and weights, held
 //! (unidentifiable) coefficients, starting values, bounds and penalties, joint refinement,
-//! quality; finally the `My` placeholder and `USE_MODE`.
+//! quality, then the k-fold selection of weakly identified term groups (`select`); finally the
+//! `My` placeholder and `USE_MODE`.
 //!
 //! Deterministic: sweeps are sorted by (kind, nominal slip angle, inclination, load, id) before
 //! anything else, every container iterates in a fixed order, and no randomness is used; only
@@ -18,6 +19,7 @@ use super::family::{Family, Levels, held_value, unidentifiable};
 use super::initial::{self, NoSweepCurve, Setup};
 use super::problem::{ConstrainedQuantity, DataPoint, FamilyProblem, Penalty, channel_value};
 use super::quality;
+use super::select::{FittedFamily, hold_weak_groups};
 use super::{
     CoefficientOrigin, FamilyFit, FamilyStatus, FitConfig, FitInput, FitQuality, FittedCoefficient,
     MxForm, Pac2002Error, Pac2002Fit, SkippedSweep, SweepKind,
@@ -134,7 +136,7 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, Pac2002Error
         }
         let t0 = Instant::now();
         let data = family_sweeps(family, &sweeps, &fitted);
-        let status = match data {
+        let data = match data {
             Err(reason) => {
                 families.push(FamilyFit {
                     family,
@@ -145,21 +147,42 @@ pub fn fit(input: &FitInput, cfg: &FitConfig) -> Result<Pac2002Fit, Pac2002Error
                 });
                 continue;
             }
-            Ok(data) => fit_family(
-                family,
-                &data,
-                &env,
-                cfg,
-                &mut c,
-                &mut origins,
-                &free_lists,
-                &mut notes,
-            ),
+            Ok(data) => data,
         };
+        let status = fit_family(
+            family,
+            &data,
+            &env,
+            cfg,
+            &mut c,
+            &mut origins,
+            &free_lists,
+            &mut notes,
+        );
         match status {
-            Ok((outcome, free, mut quality, extra_evals)) => {
+            Ok((outcome, free, quality, extra_evals)) => {
+                let mut kept = FittedFamily {
+                    outcome,
+                    free,
+                    quality,
+                };
+                let selection_evals = hold_weak_groups(
+                    family,
+                    &data,
+                    &env,
+                    cfg,
+                    &mut c,
+                    &mut kept,
+                    &mut origins,
+                    &mut notes,
+                );
+                let FittedFamily {
+                    outcome,
+                    free,
+                    mut quality,
+                } = kept;
                 quality.seconds = t0.elapsed().as_secs_f64();
-                evaluations += quality.evaluations + extra_evals;
+                evaluations += quality.evaluations + extra_evals + selection_evals;
                 for (k, coef) in free.iter().enumerate() {
                     std_errors.push((*coef, outcome.std_errors[k], outcome.at_bounds[k]));
                 }
@@ -247,7 +270,8 @@ fn cross_validate(
             continue;
         };
         q.trend = quality::trend_deviation(fam.family, &data, c);
-        if cfg.kfold >= 2 {
+        // A family whose term selection measured the kept model's k-fold figure has it already.
+        if cfg.kfold >= 2 && q.out_of_sample.is_none() {
             let at_stage = stage_coefs
                 .iter()
                 .find(|(f, _)| *f == fam.family)
@@ -889,7 +913,7 @@ pub(super) fn penalties_of(
 /// three for `QDZ4`'s `gamma^2`, both signs for `QBZ5`'s `|gamma|`, two loads as well for the
 /// `dfz gamma` terms) and is held at its neutral value otherwise (one inclination tested), so
 /// a prior would only pull a determined camber law toward zero.
-fn neutral_prior(coef: Coef) -> Option<(f64, f64)> {
+pub(super) fn neutral_prior(coef: Coef) -> Option<(f64, f64)> {
     Some(match coef {
         // Residual torque.
         QBZ10 => (0.0, 2.0),
@@ -936,7 +960,7 @@ fn envelope_grid(env: &Envelope) -> Vec<SlipInput> {
 const MX_FTOL: f64 = 1e-6;
 
 /// Joint refinement of `free` from the current values in `c` (updated in place).
-fn refine(
+pub(super) fn refine(
     family: Family,
     free: &[Coef],
     points: &[DataPoint],
