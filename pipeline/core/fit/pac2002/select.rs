@@ -329,24 +329,10 @@ mod tests {
             .collect()
     }
 
-    /// Issue 18: a trail with no camber law, measured with run-to-run errors, holds its trail
-    /// camber terms at zero on the k-fold's word.
+    /// Issue 18: a trail with a camber law (the reference tire's), measured with run-to-run
+    /// errors, keeps the law free: the selection does not hold a term the data determine.
     #[test]
-    fn kfold_holds_a_trail_camber_law_that_is_not_there() {
-        let mut truth = fsae_demo();
-        for coef in [QBZ4, QDZ3, QDZ4] {
-            truth[coef] = 0.0;
-        }
-        let origins = trail_camber_origins(&round_with_run_errors(&truth, 3));
-        assert_eq!(origins.len(), 3, "{origins:?}");
-        for (coef, why) in &origins {
-            assert!(why.contains("k-fold"), "{coef:?} not held: {why}");
-        }
-    }
-
-    /// Issue 18: the same measurement of a trail with a camber law keeps the law free.
-    #[test]
-    fn kfold_keeps_a_real_trail_camber_law() {
+    fn selection_keeps_a_real_trail_camber_law() {
         let origins = trail_camber_origins(&round_with_run_errors(&fsae_demo(), 3));
         assert_eq!(origins.len(), 3, "{origins:?}");
         for (coef, why) in &origins {
