@@ -124,6 +124,8 @@ pub struct Counts {
     pub fit_failures: u64,
     /// Skipped parts of stages (one load, one sweep) whose stage result was still written.
     pub fit_skipped: u64,
+    /// Quality flags of written results (a family good in sample, bad out of sample).
+    pub fit_quality_flags: u64,
     /// `.tir` files in this version.
     pub tir_files: u64,
     /// Inertia sessions processed.
@@ -239,13 +241,15 @@ pub enum ProblemKind {
     SkippedEntry,
     /// A skipped part of a fit stage whose result was still written.
     FitSkipped,
+    /// A quality flag of a written fit result (a family good in sample, bad out of sample).
+    FitQuality,
     /// A `.tir` written under a disambiguated name (tires whose names sanitise alike).
     TirName,
 }
 
 impl ProblemKind {
     /// Every kind, in report order.
-    pub const ALL: [ProblemKind; 9] = [
+    pub const ALL: [ProblemKind; 10] = [
         ProblemKind::FailedFile,
         ProblemKind::PartialFile,
         ProblemKind::FitFailure,
@@ -254,6 +258,7 @@ impl ProblemKind {
         ProblemKind::FileWarning,
         ProblemKind::SkippedEntry,
         ProblemKind::FitSkipped,
+        ProblemKind::FitQuality,
         ProblemKind::TirName,
     ];
 
@@ -280,6 +285,7 @@ impl ProblemKind {
             ProblemKind::FileWarning => "warning",
             ProblemKind::SkippedEntry => "skipped entry",
             ProblemKind::FitSkipped => "warning: skipped",
+            ProblemKind::FitQuality => "warning: fit quality",
             ProblemKind::TirName => "renamed .tir",
         }
     }
@@ -295,6 +301,7 @@ impl ProblemKind {
             ProblemKind::FileWarning => "input file warnings",
             ProblemKind::SkippedEntry => "input entries skipped",
             ProblemKind::FitSkipped => "parts of fit stages skipped",
+            ProblemKind::FitQuality => "fit-quality flags",
             ProblemKind::TirName => ".tir file names disambiguated",
         }
     }

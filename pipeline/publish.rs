@@ -227,6 +227,7 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
         groups_reused: reused.len() as u64,
         fit_failures: count(ProblemKind::FitFailure),
         fit_skipped: count(ProblemKind::FitSkipped),
+        fit_quality_flags: count(ProblemKind::FitQuality),
         tir_files: tir_files as u64,
         inertia_sessions: fingerprint.inertia_sessions.len() as u64,
         inertia_results: inertia.as_ref().map_or(0, |(d, _)| d.results.len() as u64),
@@ -273,7 +274,8 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
     })
 }
 
-/// A fit failure as a problem of the version: fatal ones are failures, skipped parts warnings.
+/// A fit failure as a problem of the version: fatal ones are failures, skipped parts and quality
+/// flags warnings of their own kinds.
 fn fit_problem(f: &FitFailure) -> Problem {
     let part = if f.scope.is_empty() || f.scope == f.stage {
         f.stage.clone()
@@ -283,6 +285,8 @@ fn fit_problem(f: &FitFailure) -> Problem {
     Problem::new(
         if f.fatal {
             ProblemKind::FitFailure
+        } else if f.is_quality_flag() {
+            ProblemKind::FitQuality
         } else {
             ProblemKind::FitSkipped
         },
@@ -715,6 +719,32 @@ mod tests {
             .collect();
         assert_eq!(v, vec![2.0, 3.0]);
         assert!(has_group_columns(&df));
+    }
+
+    #[test]
+    fn out_of_sample_flags_are_quality_problems_not_skips() {
+        let flag = FitFailure {
+            tire: "T".into(),
+            rim_in: 7,
+            pressure_kpa: 83,
+            stage: "pac2002".into(),
+            scope: results::out_of_sample_scope("Fy0"),
+            fatal: false,
+            reason: "good in sample, bad out of sample".into(),
+        };
+        let p = fit_problem(&flag);
+        assert_eq!(p.kind, ProblemKind::FitQuality);
+        assert_eq!(
+            p.to_string(),
+            "warning: fit quality: T on 7 in rim at 83 kPa: pac2002 (family Fy0 out of sample): \
+             good in sample, bad out of sample"
+        );
+        assert_eq!(ProblemKind::FitQuality.plural(), "fit-quality flags");
+        let skip = FitFailure {
+            scope: "sweep 4".into(),
+            ..flag
+        };
+        assert_eq!(fit_problem(&skip).kind, ProblemKind::FitSkipped);
     }
 
     #[test]

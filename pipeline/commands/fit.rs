@@ -68,7 +68,14 @@ pub fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
     fit::write_outcome(&outcome, &args.out)
         .with_context(|| format!("writing results to {}", args.out.display()))?;
     for f in &outcome.failures {
-        eprintln!("{}: {f}", if f.fatal { "failed" } else { "skipped" });
+        let kind = if f.fatal {
+            "failed"
+        } else if f.is_quality_flag() {
+            "fit quality"
+        } else {
+            "skipped"
+        };
+        eprintln!("{kind}: {f}");
     }
     for note in &outcome.tir_name_notes {
         eprintln!("renamed .tir: {note}");

@@ -223,8 +223,15 @@ fn print_summary(report: &RunReport) {
         kinds.join(", ")
     );
     eprintln!(
-        "  fits      {} groups: {} fitted, {} reused; {} failed stage fits, {} skipped parts; {} .tir files",
-        c.groups, c.groups_fitted, c.groups_reused, c.fit_failures, c.fit_skipped, c.tir_files
+        "  fits      {} groups: {} fitted, {} reused; {} failed stage fits, {} skipped parts, {} \
+         fit-quality flags; {} .tir files",
+        c.groups,
+        c.groups_fitted,
+        c.groups_reused,
+        c.fit_failures,
+        c.fit_skipped,
+        c.fit_quality_flags,
+        c.tir_files
     );
     if let Some(w) = &report.worst_fit {
         eprintln!("  worst fit {w}");

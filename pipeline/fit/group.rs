@@ -898,7 +898,7 @@ fn record_fit_notes(out: &mut GroupResult, fit: &Pac2002Fit, out_of_sample_limit
         {
             out.fail(
                 "pac2002",
-                &format!("family {} out of sample", f.family.as_str()),
+                &crate::store::results::out_of_sample_scope(f.family.as_str()),
                 false,
                 format!(
                     "good in sample, bad out of sample: held-out sweeps RMSE {:.4} vs {:.4} in \

@@ -208,7 +208,7 @@ fn record_out_of_sample_flags(out: &mut Mf61Outcome, key: &TireKey, fit: &Mf61Fi
         out.failures.push(FitFailure::new(
             &at,
             STAGE,
-            &format!("family {} out of sample", q.family.as_str()),
+            &crate::store::results::out_of_sample_scope(q.family.as_str()),
             false,
             format!(
                 "good in sample, bad out of sample: held-out sweeps RMSE {oos:.4} vs {:.4} in \

@@ -103,6 +103,23 @@ pub struct FitFailure {
     pub reason: String,
 }
 
+/// How a family flagged good in sample and bad out of sample is scoped in `fit_failures`
+/// (`family Fy0 out of sample`): a quality flag of a published model, not a skipped part.
+pub fn out_of_sample_scope(family: &str) -> String {
+    format!("family {family}{OUT_OF_SAMPLE_SUFFIX}")
+}
+
+/// The end of every [`out_of_sample_scope`].
+const OUT_OF_SAMPLE_SUFFIX: &str = " out of sample";
+
+impl FitFailure {
+    /// A quality flag: the stage's result was written whole and the row says it fits poorly
+    /// (a family good in sample and bad out of sample), rather than a part left out or a failure.
+    pub fn is_quality_flag(&self) -> bool {
+        !self.fatal && self.scope.ends_with(OUT_OF_SAMPLE_SUFFIX)
+    }
+}
+
 impl fmt::Display for FitFailure {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
