@@ -210,9 +210,11 @@ pub struct IngestArgs {
     /// Store root directory (created if missing).
     #[arg(long, value_name = "DIR")]
     pub store: PathBuf,
-    /// Run catalog TOML mapping (project, run) to tire and rim ([[run]] project, run, tire,
-    /// rim_in, kind). Without it the tire comes from the file (tireid, Tire_Name=) or is
-    /// named project<p>-run<n>.
+    /// Run catalog TOML mapping (project, run), or a file name, to tire and rim ([[run]]
+    /// project, run, tire, rim_in, kind; or [[run]] file = "drivebrake.mat", tire, rim_in for
+    /// a file whose name and header state no project and run). Without an entry the tire comes
+    /// from the file (tireid, Tire_Name=) or is unknown ("unknown (<file stem>)", rim unknown),
+    /// with a warning naming the entry to add.
     #[arg(long, value_name = "FILE")]
     pub catalog: Option<PathBuf>,
     /// Configuration file (TOML, see config/default.toml); overrides the defaults.
@@ -749,8 +751,8 @@ pub struct RunArgs {
     /// Store root directory (created if missing).
     #[arg(long, value_name = "DIR", default_value = "outputs/store")]
     pub store: PathBuf,
-    /// Run catalog TOML ([[run]] project, run, tire, rim_in, kind). Default: INPUT/catalog.toml
-    /// when it exists.
+    /// Run catalog TOML ([[run]] project, run, tire, rim_in, kind; or [[run]] file = "<file
+    /// name>", tire, rim_in). Default: INPUT/catalog.toml when it exists.
     #[arg(long, value_name = "FILE")]
     pub catalog: Option<PathBuf>,
     /// Configuration file (TOML, see config/default.toml); overrides the defaults.

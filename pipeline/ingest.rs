@@ -610,14 +610,15 @@ fn failed_row(
     (row, FileStatus::Failed(error), Vec::new(), 0)
 }
 
-/// The catalog's identity for a run (project, run), if it has an entry.
+/// The catalog's identity for a stored file (its name, its project and run), if it has an entry.
 pub fn catalog_identity(
     catalog: Option<&Catalog>,
+    file: &str,
     project: Option<i64>,
     run: Option<i64>,
 ) -> Option<Identity> {
-    let (c, p, r) = (catalog?, project?, run?);
-    let e = c.get(u32::try_from(p).ok()?, u32::try_from(r).ok()?)?;
+    let number = |n: Option<i64>| n.and_then(|n| u32::try_from(n).ok());
+    let e = catalog?.lookup(file, number(project), number(run))?;
     Some(Identity {
         tire: e.tire.clone(),
         rim_in: Some(e.rim_in.round() as i64),
@@ -652,7 +653,7 @@ fn process_file(
         Ok(s) => s,
         Err(e) => return Ok(failed_row(path, name, "", prev, io_failure(e))),
     };
-    let catalog = prev.and_then(|p| catalog_identity(opts.catalog, p.project, p.run));
+    let catalog = prev.and_then(|p| catalog_identity(opts.catalog, name, p.project, p.run));
     let path_text = path.display().to_string();
     let mut now = Now {
         path: &path_text,
@@ -722,6 +723,15 @@ fn relabel(store: &Path, prev: &RunRow, identity: &Identity) -> Result<Option<Ru
     let mut row = prev.clone();
     row.tire = Some(identity.tire.clone());
     row.rim_in = identity.rim_in;
+    if identity.rim_in.is_some() {
+        row.warnings = row.warnings.take().and_then(|w| {
+            let kept: Vec<&str> = w
+                .split("; ")
+                .filter(|w| !w.starts_with(UNKNOWN_IDENTITY))
+                .collect();
+            (!kept.is_empty()).then(|| kept.join("; "))
+        });
+    }
     row.tire_source = Some(identity.source.to_string());
     row.kind_hint = identity
         .kind_hint
@@ -816,6 +826,7 @@ fn parse_and_store(
     write_file_parts(opts.store, &ctx, &segments, shared.writers)?;
     let mut warnings = run.meta.warnings.clone();
     warnings.extend(seg_report.warnings.iter().cloned());
+    warnings.extend(unknown_identity_warning(&run, &identity, name));
     let run_class = seg_report.run_class.as_str().to_string();
     let stops_early = stops_early(&run);
     let row = RunRow {
@@ -901,12 +912,10 @@ pub struct Identity {
 /// `Tire_Name=`/`Rim_Width=`), else the tire is unknown and the run is named from what it has:
 /// `unknown (<file stem>)`, plus `project <p> run <n>` when the header states them and the file
 /// name does not (`unknown (drivebrake)`, `unknown (B1965run51)`), rim unknown, source
-/// `unknown`. A later catalog entry for the run's project and run re-labels it.
+/// `unknown`. A later catalog entry for the file's name or its project and run re-labels it.
 pub fn identify(run: &RunTable, catalog: Option<&Catalog>) -> Identity {
     let meta = &run.meta;
-    if let (Some(c), Some(p), Some(r)) = (catalog, meta.project, meta.run)
-        && let Some(e) = c.get(p, r)
-    {
+    if let Some(e) = catalog.and_then(|c| c.lookup(&meta.source_name, meta.project, meta.run)) {
         return Identity {
             tire: e.tire.clone(),
             rim_in: Some(e.rim_in.round() as i64),
@@ -943,6 +952,34 @@ pub fn identify(run: &RunTable, catalog: Option<&Catalog>) -> Identity {
         source: "unknown",
         kind_hint: None,
     }
+}
+
+/// The start of [`unknown_identity_warning`] (a relabel to a catalogued identity drops it).
+const UNKNOWN_IDENTITY: &str = "tire and rim unknown";
+
+/// A warning for a file whose tire or rim is unknown (neither the catalog nor its own fields
+/// name them: its models would be fitted on an unknown rim), saying which catalog entry names
+/// them. `name` is the file's name as the catalog matches it.
+fn unknown_identity_warning(run: &RunTable, identity: &Identity, name: &str) -> Option<String> {
+    if identity.rim_in.is_some() {
+        return None;
+    }
+    let what = if identity.source == "unknown" {
+        "the file states no tire (no tireid / Tire_Name) and no catalog entry names it"
+    } else {
+        "the file states no rim width and no catalog entry names it"
+    };
+    let by_run = match (run.meta.project, run.meta.run) {
+        (Some(p), Some(r)) => format!(" (or project = {p}, run = {r})"),
+        _ => String::new(),
+    };
+    // No "; " inside: a row's warnings are joined with it.
+    Some(format!(
+        "{UNKNOWN_IDENTITY} ({what}, stored as tire {:?} on an unknown rim): add to the catalog \
+         (--catalog) a [[run]] with file = {name:?}{by_run}, tire = \"<tire name>\", rim_in = \
+         <whole inches>",
+        identity.tire
+    ))
 }
 
 /// Header style of a run: R9 (`Tire_Name=` in line 1), R8 (`Date`/`ISO` fields), R4 (bare
@@ -1419,6 +1456,40 @@ mod tests {
             ttc::read_run(&example_mat(20, Compression::None), "x/B1320run15.mat").unwrap();
         mat.meta.tire_name = None;
         assert_eq!(identify(&mat, None).tire, "unknown (B1320run15)");
+    }
+
+    /// A file with no tire id is warned about, with the catalog entry that names it; an entry
+    /// keyed by its file name does, and the warning goes.
+    #[test]
+    fn an_unknown_tire_is_warned_about_and_a_file_keyed_catalog_entry_names_it() {
+        use tirebase_core::ttc::example::{ExampleStyle, example_dat};
+        let dat = ttc::read_run(
+            &example_dat(ExampleStyle::R4Uscs, 20, false),
+            "in/drivebrake.dat",
+        )
+        .unwrap();
+        let id = identify(&dat, None);
+        let w = unknown_identity_warning(&dat, &id, "drivebrake.dat").unwrap();
+        assert!(w.starts_with(UNKNOWN_IDENTITY), "{w}");
+        assert!(
+            w.contains("file = \"drivebrake.dat\" (or project = 1320, run = 125)")
+                && w.contains("rim_in = <whole inches>")
+                && !w.contains("; "),
+            "{w}"
+        );
+        let catalog = Catalog::parse(
+            "[[run]]\nfile = \"drivebrake.dat\"\ntire = \"Hoosier R25B\"\nrim_in = 7\n",
+            "c.toml",
+        )
+        .unwrap();
+        let id = identify(&dat, Some(&catalog));
+        assert_eq!(
+            (id.tire.as_str(), id.rim_in, id.source),
+            ("Hoosier R25B", Some(7), "catalog")
+        );
+        assert_eq!(unknown_identity_warning(&dat, &id, "drivebrake.dat"), None);
+        let stored = catalog_identity(Some(&catalog), "drivebrake.dat", None, None).unwrap();
+        assert_eq!(stored, id);
     }
 
     fn row(name: &str, run: Option<i64>, units: &str, format: &str) -> RunRow {

@@ -810,3 +810,78 @@ fn issue17_an_unknown_tire_is_relabelled_by_a_later_catalog_entry() {
     assert_eq!(count("samples", "Test 20.5x7.0-13"), samples);
     assert_eq!(count("segments", "unknown (A2410run1)"), 0);
 }
+
+/// A file whose name and header name no tire (renamed off the Calspan pattern, as the real
+/// `drivebrake.mat`) is warned about with the catalog entry that names it; an entry keyed by the
+/// file name relabels it, and the warning goes. Fitted before that, its `.tir` says the rim is
+/// unknown rather than 0 in.
+#[test]
+fn an_unnamed_file_is_warned_about_and_a_file_keyed_catalog_entry_names_it() {
+    let round = demo_round();
+    let tmp = tempfile::tempdir().unwrap();
+    let (raw, store) = (tmp.path().join("raw"), tmp.path().join("store"));
+    fs::create_dir_all(&raw).unwrap();
+    fs::copy(round.join("raw/A2410run1.dat"), raw.join("drivebrake.dat")).unwrap();
+    let first = ingest(&store, &[&raw], &[]);
+    assert_eq!(first.status.code(), Some(0), "{}", stderr(&first));
+    let warned = lines_naming(&stderr(&first), "drivebrake.dat").join("\n");
+    assert!(
+        warned.contains("tire and rim unknown")
+            && warned.contains("file = \"drivebrake.dat\" (or project = 2410, run = 1)"),
+        "{}",
+        stderr(&first)
+    );
+
+    let out = tmp.path().join("fit");
+    let fit = tirebase(&[
+        "fit",
+        "--store",
+        store.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--stages",
+        "pac2002",
+    ]);
+    let tirs: Vec<PathBuf> = files_below(&out.join("tir"))
+        .into_iter()
+        .map(|(_, path)| path)
+        .collect();
+    assert!(!tirs.is_empty(), "{}", stderr(&fit));
+    for tir in &tirs {
+        let text = fs::read_to_string(tir).unwrap();
+        assert!(
+            text.contains("on an unknown rim")
+                && !text.contains("0 in rim")
+                && !text.contains("RIM_WIDTH"),
+            "{}: {text}",
+            tir.display()
+        );
+    }
+
+    let catalog = tmp.path().join("catalog.toml");
+    fs::write(
+        &catalog,
+        "[[run]]\nfile = \"drivebrake.dat\"\ntire = \"Test 20.5x7.0-13\"\nrim_in = 7\n",
+    )
+    .unwrap();
+    let second = ingest(&store, &[&raw], &["--catalog", catalog.to_str().unwrap()]);
+    assert_eq!(second.status.code(), Some(0), "{}", stderr(&second));
+    assert!(
+        summary_line(&second).contains("1 relabelled"),
+        "{}",
+        stderr(&second)
+    );
+    let runs = query(
+        &store,
+        "SELECT tire, rim_in, tire_source, warnings FROM runs",
+    );
+    assert_eq!(
+        (
+            runs[0]["tire"].as_str(),
+            runs[0]["rim_in"].as_str(),
+            runs[0]["tire_source"].as_str()
+        ),
+        ("Test 20.5x7.0-13", "7", "catalog")
+    );
+    assert!(!runs[0]["warnings"].contains("unknown"), "{runs:?}");
+}

@@ -295,20 +295,20 @@ fn header_comments(key: &TireKey, fit: &Mf61Fit, tested_kpa: &[i64]) -> Vec<Stri
         .iter()
         .map(|f| format!("{} rmse {:.4}", f.family.as_str(), f.rmse))
         .collect();
-    let mut out = vec![
-        format!("! : TIRE :          {}", key.tire),
-        format!("! : RIM_WIDTH_IN :  {}", key.rim_in),
+    let mut out = vec![format!("! : TIRE :          {}", key.tire)];
+    out.extend(super::tir::rim_width_line(key.rim_in));
+    out.extend([
         format!("! : NOMPRES_KPA :   {}", key.pressure_kpa_nom),
         comment(&format!(
-            "{} on a {} in rim, MF 6.1 across {} kPa, fitted by tirebase fit {} on the \
+            "{} on {}, MF 6.1 across {} kPa, fitted by tirebase fit {} on the \
              per-pressure PAC2002 fits",
             key.tire,
-            key.rim_in,
+            super::tir::rim_phrase(key.rim_in),
             pressures.join(" / "),
             env!("CARGO_PKG_VERSION"),
         )),
         comment(&format!("families: {}", families.join(", "))),
-    ];
+    ]);
     out.extend(fit.notes.iter().map(|n| comment(&n.replace('\n', " "))));
     out
 }

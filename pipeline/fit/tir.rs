@@ -384,6 +384,21 @@ impl TireSize {
     }
 }
 
+/// The `RIM_WIDTH_IN` header line, none when the rim is unknown (stored as 0): a `.tir` never
+/// states a 0 in rim.
+pub(super) fn rim_width_line(rim_in: i64) -> Option<String> {
+    (rim_in > 0).then(|| format!("! : RIM_WIDTH_IN :  {rim_in}"))
+}
+
+/// The rim in a header comment: `a 7 in rim`, or `an unknown rim (not catalogued)` for 0.
+pub(super) fn rim_phrase(rim_in: i64) -> String {
+    if rim_in > 0 {
+        format!("a {rim_in} in rim")
+    } else {
+        "an unknown rim (not catalogued)".to_string()
+    }
+}
+
 fn header_comments(result: &GroupResult, fit: &Pac2002Fit, notes: &[String]) -> Vec<String> {
     let key = &result.key;
     let comment = |text: &str| format!("! : COMMENT :       {text}");
@@ -392,20 +407,20 @@ fn header_comments(result: &GroupResult, fit: &Pac2002Fit, notes: &[String]) -> 
         .iter()
         .map(|f| format!("{} {}", f.family.as_str(), f.status.as_str()))
         .collect();
-    let mut out = vec![
-        format!("! : TIRE :          {}", key.tire),
-        format!("! : RIM_WIDTH_IN :  {}", key.rim_in),
+    let mut out = vec![format!("! : TIRE :          {}", key.tire)];
+    out.extend(rim_width_line(key.rim_in));
+    out.extend([
         format!("! : PRESSURE_KPA :  {}", key.pressure_kpa_nom),
         comment(&format!(
-            "{} on a {} in rim at {} kPa nominal, fitted by tirebase fit {} from {} sweeps",
+            "{} on {} at {} kPa nominal, fitted by tirebase fit {} from {} sweeps",
             key.tire,
-            key.rim_in,
+            rim_phrase(key.rim_in),
             key.pressure_kpa_nom,
             env!("CARGO_PKG_VERSION"),
             result.n_pac2002_segments
         )),
         comment(&format!("families: {}", families.join(", "))),
-    ];
+    ]);
     out.extend(notes.iter().map(|n| comment(&n.replace('\n', " "))));
     out
 }
