@@ -47,6 +47,13 @@ pub trait LeastSquaresProblem {
     fn n_data(&self) -> usize {
         self.n_residuals()
     }
+    /// The cluster (e.g. the sweep) of each data residual, `n_data()` labels, when the data
+    /// residuals are correlated within clusters and independent between them; `None` (the
+    /// default) treats every data residual as independent. With clusters the covariance is the
+    /// cluster-robust sandwich (see [`FitOutcome::covariance`]).
+    fn data_clusters(&self) -> Option<&[usize]> {
+        None
+    }
     /// Residuals at `p` into `r` (`r.len() == n_residuals()`).
     fn residuals(&self, p: &[f64], r: &mut [f64]);
     /// Residuals and Jacobian at `p` (`jac.len() == n_residuals() * n_params()`).
@@ -187,15 +194,26 @@ impl Termination {
 pub struct FitOutcome {
     /// Final parameters (inside the bounds).
     pub params: Vec<f64>,
-    /// Parameter covariance `s^2 (J^T J)^-1` over the parameters not on a bound,
-    /// `s^2 = |r|^2 / (n_data - n_free)` (weighted residuals, penalty rows in `J` but not in
-    /// `s^2`), `n_params x n_params`. Rows and columns of a parameter on a bound are NaN; all of
-    /// it is NaN when the normal matrix is singular or there are no spare degrees of freedom.
+    /// Parameter covariance over the parameters not on a bound, `n_params x n_params`, from the
+    /// weighted residuals `r` and Jacobian `J` at the solution (robust weights applied; penalty
+    /// rows in `J^T J` but not in the residual spread), `n` data residuals, `k` free parameters:
+    /// - without [`LeastSquaresProblem::data_clusters`]: the classical `s^2 (J^T J)^-1`,
+    ///   `s^2 = |r_data|^2 / (n - k)`;
+    /// - with `G` clusters: the cluster-robust sandwich
+    ///   `G/(G-1) (n-1)/(n-k) (J^T J)^-1 (sum_g J_g^T r_g r_g^T J_g) (J^T J)^-1` (CR1), which
+    ///   stays honest when the residuals within a cluster are correlated (smooth model error
+    ///   along a sweep) and equals the classical figure in expectation when they are white.
+    ///
+    /// Rows and columns of a parameter on a bound are NaN; all of it is NaN when the normal
+    /// matrix is singular, there are no spare degrees of freedom or fewer than two clusters.
     pub covariance: DMatrix<f64>,
     /// Standard error of each parameter, the square root of the covariance's diagonal; `None`
     /// where that is not a finite, non-negative number (on a bound, singular normal matrix, no
     /// spare degrees of freedom).
     pub std_errors: Vec<Option<f64>>,
+    /// The classical `s^2 (J^T J)^-1` standard errors (equal to `std_errors` without clusters):
+    /// their ratio to `std_errors` shows how much the within-cluster correlation matters.
+    pub classical_std_errors: Vec<Option<f64>>,
     /// Which parameters ended on (within 1e-12 relative of) a bound.
     pub at_bounds: Vec<bool>,
     /// How well the data determine the parameters off their bounds (see [`Identifiability`]).
@@ -553,8 +571,19 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
             })
             .collect();
         let free: Vec<usize> = (0..n).filter(|&j| !at_bounds[j]).collect();
-        let weighted_data_ss: f64 = r[..n_data].iter().map(|x| x * x).sum();
-        let (covariance, std_errors) = covariance(&jac, n, &free, weighted_data_ss, n_data);
+        let normal = ScaledNormal::of(&jac, n, &free);
+        let classical = normal
+            .as_ref()
+            .map(|b| b.classical(&r, n_data))
+            .unwrap_or_else(|| nan_covariance(n));
+        let clusters = self.problem.data_clusters().filter(|c| c.len() == n_data);
+        let covariance = match (clusters, normal.as_ref()) {
+            (None, _) => classical.clone(),
+            (Some(labels), Some(b)) => b.clustered(&jac, &r, n_data, labels),
+            (Some(_), None) => nan_covariance(n),
+        };
+        let std_errors = std_errors_of(&covariance);
+        let classical_std_errors = std_errors_of(&classical);
         let identifiability = Identifiability::of(&jac, n, n_data, &free);
         let mut raw = vec![0.0; m];
         self.problem.residuals(&p, &mut raw);
@@ -569,6 +598,7 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
             params: p,
             covariance,
             std_errors,
+            classical_std_errors,
             at_bounds,
             identifiability,
             iterations: self.iterations,
@@ -661,57 +691,108 @@ fn damped_step(
     Some(step)
 }
 
-/// The covariance over the `free` parameters (NaN elsewhere) and the standard errors.
-fn covariance(
-    jac: &[f64],
+/// An all-NaN `n x n` covariance (nothing estimated).
+fn nan_covariance(n: usize) -> DMatrix<f64> {
+    DMatrix::from_element(n, n, f64::NAN)
+}
+
+/// Standard errors from a covariance's diagonal (`None` where not finite and non-negative).
+fn std_errors_of(cov: &DMatrix<f64>) -> Vec<Option<f64>> {
+    (0..cov.nrows())
+        .map(|j| {
+            let var = cov[(j, j)];
+            (var.is_finite() && var >= 0.0).then(|| var.sqrt())
+        })
+        .collect()
+}
+
+/// The inverse normal matrix over the free parameters, computed on the unit-diagonal scaling
+/// `D^-1 J^T J D^-1` (the coefficients differ by orders of magnitude): `inv` is that scaled
+/// matrix's inverse, `d` the column norms.
+struct ScaledNormal<'a> {
     n: usize,
-    free: &[usize],
-    weighted_data_ss: f64,
-    n_data: usize,
-) -> (DMatrix<f64>, Vec<Option<f64>>) {
-    let mut cov = DMatrix::from_element(n, n, f64::NAN);
-    let mut out = vec![None; n];
-    let k = free.len();
-    if k == 0 || n_data <= k {
-        return (cov, out);
-    }
-    let s2 = weighted_data_ss / (n_data - k) as f64;
-    let mut a = DMatrix::<f64>::zeros(k, k);
-    for row in jac.chunks_exact(n) {
-        for (x, &jx) in free.iter().enumerate() {
-            let v = row[jx];
-            if v == 0.0 {
-                continue;
+    free: &'a [usize],
+    d: Vec<f64>,
+    inv: DMatrix<f64>,
+}
+
+impl<'a> ScaledNormal<'a> {
+    /// `None` when there is no free parameter, a column is zero or not finite, or the normal
+    /// matrix is singular.
+    fn of(jac: &[f64], n: usize, free: &'a [usize]) -> Option<Self> {
+        let k = free.len();
+        if k == 0 {
+            return None;
+        }
+        let mut a = DMatrix::<f64>::zeros(k, k);
+        for row in jac.chunks_exact(n) {
+            for (x, &jx) in free.iter().enumerate() {
+                let v = row[jx];
+                if v == 0.0 {
+                    continue;
+                }
+                for (y, &jy) in free.iter().enumerate() {
+                    a[(x, y)] += v * row[jy];
+                }
             }
-            for (y, &jy) in free.iter().enumerate() {
-                a[(x, y)] += v * row[jy];
+        }
+        let d: Vec<f64> = (0..k).map(|x| a[(x, x)].sqrt()).collect();
+        if d.iter().any(|v| *v <= 0.0 || !v.is_finite()) {
+            return None;
+        }
+        for x in 0..k {
+            for y in 0..k {
+                a[(x, y)] /= d[x] * d[y];
             }
         }
+        let inv = a.cholesky()?.inverse();
+        Some(ScaledNormal { n, free, d, inv })
     }
-    // Scale to unit diagonal before inverting: the coefficients differ by orders of magnitude.
-    let d: Vec<f64> = (0..k).map(|x| a[(x, x)].sqrt()).collect();
-    if d.iter().any(|v| *v <= 0.0 || !v.is_finite()) {
-        return (cov, out);
-    }
-    for x in 0..k {
-        for y in 0..k {
-            a[(x, y)] /= d[x] * d[y];
+
+    /// The full `n x n` covariance from a scaled `k x k` one (NaN off the free set).
+    fn unscale(&self, scaled: &DMatrix<f64>) -> DMatrix<f64> {
+        let mut cov = nan_covariance(self.n);
+        for (x, &jx) in self.free.iter().enumerate() {
+            for (y, &jy) in self.free.iter().enumerate() {
+                cov[(jx, jy)] = scaled[(x, y)] / (self.d[x] * self.d[y]);
+            }
         }
+        cov
     }
-    let Some(chol) = a.cholesky() else {
-        return (cov, out);
-    };
-    let inv = chol.inverse();
-    for (x, &jx) in free.iter().enumerate() {
-        for (y, &jy) in free.iter().enumerate() {
-            cov[(jx, jy)] = s2 * inv[(x, y)] / (d[x] * d[y]);
+
+    /// `s^2 (J^T J)^-1` (see [`FitOutcome::covariance`]).
+    fn classical(&self, r: &[f64], n_data: usize) -> DMatrix<f64> {
+        let k = self.free.len();
+        if n_data <= k {
+            return nan_covariance(self.n);
         }
-        let var = cov[(jx, jx)];
-        if var.is_finite() && var >= 0.0 {
-            out[jx] = Some(var.sqrt());
-        }
+        let s2 = r[..n_data].iter().map(|x| x * x).sum::<f64>() / (n_data - k) as f64;
+        self.unscale(&(&self.inv * s2))
     }
-    (cov, out)
+
+    /// The CR1 cluster-robust sandwich (see [`FitOutcome::covariance`]); `labels` has one
+    /// cluster label per data residual.
+    fn clustered(&self, jac: &[f64], r: &[f64], n_data: usize, labels: &[usize]) -> DMatrix<f64> {
+        let k = self.free.len();
+        // Each cluster's score `D^-1 J_g^T r_g` (ordered by label: deterministic sums).
+        let mut scores: std::collections::BTreeMap<usize, DVector<f64>> = Default::default();
+        for ((row, ri), g) in jac.chunks_exact(self.n).zip(r).take(n_data).zip(labels) {
+            let u = scores.entry(*g).or_insert_with(|| DVector::zeros(k));
+            for (x, &jx) in self.free.iter().enumerate() {
+                u[x] += row[jx] * ri / self.d[x];
+            }
+        }
+        let g = scores.len();
+        if g < 2 || n_data <= k {
+            return nan_covariance(self.n);
+        }
+        let mut meat = DMatrix::<f64>::zeros(k, k);
+        for u in scores.values() {
+            meat += u * u.transpose();
+        }
+        let factor = g as f64 / (g - 1) as f64 * (n_data - 1) as f64 / (n_data - k) as f64;
+        self.unscale(&(&self.inv * meat * &self.inv * factor))
+    }
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -852,6 +933,7 @@ mod tests {
                 );
             }
             assert_eq!(out.std_errors[a], Some(out.covariance[(a, a)].sqrt()));
+            assert_eq!(out.std_errors[a], out.classical_std_errors[a]);
         }
         // A parameter on a bound has no covariance; the others keep theirs.
         let bounded = minimize(
@@ -866,6 +948,129 @@ mod tests {
         assert!(bounded.at_bounds[2]);
         assert!((0..3).all(|k| bounded.covariance[(2, k)].is_nan()));
         assert!(bounded.covariance[(0, 1)].is_finite() && bounded.covariance[(0, 0)] > 0.0);
+    }
+
+    /// `y = a exp(b x) + c` measured in `labels.len() / per` sweeps of `per` points each, the
+    /// sweeps' residuals declared as clusters.
+    struct SweptExp {
+        exp: Exp,
+        labels: Vec<usize>,
+    }
+
+    impl LeastSquaresProblem for SweptExp {
+        fn n_params(&self) -> usize {
+            3
+        }
+        fn n_residuals(&self) -> usize {
+            self.exp.n_residuals()
+        }
+        fn data_clusters(&self) -> Option<&[usize]> {
+            Some(&self.labels)
+        }
+        fn residuals(&self, p: &[f64], r: &mut [f64]) {
+            self.exp.residuals(p, r);
+        }
+        fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
+            self.exp.residuals_and_jacobian(p, r, jac);
+        }
+    }
+
+    /// Monte Carlo over `replicates` data sets of `sweeps x 20` points of the known truth
+    /// `2.5 exp(-0.7 x) + 0.3` with white noise of `white` and, per sweep, a smooth error
+    /// `e_s sin(2 x)` with `e_s` of standard deviation `per_sweep`. Per parameter: the
+    /// estimates' standard deviation, the mean cluster-robust and the mean classical standard
+    /// error.
+    fn monte_carlo(sweeps: usize, white: f64, per_sweep: f64) -> [(f64, f64, f64); 3] {
+        let replicates = 300;
+        let per = 20;
+        let mut rng = crate::numerics::random::SplitMix64::new(18);
+        let (mut sum, mut sum2) = ([0.0; 3], [0.0; 3]);
+        let (mut robust, mut classical) = ([0.0; 3], [0.0; 3]);
+        for _ in 0..replicates {
+            let (mut x, mut y, mut labels) = (Vec::new(), Vec::new(), Vec::new());
+            for s in 0..sweeps {
+                let e = rng.normal(per_sweep);
+                for i in 0..per {
+                    let xi = 3.0 * i as f64 / (per - 1) as f64;
+                    x.push(xi);
+                    y.push(
+                        2.5 * (-0.7 * xi).exp() + 0.3 + e * (2.0 * xi).sin() + rng.normal(white),
+                    );
+                    labels.push(s);
+                }
+            }
+            let problem = SweptExp {
+                exp: Exp { x, y },
+                labels,
+            };
+            let out = minimize(
+                &problem,
+                &[2.0, -0.5, 0.0],
+                &Bounds::unbounded(3),
+                &Options::default(),
+            );
+            assert!(out.termination.converged(), "{:?}", out.termination);
+            for j in 0..3 {
+                sum[j] += out.params[j];
+                sum2[j] += out.params[j] * out.params[j];
+                robust[j] += out.std_errors[j].unwrap();
+                classical[j] += out.classical_std_errors[j].unwrap();
+            }
+        }
+        let r = replicates as f64;
+        let out: [(f64, f64, f64); 3] = std::array::from_fn(|j| {
+            let sd = ((sum2[j] - sum[j] * sum[j] / r) / (r - 1.0)).sqrt();
+            (sd, robust[j] / r, classical[j] / r)
+        });
+        eprintln!("white {white} per-sweep {per_sweep}: (spread, clustered, classical) {out:?}");
+        out
+    }
+
+    /// White noise: the cluster-robust standard errors agree with the classical ones and with
+    /// the spread of the estimates over repeated data sets.
+    #[test]
+    fn clustered_std_errors_match_classical_on_white_noise() {
+        for (j, (sd, robust, classical)) in monte_carlo(30, 0.05, 0.0).into_iter().enumerate() {
+            assert!(
+                (robust / classical - 1.0).abs() < 0.1,
+                "parameter {j}: robust {robust:.3e} classical {classical:.3e}"
+            );
+            assert!(
+                (robust / sd - 1.0).abs() < 0.15,
+                "parameter {j}: robust {robust:.3e} vs spread {sd:.3e}"
+            );
+        }
+    }
+
+    /// Smooth error shared along each sweep: the classical standard errors are far below the
+    /// spread of the estimates, the cluster-robust ones follow it.
+    #[test]
+    fn clustered_std_errors_see_correlated_sweep_error() {
+        for (j, (sd, robust, classical)) in monte_carlo(30, 0.01, 0.05).into_iter().enumerate() {
+            assert!(
+                classical < 0.5 * sd,
+                "parameter {j}: the case is not correlated: classical {classical:.3e} spread {sd:.3e}"
+            );
+            assert!(
+                (robust / sd - 1.0).abs() < 0.2,
+                "parameter {j}: robust {robust:.3e} vs spread {sd:.3e}"
+            );
+        }
+    }
+
+    /// Fewer than two clusters estimate nothing; the classical figure is still reported.
+    #[test]
+    fn one_cluster_has_no_clustered_std_errors() {
+        let exp = exp_data(false);
+        let labels = vec![0; exp.x.len()];
+        let out = minimize(
+            &SweptExp { exp, labels },
+            &[1.0, 0.0, 0.0],
+            &Bounds::unbounded(3),
+            &Options::default(),
+        );
+        assert!(out.std_errors.iter().all(|s| s.is_none()));
+        assert!(out.classical_std_errors.iter().all(|s| s.is_some()));
     }
 
     #[test]

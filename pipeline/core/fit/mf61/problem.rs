@@ -106,6 +106,11 @@ impl LeastSquaresProblem for Mf61FamilyProblem<'_> {
         self.data.len()
     }
 
+    /// Errors along a sweep are correlated (smooth model error), between sweeps independent.
+    fn data_clusters(&self) -> Option<&[usize]> {
+        Some(&self.data.sweeps)
+    }
+
     fn residuals(&self, p: &[f64], r: &mut [f64]) {
         let m = self.model_at(p);
         m.channel_into_at(

@@ -48,6 +48,9 @@ pub struct DataPoint {
     pub value: f64,
     /// Residual weight (1 / (sweep peak * sqrt(points in sweep * sweeps))).
     pub weight: f64,
+    /// Index of the point's sweep among the family's sweeps: the cluster of its residual
+    /// (errors along a sweep are correlated, between sweeps independent).
+    pub sweep: usize,
 }
 
 /// A quantity of the model that a constraint bounds from above.
@@ -194,6 +197,8 @@ pub struct FamilyProblem<'a> {
     fixed: Vec<Fixed>,
     /// Index in `fixed` of each point's first branch.
     first_fixed: Vec<usize>,
+    /// Each point's sweep ([`DataPoint::sweep`]): the clusters of the data residuals.
+    clusters: Vec<usize>,
 }
 
 impl<'a> FamilyProblem<'a> {
@@ -239,6 +244,7 @@ impl<'a> FamilyProblem<'a> {
             penalties,
             fixed,
             first_fixed,
+            clusters: points.iter().map(|p| p.sweep).collect(),
         }
     }
 
@@ -317,6 +323,9 @@ impl LeastSquaresProblem for FamilyProblem<'_> {
     fn n_data(&self) -> usize {
         self.points.len()
     }
+    fn data_clusters(&self) -> Option<&[usize]> {
+        Some(&self.clusters)
+    }
     fn residuals(&self, p: &[f64], r: &mut [f64]) {
         let c = self.coefs_at(p);
         for (ri, v) in r.iter_mut().zip(self.residual_rows(&c)) {
@@ -366,6 +375,7 @@ mod tests {
                     branches: BranchInputs::one(*input),
                     value: 1.0,
                     weight: 0.01,
+                    sweep: 0,
                 })
                 .collect();
             let penalties = [Penalty::Prior {

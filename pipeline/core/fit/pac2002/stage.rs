@@ -614,7 +614,7 @@ pub(super) fn data_points(
 ) -> Vec<DataPoint> {
     let max_peak = sweeps.iter().map(|s| s.peak(output)).fold(0.0, f64::max);
     let mut out = Vec::new();
-    for s in sweeps {
+    for (sweep, s) in sweeps.iter().enumerate() {
         let valid: Vec<_> = s
             .points
             .iter()
@@ -638,6 +638,7 @@ pub(super) fn data_points(
                 branches: valid[i].branches,
                 value: valid[i].output(output),
                 weight: w,
+                sweep,
             }
         }));
     }
