@@ -211,8 +211,13 @@ pub struct FitOutcome {
     /// where that is not a finite, non-negative number (on a bound, singular normal matrix, no
     /// spare degrees of freedom).
     pub std_errors: Vec<Option<f64>>,
-    /// The classical `s^2 (J^T J)^-1` standard errors (equal to `std_errors` without clusters):
-    /// their ratio to `std_errors` shows how much the within-cluster correlation matters.
+    /// The classical `s^2 (J^T J)^-1` (equal to `covariance` without clusters): the curvature
+    /// of the cost, which predicts how much the residual sum of squares grows when parameters
+    /// are moved or held (a Wald statistic), whatever the residuals' correlation.
+    pub classical_covariance: DMatrix<f64>,
+    /// The classical standard errors, from `classical_covariance` (equal to `std_errors`
+    /// without clusters): their ratio to `std_errors` shows how much the within-cluster
+    /// correlation matters.
     pub classical_std_errors: Vec<Option<f64>>,
     /// Which parameters ended on (within 1e-12 relative of) a bound.
     pub at_bounds: Vec<bool>,
@@ -599,6 +604,7 @@ impl<P: LeastSquaresProblem> Solver<'_, P> {
             covariance,
             std_errors,
             classical_std_errors,
+            classical_covariance: classical,
             at_bounds,
             identifiability,
             iterations: self.iterations,

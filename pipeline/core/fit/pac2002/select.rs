@@ -262,8 +262,9 @@ pub(super) fn hold_weak_groups(
 }
 
 /// The relative rise of the in-sample RMSE that holding `members` at their neutral values would
-/// cause to first order, from the refinement's covariance `S` (scaled by `s^2`, the weighted
-/// residual variance): with `d` the members' departures from neutral, the constrained fit's
+/// cause to first order, from the refinement's classical covariance `S = s^2 (J^T J)^-1` (`s^2`
+/// the weighted residual variance; the cost's curvature, not the cluster-robust covariance of
+/// the standard errors): with `d` the members' departures from neutral, the constrained fit's
 /// residual sum of squares grows by `s^2 d^T S_gg^-1 d` (the Wald statistic; the block of the
 /// covariance carries the members' correlation with every other free coefficient), relative to
 /// the fit's `s^2 (n_data - n_free)`. `None` when a member sits on a bound or the block is not a
@@ -273,7 +274,7 @@ fn predicted_rise(members: &[Coef], fitted: &FittedFamily, c: &Coefs<f64>) -> Op
         .iter()
         .map(|m| fitted.free.iter().position(|f| f == m))
         .collect::<Option<_>>()?;
-    let cov = &fitted.outcome.covariance;
+    let cov = &fitted.outcome.classical_covariance;
     let k = idx.len();
     let block = DMatrix::from_fn(k, k, |x, y| cov[(idx[x], idx[y])]);
     if block.iter().any(|v| !v.is_finite()) {
