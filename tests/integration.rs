@@ -9,6 +9,7 @@ mod inertia;
 mod ingest;
 mod mf61_run;
 mod real;
+mod real_mf61_pressure;
 mod real_quality;
 mod report;
 mod run;

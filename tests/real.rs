@@ -193,6 +193,21 @@ fn real_data_cornering_fit_against_mf61() {
 fn cornering_mf61_groups(
     real: &Path,
 ) -> (String, f64, Vec<tirebase::core::fit::mf61::PressureGroup>) {
+    let (tire, rim, groups, _) = mf61_groups(real, "cornering.mat");
+    (tire, rim, groups)
+}
+
+/// [`cornering_mf61_groups`] for any file of `shared/real/`, also with the segments each tested
+/// pressure's sweeps came from (nominal pressure, kPa -> segments, in file order).
+pub(crate) fn mf61_groups(
+    real: &Path,
+    file: &str,
+) -> (
+    String,
+    f64,
+    Vec<tirebase::core::fit::mf61::PressureGroup>,
+    std::collections::BTreeMap<i64, Vec<tirebase::core::fit::segment_data::MeasuredSegment>>,
+) {
     use std::collections::BTreeMap;
     use tirebase::core::fit::mf61::{Mf61Sweep, Pac2002AtPressure, PressureGroup};
     use tirebase::core::fit::pac2002::{self, FitConfig, FitInput, Sweep};
@@ -200,9 +215,9 @@ fn cornering_mf61_groups(
     use tirebase::core::fit::spring_rate::{self, SpringRateConfig};
     use tirebase::core::segment::{self, RunSignals, SegmentConfig};
 
-    let path = real.join("cornering.mat");
+    let path = real.join(file);
     let bytes = std::fs::read(&path).unwrap();
-    let table = tirebase::core::ttc::read_run(&bytes, "cornering.mat").expect("read");
+    let table = tirebase::core::ttc::read_run(&bytes, file).expect("read");
     let empty: Vec<f64> = Vec::new();
     let signals = RunSignals::from_iso_w(
         &table.tire,
@@ -212,7 +227,7 @@ fn cornering_mf61_groups(
         table.loaded_radius_m.as_ref().unwrap_or(&empty),
     );
     let (segs, _) = segment::run(&signals, &SegmentConfig::default()).expect("segment");
-    let (tire, rim) = ("cornering".to_string(), 7.0);
+    let (tire, rim) = (file.trim_end_matches(".mat").to_string(), 7.0);
     let mut by_pressure: BTreeMap<i64, Vec<MeasuredSegment>> = BTreeMap::new();
     for seg in segs {
         let Some(p) = seg.nominal.pressure_kpa else {
@@ -229,7 +244,7 @@ fn cornering_mf61_groups(
         by_pressure
             .entry(p)
             .or_default()
-            .push(MeasuredSegment::of_run(&table, "cornering.mat", &seg, key));
+            .push(MeasuredSegment::of_run(&table, file, &seg, key));
     }
     let median = |mut v: Vec<f64>| {
         v.retain(|x| x.is_finite());
@@ -297,7 +312,7 @@ fn cornering_mf61_groups(
             }),
         });
     }
-    (tire, rim, groups)
+    (tire, rim, groups, by_pressure)
 }
 
 /// Issue 19 opt-in real-data check: one MF 6.1 model fitted by `fit::mf61` on every pressure of

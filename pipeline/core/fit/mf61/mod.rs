@@ -29,6 +29,11 @@
 //!    friction's pressure terms, then also its load and camber terms, held at 0, and the first
 //!    physical result is kept with a note (none physical: a note, and the lint flags the file).
 //!
+//! 5. Notes: among others, a tested pressure whose per-pressure friction or slip stiffness lies
+//!    beyond both neighbouring pressures (`pressure_order_notes`): an optimum between the
+//!    tested pressures or a block that differs by more than pressure, which no fit of the
+//!    others predicts.
+//!
 //! Deliberately not here: reading the store, writing files or tables (the `tirebase` crate),
 //! relaxation and spring-rate fitting (their per-pressure results are inputs; the relaxation
 //! pressure term `PCFX3`/`PCFY3` and `PFZ1` come from their trends in [`initial`]).
@@ -1219,6 +1224,7 @@ pub fn fit_collapsed(
     }
     let kfold_seconds = kfold_started.elapsed().as_secs_f64();
     let mut notes = full.notes.clone();
+    notes.extend(pressure_order_notes(&groups, &points, &full.model));
     // Leaving one of two pressures out would fit the pressure terms from one pressure: not a
     // test of the model, so only with three or more.
     if cfg.leave_one_pressure_out && groups.len() >= 3 {
@@ -1281,6 +1287,114 @@ pub fn fit_collapsed(
         notes,
         seconds: started.elapsed().as_secs_f64(),
     })
+}
+
+/// How far beyond both neighbouring tested pressures a pressure's friction or slip stiffness
+/// must lie to be noted: a margin for the per-pressure fits' own uncertainty.
+pub const PRESSURE_ORDER_MARGIN: f64 = 0.03;
+
+/// Notes on tested pressures whose per-pressure (PAC2002) peak friction or slip stiffness,
+/// evaluated at `model`'s `FNOMIN` and zero inclination, lies more than
+/// [`PRESSURE_ORDER_MARGIN`] above or below both neighbouring tested pressures (`Fx0`: `mu_x`,
+/// `Kxk`; `Fy0`: `mu_y`, `Kya`; only pressures with the family's sweeps). Such a pressure is
+/// either an optimum of the tire between the tested pressures or a block of sweeps that differs
+/// from the others by more than pressure (run order, tread temperature, wear): the tested
+/// pressures cannot tell these apart, the quadratic pressure terms bend through it, and a fit
+/// without it (the leave-one-pressure-out check) cannot predict it.
+fn pressure_order_notes(
+    groups: &[&CollapsedGroup],
+    points: &[Point],
+    model: &MagicFormula,
+) -> Vec<String> {
+    let pure = PureData::of(points);
+    let mut notes = Vec::new();
+    for family in [Family::Fx0, Family::Fy0] {
+        let with_data = if family == Family::Fx0 {
+            &pure.longitudinal
+        } else {
+            &pure.lateral
+        };
+        // (kPa, |mu|, |K|) per pressure with the family's data and a PAC2002 fit, in order.
+        let levels: Vec<(i64, f64, f64)> = groups
+            .iter()
+            .enumerate()
+            .filter(|(g, _)| with_data.contains(g))
+            .filter_map(|(_, g)| {
+                let pac = g.pac2002.as_ref()?;
+                let input = SlipInput {
+                    fz_n: model.coefs[FNOMIN],
+                    kappa: 0.0,
+                    alpha_rad: 0.0,
+                    gamma_rad: 0.0,
+                    vx_mps: model.coefs[LONGVL],
+                };
+                let l = load_with(
+                    &pac.model.coefs,
+                    &input,
+                    FIT_MODE,
+                    pac.model.version,
+                    pac.p_pa,
+                );
+                let f = slip_factors(&pac.model.coefs, &l);
+                let (mu, k) = if family == Family::Fx0 {
+                    (f.mux, f.kxk_n)
+                } else {
+                    (f.muy, f.kya_n_per_rad)
+                };
+                (mu.is_finite() && k.is_finite()).then_some((g.pressure_kpa_nom, mu.abs(), k.abs()))
+            })
+            .collect();
+        for w in levels.windows(3) {
+            let [lo, mid, hi] = [w[0], w[1], w[2]];
+            let out_of_order = |v: fn(&(i64, f64, f64)) -> f64| {
+                let (a, b, m) = (v(&lo), v(&hi), v(&mid));
+                if m > a.max(b) * (1.0 + PRESSURE_ORDER_MARGIN) {
+                    Some("above")
+                } else if m < a.min(b) * (1.0 - PRESSURE_ORDER_MARGIN) {
+                    Some("below")
+                } else {
+                    None
+                }
+            };
+            let (mu_name, k_name) = if family == Family::Fx0 {
+                ("mu_x", "Kxk")
+            } else {
+                ("mu_y", "Kya")
+            };
+            let found: Vec<String> = [
+                (mu_name, out_of_order(|x| x.1), lo.1, mid.1, hi.1),
+                (k_name, out_of_order(|x| x.2), lo.2, mid.2, hi.2),
+            ]
+            .iter()
+            .filter_map(|(name, side, a, m, b)| {
+                let v = |x: &f64| {
+                    if *x < 100.0 {
+                        format!("{x:.3}")
+                    } else {
+                        format!("{x:.0}")
+                    }
+                };
+                side.map(|side| format!("{name} {} {side} {} / {}", v(m), v(a), v(b)))
+            })
+            .collect();
+            if !found.is_empty() {
+                notes.push(format!(
+                    "{}: at {} kPa the per-pressure fit's {} at {} / {} kPa (at FNOMIN, zero \
+                     inclination): not in pressure order. Either the tire peaks between the \
+                     tested pressures or that pressure's sweeps differ from the others by more \
+                     than pressure (run order, tread temperature, wear); the tested pressures \
+                     cannot tell these apart, the pressure terms bend through it, and a fit \
+                     without it cannot predict it",
+                    family.as_str(),
+                    mid.0,
+                    found.join(", "),
+                    lo.0,
+                    hi.0
+                ));
+            }
+        }
+    }
+    notes
 }
 
 /// Every MF 6.1 coefficient with its origin.

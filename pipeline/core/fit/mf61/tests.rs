@@ -428,3 +428,59 @@ fn a_friction_above_the_limit_in_the_tested_envelope_is_repaired_and_noted() {
     println!("{note}");
     assert!(note.contains("held at 0: RMSE"), "{note}");
 }
+
+/// A pressure block that differs from its neighbours by more than pressure, as the real
+/// drive/brake file's middle pressure (tested first, on a cooler tread: friction and slip
+/// stiffness above both neighbours): the 83 kPa sweeps and start come from the truth with
+/// `PDX1` and `PKX1` 8 % higher. The fit notes that block (and the clean truth gets no such
+/// note), and leaving it out shows it is not predicted from the others.
+#[test]
+fn a_pressure_block_out_of_pressure_order_is_noted() {
+    let truth = truth();
+    let clean = input(&truth, &[69, 83, 97]);
+    let mut drifted = clean.clone();
+    let other = {
+        let mut m = truth.clone();
+        m.coefs[PDX1] *= 1.08;
+        m.coefs[PKX1] *= 1.08;
+        m
+    };
+    let middle = &mut drifted.groups[1];
+    assert_eq!(middle.pressure_kpa_nom, 83);
+    middle.sweeps = sweeps(&other, 83e3);
+    middle.pac2002 = Some(pac2002_start(&other, 83e3));
+    let cfg = Mf61Config {
+        kfold: 0,
+        ..Mf61Config::default()
+    };
+    let noted = |f: &Mf61Fit| -> Vec<String> {
+        f.notes
+            .iter()
+            .filter(|n| n.contains("not in pressure order"))
+            .cloned()
+            .collect()
+    };
+    let lopo_at_83 = |f: &Mf61Fit| {
+        f.family_quality
+            .iter()
+            .find(|q| q.family == Family::Fx0 && q.pressure_kpa_nom == 83)
+            .and_then(|q| q.lopo_rmse)
+            .expect("a left-out-pressure figure at 83 kPa")
+    };
+    let clean_fit = fit(&clean, &cfg).unwrap();
+    let drifted_fit = fit(&drifted, &cfg).unwrap();
+    let n = noted(&drifted_fit);
+    println!("{n:?}");
+    println!(
+        "Fx0 at 83 kPa left out: clean {:.2} N, drifted {:.2} N",
+        lopo_at_83(&clean_fit),
+        lopo_at_83(&drifted_fit)
+    );
+    assert!(noted(&clean_fit).is_empty(), "{:?}", clean_fit.notes);
+    assert_eq!(n.len(), 1, "{n:?}");
+    assert!(
+        n[0].starts_with("Fx0: at 83 kPa") && n[0].contains("mu_x") && n[0].contains("Kxk"),
+        "{n:?}"
+    );
+    assert!(lopo_at_83(&drifted_fit) > 5.0 * lopo_at_83(&clean_fit));
+}
