@@ -447,10 +447,10 @@ against load Fz (N) per tire and rim at its design camber, peak mu_y against cam
 nominal load, the thermal window (grip relative to its optimum against tread temperature,
 degC), the friction envelopes (Fx against Fy, N) of the top four tires at the nominal load, and
 the ranked comparison table; then the round overview (tires, rims, nominal pressures, segments
-and models per tire), the rig-inertia results (inertia.parquet), the fit-quality table (out-of-sample
-error first) with the three worst fits (largest out-of-sample RMSE in percent of the channel's
-peak, in-sample where a row has none) highlighted, lint warnings, failures and every input that
-was missing or unreadable.
+and models per tire), the rig-inertia results (inertia.parquet), the three worst fits (largest
+out-of-sample RMSE in percent of the channel's peak, in-sample where a row has none; both
+figures shown), the fit-quality table (out-of-sample error first, the worst highlighted), lint
+warnings, failures and every input that was missing or unreadable.
 
 Each tire page draws, with measured samples of QC-clean segments as markers (decimated) and the
 fitted PAC2002 model of RESULTS/tir/<tire>__<rim>in__<P>kPa.tir as lines (evaluated at the

@@ -130,6 +130,58 @@ fn worst_fit_rows(data: &ReportData) -> Vec<usize> {
     order
 }
 
+/// The worst-fits table: each row's out-of-sample and in-sample RMSE in percent of the
+/// channel's peak side by side, in the order of [`worst_fit_rows`] (out-of-sample first).
+fn worst_fits_html(rows: &[QualityRow], worst: &[usize]) -> String {
+    const COLUMNS: &[&str] = &[
+        "tire",
+        "rim_in",
+        "pressure_kpa",
+        "model",
+        "channel",
+        "oos_pct_of_peak",
+        "rmse_pct_of_peak",
+        "oos_ratio",
+        "oos_folds",
+        "ranked_by",
+    ];
+    let cells = worst.iter().map(|&i| {
+        let q = &rows[i];
+        let oos_pct = q
+            .oos_ratio
+            .filter(|r| r.is_finite())
+            .and_then(|r| Some(q.rmse_pct_of_peak.filter(|v| v.is_finite())? * r));
+        let ranked_by = match (oos_pct, q.oos_folds) {
+            (Some(_), Some(k)) if k > 0 => format!("out-of-sample ({k}-fold by sweep)"),
+            (Some(_), _) => "out-of-sample".to_string(),
+            (None, _) if q.rmse_pct_of_peak.is_some_and(f64::is_finite) => {
+                "in-sample (no out-of-sample figure)".to_string()
+            }
+            (None, _) => "1 - r2".to_string(),
+        };
+        let row = vec![
+            text(&q.tire),
+            Cell::Int(q.rim_in),
+            Cell::Int(q.pressure_kpa),
+            text(&q.model),
+            text(&q.channel),
+            float(oos_pct),
+            float(q.rmse_pct_of_peak),
+            float(q.oos_ratio),
+            int(q.oos_folds),
+            Cell::Text(ranked_by),
+        ];
+        (true, row)
+    });
+    let mut out = String::from(
+        "<p class=\"note\">ordered by the out-of-sample RMSE in percent of the channel's peak \
+         (oos_pct_of_peak = rmse_pct_of_peak x oos_ratio, k-fold by sweep); the in-sample figure \
+         where a row has no out-of-sample one</p>\n",
+    );
+    out.push_str(&grid_html(COLUMNS, cells));
+    out
+}
+
 /// One cell of a result table as shown.
 pub(super) enum Cell {
     Text(String),
@@ -590,7 +642,7 @@ fn index_page(
         && !worst.is_empty()
     {
         out.push_str("<h2 id=\"worst-fits\">Worst fits</h2>\n");
-        out.push_str(&table_html(rows, worst, &worst_set));
+        out.push_str(&worst_fits_html(rows, worst));
     }
     out.push_str(&table_section(
         r.fit_quality.as_deref(),
@@ -735,6 +787,44 @@ mod tests {
     fn page_names_are_unique() {
         let names = page_names(&["A b".to_string(), "a_b".to_string()]);
         assert_eq!(names, vec!["tire-a_b.html", "tire-a_b-2.html"]);
+    }
+
+    /// A fit-quality row with an in-sample error and (where given) an out-of-sample ratio.
+    fn quality(tire: &str, pct: f64, oos_ratio: Option<f64>) -> QualityRow {
+        QualityRow {
+            oos_ratio,
+            oos_folds: oos_ratio.map(|_| 5),
+            ..QualityRow::pct_of_peak_only(tire, 83, "fy", pct)
+        }
+    }
+
+    #[test]
+    fn worst_fits_rank_by_out_of_sample_error_and_show_both() {
+        let data = ReportData {
+            results: crate::store::results::Results {
+                fit_quality: Some(vec![
+                    // in-sample worst, generalises well: 2.0 % -> 2.2 % out of sample
+                    quality("a", 2.0, Some(1.1)),
+                    // in-sample best, worst out of sample: 1.0 % -> 4.0 %
+                    quality("b", 1.0, Some(4.0)),
+                    // no out-of-sample figure: ranked by its in-sample 1.5 %
+                    quality("c", 1.5, None),
+                    quality("d", 1.2, Some(2.0)),
+                ]),
+                ..Default::default()
+            },
+            ..ReportData::default()
+        };
+        assert_eq!(worst_fit_rows(&data), vec![1, 3, 0]);
+        let rows = data.results.fit_quality.as_deref().unwrap();
+        let html = worst_fits_html(rows, &worst_fit_rows(&data));
+        assert!(html.contains("<th>oos_pct_of_peak</th><th>rmse_pct_of_peak</th>"));
+        // row b: out-of-sample 4 %, in-sample 1 %
+        assert!(
+            html.contains("<td class=\"num\">4.0000</td><td class=\"num\">1.0000</td>"),
+            "{html}"
+        );
+        assert!(html.contains("out-of-sample (5-fold by sweep)"));
     }
 
     #[test]
