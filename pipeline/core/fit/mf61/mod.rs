@@ -527,6 +527,10 @@ pub struct Mf61Fit {
     pub kfold_seconds: f64,
     /// Wall time of the whole stage including the out-of-sample refits, s.
     pub seconds: f64,
+    /// The tested pressure (kPa) whose PAC2002 model the start was lifted from
+    /// ([`initial::reference`]): what a coefficient of origin `start` without a pressure trend
+    /// (`BREFF`, `DREFF`, `FREFF`, ..) holds is that model's value.
+    pub start_reference_kpa: i64,
 }
 
 /// Bad input.
@@ -1139,6 +1143,13 @@ pub fn fit_collapsed(
             .collect()
     };
     let all: Vec<usize> = (0..groups.len()).collect();
+    let with_start: Vec<&CollapsedGroup> = groups
+        .iter()
+        .copied()
+        .filter(|g| g.pac2002.is_some())
+        .collect();
+    let start_reference_kpa =
+        with_start[initial::reference(&models_of(None), nominal_pa)].pressure_kpa_nom;
     let full = fit_points(&models_of(None), &points, nominal_pa, range_of(&all), cfg);
     let mut quality = Vec::new();
     for (g, group) in groups.iter().enumerate() {
@@ -1280,6 +1291,7 @@ pub fn fit_collapsed(
         families: full.families,
         notes,
         seconds: started.elapsed().as_secs_f64(),
+        start_reference_kpa,
     })
 }
 
