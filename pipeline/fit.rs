@@ -523,7 +523,7 @@ fn fit_one(
                         result.failures.push(FitFailure::new(
                             &plan.key,
                             "pac2002",
-                            &format!("lint {} {}", m.file_name, f.code),
+                            &crate::store::results::lint_scope(&m.file_name, f.code),
                             false,
                             f.message.clone(),
                         ));

@@ -35,6 +35,7 @@ use tirebase_core::tire_model::{Coef, Section, Version};
 use super::FitFailure;
 use super::tir::{GEOMETRY, TirBuildError, WrittenCoefficient, WrittenModel, set_geometry};
 use crate::config::FitModel;
+use crate::store::results::{PRESSURE_TERMS_SCOPE, lint_scope};
 
 /// Stage name in `fit_failures` and in the stage timings.
 pub const STAGE: &str = "mf61";
@@ -166,7 +167,7 @@ pub fn run(tire: &str, rim_in: i64, parts: &[Mf61Part], cfg: &Mf61Config) -> Mf6
     if with_data.len() < 2 {
         fail(
             &mut out,
-            "pressure terms",
+            PRESSURE_TERMS_SCOPE,
             false,
             "one tested pressure: the model has no pressure terms (all 0)".to_string(),
         );
@@ -195,7 +196,7 @@ pub fn run(tire: &str, rim_in: i64, parts: &[Mf61Part], cfg: &Mf61Config) -> Mf6
             {
                 fail(
                     &mut out,
-                    &format!("lint {} {}", m.file_name, f.code),
+                    &lint_scope(&m.file_name, f.code),
                     false,
                     f.message.clone(),
                 );
