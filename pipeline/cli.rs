@@ -251,7 +251,8 @@ dependency order, per group (groups run in parallel; the output does not depend 
                -> OUT/spring_rate.parquet (stiffness_n_per_m N/m, unloaded_radius_m m, ...)
   pac2002      PAC2002 (MF 5.2) on the cornering, drive/brake and combined sweeps (QC-flagged
                segments whose flags spoil forces are left out): Fy0 -> Mz0 -> Fx0 -> Fx, Fy
-               -> Mz -> Mx (My a placeholder), Cz and R0 from spring_rate.
+               -> Mz -> Mx (My a labelled placeholder, 0 unless [fit]
+               rolling_resistance_placeholder sets QSY1), Cz and R0 from spring_rate.
                -> OUT/tir/<tire>__<rim>in__<P>kPa.tir (<tire>__rim-unknown__<P>kPa.tir when
                the catalog gives no rim; SI units, ISO-W axes; tire, rim and
                pressure in [MDI_HEADER], IP/IP_NOM in Pa, USE_MODE = families fitted, +10

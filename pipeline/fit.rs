@@ -1085,6 +1085,31 @@ mod tests {
         );
     }
 
+    /// The MF 6.1 model's rolling resistance terms are labelled placeholders (rows and file),
+    /// never `start` values that read as if they were known.
+    #[test]
+    fn mf61_my_terms_are_labelled_placeholders() {
+        use tirebase_core::tire_model::Coef;
+        let cfg = Config::default().fit.mf61();
+        let o = fit_mf61("T", 7, &[one_pressure_part(&cfg, |_| Vec::new())], &cfg);
+        let m = o.model.expect("a model");
+        let qsy1 = m
+            .coefficients
+            .iter()
+            .find(|r| r.coef == Coef::QSY1)
+            .unwrap();
+        assert_eq!(qsy1.origin, "placeholder", "{qsy1:?}");
+        assert!(
+            qsy1.note
+                .as_deref()
+                .is_some_and(|n| n.contains("TTC records no"))
+        );
+        assert!(
+            m.text.contains("My not fitted"),
+            "no My note in the file header"
+        );
+    }
+
     #[test]
     fn stage_sets_print_and_parse_back() {
         for list in [

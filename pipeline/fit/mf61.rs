@@ -244,6 +244,11 @@ fn record_out_of_sample_flags(out: &mut Mf61Outcome, key: &TireKey, fit: &Mf61Fi
     }
 }
 
+/// The note of the rolling resistance rows (origin `placeholder`).
+const MY_PLACEHOLDER_NOTE: &str = "placeholder, not fitted: TTC records no rolling resistance \
+     moment (My); the value of the PAC2002 start, whose QSY1 is [fit] \
+     rolling_resistance_placeholder (0 by default: My = 0)";
+
 /// The coefficients table's family of a coefficient the refinement did not fit.
 fn family_of_start(c: Coef) -> &'static str {
     match c {
@@ -324,10 +329,13 @@ fn build(
             std_error: c.std_error,
             at_bound: c.at_bound,
             origin: c.origin.to_string(),
-            note: c
-                .at_bound
-                .then(|| mf61::bound_note(c.coef, c.value))
-                .flatten(),
+            note: if c.origin == "placeholder" {
+                Some(MY_PLACEHOLDER_NOTE.to_string())
+            } else {
+                c.at_bound
+                    .then(|| mf61::bound_note(c.coef, c.value))
+                    .flatten()
+            },
         })
         .collect();
     rows.retain(|r| !GEOMETRY.contains(&r.coef));

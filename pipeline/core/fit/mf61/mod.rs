@@ -422,7 +422,8 @@ pub struct Mf61Coefficient {
     pub std_error: Option<f64>,
     /// On a bound of the refinement.
     pub at_bound: bool,
-    /// `fitted`, `start` (from the PAC2002 fits: lifted or their pressure trend, not refined).
+    /// `fitted`, `start` (from the PAC2002 fits: lifted or their pressure trend, not refined),
+    /// `placeholder` (the rolling resistance terms `QSY1..QSY8`: TTC records no `My`).
     pub origin: &'static str,
 }
 
@@ -1230,6 +1231,16 @@ pub fn fit_collapsed(
     }
     let kfold_seconds = kfold_started.elapsed().as_secs_f64();
     let mut notes = full.notes.clone();
+    notes.push(format!(
+        "My not fitted: TTC records no rolling resistance moment; QSY1..QSY8 are the PAC2002 \
+         start's placeholder (QSY1 = {}{})",
+        full.model.coefs[QSY1],
+        if full.model.coefs[QSY1] == 0.0 {
+            ": My = 0, no moment claimed"
+        } else {
+            ", not measured"
+        }
+    ));
     // Leaving one of two pressures out would fit the pressure terms from one pressure: not a
     // test of the model, so only with three or more.
     if cfg.leave_one_pressure_out && groups.len() >= 3 {
@@ -1295,6 +1306,9 @@ pub fn fit_collapsed(
     })
 }
 
+/// The rolling resistance terms: never refined (TTC records no `My`), placeholders.
+const ROLLING: [Coef; 8] = [QSY1, QSY2, QSY3, QSY4, QSY5, QSY6, QSY7, QSY8];
+
 /// Every MF 6.1 coefficient with its origin.
 fn coefficient_list(f: &Fitted) -> Vec<Mf61Coefficient> {
     Coef::ALL
@@ -1308,7 +1322,11 @@ fn coefficient_list(f: &Fitted) -> Vec<Mf61Coefficient> {
                 value: f.model.coefs[*c],
                 std_error: fitted.and_then(|s| if s.2 { None } else { s.1 }),
                 at_bound: fitted.is_some_and(|s| s.2),
-                origin: if fitted.is_some() { "fitted" } else { "start" },
+                origin: match fitted {
+                    Some(_) => "fitted",
+                    None if ROLLING.contains(c) => "placeholder",
+                    None => "start",
+                },
             }
         })
         .collect()
