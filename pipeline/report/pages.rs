@@ -17,6 +17,7 @@ use super::plots;
 use super::selection::SelectionSection;
 use super::svg::{Plot, escape};
 use crate::compare::Comparison;
+use crate::schema::TableName;
 use crate::store::results::{CoefficientRecord, FitFailure, LintRow, QualityRow};
 
 /// Rows of fit quality highlighted as the worst of the round.
@@ -194,7 +195,7 @@ pub(super) enum Cell {
 /// A typed result row shown as an HTML table row: its columns and its cells.
 trait Tabular {
     /// Column headers, in order.
-    const COLUMNS: &'static [&'static str];
+    fn columns() -> Vec<&'static str>;
     /// The row's tire.
     fn tire(&self) -> &str;
     /// One cell per column.
@@ -217,29 +218,31 @@ fn int(v: Option<i64>) -> Cell {
 /// points first. `seconds` (wall time) is left out so the same results give the same report
 /// bytes.
 impl Tabular for QualityRow {
-    const COLUMNS: &'static [&'static str] = &[
-        "tire",
-        "rim_in",
-        "pressure_kpa",
-        "model",
-        "channel",
-        "oos_rmse",
-        "rmse",
-        "oos_ratio",
-        "oos_flag",
-        "trend_dev_max",
-        "trend_dev_pct_of_peak",
-        "n_free",
-        "jacobian_rank",
-        "condition_number",
-        "n",
-        "rmse_pct_of_peak",
-        "r2",
-        "sample_rmse",
-        "initial_rmse",
-        "iterations",
-        "termination",
-    ];
+    fn columns() -> Vec<&'static str> {
+        vec![
+            "tire",
+            "rim_in",
+            "pressure_kpa",
+            "model",
+            "channel",
+            "oos_rmse",
+            "rmse",
+            "oos_ratio",
+            "oos_flag",
+            "trend_dev_max",
+            "trend_dev_pct_of_peak",
+            "n_free",
+            "jacobian_rank",
+            "condition_number",
+            "n",
+            "rmse_pct_of_peak",
+            "r2",
+            "sample_rmse",
+            "initial_rmse",
+            "iterations",
+            "termination",
+        ]
+    }
     fn tire(&self) -> &str {
         &self.tire
     }
@@ -270,71 +273,90 @@ impl Tabular for QualityRow {
     }
 }
 
-impl Tabular for LintRow {
-    const COLUMNS: &'static [&'static str] = &[
-        "tire",
-        "rim_in",
-        "pressure_kpa",
-        "model",
-        "file",
-        "severity",
-        "code",
-        "message",
-    ];
+/// A row of a table the report shows whole: its columns are the schema's, in the schema's order
+/// (`schemas/<table>.toml`, the one definition of them), each cell looked up by column name.
+trait SchemaRow {
+    /// The table.
+    const TABLE: TableName;
+    /// The row's tire.
+    fn row_tire(&self) -> &str;
+    /// The cell of `column` (`Cell::Empty` for a column the row does not know).
+    fn cell(&self, column: &str) -> Cell;
+}
+
+impl<T: SchemaRow> Tabular for T {
+    fn columns() -> Vec<&'static str> {
+        crate::schema::table(T::TABLE)
+            .columns
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect()
+    }
     fn tire(&self) -> &str {
-        &self.tire
+        self.row_tire()
     }
     fn cells(&self) -> Vec<Cell> {
-        vec![
-            text(&self.tire),
-            Cell::Int(self.rim_in),
-            Cell::Int(self.pressure_kpa),
-            text(&self.model),
-            text(&self.file),
-            text(&self.severity),
-            text(&self.code),
-            text(&self.message),
-        ]
+        Self::columns().into_iter().map(|c| self.cell(c)).collect()
     }
 }
 
-impl Tabular for FitFailure {
-    const COLUMNS: &'static [&'static str] = &[
-        "tire",
-        "rim_in",
-        "pressure_kpa",
-        "stage",
-        "scope",
-        "fatal",
-        "reason",
-    ];
-    fn tire(&self) -> &str {
+/// The cell of a group column (`tire`, `rim_in`, `pressure_kpa`: every result table has them),
+/// `Cell::Empty` for any other.
+fn group_cell(tire: &str, rim_in: i64, pressure_kpa: i64, column: &str) -> Cell {
+    match column {
+        "tire" => text(tire),
+        "rim_in" => Cell::Int(rim_in),
+        "pressure_kpa" => Cell::Int(pressure_kpa),
+        _ => Cell::Empty,
+    }
+}
+
+impl SchemaRow for LintRow {
+    const TABLE: TableName = TableName::Lint;
+    fn row_tire(&self) -> &str {
         &self.tire
     }
-    fn cells(&self) -> Vec<Cell> {
-        vec![
-            text(&self.tire),
-            Cell::Int(self.rim_in),
-            Cell::Int(self.pressure_kpa),
-            text(&self.stage),
-            text(&self.scope),
-            Cell::Bool(self.fatal),
-            text(&self.reason),
-        ]
+    fn cell(&self, column: &str) -> Cell {
+        match column {
+            "model" => text(&self.model),
+            "file" => text(&self.file),
+            "severity" => text(&self.severity),
+            "code" => text(&self.code),
+            "message" => text(&self.message),
+            _ => group_cell(&self.tire, self.rim_in, self.pressure_kpa, column),
+        }
+    }
+}
+
+impl SchemaRow for FitFailure {
+    const TABLE: TableName = TableName::FitFailures;
+    fn row_tire(&self) -> &str {
+        &self.tire
+    }
+    fn cell(&self, column: &str) -> Cell {
+        match column {
+            "stage" => text(&self.stage),
+            "scope" => text(&self.scope),
+            "fatal" => Cell::Bool(self.fatal),
+            "reason" => text(&self.reason),
+            _ => group_cell(&self.tire, self.rim_in, self.pressure_kpa, column),
+        }
     }
 }
 
 /// A coefficient at a bound, shown on its tire's page (the tire is the page's).
 impl Tabular for CoefficientRecord {
-    const COLUMNS: &'static [&'static str] = &[
-        "rim_in",
-        "pressure_kpa",
-        "model",
-        "family",
-        "name",
-        "value",
-        "std_error",
-    ];
+    fn columns() -> Vec<&'static str> {
+        vec![
+            "rim_in",
+            "pressure_kpa",
+            "model",
+            "family",
+            "name",
+            "value",
+            "std_error",
+        ]
+    }
     fn tire(&self) -> &str {
         &self.tire
     }
@@ -354,7 +376,7 @@ impl Tabular for CoefficientRecord {
 /// Rows of a result table (by index) as HTML; `worst` rows highlighted.
 fn table_html<T: Tabular>(rows: &[T], show: &[usize], worst: &BTreeSet<usize>) -> String {
     grid_html(
-        T::COLUMNS,
+        &T::columns(),
         show.iter().map(|&i| (worst.contains(&i), rows[i].cells())),
     )
 }
@@ -825,6 +847,50 @@ mod tests {
             "{html}"
         );
         assert!(html.contains("out-of-sample (5-fold by sweep)"));
+    }
+
+    /// The lint and failure tables show every column of their schema, each with its value:
+    /// a column added to `schemas/` without a cell here shows as empty and fails this test.
+    #[test]
+    fn tables_shown_whole_follow_their_schema() {
+        let failure = FitFailure {
+            tire: "T".into(),
+            rim_in: 7,
+            pressure_kpa: 83,
+            stage: "pac2002".into(),
+            scope: "sweep 4".into(),
+            fatal: false,
+            reason: "r".into(),
+        };
+        let lint = LintRow {
+            tire: "T".into(),
+            rim_in: 7,
+            pressure_kpa: 83,
+            model: "pac2002".into(),
+            file: "t.tir".into(),
+            severity: "error".into(),
+            code: "c".into(),
+            message: "m".into(),
+        };
+        for (table, columns, cells) in [
+            (
+                TableName::FitFailures,
+                FitFailure::columns(),
+                failure.cells(),
+            ),
+            (TableName::Lint, LintRow::columns(), lint.cells()),
+        ] {
+            let schema: Vec<&str> = crate::schema::table(table)
+                .columns
+                .iter()
+                .map(|c| c.name.as_str())
+                .collect();
+            assert_eq!(columns, schema);
+            assert_eq!(cells.len(), columns.len());
+            for (c, cell) in columns.iter().zip(&cells) {
+                assert!(!matches!(cell, Cell::Empty), "{table:?}.{c} has no cell");
+            }
+        }
     }
 
     #[test]
