@@ -285,7 +285,7 @@ pub struct SpringRateRecord {
     pub tire: String,
     pub rim_in: i64,
     pub pressure_kpa: i64,
-    /// None when the inclination was swept.
+    /// None when the inclination was swept (the table's -1; a held -2 deg stays -2).
     pub ia_deg_nom: Option<i64>,
     pub condition: String,
     pub stiffness_n_per_m: f64,
@@ -652,7 +652,7 @@ fn spring_rate_rows(df: &DataFrame, path: &Path) -> Result<Vec<SpringRateRecord>
             tire: tire[i].clone(),
             rim_in: rim[i],
             pressure_kpa: p[i],
-            ia_deg_nom: ia[i].filter(|&a| a >= 0),
+            ia_deg_nom: ia[i].filter(|&a| a != super::layout::SWEPT),
             condition: condition[i].clone(),
             stiffness_n_per_m: cz[i],
         })
@@ -990,6 +990,20 @@ mod tests {
         );
         assert!(r.notes.iter().any(|n| n == "thermal.parquet: not present"));
         assert_eq!(r.groups(), BTreeSet::from([("X".to_string(), 7, 83)]));
+    }
+
+    /// A held negative inclination is a level, not "swept": only the table's -1 reads as None.
+    #[test]
+    fn a_negative_held_inclination_is_kept() {
+        let df = df!(
+            "tire" => ["X", "X", "X"], "rim_in" => [7i64, 7, 7], "pressure_kpa" => [83i64, 83, 83],
+            "ia_deg_nom" => [-2i64, -1, 0], "condition" => ["dynamic", "sweep", "dynamic"],
+            "stiffness_n_per_m" => [1.0e5, 1.0e5, 1.0e5],
+        )
+        .unwrap();
+        let rows = spring_rate_rows(&df, Path::new("spring_rate.parquet")).unwrap();
+        let ia: Vec<Option<i64>> = rows.iter().map(|r| r.ia_deg_nom).collect();
+        assert_eq!(ia, vec![Some(-2), None, Some(0)]);
     }
 
     #[test]
