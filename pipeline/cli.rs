@@ -251,8 +251,10 @@ dependency order, per group (groups run in parallel; the output does not depend 
                -> OUT/spring_rate.parquet (stiffness_n_per_m N/m, unloaded_radius_m m, ...)
   pac2002      PAC2002 (MF 5.2) on the cornering, drive/brake and combined sweeps (QC-flagged
                segments whose flags spoil forces are left out): Fy0 -> Mz0 -> Fx0 -> Fx, Fy
-               -> Mz -> Mx (My a placeholder), Cz and R0 from spring_rate.
-               -> OUT/tir/<tire>__<rim>in__<P>kPa.tir (SI units, ISO-W axes; tire, rim and
+               -> Mz -> Mx (My a labelled placeholder, 0 unless [fit]
+               rolling_resistance_placeholder sets QSY1), Cz and R0 from spring_rate.
+               -> OUT/tir/<tire>__<rim>in__<P>kPa.tir (<tire>__rim-unknown__<P>kPa.tir when
+               the catalog gives no rim; SI units, ISO-W axes; tire, rim and
                pressure in [MDI_HEADER], IP/IP_NOM in Pa, USE_MODE = families fitted, +10
                with PTY*/PTX*), OUT/coefficients.parquet (long form: name, value SI,
                std_error, at_bound, origin), OUT/fit_quality.parquet (per channel Fy0 Mz0 Fx0
@@ -447,10 +449,10 @@ against load Fz (N) per tire and rim at its design camber, peak mu_y against cam
 nominal load, the thermal window (grip relative to its optimum against tread temperature,
 degC), the friction envelopes (Fx against Fy, N) of the top four tires at the nominal load, and
 the ranked comparison table; then the round overview (tires, rims, nominal pressures, segments
-and models per tire), the rig-inertia results (inertia.parquet), the fit-quality table (out-of-sample
-error first) with the three worst fits (largest out-of-sample RMSE in percent of the channel's
-peak, in-sample where a row has none) highlighted, lint warnings, failures and every input that
-was missing or unreadable.
+and models per tire), the rig-inertia results (inertia.parquet), the three worst fits (largest
+out-of-sample RMSE in percent of the channel's peak, in-sample where a row has none; both
+figures shown), the fit-quality table (out-of-sample error first, the worst highlighted), lint
+warnings, failures and every input that was missing or unreadable.
 
 Each tire page draws, with measured samples of QC-clean segments as markers (decimated) and the
 fitted PAC2002 model of RESULTS/tir/<tire>__<rim>in__<P>kPa.tir as lines (evaluated at the

@@ -165,7 +165,7 @@ pub struct FitSettings {
     pub constraint_weight: f64,
     /// Overturning moment form: core or auto.
     pub mx_form: MxFormSetting,
-    /// QSY1 written as the rolling-resistance placeholder (TTC records no My), -.
+    /// QSY1 written as the rolling-resistance placeholder (TTC records no My; 0: the model claims no rolling resistance moment; 0.0165 is the thesis's constant), -.
     pub rolling_resistance_placeholder: f64,
     /// Folds of the out-of-sample check (k-fold by sweep, every sweep predicted by a refit that did not see it); below 2 skips it.
     pub kfold: usize,

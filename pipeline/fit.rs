@@ -523,7 +523,7 @@ fn fit_one(
                         result.failures.push(FitFailure::new(
                             &plan.key,
                             "pac2002",
-                            &format!("lint {} {}", m.file_name, f.code),
+                            &crate::store::results::lint_scope(&m.file_name, f.code),
                             false,
                             f.message.clone(),
                         ));
@@ -930,18 +930,20 @@ mod tests {
         assert!(results.stage_seconds.contains_key(mf61::STAGE));
     }
 
-    /// A fitted MF 6.1 model that is deficient (one tested pressure: no pressure terms) is
-    /// written and reaches `fit_failures` as a partial (non-fatal) row keyed at its pressure.
-    /// The data: cornering sweeps at three loads generated from a PAC2002 file, which is also
-    /// the start (as the group's PAC2002 fit would be).
-    #[test]
-    fn a_deficient_mf61_fit_is_a_partial_fit_failures_row() {
+    /// One tested pressure (83 kPa) of tire `T` on a 7 in rim: cornering sweeps at three loads
+    /// generated from a PAC2002 file, which is also the start (as the group's PAC2002 fit would
+    /// be), with `effective_radius` as its PAC2002 file's BREFF/DREFF/FREFF rows.
+    fn one_pressure_part(
+        cfg: &tirebase_core::fit::mf61::Mf61Config,
+        effective_radius: impl Fn(
+            &tirebase_core::tire_model::MagicFormula,
+        ) -> Vec<tir::WrittenCoefficient>,
+    ) -> mf61::Mf61Part {
         use tirebase_core::fit::mf61::{CollapsedGroup, Mf61Sample, Mf61Sweep, Pac2002AtPressure};
         use tirebase_core::tire_model::tir::TirFile;
         use tirebase_core::tire_model::{Mode, SlipInput};
         let text = include_str!("../tests/fixtures/tir/mf52_fittyp6.tir");
         let model = TirFile::parse(text).unwrap().0.model();
-        let cfg = Config::default().fit.mf61();
         let p_kpa = 83;
         let sweeps: Vec<Mf61Sweep> = [600.0, 1100.0, 1600.0]
             .iter()
@@ -981,20 +983,30 @@ mod tests {
             rim_in: 7,
             pressure_kpa_nom: p_kpa,
         };
-        let part = mf61::Mf61Part {
+        mf61::Mf61Part {
             key: key.clone(),
             group: CollapsedGroup {
                 pressure_kpa_nom: p_kpa,
                 points: tirebase_core::fit::mf61::collapse_group(&sweeps, &cfg.collapse),
                 pac2002: Some(Pac2002AtPressure {
                     p_pa: p_kpa as f64 * 1e3,
-                    model,
+                    model: model.clone(),
                     vertical_stiffness_n_per_m: None,
                     unloaded_radius_m: None,
                 }),
             },
             use_mode: Some(4),
-        };
+            effective_radius: effective_radius(&model),
+        }
+    }
+
+    /// A fitted MF 6.1 model that is deficient (one tested pressure: no pressure terms) is
+    /// written and reaches `fit_failures` as a partial (non-fatal) row keyed at its pressure.
+    #[test]
+    fn a_deficient_mf61_fit_is_a_partial_fit_failures_row() {
+        let cfg = Config::default().fit.mf61();
+        let p_kpa = 83;
+        let part = one_pressure_part(&cfg, |_| Vec::new());
         let o = fit_mf61("T", 7, &[part], &cfg);
         assert!(o.model.is_some(), "{:?}", o.failures);
         let mut results = FitResults::default();
@@ -1013,6 +1025,89 @@ mod tests {
         assert_eq!(cell("fatal"), "false");
         assert_eq!(cell("pressure_kpa"), p_kpa.to_string());
         assert!(cell("reason").contains("no pressure terms"), "{df}");
+    }
+
+    /// The MF 6.1 model's BREFF/DREFF/FREFF are the PAC2002 file's at the tested pressure
+    /// nearest NOMPRES: their rows say so, and keep that file's origin and its bound flag and
+    /// reason (a BREFF on an end of the spring-rate search interval).
+    #[test]
+    fn mf61_effective_radius_rows_say_where_they_come_from() {
+        use tirebase_core::tire_model::Coef;
+        let cfg = Config::default().fit.mf61();
+        let part = one_pressure_part(&cfg, |model| {
+            [Coef::BREFF, Coef::DREFF, Coef::FREFF]
+                .into_iter()
+                .map(|coef| tir::WrittenCoefficient {
+                    coef,
+                    family: "vertical".into(),
+                    value: model.coefs[coef],
+                    std_error: None,
+                    at_bound: coef == Coef::BREFF,
+                    origin: "spring_rate".into(),
+                    note: (coef == Coef::BREFF).then(|| "on an end of its search interval".into()),
+                })
+                .collect()
+        });
+        let o = fit_mf61("T", 7, &[part], &cfg);
+        let m = o.model.expect("a model");
+        let row = |c: Coef| m.coefficients.iter().find(|r| r.coef == c).unwrap();
+        let breff = row(Coef::BREFF);
+        assert_eq!(breff.origin, "spring_rate", "{breff:?}");
+        assert!(breff.at_bound, "{breff:?}");
+        let note = breff.note.as_deref().unwrap_or_default();
+        assert!(note.contains("at 83 kPa"), "{note}");
+        assert!(note.contains("on an end of its search interval"), "{note}");
+        for c in [Coef::DREFF, Coef::FREFF] {
+            let r = row(c);
+            assert_eq!(r.origin, "spring_rate", "{r:?}");
+            assert!(!r.at_bound, "{r:?}");
+            assert!(
+                r.note.as_deref().is_some_and(|n| n.contains("at 83 kPa")),
+                "{r:?}"
+            );
+        }
+        // without the PAC2002 file's rows the origin stays `start`, with the pressure named
+        let o = fit_mf61("T", 7, &[one_pressure_part(&cfg, |_| Vec::new())], &cfg);
+        let m = o.model.expect("a model");
+        let breff = m
+            .coefficients
+            .iter()
+            .find(|r| r.coef == Coef::BREFF)
+            .unwrap();
+        assert_eq!(breff.origin, "start");
+        assert!(!breff.at_bound);
+        assert!(
+            breff
+                .note
+                .as_deref()
+                .is_some_and(|n| n.contains("at 83 kPa")),
+            "{breff:?}"
+        );
+    }
+
+    /// The MF 6.1 model's rolling resistance terms are labelled placeholders (rows and file),
+    /// never `start` values that read as if they were known.
+    #[test]
+    fn mf61_my_terms_are_labelled_placeholders() {
+        use tirebase_core::tire_model::Coef;
+        let cfg = Config::default().fit.mf61();
+        let o = fit_mf61("T", 7, &[one_pressure_part(&cfg, |_| Vec::new())], &cfg);
+        let m = o.model.expect("a model");
+        let qsy1 = m
+            .coefficients
+            .iter()
+            .find(|r| r.coef == Coef::QSY1)
+            .unwrap();
+        assert_eq!(qsy1.origin, "placeholder", "{qsy1:?}");
+        assert!(
+            qsy1.note
+                .as_deref()
+                .is_some_and(|n| n.contains("TTC records no"))
+        );
+        assert!(
+            m.text.contains("My not fitted"),
+            "no My note in the file header"
+        );
     }
 
     #[test]

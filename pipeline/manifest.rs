@@ -126,6 +126,10 @@ pub struct Counts {
     pub fit_skipped: u64,
     /// Quality flags of written results (a family good in sample, bad out of sample).
     pub fit_quality_flags: u64,
+    /// Limits of written models (an MF 6.1 model without pressure terms).
+    pub model_limits: u64,
+    /// Lint errors of written `.tir` files.
+    pub tir_lint_errors: u64,
     /// `.tir` files in this version.
     pub tir_files: u64,
     /// Inertia sessions processed.
@@ -245,11 +249,16 @@ pub enum ProblemKind {
     FitQuality,
     /// A `.tir` written under a disambiguated name (tires whose names sanitise alike).
     TirName,
+    /// A written model that cannot carry something (an MF 6.1 model from one tested pressure
+    /// has no pressure terms).
+    ModelLimit,
+    /// An error the lint finds in a written `.tir` (the file is still written).
+    TirLint,
 }
 
 impl ProblemKind {
     /// Every kind, in report order.
-    pub const ALL: [ProblemKind; 10] = [
+    pub const ALL: [ProblemKind; 12] = [
         ProblemKind::FailedFile,
         ProblemKind::PartialFile,
         ProblemKind::FitFailure,
@@ -257,8 +266,10 @@ impl ProblemKind {
         ProblemKind::Report,
         ProblemKind::FileWarning,
         ProblemKind::SkippedEntry,
+        ProblemKind::TirLint,
         ProblemKind::FitSkipped,
         ProblemKind::FitQuality,
+        ProblemKind::ModelLimit,
         ProblemKind::TirName,
     ];
 
@@ -287,6 +298,8 @@ impl ProblemKind {
             ProblemKind::FitSkipped => "warning: skipped",
             ProblemKind::FitQuality => "warning: fit quality",
             ProblemKind::TirName => "renamed .tir",
+            ProblemKind::ModelLimit => "warning: model limit",
+            ProblemKind::TirLint => "warning: .tir lint error",
         }
     }
 
@@ -303,6 +316,8 @@ impl ProblemKind {
             ProblemKind::FitSkipped => "parts of fit stages skipped",
             ProblemKind::FitQuality => "fit-quality flags",
             ProblemKind::TirName => ".tir file names disambiguated",
+            ProblemKind::ModelLimit => "model limits (written, without a part)",
+            ProblemKind::TirLint => ".tir lint errors (files written)",
         }
     }
 }

@@ -32,8 +32,8 @@ use crate::report;
 use crate::run::{Fingerprint, RunError, RunOptions, count_duplicates};
 use crate::schema::TableName;
 use crate::store::results::{
-    self, GROUP_COLUMNS, INERTIA_TABLE, MF61, Results, TirNames, has_group_columns, is_model,
-    mf61_groups, mf61_names, model_groups, rows_of_groups, tir_names,
+    self, FailureKind, GROUP_COLUMNS, INERTIA_TABLE, MF61, Results, TirNames, has_group_columns,
+    is_model, mf61_groups, mf61_names, model_groups, rows_of_groups, tir_names,
 };
 use crate::store::tables::{self, RunStatus};
 use crate::store::versions::VersionBuilder;
@@ -228,6 +228,8 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
         fit_failures: count(ProblemKind::FitFailure),
         fit_skipped: count(ProblemKind::FitSkipped),
         fit_quality_flags: count(ProblemKind::FitQuality),
+        model_limits: count(ProblemKind::ModelLimit),
+        tir_lint_errors: count(ProblemKind::TirLint),
         tir_files: tir_files as u64,
         inertia_sessions: fingerprint.inertia_sessions.len() as u64,
         inertia_results: inertia.as_ref().map_or(0, |(d, _)| d.results.len() as u64),
@@ -274,8 +276,9 @@ pub fn publish(p: Publication, progress: &dyn Progress) -> Result<RunReport, Run
     })
 }
 
-/// A fit failure as a problem of the version: fatal ones are failures, skipped parts and quality
-/// flags warnings of their own kinds.
+/// A fit failure as a problem of the version: fatal ones are failures; skipped parts, quality
+/// flags, model limits and `.tir` lint errors warnings of their own kinds
+/// ([`results::FitFailure::kind`]).
 fn fit_problem(f: &FitFailure) -> Problem {
     let part = if f.scope.is_empty() || f.scope == f.stage {
         f.stage.clone()
@@ -283,12 +286,12 @@ fn fit_problem(f: &FitFailure) -> Problem {
         format!("{} ({})", f.stage, f.scope)
     };
     Problem::new(
-        if f.fatal {
-            ProblemKind::FitFailure
-        } else if f.is_quality_flag() {
-            ProblemKind::FitQuality
-        } else {
-            ProblemKind::FitSkipped
+        match f.kind() {
+            FailureKind::Failed => ProblemKind::FitFailure,
+            FailureKind::Skipped => ProblemKind::FitSkipped,
+            FailureKind::QualityFlag => ProblemKind::FitQuality,
+            FailureKind::ModelLimit => ProblemKind::ModelLimit,
+            FailureKind::LintError => ProblemKind::TirLint,
         },
         format!(
             "{} on {} in rim at {} kPa",
@@ -745,6 +748,41 @@ mod tests {
             ..flag
         };
         assert_eq!(fit_problem(&skip).kind, ProblemKind::FitSkipped);
+    }
+
+    /// An MF 6.1 model without pressure terms and a lint error of a written `.tir` are warnings
+    /// of their own kinds, not skipped parts.
+    #[test]
+    fn model_limits_and_lint_errors_are_not_skipped_parts() {
+        let limit = FitFailure {
+            tire: "T".into(),
+            rim_in: 7,
+            pressure_kpa: 83,
+            stage: "mf61".into(),
+            scope: results::PRESSURE_TERMS_SCOPE.into(),
+            fatal: false,
+            reason: "one tested pressure: the model has no pressure terms (all 0)".into(),
+        };
+        let p = fit_problem(&limit);
+        assert_eq!(p.kind, ProblemKind::ModelLimit);
+        assert!(p.to_string().starts_with("warning: model limit: "), "{p}");
+        let lint = FitFailure {
+            stage: "pac2002".into(),
+            scope: results::lint_scope("T__7in__83kPa.tir", "fy-sign"),
+            reason: "Fy against its slip".into(),
+            ..limit.clone()
+        };
+        let p = fit_problem(&lint);
+        assert_eq!(p.kind, ProblemKind::TirLint);
+        assert!(
+            p.to_string().starts_with("warning: .tir lint error: "),
+            "{p}"
+        );
+        let fatal = FitFailure {
+            fatal: true,
+            ..limit
+        };
+        assert_eq!(fit_problem(&fatal).kind, ProblemKind::FitFailure);
     }
 
     #[test]

@@ -23,6 +23,8 @@ use tirebase_core::tire_model::tir::TirFile;
 use tirebase_core::tire_model::{Evaluation, Mode, Pressures, SlipInput};
 
 use crate::query::{self, QueryError};
+use crate::store::StoreError;
+use crate::store::columns::{req_f64, req_i64, req_str};
 
 /// Which samples are scored.
 #[derive(Clone, Debug, PartialEq)]
@@ -104,6 +106,9 @@ pub enum ScoreError {
     /// The selection is empty or invalid.
     #[error("selection: {0}")]
     Selection(String),
+    /// A column of the samples read could not be read as its type.
+    #[error(transparent)]
+    Store(#[from] StoreError),
 }
 
 /// Columns read from the samples table: where a sample belongs, then its values
@@ -265,28 +270,28 @@ fn selected_samples(
         )
         .collect()
         .map_err(polars_err)?;
-    let text = |name: &str| -> Result<Vec<String>, ScoreError> {
-        let c = df
-            .column(name)
-            .and_then(|c| c.cast(&DataType::String))
-            .map_err(polars_err)?;
-        let values = c.str().map_err(polars_err)?;
-        Ok(values
-            .iter()
-            .map(|v| v.unwrap_or_default().to_string())
+    let text = |name: &str| -> Result<Vec<String>, StoreError> {
+        Ok(req_str(&df, name, store)?
+            .into_iter()
+            .map(Option::unwrap_or_default)
             .collect())
     };
-    let number = |name: &str| -> Result<Vec<f64>, ScoreError> {
-        let c = df
-            .column(name)
-            .and_then(|c| c.cast(&DataType::Float64))
-            .map_err(polars_err)?;
-        let values = c.f64().map_err(polars_err)?;
-        Ok(values.iter().map(|v| v.unwrap_or(f64::NAN)).collect())
+    let number = |name: &str| -> Result<Vec<f64>, StoreError> {
+        Ok(req_f64(&df, name, store)?
+            .into_iter()
+            .map(|v| v.unwrap_or(f64::NAN))
+            .collect())
+    };
+    // A partition key absent from a sample's path (null) is unknown: -1.
+    let whole = |name: &str| -> Result<Vec<i64>, StoreError> {
+        Ok(req_i64(&df, name, store)?
+            .into_iter()
+            .map(|v| v.unwrap_or(-1))
+            .collect())
     };
     let (tire, file) = (text("tire")?, text("source_file")?);
-    let p_nom = number("pressure_kpa_nom")?;
-    let rim = number("rim_in")?;
+    let p_nom = whole("pressure_kpa_nom")?;
+    let rim = whole("rim_in")?;
     let [fz, kappa, alpha, gamma, v, p, fx, fy, mz] = MEASURED.map(number);
     let (fz, kappa, alpha, gamma, v, p, fx, fy, mz) =
         (fz?, kappa?, alpha?, gamma?, v?, p?, fx?, fy?, mz?);
@@ -306,19 +311,13 @@ fn selected_samples(
         if !take {
             continue;
         }
-        let whole_or_unknown = |v: f64| if v.is_finite() { v as i64 } else { -1 };
-        let nominal = whole_or_unknown(p_nom[i]);
+        let nominal = p_nom[i];
         // After the decimation: the chosen samples do not depend on the pressure asked for.
         if selection.pressure_kpa_nom.is_some_and(|p| p != nominal) {
             continue;
         }
         groups
-            .entry((
-                tire[i].clone(),
-                whole_or_unknown(rim[i]),
-                file[i].clone(),
-                nominal,
-            ))
+            .entry((tire[i].clone(), rim[i], file[i].clone(), nominal))
             .or_default()
             .push(Measured {
                 point: SlipInput {

@@ -68,14 +68,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
     fit::write_outcome(&outcome, &args.out)
         .with_context(|| format!("writing results to {}", args.out.display()))?;
     for f in &outcome.failures {
-        let kind = if f.fatal {
-            "failed"
-        } else if f.is_quality_flag() {
-            "fit quality"
-        } else {
-            "skipped"
-        };
-        eprintln!("{kind}: {f}");
+        eprintln!("{}: {f}", f.kind().label());
     }
     for note in &outcome.tir_name_notes {
         eprintln!("renamed .tir: {note}");

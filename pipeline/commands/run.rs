@@ -224,14 +224,16 @@ fn print_summary(report: &RunReport) {
     );
     eprintln!(
         "  fits      {} groups: {} fitted, {} reused; {} failed stage fits, {} skipped parts, {} \
-         fit-quality flags; {} .tir files",
+         fit-quality flags, {} model limits; {} .tir files, {} .tir lint errors",
         c.groups,
         c.groups_fitted,
         c.groups_reused,
         c.fit_failures,
         c.fit_skipped,
         c.fit_quality_flags,
-        c.tir_files
+        c.model_limits,
+        c.tir_files,
+        c.tir_lint_errors
     );
     if let Some(w) = &report.worst_fit {
         eprintln!("  worst fit {w}");

@@ -55,14 +55,36 @@ pub fn rim_label(rim_in: f64) -> String {
     }
 }
 
-/// Stem shared by every per-tire-and-rim file: `<tire>__<rim>in`.
+/// The rim part of a file name: `<rim>in` ([`rim_label`]), or `rim-unknown` for a rim width
+/// that is not known (0, the store's value for a run whose rim the catalog does not give, or not
+/// a positive number): never a made-up `0in`.
+///
+/// ```
+/// use tirebase_core::naming::rim_part;
+/// assert_eq!(rim_part(7.0), "7in");
+/// assert_eq!(rim_part(0.0), "rim-unknown");
+/// ```
+pub fn rim_part(rim_in: f64) -> String {
+    if rim_in.is_finite() && rim_in > 0.0 {
+        format!("{}in", rim_label(rim_in))
+    } else {
+        UNKNOWN_RIM.to_string()
+    }
+}
+
+/// The rim part of the file names of a rim that is not known.
+pub const UNKNOWN_RIM: &str = "rim-unknown";
+
+/// Stem shared by every per-tire-and-rim file: `<tire>__<rim>in` (`<tire>__rim-unknown` for an
+/// unknown rim, [`rim_part`]).
 ///
 /// ```
 /// use tirebase_core::naming::tire_rim_stem;
 /// assert_eq!(tire_rim_stem("Hoosier 16.0x7.5-10 R25B", 7.0), "hoosier_16.0x7.5-10_r25b__7in");
+/// assert_eq!(tire_rim_stem("Hoosier R25B", 0.0), "hoosier_r25b__rim-unknown");
 /// ```
 pub fn tire_rim_stem(tire: &str, rim_in: f64) -> String {
-    format!("{}__{}in", sanitize_tire(tire), rim_label(rim_in))
+    format!("{}__{}", sanitize_tire(tire), rim_part(rim_in))
 }
 
 /// The `.tir` file name of one tire, rim and nominal pressure (whole kPa, rounded):
@@ -115,10 +137,10 @@ pub fn unique_mf61_names(groups: &[(&str, f64)]) -> Vec<(String, Option<String>)
         .collect();
     disambiguate(&plain, groups.iter().map(|(t, _)| *t), |tire, i| {
         format!(
-            "{}-{}__{}in__mf61.tir",
+            "{}-{}__{}__mf61.tir",
             sanitize_tire(tire),
             name_hash(tire),
-            rim_label(groups[i].1)
+            rim_part(groups[i].1)
         )
     })
 }
@@ -201,10 +223,10 @@ pub fn unique_tir_names(groups: &[(&str, f64, f64)]) -> Vec<(String, Option<Stri
     disambiguate(&plain, groups.iter().map(|(t, _, _)| *t), |tire, i| {
         let (_, rim, p) = groups[i];
         format!(
-            "{}-{}__{}in__{}kPa.tir",
+            "{}-{}__{}__{}kPa.tir",
             sanitize_tire(tire),
             name_hash(tire),
-            rim_label(rim),
+            rim_part(rim),
             p.round() as i64
         )
     })
@@ -213,6 +235,19 @@ pub fn unique_tir_names(groups: &[(&str, f64, f64)]) -> Vec<(String, Option<Stri
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A run whose rim is not known (rim 0 in the store) gets no made-up `0in` in its names,
+    /// disambiguated or not.
+    #[test]
+    fn an_unknown_rim_is_named_so() {
+        assert_eq!(tir_file_name("A", 0.0, 83.0), "a__rim-unknown__83kPa.tir");
+        assert_eq!(mf61_tir_file_name("A", 0.0), "a__rim-unknown__mf61.tir");
+        let names = unique_tir_names(&[("A b", 0.0, 83.0), ("a_b", 0.0, 83.0)]);
+        let mf61 = unique_mf61_names(&[("A b", 0.0), ("a_b", 0.0)]);
+        for (n, _) in names.iter().chain(&mf61) {
+            assert!(n.contains("__rim-unknown__") && !n.contains("0in"), "{n}");
+        }
+    }
 
     #[test]
     fn colliding_names_become_distinct_and_stable() {

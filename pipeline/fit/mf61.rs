@@ -13,7 +13,9 @@
 //! tested ones), `PRESMIN`/`PRESMAX` (the measured range) and `PFZ1` (the trend of the
 //! spring-rate stiffnesses over pressure) come from `tirebase_core::fit::mf61`; `RIM_WIDTH` from
 //! the rim, `WIDTH`, `ASPECT_RATIO`, `RIM_RADIUS` from the size in the tire's name (left out
-//! otherwise, as for PAC2002); `USE_MODE` that of the PAC2002 file nearest `NOMPRES`.
+//! otherwise, as for PAC2002); `USE_MODE` that of the PAC2002 file nearest `NOMPRES`;
+//! `BREFF`/`DREFF`/`FREFF` are that file's (the spring-rate stage's effective-radius law at that
+//! pressure), with its origin, bound flag and reason.
 //!
 //! Deliberately not here: the fitting math (`tirebase_core::fit::mf61`), tables (`tables`).
 
@@ -33,6 +35,7 @@ use tirebase_core::tire_model::{Coef, Section, Version};
 use super::FitFailure;
 use super::tir::{GEOMETRY, TirBuildError, WrittenCoefficient, WrittenModel, set_geometry};
 use crate::config::FitModel;
+use crate::store::results::{PRESSURE_TERMS_SCOPE, lint_scope};
 
 /// Stage name in `fit_failures` and in the stage timings.
 pub const STAGE: &str = "mf61";
@@ -46,7 +49,14 @@ pub struct Mf61Part {
     pub group: CollapsedGroup,
     /// `USE_MODE` of its PAC2002 file.
     pub use_mode: Option<i64>,
+    /// Its PAC2002 file's [`EFFECTIVE_RADIUS`] rows (origin, bound flag and note as written),
+    /// which the MF 6.1 model takes from the tested pressure nearest `NOMPRES`.
+    pub effective_radius: Vec<WrittenCoefficient>,
 }
+
+/// The effective-radius coefficients: not refined by the MF 6.1 fit, no pressure trend, so the
+/// model holds the values of the PAC2002 file it starts from.
+const EFFECTIVE_RADIUS: [Coef; 3] = [Coef::BREFF, Coef::DREFF, Coef::FREFF];
 
 impl Mf61Part {
     /// The part of one group: its sweeps collapsed with `cfg`, its written PAC2002 file (if it
@@ -77,6 +87,13 @@ impl Mf61Part {
                 }),
             },
             use_mode: pac2002.and_then(|m| m.file.use_mode),
+            effective_radius: pac2002.map_or_else(Vec::new, |m| {
+                m.coefficients
+                    .iter()
+                    .filter(|r| EFFECTIVE_RADIUS.contains(&r.coef))
+                    .cloned()
+                    .collect()
+            }),
         }
     }
 }
@@ -150,7 +167,7 @@ pub fn run(tire: &str, rim_in: i64, parts: &[Mf61Part], cfg: &Mf61Config) -> Mf6
     if with_data.len() < 2 {
         fail(
             &mut out,
-            "pressure terms",
+            PRESSURE_TERMS_SCOPE,
             false,
             "one tested pressure: the model has no pressure terms (all 0)".to_string(),
         );
@@ -166,7 +183,10 @@ pub fn run(tire: &str, rim_in: i64, parts: &[Mf61Part], cfg: &Mf61Config) -> Mf6
         v.dedup();
         v
     };
-    match build(&key, &fit, use_mode, &tested) {
+    let reference = parts
+        .iter()
+        .find(|p| p.key.pressure_kpa_nom == fit.start_reference_kpa);
+    match build(&key, &fit, use_mode, &tested, reference) {
         Ok(m) => {
             for f in m
                 .lint
@@ -176,7 +196,7 @@ pub fn run(tire: &str, rim_in: i64, parts: &[Mf61Part], cfg: &Mf61Config) -> Mf6
             {
                 fail(
                     &mut out,
-                    &format!("lint {} {}", m.file_name, f.code),
+                    &lint_scope(&m.file_name, f.code),
                     false,
                     f.message.clone(),
                 );
@@ -224,6 +244,11 @@ fn record_out_of_sample_flags(out: &mut Mf61Outcome, key: &TireKey, fit: &Mf61Fi
     }
 }
 
+/// The note of the rolling resistance rows (origin `placeholder`).
+const MY_PLACEHOLDER_NOTE: &str = "placeholder, not fitted: TTC records no rolling resistance \
+     moment (My); the value of the PAC2002 start, whose QSY1 is [fit] \
+     rolling_resistance_placeholder (0 by default: My = 0)";
+
 /// The coefficients table's family of a coefficient the refinement did not fit.
 fn family_of_start(c: Coef) -> &'static str {
     match c {
@@ -247,12 +272,48 @@ fn family_of_start(c: Coef) -> &'static str {
     }
 }
 
+/// Say where the [`EFFECTIVE_RADIUS`] rows of origin `start` come from: the PAC2002 file of
+/// `reference` (the tested pressure the start was lifted from). Where that file holds the same
+/// value, the row takes its origin, bound flag and reason (a `BREFF` on an end of the
+/// spring-rate stage's search interval stays marked); the note names the pressure either way.
+fn attribute_effective_radius(
+    rows: &mut [WrittenCoefficient],
+    reference_kpa: i64,
+    reference: Option<&Mf61Part>,
+) {
+    let whence = format!(
+        "the PAC2002 file's value at {reference_kpa} kPa (the tested pressure nearest NOMPRES), \
+         not refined over pressure"
+    );
+    for r in rows
+        .iter_mut()
+        .filter(|r| r.origin == "start" && EFFECTIVE_RADIUS.contains(&r.coef))
+    {
+        let source = reference
+            .and_then(|p| p.effective_radius.iter().find(|s| s.coef == r.coef))
+            .filter(|s| s.value == r.value);
+        match source {
+            Some(s) => {
+                r.origin = s.origin.clone();
+                r.at_bound = s.at_bound;
+                r.note = Some(match &s.note {
+                    Some(n) => format!("{whence}; there {n}"),
+                    None => whence.clone(),
+                });
+            }
+            None => r.note = Some(format!("lifted from {whence}")),
+        }
+    }
+}
+
 /// The `.tir` of a fit; `Err` (a one-line reason) when it cannot be rendered or read back.
+/// `reference` is the part the start was lifted from (`Mf61Fit::start_reference_kpa`).
 fn build(
     key: &TireKey,
     fit: &Mf61Fit,
     use_mode: Option<i64>,
     tested_kpa: &[i64],
+    reference: Option<&Mf61Part>,
 ) -> Result<WrittenModel, TirBuildError> {
     let mut file = TirFile::from_coefs_as(fit.model.coefs.clone(), Version::Mf61);
     let mut rows: Vec<WrittenCoefficient> = fit
@@ -268,13 +329,17 @@ fn build(
             std_error: c.std_error,
             at_bound: c.at_bound,
             origin: c.origin.to_string(),
-            note: c
-                .at_bound
-                .then(|| mf61::bound_note(c.coef, c.value))
-                .flatten(),
+            note: if c.origin == "placeholder" {
+                Some(MY_PLACEHOLDER_NOTE.to_string())
+            } else {
+                c.at_bound
+                    .then(|| mf61::bound_note(c.coef, c.value))
+                    .flatten()
+            },
         })
         .collect();
     rows.retain(|r| !GEOMETRY.contains(&r.coef));
+    attribute_effective_radius(&mut rows, fit.start_reference_kpa, reference);
     set_geometry(&mut file, &mut rows, &key.tire, key.rim_in);
     rows.sort_by_key(|r| r.coef);
     file.use_mode = use_mode.or(Some(4));

@@ -17,6 +17,7 @@ use super::plots;
 use super::selection::SelectionSection;
 use super::svg::{Plot, escape};
 use crate::compare::Comparison;
+use crate::schema::TableName;
 use crate::store::results::{CoefficientRecord, FitFailure, LintRow, QualityRow};
 
 /// Rows of fit quality highlighted as the worst of the round.
@@ -130,6 +131,58 @@ fn worst_fit_rows(data: &ReportData) -> Vec<usize> {
     order
 }
 
+/// The worst-fits table: each row's out-of-sample and in-sample RMSE in percent of the
+/// channel's peak side by side, in the order of [`worst_fit_rows`] (out-of-sample first).
+fn worst_fits_html(rows: &[QualityRow], worst: &[usize]) -> String {
+    const COLUMNS: &[&str] = &[
+        "tire",
+        "rim_in",
+        "pressure_kpa",
+        "model",
+        "channel",
+        "oos_pct_of_peak",
+        "rmse_pct_of_peak",
+        "oos_ratio",
+        "oos_folds",
+        "ranked_by",
+    ];
+    let cells = worst.iter().map(|&i| {
+        let q = &rows[i];
+        let oos_pct = q
+            .oos_ratio
+            .filter(|r| r.is_finite())
+            .and_then(|r| Some(q.rmse_pct_of_peak.filter(|v| v.is_finite())? * r));
+        let ranked_by = match (oos_pct, q.oos_folds) {
+            (Some(_), Some(k)) if k > 0 => format!("out-of-sample ({k}-fold by sweep)"),
+            (Some(_), _) => "out-of-sample".to_string(),
+            (None, _) if q.rmse_pct_of_peak.is_some_and(f64::is_finite) => {
+                "in-sample (no out-of-sample figure)".to_string()
+            }
+            (None, _) => "1 - r2".to_string(),
+        };
+        let row = vec![
+            text(&q.tire),
+            Cell::Int(q.rim_in),
+            Cell::Int(q.pressure_kpa),
+            text(&q.model),
+            text(&q.channel),
+            float(oos_pct),
+            float(q.rmse_pct_of_peak),
+            float(q.oos_ratio),
+            int(q.oos_folds),
+            Cell::Text(ranked_by),
+        ];
+        (true, row)
+    });
+    let mut out = String::from(
+        "<p class=\"note\">ordered by the out-of-sample RMSE in percent of the channel's peak \
+         (oos_pct_of_peak = rmse_pct_of_peak x oos_ratio, k-fold by sweep); the in-sample figure \
+         where a row has no out-of-sample one</p>\n",
+    );
+    out.push_str(&grid_html(COLUMNS, cells));
+    out
+}
+
 /// One cell of a result table as shown.
 pub(super) enum Cell {
     Text(String),
@@ -142,7 +195,7 @@ pub(super) enum Cell {
 /// A typed result row shown as an HTML table row: its columns and its cells.
 trait Tabular {
     /// Column headers, in order.
-    const COLUMNS: &'static [&'static str];
+    fn columns() -> Vec<&'static str>;
     /// The row's tire.
     fn tire(&self) -> &str;
     /// One cell per column.
@@ -165,29 +218,31 @@ fn int(v: Option<i64>) -> Cell {
 /// points first. `seconds` (wall time) is left out so the same results give the same report
 /// bytes.
 impl Tabular for QualityRow {
-    const COLUMNS: &'static [&'static str] = &[
-        "tire",
-        "rim_in",
-        "pressure_kpa",
-        "model",
-        "channel",
-        "oos_rmse",
-        "rmse",
-        "oos_ratio",
-        "oos_flag",
-        "trend_dev_max",
-        "trend_dev_pct_of_peak",
-        "n_free",
-        "jacobian_rank",
-        "condition_number",
-        "n",
-        "rmse_pct_of_peak",
-        "r2",
-        "sample_rmse",
-        "initial_rmse",
-        "iterations",
-        "termination",
-    ];
+    fn columns() -> Vec<&'static str> {
+        vec![
+            "tire",
+            "rim_in",
+            "pressure_kpa",
+            "model",
+            "channel",
+            "oos_rmse",
+            "rmse",
+            "oos_ratio",
+            "oos_flag",
+            "trend_dev_max",
+            "trend_dev_pct_of_peak",
+            "n_free",
+            "jacobian_rank",
+            "condition_number",
+            "n",
+            "rmse_pct_of_peak",
+            "r2",
+            "sample_rmse",
+            "initial_rmse",
+            "iterations",
+            "termination",
+        ]
+    }
     fn tire(&self) -> &str {
         &self.tire
     }
@@ -218,71 +273,90 @@ impl Tabular for QualityRow {
     }
 }
 
-impl Tabular for LintRow {
-    const COLUMNS: &'static [&'static str] = &[
-        "tire",
-        "rim_in",
-        "pressure_kpa",
-        "model",
-        "file",
-        "severity",
-        "code",
-        "message",
-    ];
+/// A row of a table the report shows whole: its columns are the schema's, in the schema's order
+/// (`schemas/<table>.toml`, the one definition of them), each cell looked up by column name.
+trait SchemaRow {
+    /// The table.
+    const TABLE: TableName;
+    /// The row's tire.
+    fn row_tire(&self) -> &str;
+    /// The cell of `column` (`Cell::Empty` for a column the row does not know).
+    fn cell(&self, column: &str) -> Cell;
+}
+
+impl<T: SchemaRow> Tabular for T {
+    fn columns() -> Vec<&'static str> {
+        crate::schema::table(T::TABLE)
+            .columns
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect()
+    }
     fn tire(&self) -> &str {
-        &self.tire
+        self.row_tire()
     }
     fn cells(&self) -> Vec<Cell> {
-        vec![
-            text(&self.tire),
-            Cell::Int(self.rim_in),
-            Cell::Int(self.pressure_kpa),
-            text(&self.model),
-            text(&self.file),
-            text(&self.severity),
-            text(&self.code),
-            text(&self.message),
-        ]
+        Self::columns().into_iter().map(|c| self.cell(c)).collect()
     }
 }
 
-impl Tabular for FitFailure {
-    const COLUMNS: &'static [&'static str] = &[
-        "tire",
-        "rim_in",
-        "pressure_kpa",
-        "stage",
-        "scope",
-        "fatal",
-        "reason",
-    ];
-    fn tire(&self) -> &str {
+/// The cell of a group column (`tire`, `rim_in`, `pressure_kpa`: every result table has them),
+/// `Cell::Empty` for any other.
+fn group_cell(tire: &str, rim_in: i64, pressure_kpa: i64, column: &str) -> Cell {
+    match column {
+        "tire" => text(tire),
+        "rim_in" => Cell::Int(rim_in),
+        "pressure_kpa" => Cell::Int(pressure_kpa),
+        _ => Cell::Empty,
+    }
+}
+
+impl SchemaRow for LintRow {
+    const TABLE: TableName = TableName::Lint;
+    fn row_tire(&self) -> &str {
         &self.tire
     }
-    fn cells(&self) -> Vec<Cell> {
-        vec![
-            text(&self.tire),
-            Cell::Int(self.rim_in),
-            Cell::Int(self.pressure_kpa),
-            text(&self.stage),
-            text(&self.scope),
-            Cell::Bool(self.fatal),
-            text(&self.reason),
-        ]
+    fn cell(&self, column: &str) -> Cell {
+        match column {
+            "model" => text(&self.model),
+            "file" => text(&self.file),
+            "severity" => text(&self.severity),
+            "code" => text(&self.code),
+            "message" => text(&self.message),
+            _ => group_cell(&self.tire, self.rim_in, self.pressure_kpa, column),
+        }
+    }
+}
+
+impl SchemaRow for FitFailure {
+    const TABLE: TableName = TableName::FitFailures;
+    fn row_tire(&self) -> &str {
+        &self.tire
+    }
+    fn cell(&self, column: &str) -> Cell {
+        match column {
+            "stage" => text(&self.stage),
+            "scope" => text(&self.scope),
+            "fatal" => Cell::Bool(self.fatal),
+            "reason" => text(&self.reason),
+            _ => group_cell(&self.tire, self.rim_in, self.pressure_kpa, column),
+        }
     }
 }
 
 /// A coefficient at a bound, shown on its tire's page (the tire is the page's).
 impl Tabular for CoefficientRecord {
-    const COLUMNS: &'static [&'static str] = &[
-        "rim_in",
-        "pressure_kpa",
-        "model",
-        "family",
-        "name",
-        "value",
-        "std_error",
-    ];
+    fn columns() -> Vec<&'static str> {
+        vec![
+            "rim_in",
+            "pressure_kpa",
+            "model",
+            "family",
+            "name",
+            "value",
+            "std_error",
+        ]
+    }
     fn tire(&self) -> &str {
         &self.tire
     }
@@ -302,7 +376,7 @@ impl Tabular for CoefficientRecord {
 /// Rows of a result table (by index) as HTML; `worst` rows highlighted.
 fn table_html<T: Tabular>(rows: &[T], show: &[usize], worst: &BTreeSet<usize>) -> String {
     grid_html(
-        T::COLUMNS,
+        &T::columns(),
         show.iter().map(|&i| (worst.contains(&i), rows[i].cells())),
     )
 }
@@ -590,7 +664,7 @@ fn index_page(
         && !worst.is_empty()
     {
         out.push_str("<h2 id=\"worst-fits\">Worst fits</h2>\n");
-        out.push_str(&table_html(rows, worst, &worst_set));
+        out.push_str(&worst_fits_html(rows, worst));
     }
     out.push_str(&table_section(
         r.fit_quality.as_deref(),
@@ -735,6 +809,88 @@ mod tests {
     fn page_names_are_unique() {
         let names = page_names(&["A b".to_string(), "a_b".to_string()]);
         assert_eq!(names, vec!["tire-a_b.html", "tire-a_b-2.html"]);
+    }
+
+    /// A fit-quality row with an in-sample error and (where given) an out-of-sample ratio.
+    fn quality(tire: &str, pct: f64, oos_ratio: Option<f64>) -> QualityRow {
+        QualityRow {
+            oos_ratio,
+            oos_folds: oos_ratio.map(|_| 5),
+            ..QualityRow::pct_of_peak_only(tire, 83, "fy", pct)
+        }
+    }
+
+    #[test]
+    fn worst_fits_rank_by_out_of_sample_error_and_show_both() {
+        let data = ReportData {
+            results: crate::store::results::Results {
+                fit_quality: Some(vec![
+                    // in-sample worst, generalises well: 2.0 % -> 2.2 % out of sample
+                    quality("a", 2.0, Some(1.1)),
+                    // in-sample best, worst out of sample: 1.0 % -> 4.0 %
+                    quality("b", 1.0, Some(4.0)),
+                    // no out-of-sample figure: ranked by its in-sample 1.5 %
+                    quality("c", 1.5, None),
+                    quality("d", 1.2, Some(2.0)),
+                ]),
+                ..Default::default()
+            },
+            ..ReportData::default()
+        };
+        assert_eq!(worst_fit_rows(&data), vec![1, 3, 0]);
+        let rows = data.results.fit_quality.as_deref().unwrap();
+        let html = worst_fits_html(rows, &worst_fit_rows(&data));
+        assert!(html.contains("<th>oos_pct_of_peak</th><th>rmse_pct_of_peak</th>"));
+        // row b: out-of-sample 4 %, in-sample 1 %
+        assert!(
+            html.contains("<td class=\"num\">4.0000</td><td class=\"num\">1.0000</td>"),
+            "{html}"
+        );
+        assert!(html.contains("out-of-sample (5-fold by sweep)"));
+    }
+
+    /// The lint and failure tables show every column of their schema, each with its value:
+    /// a column added to `schemas/` without a cell here shows as empty and fails this test.
+    #[test]
+    fn tables_shown_whole_follow_their_schema() {
+        let failure = FitFailure {
+            tire: "T".into(),
+            rim_in: 7,
+            pressure_kpa: 83,
+            stage: "pac2002".into(),
+            scope: "sweep 4".into(),
+            fatal: false,
+            reason: "r".into(),
+        };
+        let lint = LintRow {
+            tire: "T".into(),
+            rim_in: 7,
+            pressure_kpa: 83,
+            model: "pac2002".into(),
+            file: "t.tir".into(),
+            severity: "error".into(),
+            code: "c".into(),
+            message: "m".into(),
+        };
+        for (table, columns, cells) in [
+            (
+                TableName::FitFailures,
+                FitFailure::columns(),
+                failure.cells(),
+            ),
+            (TableName::Lint, LintRow::columns(), lint.cells()),
+        ] {
+            let schema: Vec<&str> = crate::schema::table(table)
+                .columns
+                .iter()
+                .map(|c| c.name.as_str())
+                .collect();
+            assert_eq!(columns, schema);
+            assert_eq!(cells.len(), columns.len());
+            for (c, cell) in columns.iter().zip(&cells) {
+                assert!(!matches!(cell, Cell::Empty), "{table:?}.{c} has no cell");
+            }
+        }
     }
 
     #[test]

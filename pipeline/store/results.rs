@@ -112,11 +112,70 @@ pub fn out_of_sample_scope(family: &str) -> String {
 /// The end of every [`out_of_sample_scope`].
 const OUT_OF_SAMPLE_SUFFIX: &str = " out of sample";
 
+/// The scope of an MF 6.1 model written without pressure terms (one tested pressure): a limit
+/// of the written model, not a part of the stage left out.
+pub const PRESSURE_TERMS_SCOPE: &str = "pressure terms";
+
+/// How an error the lint finds in a written `.tir` is scoped in `fit_failures`
+/// (`lint <file> <code>`).
+pub fn lint_scope(file_name: &str, code: &str) -> String {
+    format!("{LINT_PREFIX}{file_name} {code}")
+}
+
+/// The start of every [`lint_scope`].
+const LINT_PREFIX: &str = "lint ";
+
+/// What a `fit_failures` row means for the version: one kind per row, decided by its `fatal`
+/// flag and its scope.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum FailureKind {
+    /// The stage produced nothing for the group.
+    Failed,
+    /// A part of the stage (a load, a sweep, a family) was left out; the rest was written.
+    Skipped,
+    /// The result was written whole and fits poorly (a family good in sample and bad out of
+    /// sample).
+    QualityFlag,
+    /// The model was written whole and cannot carry something (an MF 6.1 model from one tested
+    /// pressure has no pressure terms).
+    ModelLimit,
+    /// The written `.tir` has an error by the lint (a spike, a force against its slip, ..).
+    LintError,
+}
+
+impl FailureKind {
+    /// The prefix of its lines on stderr.
+    pub fn label(self) -> &'static str {
+        match self {
+            FailureKind::Failed => "failed",
+            FailureKind::Skipped => "skipped",
+            FailureKind::QualityFlag => "fit quality",
+            FailureKind::ModelLimit => "model limit",
+            FailureKind::LintError => "tir lint error",
+        }
+    }
+}
+
 impl FitFailure {
+    /// What the row means ([`FailureKind`]).
+    pub fn kind(&self) -> FailureKind {
+        if self.fatal {
+            FailureKind::Failed
+        } else if self.scope.ends_with(OUT_OF_SAMPLE_SUFFIX) {
+            FailureKind::QualityFlag
+        } else if self.scope == PRESSURE_TERMS_SCOPE {
+            FailureKind::ModelLimit
+        } else if self.scope.starts_with(LINT_PREFIX) {
+            FailureKind::LintError
+        } else {
+            FailureKind::Skipped
+        }
+    }
+
     /// A quality flag: the stage's result was written whole and the row says it fits poorly
     /// (a family good in sample and bad out of sample), rather than a part left out or a failure.
     pub fn is_quality_flag(&self) -> bool {
-        !self.fatal && self.scope.ends_with(OUT_OF_SAMPLE_SUFFIX)
+        self.kind() == FailureKind::QualityFlag
     }
 }
 
@@ -226,7 +285,7 @@ pub struct SpringRateRecord {
     pub tire: String,
     pub rim_in: i64,
     pub pressure_kpa: i64,
-    /// None when the inclination was swept.
+    /// None when the inclination was swept (the table's -1; a held -2 deg stays -2).
     pub ia_deg_nom: Option<i64>,
     pub condition: String,
     pub stiffness_n_per_m: f64,
@@ -593,7 +652,7 @@ fn spring_rate_rows(df: &DataFrame, path: &Path) -> Result<Vec<SpringRateRecord>
             tire: tire[i].clone(),
             rim_in: rim[i],
             pressure_kpa: p[i],
-            ia_deg_nom: ia[i].filter(|&a| a >= 0),
+            ia_deg_nom: ia[i].filter(|&a| a != super::layout::SWEPT),
             condition: condition[i].clone(),
             stiffness_n_per_m: cz[i],
         })
@@ -931,6 +990,20 @@ mod tests {
         );
         assert!(r.notes.iter().any(|n| n == "thermal.parquet: not present"));
         assert_eq!(r.groups(), BTreeSet::from([("X".to_string(), 7, 83)]));
+    }
+
+    /// A held negative inclination is a level, not "swept": only the table's -1 reads as None.
+    #[test]
+    fn a_negative_held_inclination_is_kept() {
+        let df = df!(
+            "tire" => ["X", "X", "X"], "rim_in" => [7i64, 7, 7], "pressure_kpa" => [83i64, 83, 83],
+            "ia_deg_nom" => [-2i64, -1, 0], "condition" => ["dynamic", "sweep", "dynamic"],
+            "stiffness_n_per_m" => [1.0e5, 1.0e5, 1.0e5],
+        )
+        .unwrap();
+        let rows = spring_rate_rows(&df, Path::new("spring_rate.parquet")).unwrap();
+        let ia: Vec<Option<i64>> = rows.iter().map(|r| r.ia_deg_nom).collect();
+        assert_eq!(ia, vec![Some(-2), None, Some(0)]);
     }
 
     #[test]

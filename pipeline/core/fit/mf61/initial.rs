@@ -93,16 +93,23 @@ fn lift(m: &Pac2002AtPressure) -> Option<Coefs<f64>> {
         .map(|c| c.file.coefs)
 }
 
-/// Build the start. `models` must not be empty.
-pub fn start(models: &[Pac2002AtPressure], nominal_pa: f64) -> Start {
-    let mut notes = Vec::new();
-    let reference = (0..models.len())
+/// The index of the reference model in `models`: the one whose pressure is nearest
+/// `nominal_pa` (the first of equals; 0 when `models` is empty). Coefficients without a pressure
+/// trend (`BREFF`, `DREFF`, `FREFF`, the `My` terms, ..) start as this model's values.
+pub fn reference(models: &[Pac2002AtPressure], nominal_pa: f64) -> usize {
+    (0..models.len())
         .min_by(|&a, &b| {
             let da = (models[a].p_pa - nominal_pa).abs();
             let db = (models[b].p_pa - nominal_pa).abs();
             da.total_cmp(&db)
         })
-        .unwrap_or(0);
+        .unwrap_or(0)
+}
+
+/// Build the start. `models` must not be empty.
+pub fn start(models: &[Pac2002AtPressure], nominal_pa: f64) -> Start {
+    let mut notes = Vec::new();
+    let reference = reference(models, nominal_pa);
     let lifted: Vec<Option<Coefs<f64>>> = models.iter().map(lift).collect();
     let base = lifted[reference].clone().unwrap_or_else(|| {
         models[reference]

@@ -427,7 +427,8 @@ pub struct Mf61Coefficient {
     pub std_error: Option<f64>,
     /// On a bound of the refinement.
     pub at_bound: bool,
-    /// `fitted`, `start` (from the PAC2002 fits: lifted or their pressure trend, not refined).
+    /// `fitted`, `start` (from the PAC2002 fits: lifted or their pressure trend, not refined),
+    /// `placeholder` (the rolling resistance terms `QSY1..QSY8`: TTC records no `My`).
     pub origin: &'static str,
 }
 
@@ -532,6 +533,10 @@ pub struct Mf61Fit {
     pub kfold_seconds: f64,
     /// Wall time of the whole stage including the out-of-sample refits, s.
     pub seconds: f64,
+    /// The tested pressure (kPa) whose PAC2002 model the start was lifted from
+    /// ([`initial::reference`]): what a coefficient of origin `start` without a pressure trend
+    /// (`BREFF`, `DREFF`, `FREFF`, ..) holds is that model's value.
+    pub start_reference_kpa: i64,
 }
 
 /// Bad input.
@@ -1144,6 +1149,13 @@ pub fn fit_collapsed(
             .collect()
     };
     let all: Vec<usize> = (0..groups.len()).collect();
+    let with_start: Vec<&CollapsedGroup> = groups
+        .iter()
+        .copied()
+        .filter(|g| g.pac2002.is_some())
+        .collect();
+    let start_reference_kpa =
+        with_start[initial::reference(&models_of(None), nominal_pa)].pressure_kpa_nom;
     let full = fit_points(&models_of(None), &points, nominal_pa, range_of(&all), cfg);
     let mut quality = Vec::new();
     for (g, group) in groups.iter().enumerate() {
@@ -1225,6 +1237,16 @@ pub fn fit_collapsed(
     let kfold_seconds = kfold_started.elapsed().as_secs_f64();
     let mut notes = full.notes.clone();
     notes.extend(pressure_order_notes(&groups, &points, &full.model));
+    notes.push(format!(
+        "My not fitted: TTC records no rolling resistance moment; QSY1..QSY8 are the PAC2002 \
+         start's placeholder (QSY1 = {}{})",
+        full.model.coefs[QSY1],
+        if full.model.coefs[QSY1] == 0.0 {
+            ": My = 0, no moment claimed"
+        } else {
+            ", not measured"
+        }
+    ));
     // Leaving one of two pressures out would fit the pressure terms from one pressure: not a
     // test of the model, so only with three or more.
     if cfg.leave_one_pressure_out && groups.len() >= 3 {
@@ -1286,6 +1308,7 @@ pub fn fit_collapsed(
         families: full.families,
         notes,
         seconds: started.elapsed().as_secs_f64(),
+        start_reference_kpa,
     })
 }
 
@@ -1397,6 +1420,9 @@ fn pressure_order_notes(
     notes
 }
 
+/// The rolling resistance terms: never refined (TTC records no `My`), placeholders.
+const ROLLING: [Coef; 8] = [QSY1, QSY2, QSY3, QSY4, QSY5, QSY6, QSY7, QSY8];
+
 /// Every MF 6.1 coefficient with its origin.
 fn coefficient_list(f: &Fitted) -> Vec<Mf61Coefficient> {
     Coef::ALL
@@ -1410,7 +1436,11 @@ fn coefficient_list(f: &Fitted) -> Vec<Mf61Coefficient> {
                 value: f.model.coefs[*c],
                 std_error: fitted.and_then(|s| if s.2 { None } else { s.1 }),
                 at_bound: fitted.is_some_and(|s| s.2),
-                origin: if fitted.is_some() { "fitted" } else { "start" },
+                origin: match fitted {
+                    Some(_) => "fitted",
+                    None if ROLLING.contains(c) => "placeholder",
+                    None => "start",
+                },
             }
         })
         .collect()

@@ -353,7 +353,8 @@ pub struct FitConfig {
     pub constraint_weight: f64,
     /// Form of the overturning moment.
     pub mx_form: MxForm,
-    /// Rolling-resistance coefficient written as the `QSY1` placeholder (TTC records no `My`).
+    /// Rolling-resistance coefficient written as the `QSY1` placeholder (TTC records no `My`):
+    /// 0 by default, so the model claims no rolling resistance moment it was not fitted to.
     pub rolling_resistance_placeholder: f64,
     /// Folds of the out-of-sample check (k-fold by sweep); below 2 the check is skipped.
     pub kfold: usize,
@@ -393,7 +394,7 @@ impl Default for FitConfig {
             regularisation_weight: 1e-3,
             constraint_weight: 10.0,
             mx_form: MxForm::Auto,
-            rolling_resistance_placeholder: 0.0165,
+            rolling_resistance_placeholder: 0.0,
             kfold: 5,
             kfold_iterations: 20,
             kfold_points_per_sweep: 40,

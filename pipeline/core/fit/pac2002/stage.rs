@@ -1120,8 +1120,9 @@ fn extended_mx(
     }
 }
 
-/// `My`: TTC records no rolling resistance moment; `QSY1` is set to the thesis's constant
-/// coefficient and the family is flagged as a placeholder.
+/// `My`: TTC records no rolling resistance moment; `QSY1` is set to
+/// [`FitConfig::rolling_resistance_placeholder`] (0 by default: `My` = 0, no moment claimed),
+/// `QSY2..QSY4` to 0, and the family and its coefficients are flagged as placeholders.
 fn rolling_placeholder(
     cfg: &FitConfig,
     c: &mut Coefs<f64>,
@@ -1136,10 +1137,16 @@ fn rolling_placeholder(
     for coef in Family::My.coefficients() {
         origins.push((*coef, Some(Family::My), CoefficientOrigin::Placeholder));
     }
-    let reason = format!(
-        "no My channel in the data: QSY1 = {qsy1} (constant rolling resistance coefficient, \
-         thesis section 8.2), QSY2..QSY4 = 0"
-    );
+    let reason = if qsy1 == 0.0 {
+        "no My channel in the data: QSY1..QSY4 = 0, so the model's My is 0 (no rolling \
+         resistance moment is claimed)"
+            .to_string()
+    } else {
+        format!(
+            "no My channel in the data: QSY1 = {qsy1} ([fit] rolling_resistance_placeholder, a \
+             constant rolling resistance coefficient, not measured), QSY2..QSY4 = 0"
+        )
+    };
     notes.push(format!("My not fitted: {reason}"));
     FamilyFit {
         family: Family::My,
@@ -1147,6 +1154,10 @@ fn rolling_placeholder(
         quality: None,
     }
 }
+
+/// The note of every `My` coefficient: TTC records no rolling resistance moment.
+pub const MY_PLACEHOLDER_NOTE: &str = "placeholder, not fitted: TTC records no rolling resistance \
+     moment (My); [fit] rolling_resistance_placeholder sets QSY1 (0 by default: My = 0)";
 
 /// Every coefficient the stage set, in catalogue order.
 fn coefficient_list(
@@ -1169,6 +1180,9 @@ fn coefficient_list(
             };
             let note = match origin {
                 CoefficientOrigin::Fixed { reason } => Some(format!("held: {reason}")),
+                CoefficientOrigin::Placeholder if *family == Some(Family::My) => {
+                    Some(MY_PLACEHOLDER_NOTE.to_string())
+                }
                 _ if at_bound => {
                     let (lo, hi, why) = bound_of(*coef, c, env);
                     let v = c[*coef];
@@ -1201,6 +1215,47 @@ fn coefficient_list(
 mod tests {
     use super::super::family::is_camber_term;
     use super::*;
+
+    /// With the default configuration the `My` placeholder makes the model's rolling resistance
+    /// moment 0 (it was -R0 Fz 0.0165, -5.4 N m at 1250 N on a 0.26 m tire, from a coefficient
+    /// no data supports), and the note says so.
+    #[test]
+    fn the_my_placeholder_claims_no_rolling_resistance_moment() {
+        use crate::tire_model::{MagicFormula, Mode, Version};
+        let mut c = Coefs::<f64>::defaults();
+        c[UNLOADED_RADIUS] = 0.26;
+        c[FNOMIN] = 1100.0;
+        c[LONGVL] = 11.0;
+        c[QSY1] = 0.012;
+        let (mut origins, mut notes) = (Vec::new(), Vec::new());
+        let fit = rolling_placeholder(&FitConfig::default(), &mut c, &mut origins, &mut notes);
+        assert_eq!(fit.status.as_str(), "placeholder");
+        assert!(
+            origins
+                .iter()
+                .all(|o| o.2 == CoefficientOrigin::Placeholder)
+        );
+        let model = MagicFormula::with_version(c.clone(), Version::Pac2002);
+        let input = SlipInput {
+            fz_n: 1250.0,
+            kappa: 0.0,
+            alpha_rad: 0.0,
+            gamma_rad: 0.0,
+            vx_mps: 11.0,
+        };
+        let my = model.eval(&input, Mode::Limits).my_nm;
+        assert!(my.abs() < 1e-12, "My {my} N m");
+        assert!(notes[0].contains("My is 0"), "{notes:?}");
+        // a configured constant is written, and named as the placeholder it is
+        let cfg = FitConfig {
+            rolling_resistance_placeholder: 0.0165,
+            ..FitConfig::default()
+        };
+        let mut notes = Vec::new();
+        rolling_placeholder(&cfg, &mut c, &mut Vec::new(), &mut notes);
+        assert_eq!(c[QSY1], 0.0165);
+        assert!(notes[0].contains("not measured"), "{notes:?}");
+    }
 
     /// Camber terms are held when one inclination was tested and carry no prior when the
     /// inclination levels identify them; those of residual torque and trail curvature keep it.
