@@ -973,6 +973,52 @@ mod tests {
         assert!(worst < 1e-7, "jacobian vs finite differences: {worst}");
     }
 
+    /// `refit` takes the same steps as `minimize` (bit for bit, with a robust loss and a bound
+    /// on the path), and an evaluation supplied at the start saves exactly the solver's first
+    /// Jacobian; one at another point is not used.
+    #[test]
+    fn refit_gives_minimizes_parameters_and_reuses_a_start_evaluation() {
+        let problem = exp_data(true);
+        let bounds = Bounds {
+            lower: vec![0.0, -0.69, -1.0],
+            upper: vec![10.0, 1.0, 1.0],
+        };
+        let options = Options::warm_refit(20, RobustLoss::Huber { k: 1.345 });
+        let start = [2.0, -0.5, 0.2];
+        let full = minimize(&problem, &start, &bounds, &options);
+        let plain = refit(&problem, &start, &bounds, &options, None);
+        assert_eq!(plain.params, full.params);
+        assert_eq!(plain.termination, full.termination);
+        // `minimize` also evaluates the residuals once more for the RMSE.
+        assert_eq!(plain.evaluations + 1, full.evaluations);
+        let evaluated_at = |p: &[f64]| {
+            let (r, jac) = residuals_and_jacobian_at(&problem, p);
+            Evaluated {
+                at: p.to_vec(),
+                r,
+                jac,
+            }
+        };
+        let seeded = refit(
+            &problem,
+            &start,
+            &bounds,
+            &options,
+            Some(evaluated_at(&start)),
+        );
+        assert_eq!(seeded.params, full.params);
+        assert_eq!(seeded.evaluations + 1, plain.evaluations);
+        let elsewhere = [2.1, -0.5, 0.2];
+        let unused = refit(
+            &problem,
+            &start,
+            &bounds,
+            &options,
+            Some(evaluated_at(&elsewhere)),
+        );
+        assert_eq!(unused, plain);
+    }
+
     #[test]
     fn covariance_is_s2_times_the_inverse_normal_matrix() {
         let problem = exp_data(false);
