@@ -55,6 +55,7 @@
 //! Deliberately not here: the steady-state PAC2002 fit (its own stage), reading the store,
 //! writing tables or `.tir` files, SWIFT's distribution of the carcass stiffness.
 
+use std::cell::RefCell;
 use std::collections::BTreeMap;
 
 use super::scalar::{self, ScalarOptions};
@@ -229,13 +230,19 @@ impl MeasurementLag {
 
     /// `y` through the chain, on the sample times `t_s` (a settled start).
     pub fn apply(&self, t_s: &[f64], y: Vec<f64>) -> Vec<f64> {
+        self.applied(t_s, &y).unwrap_or(y)
+    }
+
+    /// [`MeasurementLag::apply`] on a borrowed `y`; `None` when the chain leaves it unchanged
+    /// (no lag, or no samples).
+    fn applied(&self, t_s: &[f64], y: &[f64]) -> Option<Vec<f64>> {
         if self.lag_s <= 0.0 || y.is_empty() {
-            return y;
+            return None;
         }
-        match self.form {
+        Some(match self.form {
             LagForm::FirstOrder => {
                 let unit = vec![1.0; y.len()];
-                first_order_lag(t_s, &unit, &y, self.lag_s)
+                first_order_lag(t_s, &unit, y, self.lag_s)
             }
             LagForm::Delay => {
                 let mut out = Vec::with_capacity(y.len());
@@ -256,7 +263,7 @@ impl MeasurementLag {
                 }
                 out
             }
-        }
+        })
     }
 }
 
@@ -723,10 +730,18 @@ impl LagProblem {
 
     /// [`LagProblem::cost`] with another measurement lag.
     pub fn cost_with(&self, sigma_m: f64, lag: &MeasurementLag) -> (f64, f64, f64) {
-        let y = lag.apply(
-            &self.t_s,
-            first_order_lag(&self.t_s, &self.v_mps, &self.f_ss, sigma_m),
-        );
+        self.cost_of(&self.tire_lagged(sigma_m), lag)
+    }
+
+    /// The steady-state force through the tire's lag at `sigma` (before the measurement lag).
+    fn tire_lagged(&self, sigma_m: f64) -> Vec<f64> {
+        first_order_lag(&self.t_s, &self.v_mps, &self.f_ss, sigma_m)
+    }
+
+    /// [`LagProblem::cost_with`] from the tire-lagged force ([`LagProblem::tire_lagged`]).
+    fn cost_of(&self, tire: &[f64], lag: &MeasurementLag) -> (f64, f64, f64) {
+        let measured = lag.applied(&self.t_s, tire);
+        let y = measured.as_deref().unwrap_or(tire);
         let pts = || {
             (0..y.len())
                 .filter(|&i| self.counted[i])
@@ -763,11 +778,9 @@ impl LagProblem {
     /// Residuals of the measured force against `s F_lag + c` at `sigma` and `lag`, the nuisance
     /// parameters solved; `None` for a sample the cost does not count.
     pub fn residuals_with(&self, sigma_m: f64, lag: &MeasurementLag) -> Vec<Option<f64>> {
-        let (_, s, c) = self.cost_with(sigma_m, lag);
-        let y = lag.apply(
-            &self.t_s,
-            first_order_lag(&self.t_s, &self.v_mps, &self.f_ss, sigma_m),
-        );
+        let tire = self.tire_lagged(sigma_m);
+        let (_, s, c) = self.cost_of(&tire, lag);
+        let y = lag.apply(&self.t_s, tire);
         y.iter()
             .zip(&self.f_meas)
             .zip(&self.counted)
@@ -1044,21 +1057,54 @@ fn identify_measurement_lag(
         form: cfg.measurement_lag_form,
         lag_s,
     };
-    // Each informative load's shared sigma (at zero inclination) and pooled cost at a lag.
+    // The tire's lag does not depend on the measurement lag: every member's tire-lagged force
+    // at each point of the inner search's grid is computed once for all trial lags (the grid
+    // is most of the inner search's evaluations; Brent's points differ from lag to lag).
+    let inner = ScalarOptions::default();
+    let grid = scalar::grid(lo, hi, &inner);
+    let grid_lagged: Vec<Vec<Vec<Vec<f64>>>> = informative
+        .iter()
+        .map(|members| {
+            members
+                .iter()
+                .map(|m| {
+                    grid.iter()
+                        .map(|g| m.problem.tire_lagged(g * m.factor))
+                        .collect()
+                })
+                .collect()
+        })
+        .collect();
+    // Each informative load's shared sigma (at zero inclination) and pooled cost at a lag,
+    // kept per lag (the test below asks again for lags the search evaluated).
+    let evaluated: RefCell<BTreeMap<u64, Vec<(f64, f64)>>> = RefCell::new(BTreeMap::new());
     let per_load = |lag: &MeasurementLag| -> Vec<(f64, f64)> {
-        informative
+        if let Some(known) = evaluated.borrow().get(&lag.lag_s.to_bits()) {
+            return known.clone();
+        }
+        let loads: Vec<(f64, f64)> = informative
             .iter()
-            .map(|members| {
+            .zip(&grid_lagged)
+            .map(|(members, lagged)| {
                 let pooled = |sigma0: f64| -> f64 {
+                    let at = grid.iter().position(|g| g.to_bits() == sigma0.to_bits());
                     members
                         .iter()
-                        .map(|m| m.problem.cost_with(sigma0 * m.factor, lag).0)
+                        .zip(lagged)
+                        .map(|(m, cached)| match at {
+                            Some(i) => m.problem.cost_of(&cached[i], lag).0,
+                            None => m.problem.cost_with(sigma0 * m.factor, lag).0,
+                        })
                         .sum()
                 };
-                scalar::minimize(&pooled, lo, hi, &ScalarOptions::default())
+                scalar::minimize(&pooled, lo, hi, &inner)
                     .map_or((f64::NAN, f64::INFINITY), |b| (b.x, b.cost))
             })
-            .collect()
+            .collect();
+        evaluated
+            .borrow_mut()
+            .insert(lag.lag_s.to_bits(), loads.clone());
+        loads
     };
     let profile = |lag_s: f64| -> f64 { per_load(&lag_of(lag_s)).iter().map(|p| p.1).sum() };
     let (a, b) = cfg.measurement_lag_range_s;

@@ -70,6 +70,23 @@ impl CostFunction for Cost<'_> {
     }
 }
 
+/// The grid [`minimize`] evaluates first over `[lo, hi]` (`opts.grid` points, at least 3, ends
+/// included), bit for bit: a caller whose cost has an expensive part that depends only on `x`
+/// can compute that part once at these points and reuse it over many minimisations.
+pub fn grid(lo: f64, hi: f64, opts: &ScalarOptions) -> Vec<f64> {
+    let n = opts.grid.max(3);
+    (0..n)
+        .map(|i| {
+            let u = i as f64 / (n - 1) as f64;
+            if opts.log_grid {
+                (lo.ln() + u * (hi.ln() - lo.ln())).exp()
+            } else {
+                lo + u * (hi - lo)
+            }
+        })
+        .collect()
+}
+
 /// Minimise `f` over `[lo, hi]`: grid, then Brent between the best grid point's neighbours.
 pub fn minimize(
     f: &dyn Fn(f64) -> f64,
@@ -85,15 +102,9 @@ pub fn minimize(
             log: opts.log_grid,
         });
     }
-    let n = opts.grid.max(3);
-    let point = |i: usize| {
-        let u = i as f64 / (n - 1) as f64;
-        if opts.log_grid {
-            (lo.ln() + u * (hi.ln() - lo.ln())).exp()
-        } else {
-            lo + u * (hi - lo)
-        }
-    };
+    let grid = grid(lo, hi, opts);
+    let n = grid.len();
+    let point = |i: usize| grid[i];
     let guard = |x: f64| {
         let c = f(x);
         if c.is_finite() { c } else { f64::MAX }

@@ -310,6 +310,65 @@ pub fn minimize(
     bounds: &Bounds,
     options: &Options,
 ) -> FitOutcome {
+    let (state, p, termination) = solve(problem, start, bounds, options, None);
+    let n_data = problem.n_data().min(problem.n_residuals());
+    state.finish(p, termination, n_data)
+}
+
+/// The unweighted residuals and Jacobian at a point, as
+/// [`LeastSquaresProblem::residuals_and_jacobian`] writes them, evaluated by the caller.
+pub struct Evaluated {
+    /// Where.
+    pub at: Vec<f64>,
+    /// Residuals.
+    pub r: Vec<f64>,
+    /// Jacobian, row-major.
+    pub jac: Vec<f64>,
+}
+
+/// The parameters of a [`refit`] and what they cost.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Refit {
+    /// Final parameters (inside the bounds), the same as [`minimize`]'s.
+    pub params: Vec<f64>,
+    /// Residual evaluations plus Jacobian evaluations.
+    pub evaluations: usize,
+    /// Why the last round stopped.
+    pub termination: Termination,
+}
+
+/// [`minimize`] for a caller that needs only the parameters (a cross-validation refit): the
+/// same steps and parameters, without the statistics at the solution (covariance,
+/// identifiability, RMSE). `at_start`, when the caller has evaluated the problem at `start`
+/// already, stands in for the solver's first Jacobian if `start` lies inside the box (it must
+/// be this problem's evaluation there).
+///
+/// # Panics
+/// As [`minimize`].
+pub fn refit(
+    problem: &impl LeastSquaresProblem,
+    start: &[f64],
+    bounds: &Bounds,
+    options: &Options,
+    at_start: Option<Evaluated>,
+) -> Refit {
+    let (state, params, termination) = solve(problem, start, bounds, options, at_start);
+    Refit {
+        params,
+        evaluations: state.evaluations,
+        termination,
+    }
+}
+
+/// The Levenberg-Marquardt runs and IRLS rounds of [`minimize`]: the solver state, the final
+/// parameters and why the last round stopped.
+fn solve<'a, P: LeastSquaresProblem>(
+    problem: &'a P,
+    start: &[f64],
+    bounds: &'a Bounds,
+    options: &'a Options,
+    at_start: Option<Evaluated>,
+) -> (Solver<'a, P>, Vec<f64>, Termination) {
     let n = problem.n_params();
     assert_eq!(start.len(), n, "minimize: start length");
     assert_eq!(bounds.lower.len(), n, "minimize: lower bounds length");
@@ -332,7 +391,7 @@ pub fn minimize(
         evaluations: 0,
         jacobian_evaluations: 0,
         iterations: 0,
-        last_jacobian: None,
+        last_jacobian: at_start.filter(|e| e.r.len() == m && e.jac.len() == m * n),
     };
     let mut p: Vec<f64> = (0..n).map(|j| bounds.clamp(j, start[j])).collect();
     let rounds = match options.loss {
@@ -354,7 +413,7 @@ pub fn minimize(
         ));
         termination = state.levenberg_marquardt(&mut p);
     }
-    state.finish(p, termination, n_data)
+    (state, p, termination)
 }
 
 /// Square roots of the IRLS weights of `r` (they multiply residuals and Jacobian rows).
@@ -397,13 +456,6 @@ struct Solver<'a, P: LeastSquaresProblem> {
     /// on the point it evaluated them at, and the next IRLS round and the final statistics
     /// start there (only the weights change), so they reuse them instead of evaluating again.
     last_jacobian: Option<Evaluated>,
-}
-
-/// Unweighted residuals and Jacobian at a point.
-struct Evaluated {
-    at: Vec<f64>,
-    r: Vec<f64>,
-    jac: Vec<f64>,
 }
 
 impl Evaluated {
@@ -919,6 +971,52 @@ mod tests {
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
         assert!(worst < 1e-7, "jacobian vs finite differences: {worst}");
+    }
+
+    /// `refit` takes the same steps as `minimize` (bit for bit, with a robust loss and a bound
+    /// on the path), and an evaluation supplied at the start saves exactly the solver's first
+    /// Jacobian; one at another point is not used.
+    #[test]
+    fn refit_gives_minimizes_parameters_and_reuses_a_start_evaluation() {
+        let problem = exp_data(true);
+        let bounds = Bounds {
+            lower: vec![0.0, -0.69, -1.0],
+            upper: vec![10.0, 1.0, 1.0],
+        };
+        let options = Options::warm_refit(20, RobustLoss::Huber { k: 1.345 });
+        let start = [2.0, -0.5, 0.2];
+        let full = minimize(&problem, &start, &bounds, &options);
+        let plain = refit(&problem, &start, &bounds, &options, None);
+        assert_eq!(plain.params, full.params);
+        assert_eq!(plain.termination, full.termination);
+        // `minimize` also evaluates the residuals once more for the RMSE.
+        assert_eq!(plain.evaluations + 1, full.evaluations);
+        let evaluated_at = |p: &[f64]| {
+            let (r, jac) = residuals_and_jacobian_at(&problem, p);
+            Evaluated {
+                at: p.to_vec(),
+                r,
+                jac,
+            }
+        };
+        let seeded = refit(
+            &problem,
+            &start,
+            &bounds,
+            &options,
+            Some(evaluated_at(&start)),
+        );
+        assert_eq!(seeded.params, full.params);
+        assert_eq!(seeded.evaluations + 1, plain.evaluations);
+        let elsewhere = [2.1, -0.5, 0.2];
+        let unused = refit(
+            &problem,
+            &start,
+            &bounds,
+            &options,
+            Some(evaluated_at(&elsewhere)),
+        );
+        assert_eq!(unused, plain);
     }
 
     #[test]

@@ -36,7 +36,7 @@ use super::stage::{Envelope, bounds_of, data_points, output_of, penalties_of};
 use crate::fit::output::Output;
 use crate::fit::sweep_folds;
 use crate::numerics::nonlinear_least_squares::{
-    Identifiability, LeastSquaresProblem, Options, minimize,
+    Evaluated, Identifiability, LeastSquaresProblem, Options, refit,
 };
 use crate::tire_model::{Coef, Coefs, Evaluation, Pac2002, SlipInput};
 
@@ -111,7 +111,7 @@ pub fn out_of_sample(
     let output = output_of(family);
     let penalties = penalties_of(family, free, env, cfg);
     let bounds = bounds_of(free, c, env);
-    // Warm start from the full fit (`minimize` clamps it into the box).
+    // Warm start from the full fit (`refit` clamps it into the box).
     let start: Vec<f64> = free.iter().map(|coef| c[*coef]).collect();
     let options = Options {
         scale_floor: 1e-5,
@@ -127,13 +127,15 @@ pub fn out_of_sample(
             .collect();
         let points: Vec<DataPoint> = data_points(&train, output, cfg.kfold_points_per_sweep);
         let problem = FamilyProblem::new(c, free, family, &points, &penalties);
-        let id = design_identifiability(&problem, &start, &bounds.lower, &bounds.upper);
+        let (id, at_start) = design_identifiability(&problem, &start, &bounds.lower, &bounds.upper);
         if id.rank < id.n_free || id.condition > DEFICIENT_CONDITION * full.condition {
             deficient += 1;
         }
-        let outcome = minimize(&problem, &start, &bounds, &options);
-        evaluations += outcome.evaluations;
-        let refit = problem.coefs_at(&outcome.params);
+        // Only the refit's parameters are used: no statistics at its solution, and its first
+        // Jacobian is the one just evaluated at the start.
+        let outcome = refit(&problem, &start, &bounds, &options, Some(at_start));
+        evaluations += outcome.evaluations + 1;
+        let refitted = problem.coefs_at(&outcome.params);
         let held_out: Vec<_> = sweeps
             .iter()
             .zip(&fold)
@@ -146,7 +148,7 @@ pub fn out_of_sample(
             .iter()
             .flat_map(|p| p.branches.as_slice().iter().copied())
             .collect();
-        let values = channel_batch(family, &refit, &mut inputs);
+        let values = channel_batch(family, &refitted, &mut inputs);
         let mut next = values.into_iter();
         for p in &held_out {
             let m = p.branches.mean_of(|_| next.next().unwrap_or(f64::NAN));
@@ -175,20 +177,28 @@ pub fn out_of_sample(
 /// identifiability is measured at, so the comparison sees only what leaving the held-out sweeps
 /// out does to the design, not where a short warm refit wandered (on the every-quirk virtual
 /// round a refit ended at a point 1000x worse conditioned than its start while its training
-/// sweeps held every load and inclination).
+/// sweeps held every load and inclination). Also returns the evaluation it was computed from.
 fn design_identifiability(
     problem: &FamilyProblem<'_>,
     at: &[f64],
     lower: &[f64],
     upper: &[f64],
-) -> Identifiability {
+) -> (Identifiability, Evaluated) {
     let (m, n) = (problem.n_residuals(), problem.n_params());
     let (mut r, mut jac) = (vec![0.0; m], vec![0.0; m * n]);
     problem.residuals_and_jacobian(at, &mut r, &mut jac);
     let off: Vec<usize> = (0..n)
         .filter(|&j| at[j] > lower[j] && at[j] < upper[j])
         .collect();
-    Identifiability::of(&jac, n, problem.n_data(), &off)
+    let id = Identifiability::of(&jac, n, problem.n_data(), &off);
+    (
+        id,
+        Evaluated {
+            at: at.to_vec(),
+            r,
+            jac,
+        },
+    )
 }
 
 fn lerp_input(a: &SlipInput, b: &SlipInput, t: f64) -> SlipInput {
