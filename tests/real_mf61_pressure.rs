@@ -16,12 +16,12 @@
 
 use std::collections::BTreeSet;
 
-use tirebase::core::fit::mf61::problem::{FIT_MODE, FamilyData, Mf61FamilyProblem};
-use tirebase::core::fit::mf61::{Mf61Config, Mf61Input, Point, collapse_group, fit};
+use tirebase::core::fit::mf61::problem::{FamilyData, Mf61FamilyProblem};
+use tirebase::core::fit::mf61::{Mf61Config, Mf61Input, Point, collapse_group, fit, rmse_of};
 use tirebase::core::fit::output::Output;
 use tirebase::core::fit::pac2002::{Family, SweepKind};
 use tirebase::core::numerics::nonlinear_least_squares::{Bounds, Options, minimize};
-use tirebase::core::tire_model::{Coef, MagicFormula, Pressures};
+use tirebase::core::tire_model::{Coef, MagicFormula};
 
 use crate::real::{mf61_groups, real_dir};
 
@@ -32,40 +32,18 @@ fn family_data(points: &[Point], family: Family, group: Option<usize>) -> Family
         Family::Fx0 => (SweepKind::DriveBrake, Output::Fx),
         _ => (SweepKind::Cornering, Output::Fy),
     };
-    let k = out as usize;
     let mut d = FamilyData::default();
     for p in points {
         if p.kind != kind || group.is_some_and(|g| p.group != g) {
             continue;
         }
-        if !p.values[k].is_finite() || p.weights[k] <= 0.0 {
-            continue;
-        }
-        d.inputs.push(p.input);
-        d.pressures.push(p.p_pa);
-        d.measured.push(p.values[k]);
-        d.weights.push(p.weights[k]);
-        d.sweeps.push(p.sweep);
-        d.groups.push(p.group);
+        d.push_output(p, out, p.weights[out as usize]);
     }
     d
 }
 
 fn rmse(model: &MagicFormula, family: Family, d: &FamilyData) -> f64 {
-    let mut v = vec![0.0; d.len()];
-    model.channel_into_at(
-        family.channel(),
-        &d.inputs,
-        Pressures::PerPoint(&d.pressures),
-        FIT_MODE,
-        &mut v,
-    );
-    (v.iter()
-        .zip(&d.measured)
-        .map(|(a, b)| (a - b) * (a - b))
-        .sum::<f64>()
-        / d.len() as f64)
-        .sqrt()
+    rmse_of(model, family.channel(), d)
 }
 
 /// `model` with `free` refitted on `d` (unbounded, default options).

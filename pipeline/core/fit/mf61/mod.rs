@@ -616,21 +616,14 @@ fn family_data_scaled(
         if !pure.allows(family, p.kind, p.group) {
             continue;
         }
-        let k = out as usize;
-        if !p.values[k].is_finite() || p.weights[k] <= 0.0 {
-            continue;
-        }
-        d.inputs.push(p.input);
-        d.pressures.push(p.p_pa);
-        d.measured.push(p.values[k]);
-        d.weights.push(p.weights[k] * scale(p));
-        d.sweeps.push(p.sweep);
-        d.groups.push(p.group);
+        d.push_output(p, out, p.weights[out as usize] * scale(p));
     }
     d
 }
 
-fn rmse_of(model: &MagicFormula, channel: Channel, d: &FamilyData) -> f64 {
+/// Root mean square of `model`'s `channel` minus the measured values of `d` (unweighted; NaN
+/// without points).
+pub fn rmse_of(model: &MagicFormula, channel: Channel, d: &FamilyData) -> f64 {
     if d.is_empty() {
         return f64::NAN;
     }

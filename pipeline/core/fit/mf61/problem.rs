@@ -10,6 +10,8 @@
 //!
 //! Deliberately not here: which points and coefficients a family uses (`mod.rs`).
 
+use super::data::Point;
+use crate::fit::output::Output;
 use crate::numerics::nonlinear_least_squares::LeastSquaresProblem;
 use crate::tire_model::{
     Channel, Coef, MagicFormula, Mode, MomentForces, Pressures, SlipInput, moment_split,
@@ -44,6 +46,21 @@ impl FamilyData {
     /// No points?
     pub fn is_empty(&self) -> bool {
         self.inputs.is_empty()
+    }
+
+    /// Add `p`'s measured `out` with residual weight `weight`, when it is measured (finite)
+    /// with a positive weight of its own.
+    pub fn push_output(&mut self, p: &Point, out: Output, weight: f64) {
+        let k = out as usize;
+        if !p.values[k].is_finite() || p.weights[k] <= 0.0 {
+            return;
+        }
+        self.inputs.push(p.input);
+        self.pressures.push(p.p_pa);
+        self.measured.push(p.values[k]);
+        self.weights.push(weight);
+        self.sweeps.push(p.sweep);
+        self.groups.push(p.group);
     }
 }
 
