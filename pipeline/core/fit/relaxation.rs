@@ -741,7 +741,12 @@ impl LagProblem {
     /// [`LagProblem::cost_with`] from the tire-lagged force ([`LagProblem::tire_lagged`]).
     fn cost_of(&self, tire: &[f64], lag: &MeasurementLag) -> (f64, f64, f64) {
         let measured = lag.applied(&self.t_s, tire);
-        let y = measured.as_deref().unwrap_or(tire);
+        self.cost_of_modelled(measured.as_deref().unwrap_or(tire))
+    }
+
+    /// The cost and nuisance parameters of the modelled force `y` (through both lags) against
+    /// the measured one.
+    fn cost_of_modelled(&self, y: &[f64]) -> (f64, f64, f64) {
         let pts = || {
             (0..y.len())
                 .filter(|&i| self.counted[i])
@@ -778,9 +783,8 @@ impl LagProblem {
     /// Residuals of the measured force against `s F_lag + c` at `sigma` and `lag`, the nuisance
     /// parameters solved; `None` for a sample the cost does not count.
     pub fn residuals_with(&self, sigma_m: f64, lag: &MeasurementLag) -> Vec<Option<f64>> {
-        let tire = self.tire_lagged(sigma_m);
-        let (_, s, c) = self.cost_of(&tire, lag);
-        let y = lag.apply(&self.t_s, tire);
+        let y = lag.apply(&self.t_s, self.tire_lagged(sigma_m));
+        let (_, s, c) = self.cost_of_modelled(&y);
         y.iter()
             .zip(&self.f_meas)
             .zip(&self.counted)
