@@ -171,12 +171,6 @@ impl FitFailure {
             FailureKind::Skipped
         }
     }
-
-    /// A quality flag: the stage's result was written whole and the row says it fits poorly
-    /// (a family good in sample and bad out of sample), rather than a part left out or a failure.
-    pub fn is_quality_flag(&self) -> bool {
-        self.kind() == FailureKind::QualityFlag
-    }
 }
 
 impl fmt::Display for FitFailure {
