@@ -148,10 +148,7 @@ fn worst_fits_html(rows: &[QualityRow], worst: &[usize]) -> String {
     ];
     let cells = worst.iter().map(|&i| {
         let q = &rows[i];
-        let oos_pct = q
-            .oos_ratio
-            .filter(|r| r.is_finite())
-            .and_then(|r| Some(q.rmse_pct_of_peak.filter(|v| v.is_finite())? * r));
+        let oos_pct = q.oos_pct_of_peak();
         let ranked_by = match (oos_pct, q.oos_folds) {
             (Some(_), Some(k)) if k > 0 => format!("out-of-sample ({k}-fold by sweep)"),
             (Some(_), _) => "out-of-sample".to_string(),

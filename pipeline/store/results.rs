@@ -263,11 +263,15 @@ impl QualityRow {
     /// `oos_ratio` is k-fold by sweep (an mf61 row's leave-one-pressure-out figure, `lopo_ratio`,
     /// is not the headline).
     pub fn headline_pct_of_peak(&self) -> Option<f64> {
+        self.oos_pct_of_peak()
+            .or(self.rmse_pct_of_peak.filter(|v| v.is_finite()))
+    }
+
+    /// The out-of-sample (k-fold by sweep) RMSE in percent of the channel's peak,
+    /// `rmse_pct_of_peak x oos_ratio`; `None` without both.
+    pub fn oos_pct_of_peak(&self) -> Option<f64> {
         let pct = self.rmse_pct_of_peak.filter(|v| v.is_finite())?;
-        Some(match self.oos_ratio.filter(|r| r.is_finite()) {
-            Some(r) => pct * r,
-            None => pct,
-        })
+        Some(pct * self.oos_ratio.filter(|r| r.is_finite())?)
     }
 }
 
