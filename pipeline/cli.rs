@@ -298,7 +298,7 @@ a group is a row of OUT/fit_failures.parquet (stage, scope, fatal, reason) and a
 the other groups and stages are still written.
 
 Exit codes: 0 every stage of every group produced its result; 1 some failed (fatal rows in
-fit_failures; everything else was written); 2 nothing could be fitted (no group, or no group
+fit_failures; everything else was written) or a written .tir has a lint error; 2 nothing could be fitted (no group, or no group
 produced anything) or a usage/store error.")]
 pub struct FitArgs {
     /// Store root directory (written by `tirebase ingest`).
@@ -742,8 +742,8 @@ Without --input it runs on the embedded virtual round, generated with the fixed 
 outputs/round/ on first use, into outputs/store (paths relative to the working directory).
 
 Exit codes: 0 published (or up to date) with no failure, 1 published but some files (failed or
-partial), fits, inertia runs or the report failed, or up to date while input files still fail,
-2 nothing could be done (no input, store locked with --no-wait, a store that cannot be written,
+partial), fits, inertia runs or the report failed or a written .tir has a lint error, or up to
+date while input files still fail, 2 nothing could be done (no input, store locked with --no-wait, a store that cannot be written,
 nothing to fit).")]
 pub struct RunArgs {
     /// Input directory (raw files below it, rig sessions under inertia/). Default: the embedded

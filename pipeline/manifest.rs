@@ -252,7 +252,9 @@ pub enum ProblemKind {
     /// A written model that cannot carry something (an MF 6.1 model from one tested pressure
     /// has no pressure terms).
     ModelLimit,
-    /// An error the lint finds in a written `.tir` (the file is still written).
+    /// An error the lint finds in a written `.tir` (the file is still written, and the run
+    /// exits 1: a spike, a sign flip or an unphysical friction is a defect a driver would feel,
+    /// so a nightly job's exit code must show it).
     TirLint,
 }
 
@@ -282,6 +284,7 @@ impl ProblemKind {
                 | ProblemKind::FitFailure
                 | ProblemKind::InertiaRun
                 | ProblemKind::Report
+                | ProblemKind::TirLint
         )
     }
 
@@ -299,7 +302,7 @@ impl ProblemKind {
             ProblemKind::FitQuality => "warning: fit quality",
             ProblemKind::TirName => "renamed .tir",
             ProblemKind::ModelLimit => "warning: model limit",
-            ProblemKind::TirLint => "warning: .tir lint error",
+            ProblemKind::TirLint => ".tir lint error",
         }
     }
 

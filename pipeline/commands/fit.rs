@@ -16,6 +16,7 @@ use crate::fit::{self, FitOptions, StageSet};
 use crate::progress;
 use crate::store::layout::runs_file;
 use crate::store::lock::{LockWait, StoreLock};
+use crate::store::results::FailureKind;
 
 /// Fit the store's groups.
 pub fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
@@ -85,7 +86,12 @@ pub fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
     eprintln!("stage time summed over groups: {}", seconds.join(", "));
     Ok(if outcome.groups_empty == outcome.groups {
         ExitCode::from(2)
-    } else if outcome.groups_failed > 0 {
+    } else if outcome.groups_failed > 0
+        || outcome
+            .failures
+            .iter()
+            .any(|f| f.kind() == FailureKind::LintError)
+    {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
