@@ -86,11 +86,11 @@ pub enum Dealing {
     /// figure when no term selection ran, and the folds the selection decides on.
     Selection,
     /// The report folds of a family whose term selection held a group: a dealing that shares
-    /// little with [`Dealing::Selection`] (anti-diagonal, fold = (load rank - inclination rank
-    /// - slip-angle rank) mod `k`; where that is the same partition, as with one varying level,
-    /// diagonal in `k + 1` folds), so the kept model's figure is not the minimum the selection
-    /// took over the same folds' noise. `None` from [`out_of_sample`] where no dealing differs
-    /// (a fold per sweep).
+    /// little with [`Dealing::Selection`] (anti-diagonal, fold = (load rank minus inclination
+    /// rank minus slip-angle rank) mod `k`; where that is the same partition, as with one
+    /// varying level, diagonal in `k + 1` folds), so the kept model's figure is not the minimum
+    /// the selection took over the same folds' noise. `None` from [`out_of_sample`] where no
+    /// dealing differs (a fold per sweep).
     Report,
 }
 
