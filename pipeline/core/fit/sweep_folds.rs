@@ -71,6 +71,11 @@ pub fn diagonal(rank_sums: &[usize], k: usize) -> Option<Vec<usize>> {
     Some(fold)
 }
 
+/// Whether two fold assignments split the sweeps into the same groups (fold labels aside).
+pub fn same_partition(a: &[usize], b: &[usize]) -> bool {
+    a.len() == b.len() && (0..a.len()).all(|i| (0..i).all(|j| (a[i] == a[j]) == (b[i] == b[j])))
+}
+
 /// One fitted family's in-sample error and k-fold-by-sweep check, and the rules read from them,
 /// shared by the PAC2002 and MF 6.1 quality rows (which differ otherwise).
 pub trait OutOfSampleQuality {
@@ -129,5 +134,12 @@ mod tests {
         );
         assert!(diagonal(&[0], 5).is_none());
         assert!(diagonal(&[0, 1, 2], 1).is_none());
+    }
+
+    #[test]
+    fn same_partition_ignores_fold_labels() {
+        assert!(same_partition(&[0, 1, 0, 2], &[2, 0, 2, 1]));
+        assert!(!same_partition(&[0, 1, 0, 2], &[0, 1, 1, 2]));
+        assert!(!same_partition(&[0, 1], &[0, 1, 1]));
     }
 }

@@ -10,7 +10,9 @@
 //!   (ranks among the family's distinct levels), so a fold on a load x inclination grid holds at
 //!   most one sweep of a load at each inclination, never most of a load or inclination level
 //!   (its prediction would be an extrapolation), and repeats of a condition are held out
-//!   together. For each
+//!   together. A family whose term selection (`select`) held a group reports the k-fold of
+//!   another dealing ([`Dealing::Report`]), not the one the selection compared models on. For
+//!   each
 //!   fold the family's free coefficients are refitted on the other folds' sweeps, warm-started
 //!   from the family's own stage (where its in-sample figure was measured; the combined `Mz`
 //!   family later refits the `Mz0` coefficients on every sweep) with a short budget
@@ -77,9 +79,40 @@ pub struct TrendDeviation {
     pub n: usize,
 }
 
-/// The folds of `sweeps`: diagonal in the nominal levels (module docs,
-/// [`sweep_folds::diagonal`]), `None` with fewer than two sweeps or `k < 2`.
-fn folds(sweeps: &[&CollapsedSweep], k: usize) -> Option<Vec<usize>> {
+/// How the sweeps are dealt into folds (both diagonal in the nominal levels, module docs).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Dealing {
+    /// fold = (load rank + inclination rank + slip-angle rank) mod `k`: the family's reported
+    /// figure when no term selection ran, and the folds the selection decides on.
+    Selection,
+    /// The report folds of a family whose term selection held a group: a dealing that shares
+    /// little with [`Dealing::Selection`] (anti-diagonal, fold = (load rank minus inclination
+    /// rank minus slip-angle rank) mod `k`; where that is the same partition, as with one
+    /// varying level, diagonal in `k + 1` folds), so the kept model's figure is not the minimum
+    /// the selection took over the same folds' noise. `None` from [`out_of_sample`] where no
+    /// dealing differs (a fold per sweep).
+    Report,
+}
+
+/// The folds of `sweeps` dealt as `dealing` says (module docs, [`sweep_folds::diagonal`]),
+/// `None` with fewer than two sweeps or `k < 2`, or for [`Dealing::Report`] when every other
+/// dealing is the selection's partition.
+fn folds(sweeps: &[&CollapsedSweep], k: usize, dealing: Dealing) -> Option<Vec<usize>> {
+    let selection = diagonal_folds(sweeps, k, 1)?;
+    if dealing == Dealing::Selection {
+        return Some(selection);
+    }
+    [
+        diagonal_folds(sweeps, k, k.min(sweeps.len()) - 1),
+        diagonal_folds(sweeps, k + 1, 1),
+    ]
+    .into_iter()
+    .flatten()
+    .find(|f| !sweep_folds::same_partition(f, &selection))
+}
+
+/// Folds from the rank sum `load + w (inclination + slip angle)` (`w = k - 1`: anti-diagonal).
+fn diagonal_folds(sweeps: &[&CollapsedSweep], k: usize, w: usize) -> Option<Vec<usize>> {
     let level = |f: fn(&CollapsedSweep) -> f64, resolution: f64| {
         sweep_folds::ranks(
             &sweeps.iter().map(|s| f(s)).collect::<Vec<f64>>(),
@@ -90,13 +123,14 @@ fn folds(sweeps: &[&CollapsedSweep], k: usize) -> Option<Vec<usize>> {
     let gamma = level(|s| s.nominal.gamma_rad, 1e-4);
     let alpha = level(|s| s.nominal.alpha_rad, 1e-4);
     let sums: Vec<usize> = (0..sweeps.len())
-        .map(|i| fz[i] + gamma[i] + alpha[i])
+        .map(|i| fz[i] + w * (gamma[i] + alpha[i]))
         .collect();
     sweep_folds::diagonal(&sums, k)
 }
 
-/// k-fold-by-sweep prediction error of `family` (see the module docs); `None` with fewer than
-/// two sweeps.
+/// k-fold-by-sweep prediction error of `family` on the folds of `dealing` (see the module docs);
+/// `None` with fewer than two sweeps.
+#[allow(clippy::too_many_arguments)]
 pub fn out_of_sample(
     family: Family,
     free: &[Coef],
@@ -105,8 +139,9 @@ pub fn out_of_sample(
     cfg: &FitConfig,
     c: &Coefs<f64>,
     full: &Identifiability,
+    dealing: Dealing,
 ) -> Option<OutOfSample> {
-    let fold = folds(sweeps, cfg.kfold)?;
+    let fold = folds(sweeps, cfg.kfold, dealing)?;
     let k = fold.iter().max()? + 1;
     let output = output_of(family);
     let penalties = penalties_of(family, free, env, cfg);
@@ -175,9 +210,9 @@ pub fn out_of_sample(
 /// Identifiability of a fold's training data at the full fit's coefficients `at` (the fold
 /// refit's start), over the coefficients off their bounds there: the same point the full fit's
 /// identifiability is measured at, so the comparison sees only what leaving the held-out sweeps
-/// out does to the design, not where a short warm refit wandered (on the every-quirk virtual
-/// round a refit ended at a point 1000x worse conditioned than its start while its training
-/// sweeps held every load and inclination). Also returns the evaluation it was computed from.
+/// out does to the design, not where a short warm refit wandered (a refit can end at a point
+/// far worse conditioned than its start while its training sweeps hold every load and
+/// inclination). Also returns the evaluation it was computed from.
 fn design_identifiability(
     problem: &FamilyProblem<'_>,
     at: &[f64],
@@ -345,12 +380,12 @@ mod tests {
         };
         let sweeps: Vec<CollapsedSweep> = (0..7).map(|i| mk(&format!("s-{i}"))).collect();
         let refs: Vec<&CollapsedSweep> = sweeps.iter().collect();
-        let f = folds(&refs, 5).unwrap();
-        assert_eq!(f, folds(&refs, 5).unwrap());
+        let f = folds(&refs, 5, Dealing::Selection).unwrap();
+        assert_eq!(f, folds(&refs, 5, Dealing::Selection).unwrap());
         for g in 0..5 {
             assert!(f.contains(&g), "{f:?}");
         }
-        assert!(folds(&refs[..1], 5).is_none());
+        assert!(folds(&refs[..1], 5, Dealing::Selection).is_none());
         // A 5-load x 3-inclination grid in 5 folds: each fold holds one sweep of 3 different
         // loads at the 3 inclinations.
         let grid: Vec<CollapsedSweep> = (0..15)
@@ -362,7 +397,7 @@ mod tests {
             })
             .collect();
         let refs: Vec<&CollapsedSweep> = grid.iter().collect();
-        let f = folds(&refs, 5).unwrap();
+        let f = folds(&refs, 5, Dealing::Selection).unwrap();
         for g in 0..5 {
             let held: Vec<&&CollapsedSweep> = refs
                 .iter()
@@ -375,6 +410,37 @@ mod tests {
             loads.dedup();
             assert_eq!(loads.len(), 3, "{f:?}");
         }
-        assert_eq!(folds(&refs[..2], 5).unwrap().len(), 2);
+        assert_eq!(folds(&refs[..2], 5, Dealing::Selection).unwrap().len(), 2);
+        // The report folds on that grid: again one sweep of 3 different loads at the 3
+        // inclinations per fold, and no two sweeps held out together in both dealings.
+        let r = folds(&refs, 5, Dealing::Report).unwrap();
+        for g in 0..5 {
+            let mut loads: Vec<i64> = (0..15)
+                .filter(|i| r[*i] == g)
+                .map(|i| refs[i].nominal.fz_n as i64)
+                .collect();
+            assert_eq!(loads.len(), 3, "{r:?}");
+            loads.sort_unstable();
+            loads.dedup();
+            assert_eq!(loads.len(), 3, "{r:?}");
+        }
+        for i in 0..15 {
+            for j in 0..i {
+                assert!(f[i] != f[j] || r[i] != r[j], "{f:?} {r:?}");
+            }
+        }
+        // One varying level (7 loads): the anti-diagonal is the same partition, so the report
+        // folds are 6 diagonal ones; a fold per sweep leaves no other dealing.
+        let loads: Vec<CollapsedSweep> = (0..7)
+            .map(|i| {
+                let mut s = mk(&format!("l-{i}"));
+                s.nominal.fz_n = 200.0 * (1 + i) as f64;
+                s
+            })
+            .collect();
+        let refs: Vec<&CollapsedSweep> = loads.iter().collect();
+        let r = folds(&refs, 5, Dealing::Report).unwrap();
+        assert_eq!(r, [0, 1, 2, 3, 4, 5, 0]);
+        assert!(folds(&refs[..4], 5, Dealing::Report).is_none());
     }
 }

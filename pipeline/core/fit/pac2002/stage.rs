@@ -284,6 +284,7 @@ fn cross_validate(
                 cfg,
                 at_stage,
                 &q.identifiability,
+                quality::Dealing::Selection,
             );
             evaluations += q.out_of_sample.as_ref().map_or(0, |o| o.evaluations);
         }
@@ -1217,8 +1218,8 @@ mod tests {
     use super::*;
 
     /// With the default configuration the `My` placeholder makes the model's rolling resistance
-    /// moment 0 (it was -R0 Fz 0.0165, -5.4 N m at 1250 N on a 0.26 m tire, from a coefficient
-    /// no data supports), and the note says so.
+    /// moment 0 whatever `QSY1` held before (TTC records no `My`, so the model claims no moment
+    /// it was not fitted to), and the note says so.
     #[test]
     fn the_my_placeholder_claims_no_rolling_resistance_moment() {
         use crate::tire_model::{MagicFormula, Mode, Version};
