@@ -696,7 +696,8 @@ fn store_reads_back_with_polars_hive_partitioning_in_si_iso_w() {
         .zip(measured.f64().unwrap().iter())
     {
         let (n, m) = (n.unwrap() / 100.0, m.unwrap().to_degrees());
-        assert!((n - m).abs() < 0.05, "IA {n} deg measured {m} deg: {ia}");
+        // The label is the level's measured centre rounded to 0.1 deg.
+        assert!((n - m).abs() < 0.06, "IA {n} deg measured {m} deg: {ia}");
     }
 }
 

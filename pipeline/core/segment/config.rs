@@ -246,7 +246,7 @@ pub struct LevelConfig {
     /// Inclination clustering tolerance, deg (labels are the centres in hundredths of a degree).
     pub ia_tol: Tolerance,
     /// Inclination label tolerance, deg (no standard list: labels are the centres rounded to
-    /// 0.01 deg, so it labels nothing).
+    /// 0.1 deg, so it labels nothing).
     pub ia_label_tol: Tolerance,
     /// Road speed clustering tolerance, km/h.
     pub speed_tol: Tolerance,
