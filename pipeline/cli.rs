@@ -347,7 +347,7 @@ Run one SQL statement (polars SQL) over a store and print the result on stdout.
 
 Tables: samples (every sample: et_s, fx_n, fy_n, fz_n, mx_nm, mz_nm, alpha_rad, kappa,
 gamma_rad, pressure_kpa, speed_kph, ... in SI and ISO-W, plus the partition columns test, tire,
-rim_in, pressure_kpa_nom, ia_deg_nom, fz_n_nom), segments (one row per segment: kind, nominal and
+rim_in, pressure_kpa_nom, ia_cdeg_nom, fz_n_nom), segments (one row per segment: kind, nominal and
 measured levels, ET range, QC flags), runs (one row per raw file: hash, status, error). Published
 result tables (coefficients, fit_quality, spring_rate, thermal, thermal_fit, relaxation,
 inertia) appear with a version column, <table>_latest holds the newest version only, and

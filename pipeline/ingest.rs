@@ -373,14 +373,17 @@ pub fn source_file_name(path: &Path) -> String {
         .unwrap_or_else(|| path.display().to_string())
 }
 
-/// SHA-256 of the resolved segmentation configuration (what the stored segments depend on).
+/// SHA-256 of what the stored segments depend on besides the file: the resolved segmentation
+/// configuration and the store layout ([`STORE_LAYOUT`]), so a store written with an older
+/// layout is segmented again by the next ingest of its files.
 pub fn segment_config_sha256(segment: &SegmentConfig) -> String {
-    sha256_bytes(
-        toml::to_string(segment)
-            .unwrap_or_else(|e| format!("unrenderable: {e}"))
-            .as_bytes(),
-    )
+    let config = toml::to_string(segment).unwrap_or_else(|e| format!("unrenderable: {e}"));
+    sha256_bytes(format!("layout {STORE_LAYOUT}\n{config}").as_bytes())
 }
+
+/// The layout of the stored segments and samples: 2 keys the inclination as `ia_cdeg_nom`
+/// (hundredths of a degree, null when swept), 1 (no tag in the hash) as `ia_deg_nom`.
+pub const STORE_LAYOUT: u32 = 2;
 
 /// This tool's version, as the runs table records what computed the stored parts.
 pub const TOOL_VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -1041,7 +1044,7 @@ fn partition_of(s: &Segment, id: &Identity) -> PartitionKey {
         tire: id.tire.clone(),
         rim_in: id.rim_in.unwrap_or(0),
         pressure_kpa_nom: level(s.nominal.pressure_kpa),
-        ia_deg_nom: level(s.nominal.ia_deg),
+        ia_cdeg_nom: s.nominal.ia_cdeg,
         fz_n_nom: level(s.nominal.fz_n),
     }
 }
@@ -1265,7 +1268,7 @@ fn segments_frame(ctx: &FileContext, segments: &[Segment]) -> PolarsResult<DataF
         "tire" => vec![ctx.identity.tire.as_str(); n],
         "rim_in" => vec![ctx.identity.rim_in.unwrap_or(0); n],
         "pressure_kpa_nom" => nom(|s| s.nominal.pressure_kpa),
-        "ia_deg_nom" => nom(|s| s.nominal.ia_deg),
+        "ia_cdeg_nom" => nom(|s| s.nominal.ia_cdeg),
         "fz_n_nom" => nom(|s| s.nominal.fz_n),
         "alpha_deg_nom" => nom(|s| s.nominal.alpha_deg),
         "speed_kph_nom" => nom(|s| s.nominal.speed_kph),

@@ -46,15 +46,27 @@ fn pl_path(path: &Path) -> PlRefPath {
     PlRefPath::new(path.to_string_lossy().into_owned())
 }
 
-/// Scan a list of Parquet files (hive partitions parsed from their paths when `hive`).
-fn scan_files(files: &[std::path::PathBuf], hive: bool) -> PolarsResult<LazyFrame> {
+/// Scan a list of Parquet files; with `hive`, the partition columns `hive` defines are parsed
+/// from their paths with the schema's types (not inferred: a scan whose inclination keys are
+/// all the hive null would otherwise read them as strings).
+fn scan_files(files: &[std::path::PathBuf], hive: Option<&TableSchema>) -> PolarsResult<LazyFrame> {
     let paths: Vec<PlRefPath> = files.iter().map(|p| pl_path(p)).collect();
-    let args = ScanArgsParquet {
-        hive_options: if hive {
-            HiveOptions::new_enabled()
-        } else {
-            HiveOptions::new_disabled()
+    let hive_options = match hive {
+        Some(table) => HiveOptions {
+            schema: Some(Arc::new(
+                table
+                    .columns
+                    .iter()
+                    .filter(|c| c.partition)
+                    .map(|c| Field::new(c.name.as_str().into(), c.dtype.polars()))
+                    .collect(),
+            )),
+            ..HiveOptions::new_enabled()
         },
+        None => HiveOptions::new_disabled(),
+    };
+    let args = ScanArgsParquet {
+        hive_options,
         ..Default::default()
     };
     LazyFrame::scan_parquet_files(paths.into_iter().collect(), args)
@@ -76,7 +88,7 @@ pub fn context(root: &Path) -> Result<SQLContext, QueryError> {
     let segments = if seg_files.is_empty() {
         empty_frame(schema::table(TableName::Segments))
     } else {
-        scan_files(&seg_files, false)?
+        scan_files(&seg_files, None)?
     };
     ctx.register("segments", segments);
 
@@ -84,7 +96,7 @@ pub fn context(root: &Path) -> Result<SQLContext, QueryError> {
     let samples = if sample_files.is_empty() {
         empty_frame(schema::table(TableName::Samples))
     } else {
-        scan_files(&sample_files, true)?
+        scan_files(&sample_files, Some(schema::table(TableName::Samples)))?
     };
     ctx.register("samples", samples);
 
@@ -248,6 +260,7 @@ pub fn aligned_text(df: &DataFrame, float: impl Fn(f64) -> String) -> String {
 mod tests {
     use super::*;
     use std::collections::BTreeMap;
+    use std::fs;
 
     use crate::store::files::write_parquet_atomic;
     use crate::store::layout::{PartitionKey, partition_dir};
@@ -278,7 +291,7 @@ mod tests {
             tire: "Hoosier 20.5x7.0-13 R25B".into(),
             rim_in: 7,
             pressure_kpa_nom: 83,
-            ia_deg_nom: 0,
+            ia_cdeg_nom: Some(0),
             fz_n_nom: 1112,
         };
         // The live part, and a superseded derivation of the same content.
@@ -331,6 +344,56 @@ mod tests {
                 .unwrap()
                 .get(0),
             Some(1112)
+        );
+    }
+
+    /// Every number is a testable camber: a held -1 deg reads back as -100, a swept inclination
+    /// (the hive null) as a null of the integer column, even when no partition holds a number.
+    #[test]
+    fn swept_inclination_reads_back_as_null_and_negative_camber_as_a_level() {
+        for levels in [vec![Some(-100), None], vec![None]] {
+            let root = tempfile::tempdir().unwrap();
+            tiny_store(root.path());
+            fs::remove_dir_all(root.path().join(SAMPLES_DIR)).unwrap();
+            for (k, ia) in levels.iter().enumerate() {
+                let key = PartitionKey {
+                    test: "cornering".into(),
+                    tire: "T".into(),
+                    rim_in: 7,
+                    pressure_kpa_nom: 83,
+                    ia_cdeg_nom: *ia,
+                    fz_n_nom: 1112,
+                };
+                let mut df = df!("fz_n" => [1000.0 + k as f64]).unwrap();
+                let path = root
+                    .path()
+                    .join(partition_dir(&key))
+                    .join("a_dat-111111111111.parquet");
+                write_parquet_atomic(&path, &mut df).unwrap();
+            }
+            let df = run(root.path(), "SELECT ia_cdeg_nom FROM samples ORDER BY fz_n").unwrap();
+            let ia = df.column("ia_cdeg_nom").unwrap();
+            assert_eq!(ia.dtype(), &DataType::Int64, "{df}");
+            let got: Vec<Option<i64>> = ia.i64().unwrap().iter().collect();
+            assert_eq!(got, levels, "{df}");
+        }
+    }
+
+    /// A store whose live segments key the inclination the old way is refused, naming the fix.
+    #[test]
+    fn a_store_of_the_old_layout_asks_for_a_re_ingest() {
+        let root = tempfile::tempdir().unwrap();
+        tiny_store(root.path());
+        let mut df = df!("segment_id" => ["a-0"], "ia_deg_nom" => [-1i64]).unwrap();
+        write_parquet_atomic(
+            &root.path().join("segments/a_dat-111111111111.parquet"),
+            &mut df,
+        )
+        .unwrap();
+        let err = run(root.path(), "SELECT 1").unwrap_err().to_string();
+        assert!(
+            err.contains("ia_deg_nom") && err.contains("tirebase ingest --store"),
+            "{err}"
         );
     }
 

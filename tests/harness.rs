@@ -254,14 +254,14 @@ pub fn tree(root: &Path) -> BTreeMap<String, Vec<u8>> {
 }
 
 /// The `segments` columns [`envelope_points`] reads, in its order, for a query's select list.
-pub const ENVELOPE_COLUMNS: &str = "kind, fz_n_nom, ia_deg_nom, alpha_deg_nom, alpha_deg_min, \
+pub const ENVELOPE_COLUMNS: &str = "kind, fz_n_nom, ia_cdeg_nom, alpha_deg_nom, alpha_deg_min, \
                                     alpha_deg_max, kappa_min, kappa_max";
 
 /// The `segments` filter of a tested envelope: force-clean cornering, drive/brake and combined
 /// segments with a nominal pressure, load and inclination.
 pub const ENVELOPE_WHERE: &str = "qc_ok AND kind IN ('cornering', 'drive_brake', 'combined') \
                                   AND pressure_kpa_nom IS NOT NULL AND fz_n_nom IS NOT NULL \
-                                  AND ia_deg_nom IS NOT NULL";
+                                  AND ia_cdeg_nom IS NOT NULL";
 
 /// The operating points one tested segment covers, read from a CSV record whose columns
 /// [`ENVELOPE_COLUMNS`] start at index `at`: a cornering sweep over its slip-angle range (every
@@ -269,7 +269,7 @@ pub const ENVELOPE_WHERE: &str = "qc_ok AND kind IN ('cornering', 'drive_brake',
 /// at its nominal load and inclination.
 pub fn envelope_points(r: &csv::StringRecord, at: usize) -> Vec<SlipInput> {
     let num = |i: usize| r[at + i].parse::<f64>().unwrap_or(f64::NAN);
-    let (fz, gamma) = (num(1), num(2).to_radians());
+    let (fz, gamma) = (num(1), (num(2) / 100.0).to_radians());
     let mut points = Vec::new();
     if &r[at] == "cornering" {
         let (lo, hi) = (num(4), num(5));

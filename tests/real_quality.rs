@@ -175,7 +175,7 @@ fn real_data_out_of_sample_against_the_authors_fits_issue_18() {
     // The force segments of every tire/pressure/kind, dealt into folds two ways (module docs).
     let segs = query(
         &store,
-        "SELECT segment_id, tire, pressure_kpa_nom, kind, fz_n_nom, ia_deg_nom, \
+        "SELECT segment_id, tire, pressure_kpa_nom, kind, fz_n_nom, ia_cdeg_nom, \
          coalesce(alpha_deg_nom, 0) FROM segments \
          WHERE qc_ok AND kind IN ('cornering', 'drive_brake', 'combined') \
          AND pressure_kpa_nom IS NOT NULL ORDER BY source_file, segment_index",

@@ -405,7 +405,7 @@ fn write_fixture_tables(round: &Path, results: &Path) -> usize {
             }
         }
     }
-    write_table(results, "spring_rate", df!("tire" => spring.0, "rim_in" => spring_rim, "pressure_kpa" => spring.1, "ia_deg_nom" => spring.2, "condition" => spring.3, "stiffness_n_per_m" => spring.4).unwrap());
+    write_table(results, "spring_rate", df!("tire" => spring.0, "rim_in" => spring_rim, "pressure_kpa" => spring.1, "ia_cdeg_nom" => spring.2, "condition" => spring.3, "stiffness_n_per_m" => spring.4).unwrap());
     let n = relax.0.len();
     write_table(results, "relaxation", df!("tire" => relax.0, "rim_in" => relax_rim, "pressure_kpa" => relax.1, "fz_n_nom" => relax.2, "fz_n_mean" => relax.3, "direction" => relax.4, "method" => vec!["sweep"; n], "sigma_m" => relax.5, "converged" => vec![true; n]).unwrap());
     let n = tfit.0.len();

@@ -157,7 +157,7 @@ pub fn live_segments(store: &Path) -> Result<Vec<SegmentRow>, FitError> {
                 },
                 nominal: NominalLevels {
                     pressure_kpa: (r.pressure_kpa_nom != SWEPT).then_some(r.pressure_kpa_nom),
-                    ia_deg: r.ia_deg_nom,
+                    ia_cdeg: r.ia_cdeg_nom,
                     fz_n: r.fz_n_nom,
                     alpha_deg: r.alpha_deg_nom,
                     speed_kph: r.speed_kph_nom,

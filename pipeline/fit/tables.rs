@@ -329,7 +329,7 @@ pub fn spring_rate(results: &[GroupResult]) -> Result<DataFrame, FitError> {
     for r in results.iter().filter_map(|r| r.spring_rate.as_ref()) {
         for row in &r.rows {
             f.key(&row.key)
-                .i("ia_deg_nom", row.ia_deg_nom)
+                .oi("ia_cdeg_nom", row.ia_cdeg_nom)
                 .s("condition", row.condition.as_str())
                 .f("stiffness_n_per_m", row.stiffness_n_per_m)
                 .f("stiffness_std_n_per_m", row.stiffness_std_n_per_m)
@@ -414,7 +414,7 @@ pub fn relaxation(results: &[GroupResult]) -> Result<DataFrame, FitError> {
             f.key(&row.key)
                 .i("fz_n_nom", row.fz_n_nom)
                 .f("fz_n_mean", row.fz_n_mean)
-                .i("ia_deg_nom", row.ia_deg_nom)
+                .oi("ia_cdeg_nom", row.ia_cdeg_nom)
                 .s("direction", row.direction.as_str())
                 .s("method", row.method.as_str())
                 .f("slip_rate", row.slip_rate)

@@ -13,6 +13,7 @@ use std::collections::BTreeMap;
 use tirebase_core::compare::envelope::convex_hull;
 use tirebase_core::fit::thermal::relative_grip;
 use tirebase_core::naming::tir_file_name;
+use tirebase_core::segment::{ia_cdeg_label, ia_cdeg_text};
 use tirebase_core::tire_model::{Coef, Mode, Pac2002, SlipInput, pac2002::relaxation_lengths};
 
 use super::data::{PlotSample, PlotSegment, ReportData, decimate};
@@ -109,12 +110,16 @@ fn load_label(seg: &PlotSegment) -> i64 {
         .unwrap_or_else(|| (seg.segment.fz_n_mean / 10.0).round() as i64 * 10)
 }
 
+/// Inclination level of a segment, hundredths of a degree: its nominal level (negative camber
+/// included), else its measured mean labelled the same way.
 fn ia_label(seg: &PlotSegment) -> i64 {
     seg.segment
-        .ia_deg_nom
-        .filter(|&a| a >= 0)
-        .unwrap_or_else(|| seg.segment.ia_deg_mean.round() as i64)
+        .ia_cdeg_nom
+        .unwrap_or_else(|| ia_cdeg_label(seg.segment.ia_deg_mean))
 }
+
+/// How far from zero (hundredths of a degree) a level still counts as upright ("IA 0").
+const UPRIGHT_CDEG: i64 = 50;
 
 /// The tire's segments of one kind by (rim, nominal pressure, inclination label), then by load
 /// label.
@@ -163,7 +168,11 @@ fn slip_charts(data: &ReportData, tire: &str, chart: SlipChart) -> Vec<Plot> {
     for ((rim, p, ia), loads) in &groups {
         let (x, y) = chart.axes();
         let model = model_for(data, tire, *rim, *p);
-        let title = format!("{} · {rim} in · {p} kPa · IA {ia}°", chart.label());
+        let title = format!(
+            "{} · {rim} in · {p} kPa · IA {}°",
+            chart.label(),
+            ia_cdeg_text(*ia)
+        );
         let mut plot = Plot::new(String::new(), chart.kind(), title, x, y);
         for (color, (load, segs)) in loads.iter().enumerate() {
             plot.series
@@ -306,7 +315,10 @@ pub fn envelope(data: &ReportData, tire: &str) -> Vec<Plot> {
         let mut plot = Plot::new(
             String::new(),
             "envelope",
-            format!("Friction envelope · {rim} in · {p} kPa · IA {ia}°"),
+            format!(
+                "Friction envelope · {rim} in · {p} kPa · IA {}°",
+                ia_cdeg_text(*ia)
+            ),
             Axis::from_zero("lateral force Fy (N)"),
             Axis::from_zero("longitudinal force Fx (N)"),
         );
@@ -450,7 +462,10 @@ pub fn peak_mu_and_stiffness(data: &ReportData, tire: &str) -> Vec<Plot> {
     }
     for (color, ((rim, p), segs)) in groups.iter().enumerate() {
         let label = format!("{p} kPa · {rim} in");
-        let flat: Vec<&&PlotSegment> = segs.iter().filter(|s| ia_label(s) == 0).collect();
+        let flat: Vec<&&PlotSegment> = segs
+            .iter()
+            .filter(|s| ia_label(s).abs() <= UPRIGHT_CDEG)
+            .collect();
         let mu_pts: Vec<(f64, f64)> = flat
             .iter()
             .map(|s| (s.segment.fz_n_mean, s.stats.mu_y_peak))
@@ -535,9 +550,11 @@ pub fn spring_rate(data: &ReportData, tire: &str) -> Vec<Plot> {
         plot.missing_reason = "spring_rate table not present".to_string();
         return vec![plot];
     };
-    let mut series: BTreeMap<(i64, String, i64), Vec<(f64, f64)>> = BTreeMap::new();
+    // (rim, condition, held inclination in hundredths of a degree: None when swept) -> points.
+    type SeriesKey = (i64, String, Option<i64>);
+    let mut series: BTreeMap<SeriesKey, Vec<(f64, f64)>> = BTreeMap::new();
     for r in rows.iter().filter(|r| r.tire == tire) {
-        let key = (r.rim_in, r.condition.clone(), r.ia_deg_nom.unwrap_or(-1));
+        let key = (r.rim_in, r.condition.clone(), r.ia_cdeg_nom);
         series
             .entry(key)
             .or_default()
@@ -545,10 +562,9 @@ pub fn spring_rate(data: &ReportData, tire: &str) -> Vec<Plot> {
     }
     for (color, ((rim, cond, ia), mut pts)) in series.into_iter().enumerate() {
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let ia = if ia < 0 {
-            "IA swept".to_string()
-        } else {
-            format!("IA {ia}°")
+        let ia = match ia {
+            None => "IA swept".to_string(),
+            Some(ia) => format!("IA {}°", ia_cdeg_text(ia)),
         };
         plot.series.push(Series::new(
             format!("{cond} · {ia} · {rim} in"),

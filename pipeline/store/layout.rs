@@ -5,7 +5,7 @@
 //! STORE/
 //!   runs/runs.parquet                        one row per ingested file (the ingest commit point)
 //!   segments/<source>-<key12>.parquet        one file per ingested source file
-//!   samples/test=<kind>/tire=<tire>/rim_in=<in>/pressure_kpa_nom=<kPa>/ia_deg_nom=<deg>/fz_n_nom=<N>/
+//!   samples/test=<kind>/tire=<tire>/rim_in=<in>/pressure_kpa_nom=<kPa>/ia_cdeg_nom=<cdeg>/fz_n_nom=<N>/
 //!           <source>-<key12>.parquet         the samples of one source file in that partition
 //!                                            (<key12>: runs.parts_sha256, see store::tables)
 //!   versions/v000001/ ...                    immutable published versions
@@ -17,9 +17,12 @@
 //! per-sample values) is shadowed by the directory value in polars and is a duplicate-column
 //! error in DuckDB, so the measured load would silently become the nominal one.
 //!
-//! Partition values are integers or strings (never floats). A partition level that does not
-//! apply to a segment (a swept load in a spring-rate hold, a swept inclination) is `-1`, an
-//! unknown rim `0`. String values are percent-encoded exactly like polars, pyarrow and DuckDB
+//! Partition values are integers or strings (never floats). The inclination is keyed in
+//! hundredths of a degree (`ia_cdeg_nom=160` is 1.6 deg, `-100` is -1 deg: negative camber is a
+//! tested level, so no number can mean "swept"); a swept or unlevelled inclination is the hive
+//! null, [`HIVE_NULL`], which polars, pyarrow and Spark read back as a null of the integer
+//! column. Another level that does not apply (a swept load in a spring-rate hold, a pressure not
+//! held) is `-1` ([`SWEPT`]: loads and pressures are never negative), an unknown rim `0`. String values are percent-encoded exactly like polars, pyarrow and DuckDB
 //! expect (`/`, `=`, `%`, `:`, space and control characters), so every hive reader decodes the
 //! original tire name.
 
@@ -40,8 +43,19 @@ pub const LOCK_FILE: &str = "store.lock";
 /// Suffix of files being written; never matched by `*.parquet` globs.
 pub const TEMP_SUFFIX: &str = ".tmp";
 
-/// Value of an integer partition level that does not apply (the variable was swept).
+/// Value of a load or pressure partition level that does not apply (the variable was swept).
 pub const SWEPT: i64 = -1;
+
+/// The hive partition value of a null (the Hive convention; polars, pyarrow and Spark read it
+/// as null whatever the column's type): the inclination key of a swept inclination.
+pub const HIVE_NULL: &str = "__HIVE_DEFAULT_PARTITION__";
+
+/// The inclination partition key's name. Stores whose samples were keyed `ia_deg_nom` (whole
+/// degrees, `-1` for swept) are an older layout ([`OLD_IA_KEY`]).
+pub const IA_KEY: &str = "ia_cdeg_nom";
+
+/// The inclination key of the previous layout (rounded whole degrees, `-1` for swept).
+pub const OLD_IA_KEY: &str = "ia_deg_nom";
 
 /// The hive partition of one segment's samples.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -54,8 +68,8 @@ pub struct PartitionKey {
     pub rim_in: i64,
     /// Nominal inflation pressure, kPa ([`SWEPT`] if not held).
     pub pressure_kpa_nom: i64,
-    /// Nominal inclination angle, deg ([`SWEPT`] if swept).
-    pub ia_deg_nom: i64,
+    /// Nominal inclination angle, hundredths of a degree (`None` if swept: [`HIVE_NULL`]).
+    pub ia_cdeg_nom: Option<i64>,
     /// Nominal vertical load, N ([`SWEPT`] if stepped or swept).
     pub fz_n_nom: i64,
 }
@@ -87,12 +101,14 @@ pub fn hive_encode(value: &str) -> String {
 /// use tirebase::store::layout::{partition_dir, PartitionKey};
 /// let key = PartitionKey {
 ///     test: "cornering".into(), tire: "Hoosier R25B".into(), rim_in: 7,
-///     pressure_kpa_nom: 83, ia_deg_nom: 0, fz_n_nom: 1112,
+///     pressure_kpa_nom: 83, ia_cdeg_nom: Some(160), fz_n_nom: 1112,
 /// };
 /// assert_eq!(
 ///     partition_dir(&key).to_str().unwrap(),
-///     "samples/test=cornering/tire=Hoosier%20R25B/rim_in=7/pressure_kpa_nom=83/ia_deg_nom=0/fz_n_nom=1112"
+///     "samples/test=cornering/tire=Hoosier%20R25B/rim_in=7/pressure_kpa_nom=83/ia_cdeg_nom=160/fz_n_nom=1112"
 /// );
+/// let swept = PartitionKey { ia_cdeg_nom: None, ..key };
+/// assert!(partition_dir(&swept).ends_with("ia_cdeg_nom=__HIVE_DEFAULT_PARTITION__/fz_n_nom=1112"));
 /// ```
 pub fn partition_dir(key: &PartitionKey) -> PathBuf {
     let mut p = PathBuf::from(SAMPLES_DIR);
@@ -100,7 +116,10 @@ pub fn partition_dir(key: &PartitionKey) -> PathBuf {
     p.push(format!("tire={}", hive_encode(&key.tire)));
     p.push(format!("rim_in={}", key.rim_in));
     p.push(format!("pressure_kpa_nom={}", key.pressure_kpa_nom));
-    p.push(format!("ia_deg_nom={}", key.ia_deg_nom));
+    p.push(match key.ia_cdeg_nom {
+        Some(ia) => format!("{IA_KEY}={ia}"),
+        None => format!("{IA_KEY}={HIVE_NULL}"),
+    });
     p.push(format!("fz_n_nom={}", key.fz_n_nom));
     p
 }

@@ -52,6 +52,21 @@ pub enum StoreError {
         /// The holder's description from the lock file.
         holder: String,
     },
+    /// The store's live parts were written with an older layout: the inclination keyed
+    /// `ia_deg_nom` (rounded whole degrees, `-1` for swept) instead of `ia_cdeg_nom`.
+    #[error(
+        "store {root} was written by an older tirebase: its segments and samples key the \
+         inclination as ia_deg_nom (whole degrees, -1 for swept), this version as ia_cdeg_nom \
+         (hundredths of a degree, null for swept; {file}); re-ingest the raw files into it with \
+         `tirebase ingest --store {root} <raw files or directories>` (or `tirebase run --store \
+         {root} --input ROUND`), which segments every file again and removes the old parts"
+    )]
+    OldLayout {
+        /// The store root.
+        root: PathBuf,
+        /// A part file written with the old key.
+        file: PathBuf,
+    },
     /// A table does not have the columns its schema requires.
     #[error("{table}: {message}")]
     Schema {

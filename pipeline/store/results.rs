@@ -276,15 +276,16 @@ impl QualityRow {
 }
 
 /// A row of the published `spring_rate` table as read back for the report and `compare`: the
-/// columns they show, strings for the enums, `ia_deg_nom` `None` where the table holds -1. The
-/// row the stage computes (every column, typed) is `tirebase_core::fit::spring_rate::SpringRateRow`.
+/// columns they show, strings for the enums. The row the stage computes (every column, typed) is
+/// `tirebase_core::fit::spring_rate::SpringRateRow`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpringRateRecord {
     pub tire: String,
     pub rim_in: i64,
     pub pressure_kpa: i64,
-    /// None when the inclination was swept (the table's -1; a held -2 deg stays -2).
-    pub ia_deg_nom: Option<i64>,
+    /// Held inclination, hundredths of a degree; None when the inclination was swept (the
+    /// table's null; a held -1 deg is `Some(-100)`).
+    pub ia_cdeg_nom: Option<i64>,
     pub condition: String,
     pub stiffness_n_per_m: f64,
 }
@@ -642,7 +643,16 @@ fn quality_rows(df: &DataFrame, path: &Path) -> Result<Vec<QualityRow>, StoreErr
 
 fn spring_rate_rows(df: &DataFrame, path: &Path) -> Result<Vec<SpringRateRecord>, StoreError> {
     let (tire, rim, p) = group_keys(df, path)?;
-    let ia = req_i64(df, "ia_deg_nom", path)?;
+    if df.schema().contains("ia_deg_nom") && !df.schema().contains("ia_cdeg_nom") {
+        return Err(StoreError::Schema {
+            table: path.display().to_string(),
+            message: "written by an older tirebase (inclination ia_deg_nom in whole degrees, -1 \
+                      for swept): re-ingest the store (`tirebase ingest --store STORE RAW...`) \
+                      and fit again"
+                .to_string(),
+        });
+    }
+    let ia = req_i64(df, "ia_cdeg_nom", path)?;
     let condition = strings(req_str(df, "condition", path)?);
     let cz = floats(req_f64(df, "stiffness_n_per_m", path)?);
     Ok((0..df.height())
@@ -650,7 +660,7 @@ fn spring_rate_rows(df: &DataFrame, path: &Path) -> Result<Vec<SpringRateRecord>
             tire: tire[i].clone(),
             rim_in: rim[i],
             pressure_kpa: p[i],
-            ia_deg_nom: ia[i].filter(|&a| a != super::layout::SWEPT),
+            ia_cdeg_nom: ia[i],
             condition: condition[i].clone(),
             stiffness_n_per_m: cz[i],
         })
@@ -990,18 +1000,31 @@ mod tests {
         assert_eq!(r.groups(), BTreeSet::from([("X".to_string(), 7, 83)]));
     }
 
-    /// A held negative inclination is a level, not "swept": only the table's -1 reads as None.
+    /// A held negative inclination is a level, not "swept": only the table's null reads as None.
     #[test]
     fn a_negative_held_inclination_is_kept() {
         let df = df!(
             "tire" => ["X", "X", "X"], "rim_in" => [7i64, 7, 7], "pressure_kpa" => [83i64, 83, 83],
-            "ia_deg_nom" => [-2i64, -1, 0], "condition" => ["dynamic", "sweep", "dynamic"],
+            "ia_cdeg_nom" => [Some(-100i64), None, Some(160)],
+            "condition" => ["dynamic", "sweep", "dynamic"],
             "stiffness_n_per_m" => [1.0e5, 1.0e5, 1.0e5],
         )
         .unwrap();
         let rows = spring_rate_rows(&df, Path::new("spring_rate.parquet")).unwrap();
-        let ia: Vec<Option<i64>> = rows.iter().map(|r| r.ia_deg_nom).collect();
-        assert_eq!(ia, vec![Some(-2), None, Some(0)]);
+        let ia: Vec<Option<i64>> = rows.iter().map(|r| r.ia_cdeg_nom).collect();
+        assert_eq!(ia, vec![Some(-100), None, Some(160)]);
+    }
+
+    /// A table of an older layout names what to do instead of a missing column.
+    #[test]
+    fn an_old_inclination_key_asks_for_a_re_ingest() {
+        let df = df!(
+            "tire" => ["X"], "rim_in" => [7i64], "pressure_kpa" => [83i64],
+            "ia_deg_nom" => [-1i64], "condition" => ["sweep"], "stiffness_n_per_m" => [1.0e5],
+        )
+        .unwrap();
+        let err = spring_rate_rows(&df, Path::new("spring_rate.parquet")).unwrap_err();
+        assert!(err.to_string().contains("tirebase ingest"), "{err}");
     }
 
     #[test]

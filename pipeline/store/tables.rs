@@ -30,7 +30,7 @@ use super::layout::{
     PartitionKey, SAMPLES_DIR, SEGMENTS_DIR, SWEPT, TEMP_SUFFIX, partition_dir, runs_file,
     source_part_name,
 };
-use super::{IoOp, StoreError};
+use super::{IoOp, StoreError, layout};
 use crate::schema::{self, TableName};
 
 /// `runs.status`: what the store holds for an input file.
@@ -322,13 +322,38 @@ fn file_name(path: &Path) -> &str {
     path.file_name().and_then(|n| n.to_str()).unwrap_or("")
 }
 
-/// Live files of the segments table, sorted.
+/// Live files of the segments table, sorted; [`StoreError::OldLayout`] when one of them was
+/// written with the previous inclination key (its samples sit under those partitions too).
 pub fn live_segment_files(store: &Path) -> Result<Vec<PathBuf>, StoreError> {
     let live = live_parts(&read_runs(store)?);
-    Ok(parquet_files_in(&store.join(SEGMENTS_DIR))?
+    let files: Vec<PathBuf> = parquet_files_in(&store.join(SEGMENTS_DIR))?
         .into_iter()
         .filter(|p| live.contains(file_name(p)))
-        .collect())
+        .collect();
+    for path in &files {
+        let file = fs::File::open(path).map_err(|e| StoreError::io(IoOp::Read, path, e))?;
+        let schema = ParquetReader::new(file)
+            .schema()
+            .map_err(polars_at(IoOp::Read, path))?;
+        refuse_old_layout(path, |c| schema.contains(c))?;
+    }
+    Ok(files)
+}
+
+/// [`StoreError::OldLayout`] when the segments file `path` (whose columns `has` tells) keys the
+/// inclination the old way.
+fn refuse_old_layout(path: &Path, has: impl Fn(&str) -> bool) -> Result<(), StoreError> {
+    if has(layout::IA_KEY) || !has(layout::OLD_IA_KEY) {
+        return Ok(());
+    }
+    let root = path
+        .parent()
+        .and_then(Path::parent)
+        .unwrap_or(Path::new("."));
+    Err(StoreError::OldLayout {
+        root: root.to_path_buf(),
+        file: path.to_path_buf(),
+    })
 }
 
 /// Live files of the samples table (every partition), sorted.
@@ -353,7 +378,8 @@ pub struct SegmentRecord {
     pub tire: String,
     pub rim_in: i64,
     pub pressure_kpa_nom: i64,
-    pub ia_deg_nom: Option<i64>,
+    /// Nominal inclination, hundredths of a degree; `None` when swept or unlevelled.
+    pub ia_cdeg_nom: Option<i64>,
     pub fz_n_nom: Option<i64>,
     pub alpha_deg_nom: Option<i64>,
     pub speed_kph_nom: Option<i64>,
@@ -379,7 +405,7 @@ impl SegmentRecord {
             tire: self.tire.clone(),
             rim_in: self.rim_in,
             pressure_kpa_nom: self.pressure_kpa_nom,
-            ia_deg_nom: self.ia_deg_nom.unwrap_or(SWEPT),
+            ia_cdeg_nom: self.ia_cdeg_nom,
             fz_n_nom: self.fz_n_nom.unwrap_or(SWEPT),
         }
     }
@@ -393,6 +419,7 @@ impl SegmentRecord {
 /// Rows of one segments file.
 pub fn read_segment_file(path: &Path) -> Result<Vec<SegmentRecord>, StoreError> {
     let df = read_parquet(path)?;
+    refuse_old_layout(path, |c| df.schema().contains(c))?;
     let part = file_name(path).to_string();
     let s = |n: &str| req_str(&df, n, path);
     let i = |n: &str| req_i64(&df, n, path);
@@ -409,7 +436,7 @@ pub fn read_segment_file(path: &Path) -> Result<Vec<SegmentRecord>, StoreError> 
         i("segment_index")?,
         i("rim_in")?,
         i("pressure_kpa_nom")?,
-        i("ia_deg_nom")?,
+        i(layout::IA_KEY)?,
         i("fz_n_nom")?,
         i("alpha_deg_nom")?,
         i("speed_kph_nom")?,
@@ -441,7 +468,7 @@ pub fn read_segment_file(path: &Path) -> Result<Vec<SegmentRecord>, StoreError> 
             tire: tire[k].clone().unwrap_or_default(),
             rim_in: rim[k].unwrap_or(0),
             pressure_kpa_nom: p_nom[k].unwrap_or(SWEPT),
-            ia_deg_nom: ia_nom[k],
+            ia_cdeg_nom: ia_nom[k],
             fz_n_nom: fz_nom[k],
             alpha_deg_nom: alpha_nom[k],
             speed_kph_nom: v_nom[k],

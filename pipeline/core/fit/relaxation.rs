@@ -342,8 +342,9 @@ pub struct RelaxationRow {
     pub fz_n_nom: i64,
     /// Mean measured load, N.
     pub fz_n_mean: f64,
-    /// The members' common nominal inclination, deg (-1 when they differ).
-    pub ia_deg_nom: i64,
+    /// The members' common nominal inclination, hundredths of a degree; `None` when they differ
+    /// (or hold none).
+    pub ia_cdeg_nom: Option<i64>,
     /// Lateral or longitudinal.
     pub direction: Direction,
     /// Sweep or step steer.
@@ -601,7 +602,7 @@ struct Prepared {
     direction: Direction,
     method: Method,
     fz_n_nom: i64,
-    ia_deg_nom: i64,
+    ia_cdeg_nom: Option<i64>,
     fz_n_mean: f64,
     speed_kph: f64,
     slip_rate: f64,
@@ -865,7 +866,7 @@ fn prepare(
         direction,
         method,
         fz_n_nom: seg.nominal.fz_n.unwrap_or(-1),
-        ia_deg_nom: seg.nominal.ia_deg.unwrap_or(-1),
+        ia_cdeg_nom: seg.nominal.ia_cdeg,
         fz_n_mean,
         speed_kph,
         slip_rate: slip_rate(&c.et_s, slip),
@@ -928,16 +929,16 @@ fn group_row(
     let stiffness = slip_stiffness(input.model, fz_mean, 0.0, speed_kph / 3.6, first.direction);
     let z = fz_mean / input.vertical_stiffness_n_per_m;
     let a = cfg.contact.half_length_m(z, input.unloaded_radius_m);
-    let ia = if members.iter().all(|m| m.ia_deg_nom == first.ia_deg_nom) {
-        first.ia_deg_nom
+    let ia = if members.iter().all(|m| m.ia_cdeg_nom == first.ia_cdeg_nom) {
+        first.ia_cdeg_nom
     } else {
-        -1
+        None
     };
     Ok(RelaxationRow {
         key: input.key.clone(),
         fz_n_nom: first.fz_n_nom,
         fz_n_mean: fz_mean,
-        ia_deg_nom: ia,
+        ia_cdeg_nom: ia,
         direction: first.direction,
         method: first.method,
         slip_rate: members.iter().map(|m| m.slip_rate).sum::<f64>() / k,

@@ -96,8 +96,8 @@ pub struct SpringRateRow {
     pub key: TireKey,
     /// Mean measured pressure of the samples used, kPa.
     pub pressure_kpa_mean: f64,
-    /// Nominal inclination angle, deg (-1 when not held).
-    pub ia_deg_nom: i64,
+    /// Nominal inclination angle, hundredths of a degree; `None` when not held (swept).
+    pub ia_cdeg_nom: Option<i64>,
     /// Static, dynamic or sweep.
     pub condition: Condition,
     /// Vertical stiffness `Cz`, N/m.
@@ -273,7 +273,16 @@ struct Pool {
 }
 
 /// Group key: tire, condition, IA, speed bin (sweeps only).
-type GroupKey = (TireKey, Condition, i64, i64);
+/// How far from zero (hundredths of a degree) a held inclination still counts as upright for
+/// the `.tir` vertical numbers.
+const UPRIGHT_CDEG: i64 = 50;
+
+/// A held inclination level as printed in a scope or source (`1.6`, `-1`), `swept` when none.
+fn ia_text(ia_cdeg: Option<i64>) -> String {
+    ia_cdeg.map_or_else(|| "swept".to_string(), crate::segment::ia_cdeg_text)
+}
+
+type GroupKey = (TireKey, Condition, Option<i64>, i64);
 
 /// Run the stage over every tire in `segments`. `fnomin_n` gives the nominal load per tire; a
 /// tire without one gets rows but no RE law (recorded as a failure).
@@ -301,7 +310,7 @@ pub fn run(
         let Some(condition) = condition_of(seg.kind) else {
             continue;
         };
-        let ia = seg.nominal.ia_deg.unwrap_or(-1);
+        let ia = seg.nominal.ia_cdeg;
         let speed_bin = match condition {
             Condition::Sweep => seg.nominal.speed_kph.unwrap_or(-1),
             _ => 0,
@@ -321,16 +330,16 @@ pub fn run(
                 // Sweeps are pooled per nominal speed: name it (a speed sweep at one load is
                 // the usual skip, not the main-speed sweeps).
                 scope: match condition {
-                    Condition::Sweep => format!("sweep ia {ia} at {speed_bin} km/h"),
-                    _ => format!("{} ia {}", condition.as_str(), ia),
+                    Condition::Sweep => format!("sweep ia {} at {speed_bin} km/h", ia_text(*ia)),
+                    _ => format!("{} ia {}", condition.as_str(), ia_text(*ia)),
                 },
                 reason: reason.to_string(),
             }),
         }
     }
     out.rows.sort_by(|a, b| {
-        (&a.key, a.condition, a.ia_deg_nom)
-            .cmp(&(&b.key, b.condition, b.ia_deg_nom))
+        (&a.key, a.condition, a.ia_cdeg_nom)
+            .cmp(&(&b.key, b.condition, b.ia_cdeg_nom))
             .then(a.speed_kph.total_cmp(&b.speed_kph))
     });
     let keys: Vec<TireKey> = {
@@ -418,7 +427,7 @@ fn collect(
 fn fit_group(
     key: &TireKey,
     condition: Condition,
-    ia: i64,
+    ia: Option<i64>,
     pool: &Pool,
     cfg: &SpringRateConfig,
 ) -> Result<SpringRateRow, SpringRateError> {
@@ -458,7 +467,7 @@ fn fit_group(
     Ok(SpringRateRow {
         key: key.clone(),
         pressure_kpa_mean: finite_mean(pool.pressure.iter().copied()).unwrap_or(f64::NAN),
-        ia_deg_nom: ia,
+        ia_cdeg_nom: ia,
         condition,
         stiffness_n_per_m: stiffness,
         stiffness_std_n_per_m: line.slope_std * stiffness * stiffness,
@@ -518,12 +527,18 @@ fn tir_vertical(
         .iter()
         .filter(|r| r.condition == Condition::Dynamic)
         .collect();
-    let (cz, r0, speed, source) = if let Some(r) = dynamic.iter().find(|r| r.ia_deg_nom == 0) {
+    // The upright row: the held inclination nearest zero, within half a degree.
+    let upright = dynamic
+        .iter()
+        .filter_map(|r| r.ia_cdeg_nom.map(|ia| (ia.abs(), r)))
+        .filter(|(abs, _)| *abs <= UPRIGHT_CDEG)
+        .min_by_key(|(abs, _)| *abs);
+    let (cz, r0, speed, source) = if let Some((_, r)) = upright {
         (
             r.stiffness_n_per_m,
             r.unloaded_radius_m,
             r.speed_kph,
-            "dynamic ia 0",
+            format!("dynamic ia {}", ia_text(r.ia_cdeg_nom)),
         )
     } else if !dynamic.is_empty() {
         let k = dynamic.len() as f64;
@@ -531,7 +546,7 @@ fn tir_vertical(
             dynamic.iter().map(|r| r.stiffness_n_per_m).sum::<f64>() / k,
             dynamic.iter().map(|r| r.unloaded_radius_m).sum::<f64>() / k,
             dynamic.iter().map(|r| r.speed_kph).sum::<f64>() / k,
-            "dynamic mean",
+            "dynamic mean".to_string(),
         )
     } else if let Some(r) = mine
         .iter()
@@ -542,7 +557,7 @@ fn tir_vertical(
             r.stiffness_n_per_m,
             r.unloaded_radius_m,
             r.speed_kph,
-            "sweep",
+            "sweep".to_string(),
         )
     } else {
         return Err(SpringRateError::NoVerticalRow);
@@ -551,7 +566,7 @@ fn tir_vertical(
         key: key.clone(),
         vertical_stiffness_n_per_m: cz,
         unloaded_radius_m: r0,
-        source: source.to_string(),
+        source,
         speed_kph: speed,
         effective_radius: None,
     };
@@ -568,21 +583,21 @@ fn tir_vertical(
     }
 }
 
-/// RE samples at the dynamic speed: dynamic holds and free-rolling sweeps (IA 0 when there are
-/// enough, else every IA).
+/// RE samples at the dynamic speed: dynamic holds and free-rolling sweeps (upright, IA 0 within
+/// half a degree, when there are enough, else every IA).
 fn re_samples(
     key: &TireKey,
     groups: &BTreeMap<GroupKey, Pool>,
     speed_kph: f64,
     cfg: &SpringRateConfig,
 ) -> (Vec<f64>, Vec<f64>) {
-    let gather = |ia_filter: Option<i64>| {
+    let gather = |upright_only: bool| {
         let (mut fz, mut re) = (Vec::new(), Vec::new());
         for ((k, condition, ia, _), pool) in groups {
             if k != key || *condition == Condition::Static {
                 continue;
             }
-            if ia_filter.is_some_and(|want| want != *ia) {
+            if upright_only && !ia.is_some_and(|ia| ia.abs() <= UPRIGHT_CDEG) {
                 continue;
             }
             for i in 0..pool.fz.len() {
@@ -595,11 +610,11 @@ fn re_samples(
         }
         (fz, re)
     };
-    let ia0 = gather(Some(0));
+    let ia0 = gather(true);
     if ia0.0.len() >= cfg.min_samples {
         ia0
     } else {
-        gather(None)
+        gather(false)
     }
 }
 

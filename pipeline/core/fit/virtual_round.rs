@@ -48,7 +48,7 @@ fn build(config: SynthConfig) -> Round {
                 key: key_of(&row.tire, row.rim_in, row.pressure_kpa_nom),
                 nominal: NominalLevels {
                     pressure_kpa: Some(row.pressure_kpa_nom.round() as i64),
-                    ia_deg: row.ia_deg_nom.map(|v| v.round() as i64),
+                    ia_cdeg: row.ia_deg_nom.map(crate::segment::ia_cdeg_label),
                     fz_n: row.fz_n_nom.map(|v| v.round() as i64),
                     alpha_deg: row.alpha_deg_nom.map(|v| v.round() as i64),
                     speed_kph: row.speed_kph_nom.map(|v| v.round() as i64),
@@ -58,6 +58,11 @@ fn build(config: SynthConfig) -> Round {
         }
     }
     Round { plan, segments }
+}
+
+/// A row's inclination as printed: degrees (`1.6`), `swept` when not held.
+fn ia_text(ia_cdeg: Option<i64>) -> String {
+    ia_cdeg.map_or_else(|| "swept".to_string(), crate::segment::ia_cdeg_text)
 }
 
 fn truths(plan: &RoundPlan) -> BTreeMap<TireKey, &TruthModel> {
@@ -200,10 +205,10 @@ fn check_round(round: &Round) {
         };
         let (e_cz, e_r0) = (r.stiffness_n_per_m / cz - 1.0, r.unloaded_radius_m - r0);
         println!(
-            "spring {} {:>7} ia {:>2}: Cz {:+.4} %, R0 {:+.4} mm (n {})",
+            "spring {} {:>7} ia {:>5}: Cz {:+.4} %, R0 {:+.4} mm (n {})",
             r.key,
             r.condition.as_str(),
-            r.ia_deg_nom,
+            ia_text(r.ia_cdeg_nom),
             100.0 * e_cz,
             1e3 * e_r0,
             r.n
@@ -214,7 +219,7 @@ fn check_round(round: &Round) {
                 "spring {} {} ia {}: Cz {:+.3} %, R0 {:+.3} mm",
                 r.key,
                 r.condition.as_str(),
-                r.ia_deg_nom,
+                ia_text(r.ia_cdeg_nom),
                 100.0 * e_cz,
                 1e3 * e_r0
             ));

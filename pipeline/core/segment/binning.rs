@@ -113,14 +113,14 @@ pub(crate) fn nominal_for(
     let keep = |on: bool, value: Option<i64>| if on { value } else { None };
     let nominal = NominalLevels {
         pressure_kpa: keep(p, bins.pressure_kpa),
-        ia_deg: keep(ia, bins.ia_deg),
+        ia_cdeg: keep(ia, bins.ia_cdeg),
         fz_n: keep(fz, bins.fz_n),
         alpha_deg: keep(alpha, alpha_bin),
         speed_kph: keep(v, bins.speed_kph),
     };
     let off = [
         (p, nominal.pressure_kpa, Level::Pressure),
-        (ia, nominal.ia_deg, Level::Inclination),
+        (ia, nominal.ia_cdeg, Level::Inclination),
         (fz, nominal.fz_n, Level::Load),
         (alpha, nominal.alpha_deg, Level::SlipAngle),
         (v, nominal.speed_kph, Level::Speed),
@@ -153,7 +153,7 @@ mod tests {
     fn swept_levels_are_dropped_and_missing_ones_reported() {
         let bins = NominalLevels {
             pressure_kpa: Some(83),
-            ia_deg: Some(2),
+            ia_cdeg: Some(200),
             fz_n: None,
             alpha_deg: Some(0),
             speed_kph: Some(40),
@@ -172,7 +172,7 @@ mod tests {
             &bins,
             None,
         );
-        assert_eq!((n.fz_n, n.ia_deg), (None, Some(2)));
+        assert_eq!((n.fz_n, n.ia_cdeg), (None, Some(200)));
         assert!(off.is_empty());
     }
 }

@@ -70,7 +70,7 @@ fn key(d: &Detection, bins: &NominalLevels) -> Option<Key> {
     Some((
         var,
         bins.pressure_kpa,
-        bins.ia_deg,
+        bins.ia_cdeg,
         bins.fz_n,
         bins.speed_kph,
         alpha,
@@ -364,7 +364,7 @@ mod tests {
             },
             NominalLevels {
                 pressure_kpa: Some(83),
-                ia_deg: Some(0),
+                ia_cdeg: Some(0),
                 fz_n: Some(load),
                 alpha_deg: None,
                 speed_kph: Some(40),

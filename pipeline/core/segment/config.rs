@@ -243,9 +243,10 @@ pub struct LevelConfig {
     pub fz_tol: Tolerance,
     /// A load level within this of a standard load takes its label, N.
     pub fz_label_tol: Tolerance,
-    /// Inclination clustering tolerance, deg (labels are whole degrees).
+    /// Inclination clustering tolerance, deg (labels are the centres in hundredths of a degree).
     pub ia_tol: Tolerance,
-    /// Inclination label tolerance, deg (no standard list: labels are the rounded centres).
+    /// Inclination label tolerance, deg (no standard list: labels are the centres rounded to
+    /// 0.1 deg, so it labels nothing).
     pub ia_label_tol: Tolerance,
     /// Road speed clustering tolerance, km/h.
     pub speed_tol: Tolerance,

@@ -20,7 +20,7 @@
 //! across runs (each run learns its own levels).
 
 use super::config::{LevelConfig, Tolerance};
-use super::output::{MeasuredLevels, NominalLevels};
+use super::output::{MeasuredLevels, NominalLevels, ia_cdeg_label};
 
 /// 1 psi in kPa.
 const KPA_PER_PSI: f64 = 6.894_757;
@@ -98,6 +98,15 @@ impl LevelSet {
                     .total_cmp(&(b.centre - value).abs())
             })
             .map(|c| c.label)
+    }
+
+    /// The same clusters labelled by `label` of their centre (inclination: hundredths of a
+    /// degree, so a level tested at 1.6 deg is not labelled 2).
+    pub fn labelled_by(mut self, label: fn(f64) -> i64) -> LevelSet {
+        for c in &mut self.clusters {
+            c.label = label(c.centre);
+        }
+        self
     }
 
     /// Labels carried by more than one cluster (levels the integer labels cannot tell apart).
@@ -186,7 +195,8 @@ impl RunLevels {
                 &kpa,
                 cfg.pressure_label_tol,
             ),
-            ia_deg: LevelSet::learn(&held.ia_deg, cfg.ia_tol, &[], cfg.ia_label_tol),
+            ia_deg: LevelSet::learn(&held.ia_deg, cfg.ia_tol, &[], cfg.ia_label_tol)
+                .labelled_by(ia_cdeg_label),
             fz_n: LevelSet::learn(&held.fz_n, cfg.fz_tol, &n, cfg.fz_label_tol),
             speed_kph: LevelSet::learn(&held.speed_kph, cfg.speed_tol, &kph, cfg.speed_label_tol),
             alpha_deg: LevelSet::learn(&held.alpha_deg, cfg.alpha_tol, &[], cfg.alpha_label_tol),
@@ -197,7 +207,7 @@ impl RunLevels {
     pub fn bin_all(&self, m: &MeasuredLevels) -> NominalLevels {
         NominalLevels {
             pressure_kpa: self.pressure_kpa.label_of(m.pressure_kpa.mean),
-            ia_deg: self.ia_deg.label_of(m.ia_deg.mean),
+            ia_cdeg: self.ia_deg.label_of(m.ia_deg.mean),
             fz_n: self.fz_n.label_of(m.fz_n.mean),
             alpha_deg: self.alpha_deg.label_of(m.alpha_deg.mean),
             speed_kph: self.speed_kph.label_of(m.speed_kph.mean),

@@ -51,8 +51,8 @@ pub use config::{
     SegmentConfig, SmoothingConfig, SpringRateHoldConfig, StepSteerConfig, SweepConfig, Tolerance,
 };
 pub use output::{
-    ChannelStats, Level, MeasuredLevels, NominalLevels, QcFlag, RunClass, RunSegmentation, Segment,
-    SegmentKind, SweepVariable,
+    ChannelStats, IA_LABEL_STEP_CDEG, Level, MeasuredLevels, NominalLevels, QcFlag, RunClass,
+    RunSegmentation, Segment, SegmentKind, SweepVariable, ia_cdeg_label, ia_cdeg_text,
 };
 pub use signals::{RunSignals, TreadTemps};
 

@@ -123,14 +123,54 @@ impl SweepVariable {
 pub struct NominalLevels {
     /// Inflation pressure, kPa.
     pub pressure_kpa: Option<i64>,
-    /// Inclination angle, deg.
-    pub ia_deg: Option<i64>,
+    /// Inclination angle, hundredths of a degree (`160` = 1.6 deg): the level's measured
+    /// centre rounded to 0.1 deg ([`ia_cdeg_label`]), printed by [`ia_cdeg_text`].
+    pub ia_cdeg: Option<i64>,
     /// Normal load, N (positive).
     pub fz_n: Option<i64>,
     /// Held slip angle, deg, ISO-W sign.
     pub alpha_deg: Option<i64>,
     /// Road speed, km/h.
     pub speed_kph: Option<i64>,
+}
+
+/// The inclination level label, hundredths of a degree, of a level whose measured centre is
+/// `centre_deg`: the centre rounded to [`IA_LABEL_STEP_CDEG`].
+///
+/// ```
+/// use tirebase_core::segment::ia_cdeg_label;
+/// assert_eq!(ia_cdeg_label(1.565), 160);
+/// assert_eq!(ia_cdeg_label(3.193), 320);
+/// assert_eq!(ia_cdeg_label(-0.996), -100);
+/// assert_eq!(ia_cdeg_label(-0.027), 0);
+/// ```
+pub fn ia_cdeg_label(centre_deg: f64) -> i64 {
+    ((centre_deg * 100.0 / IA_LABEL_STEP_CDEG as f64).round() as i64) * IA_LABEL_STEP_CDEG
+}
+
+/// Resolution of an inclination level label, hundredths of a degree: 0.1 deg. Test plans set
+/// camber in tenths (0, 1.6, 3.2 deg), while one run's measured centre of a level sits a few
+/// hundredths off the set-point and another run's elsewhere, so a 0.01 deg label would key
+/// one tested camber differently per run (and a flat tire as -0.03).
+pub const IA_LABEL_STEP_CDEG: i64 = 10;
+
+/// An inclination level in hundredths of a degree as degrees with the decimals it needs.
+///
+/// ```
+/// use tirebase_core::segment::ia_cdeg_text;
+/// assert_eq!(ia_cdeg_text(160), "1.6");
+/// assert_eq!(ia_cdeg_text(-100), "-1");
+/// assert_eq!(ia_cdeg_text(0), "0");
+/// assert_eq!(ia_cdeg_text(-5), "-0.05");
+/// ```
+pub fn ia_cdeg_text(cdeg: i64) -> String {
+    let sign = if cdeg < 0 { "-" } else { "" };
+    let (whole, frac) = (cdeg.unsigned_abs() / 100, cdeg.unsigned_abs() % 100);
+    match frac {
+        0 => format!("{sign}{whole}"),
+        f if f % 10 == 0 => format!("{sign}{whole}.{}", f / 10),
+        f => format!("{sign}{whole}.{f:02}"),
+    }
 }
 
 /// Mean and standard deviation of one channel over a segment (dropout samples excluded).

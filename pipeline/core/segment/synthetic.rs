@@ -8,7 +8,7 @@
 
 use std::ops::Range;
 
-use super::output::{NominalLevels, SegmentKind};
+use super::output::{NominalLevels, SegmentKind, ia_cdeg_label};
 use super::signals::{RunSignals, TreadTemps};
 
 /// One scheduled segment.
@@ -290,7 +290,7 @@ impl Rig {
         let s = self.state;
         NominalLevels {
             pressure_kpa: Some(s.p.round() as i64),
-            ia_deg: Some(s.ia.round() as i64),
+            ia_cdeg: Some(ia_cdeg_label(s.ia)),
             fz_n: Some(s.fz.round() as i64),
             alpha_deg: alpha,
             speed_kph: Some(s.v.round() as i64),
@@ -594,7 +594,7 @@ pub(crate) fn round8_cornering_raw(seed: u64) -> Rig {
         );
         rig.hold(2.0);
         let mut nominal = rig.nominal(Some(0));
-        nominal.ia_deg = None;
+        nominal.ia_cdeg = None;
         rig.mark(SegmentKind::IaSweep, nominal, |r| {
             r.ia_to(-4.0, 4.0).ia_to(4.0, 8.0).ia_to(0.0, 4.0);
         });

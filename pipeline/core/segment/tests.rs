@@ -28,7 +28,7 @@ fn matches_range(a: &Range<usize>, b: &Range<usize>) -> bool {
 fn levels_agree(truth: &NominalLevels, got: &NominalLevels) -> bool {
     let same = |t: Option<i64>, g: Option<i64>| t.is_none() || t == g;
     same(truth.pressure_kpa, got.pressure_kpa)
-        && same(truth.ia_deg, got.ia_deg)
+        && same(truth.ia_cdeg, got.ia_cdeg)
         && same(truth.fz_n, got.fz_n)
         && same(truth.alpha_deg, got.alpha_deg)
         && same(truth.speed_kph, got.speed_kph)
@@ -437,7 +437,7 @@ fn dump(segments: &[Segment]) {
             s.samples.end,
             s.kind.as_str(),
             s.nominal.pressure_kpa,
-            s.nominal.ia_deg,
+            s.nominal.ia_cdeg,
             s.nominal.fz_n,
             s.nominal.alpha_deg,
             s.nominal.speed_kph,

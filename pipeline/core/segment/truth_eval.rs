@@ -42,10 +42,10 @@ fn overlaps(a: (f64, f64), b: (f64, f64)) -> bool {
     ov >= 0.5 * (a.1 - a.0).min(b.1 - b.0)
 }
 
-fn level_ok(truth: Option<f64>, got: Option<i64>, tol: f64) -> bool {
+fn level_ok(truth: Option<f64>, got: Option<f64>, tol: f64) -> bool {
     match (truth, got) {
         (None, _) => true,
-        (Some(t), Some(g)) => (t - g as f64).abs() <= tol,
+        (Some(t), Some(g)) => (t - g).abs() <= tol,
         (Some(_), None) => false,
     }
 }
@@ -75,13 +75,25 @@ fn matches(t: &TruthSegmentRow, s: &super::Segment, tol: LevelTolerance) -> bool
         && overlaps((t.et_start_s, t.et_end_s), (s.et_start_s, s.et_end_s))
         && level_ok(
             Some(t.pressure_kpa_nom),
-            s.nominal.pressure_kpa,
+            s.nominal.pressure_kpa.map(|v| v as f64),
             tol.of(0.0, 3.0),
         )
-        && level_ok(t.ia_deg_nom, s.nominal.ia_deg, tol.of(0.0, 0.5))
-        && level_ok(t.fz_n_nom, s.nominal.fz_n, fz_tol)
-        && level_ok(t.alpha_deg_nom, s.nominal.alpha_deg, tol.of(0.0, 0.5))
-        && level_ok(t.speed_kph_nom, s.nominal.speed_kph, tol.of(0.0, 2.0))
+        && level_ok(
+            t.ia_deg_nom,
+            s.nominal.ia_cdeg.map(|c| c as f64 / 100.0),
+            tol.of(0.0, 0.5),
+        )
+        && level_ok(t.fz_n_nom, s.nominal.fz_n.map(|v| v as f64), fz_tol)
+        && level_ok(
+            t.alpha_deg_nom,
+            s.nominal.alpha_deg.map(|v| v as f64),
+            tol.of(0.0, 0.5),
+        )
+        && level_ok(
+            t.speed_kph_nom,
+            s.nominal.speed_kph.map(|v| v as f64),
+            tol.of(0.0, 2.0),
+        )
 }
 
 pub(crate) fn evaluate(size: Size, defects: bool, seed: u64) -> Evaluation {

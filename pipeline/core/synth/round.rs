@@ -1235,7 +1235,10 @@ pub fn segments_csv(runs: &[RunSummary]) -> String {
             r.et_start_s,
             r.et_end_s,
             r.pressure_kpa_nom,
-            opt(r.ia_deg_nom, 0),
+            r.ia_deg_nom
+                .map_or(String::new(), |v| crate::segment::ia_cdeg_text(
+                    crate::segment::ia_cdeg_label(v)
+                )),
             opt(r.fz_n_nom, 0),
             opt(r.alpha_deg_nom, 0),
             opt(r.speed_kph_nom, 2),

@@ -113,7 +113,7 @@ fn envelope(sweeps: &[(Mf61Sweep, &MeasuredSegment)]) -> Vec<SlipInput> {
     let mut out = Vec::new();
     for (sweep, seg) in sweeps {
         let fz = seg.nominal.fz_n.unwrap_or(0) as f64;
-        let gamma = (seg.nominal.ia_deg.unwrap_or(0) as f64).to_radians();
+        let gamma = (seg.nominal.ia_cdeg.unwrap_or(0) as f64 / 100.0).to_radians();
         let alpha = (seg.nominal.alpha_deg.unwrap_or(0) as f64).to_radians();
         let cornering = sweep.kind == SweepKind::Cornering;
         let slip: Vec<f64> = sweep

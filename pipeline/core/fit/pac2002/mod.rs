@@ -222,7 +222,7 @@ impl Sweep {
             kind,
             nominal: SweepNominal {
                 fz_n: seg.nominal.fz_n? as f64,
-                gamma_rad: (seg.nominal.ia_deg? as f64).to_radians(),
+                gamma_rad: (seg.nominal.ia_cdeg? as f64 / 100.0).to_radians(),
                 alpha_rad: (seg.nominal.alpha_deg.unwrap_or(0) as f64).to_radians(),
             },
             qc_ok,

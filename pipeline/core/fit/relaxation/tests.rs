@@ -147,7 +147,7 @@ fn measured_through(
     let k = key("T", 83);
     let mut s = blank("seg", kind, &k, "run", 0.0, n, hz, v_mps * 3.6);
     s.nominal.fz_n = Some(load as i64);
-    s.nominal.ia_deg = Some(ia_deg as i64);
+    s.nominal.ia_cdeg = Some(crate::segment::ia_cdeg_label(ia_deg));
     s.channels.gamma_rad = vec![gamma; n];
     let mut rng = SplitMix64::new(seed);
     let mut f: Vec<f64> = rig.apply(&s.channels.et_s, states.iter().map(|y| y[0]).collect());
@@ -267,7 +267,7 @@ fn noisy_round_4_matrix_pools_inclinations_and_stays_within_five_percent() {
     for r in &out.rows {
         let truth = sigma_alpha(&model, r.fz_n_mean);
         let err = r.sigma_m / truth - 1.0;
-        assert_eq!((r.n_segments, r.ia_deg_nom), (5, -1));
+        assert_eq!((r.n_segments, r.ia_cdeg_nom), (5, None));
         assert!(
             err.abs() < 0.05,
             "Fz {}: sigma {:.4} vs {truth:.4} ({err:+.3})",
@@ -657,7 +657,7 @@ fn row_at(direction: Direction, fz: f64, sigma: f64, se_rel: f64) -> RelaxationR
         key: key("T", 83),
         fz_n_nom: fz.round() as i64,
         fz_n_mean: fz,
-        ia_deg_nom: 0,
+        ia_cdeg_nom: Some(0),
         direction,
         method: Method::Sweep,
         slip_rate: 0.07,

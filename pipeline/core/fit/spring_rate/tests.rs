@@ -52,10 +52,10 @@ fn round(t: &Truth, tire: &str, noise: f64, seed: u64) -> Vec<MeasuredSegment> {
         (SegmentKind::SpringRateStatic, 0.0),
         (SegmentKind::SpringRateDynamic, SPEED_KPH),
     ] {
-        for ia in [0, 2, 4] {
+        for ia in [0, 160, 320] {
             let fz = staircase(&LOADS, 1.0, 0.3, RATE_HZ);
             let mut s = blank("hold", kind, &k, "run1", 0.0, fz.len(), RATE_HZ, speed);
-            s.nominal.ia_deg = Some(ia);
+            s.nominal.ia_cdeg = Some(ia);
             let (cz, r0) = if speed > 0.0 {
                 (t.cz_dynamic, t.r0_dynamic)
             } else {
@@ -92,7 +92,7 @@ fn round(t: &Truth, tire: &str, noise: f64, seed: u64) -> Vec<MeasuredSegment> {
             RATE_HZ,
             SPEED_KPH,
         );
-        s.nominal.ia_deg = Some(0);
+        s.nominal.ia_cdeg = Some(0);
         s.nominal.fz_n = Some(load as i64);
         s.nominal.speed_kph = Some(40);
         let mut rl = vec![t.r0_dynamic - load / t.cz_dynamic; n];
