@@ -274,26 +274,32 @@ fn quirked_tire(drift: RunOrderDrift) -> Prepared {
 }
 
 /// Run-order drift on the virtual machine (`[synth.quirks.drift]`, the every-quirk round's
-/// typical law): the pressure tested first (83 kPa, the middle of the 69 / 83 / 97 kPa ones,
-/// as on the real drive/brake round) sees a fresher, stiffer tire than the later blocks. Per
-/// pressure the PAC2002 fit is judged against that block's truth (the tire as its runs saw it),
-/// the MF 6.1 fit against the block's and the settled tire; the left-out-pressure figures are
-/// printed. Checked: without drift no pressure is noted out of pressure order; with it the
-/// first-tested pressure is (`Fx0` or `Fy0`), and leaving it out predicts it worse than
-/// without drift.
+/// typical law): the pressure tested first (83 kPa, between 69 and 97 kPa, as on the real
+/// drive/brake round) sees a fresher, stiffer tire than the later blocks. Per pressure the
+/// PAC2002 fit is judged against that block's truth (the tire as its runs saw it), the MF 6.1 fit
+/// against the block's and the settled tire; the left-out-pressure figures and the
+/// out-of-pressure-order notes are printed. Checked: without drift no pressure is noted and every
+/// `Fx0`/`Fy0` left-out-pressure ratio stays below 1.5x; with drift the per-pressure PAC2002 fits
+/// still reproduce their blocks within 1 % of peak, and the end pressures, extrapolated through
+/// the first-tested block, are predicted at least 3x worse than in sample (the real round's
+/// 5.4x / 5.7x pattern).
 #[test]
 fn run_order_drift_puts_the_first_block_out_of_pressure_order() {
     let cfg = Mf61Config {
         kfold: 0,
         ..Mf61Config::default()
     };
-    let mut lopo_first = Vec::new();
+    // Per drift setting: the worst Fx0/Fy0 left-out ratio per pressure (69, 83, 97, 110 kPa),
+    // the notes, the worst PAC2002 error against its block (% of peak).
+    let mut lopo: Vec<Vec<f64>> = Vec::new();
     let mut out_of_order = Vec::new();
+    let mut pac_worst = Vec::new();
     for drift in [RunOrderDrift::default(), RunOrderDrift::typical()] {
         let on = !drift.is_off();
         let prep = quirked_tire(drift);
         let fit = fit(&prep.input, &cfg).expect("fit");
         println!("drift {}:", if on { "on" } else { "off" });
+        let mut worst = 0.0_f64;
         for g in &prep.input.groups {
             let k = g.pressure_kpa_nom;
             let (p_pa, points) = &prep.envelopes[&k];
@@ -301,6 +307,7 @@ fn run_order_drift_puts_the_first_block_out_of_pressure_order() {
             let pac = g.pac2002.as_ref().map_or([f64::NAN; 3], |pac| {
                 block.rms_error_pct_of_peak(&pac.model, points, Some(*p_pa))
             });
+            worst = pac.iter().fold(worst, |w, e| w.max(*e));
             let mf_block = block.rms_error_pct_of_peak(&fit.model, points, Some(*p_pa));
             let mf_settled = prep
                 .truth
@@ -340,20 +347,24 @@ fn run_order_drift_puts_the_first_block_out_of_pressure_order() {
             println!("  note: {n}");
         }
         out_of_order.push(notes.iter().map(|n| n.to_string()).collect::<Vec<_>>());
-        lopo_first.push(
-            fit.family_quality
+        pac_worst.push(worst);
+        lopo.push(
+            prep.input
+                .groups
                 .iter()
-                .filter(|q| q.pressure_kpa_nom == 83)
-                .filter(|q| matches!(q.family, Family::Fx0 | Family::Fy0))
-                .map(|q| q.lopo_ratio())
-                .fold(0.0, f64::max),
+                .map(|g| {
+                    fit.family_quality
+                        .iter()
+                        .filter(|q| q.pressure_kpa_nom == g.pressure_kpa_nom)
+                        .filter(|q| matches!(q.family, Family::Fx0 | Family::Fy0))
+                        .map(|q| q.lopo_ratio())
+                        .fold(0.0, f64::max)
+                })
+                .collect(),
         );
     }
     assert!(out_of_order[0].is_empty(), "{:?}", out_of_order[0]);
-    assert!(
-        out_of_order[1].iter().any(|n| n.contains("at 83 kPa")),
-        "{:?}",
-        out_of_order[1]
-    );
-    assert!(lopo_first[1] > lopo_first[0], "{lopo_first:?}");
+    assert!(lopo[0].iter().all(|r| *r < 1.5), "{lopo:?}");
+    assert!(lopo[1][0] > 3.0 && lopo[1][3] > 3.0, "{lopo:?}");
+    assert!(pac_worst[1] < 1.0, "{pac_worst:?}");
 }
