@@ -7,7 +7,9 @@
 //!
 //! Per sample: commanded state (+ load-servo wander) -> steady-state truth model (PAC2002, or
 //! MF 6.1 at the true inflation pressure: commanded + servo wander) at the tread temperature's
-//! grip scalings (`LMUX`, `LMUY` = `mu_rel(T)/mu_rel(T_ref)`) -> first-order lag
+//! grip scalings (`LMUX`, `LMUY` = `mu_rel(T)/mu_rel(T_ref)`), times the run-order drift's
+//! friction and slip stiffness scalings (`LKX`, `LKY`) when it is on (`super::drift`: the
+//! tire's history advances with every sample's slip energy and distance) -> first-order lag
 //! (`Fy`, `Mz`, `Mx` with `sigma_alpha`; `Fx` with `sigma_kappa`) -> slip power heats the tread ->
 //! radii, wheel speed, slips -> sensors (the load cell's channels through the rig's measurement
 //! chain: a pure delay and a first-order filter in time, both off by default; noise, IR phase
@@ -16,6 +18,7 @@
 
 use crate::tire_model::{Coef, Mode, SlipInput};
 
+use super::drift::{RunOrderDrift, TireHistory};
 use super::noise::{Rng, Wander};
 use super::physics::{FirstOrderLag, MeasurementChain, ThermalParams, Tread, slip_power_w};
 use super::schedule::Program;
@@ -45,6 +48,8 @@ pub struct Realism {
     pub measurement_filter_s: f64,
     /// Loose load control of older rounds (`None`: the servo holds the load).
     pub load_swing: Option<LoadSwing>,
+    /// Run-order drift and the tire's history at the start of the run (`None`: no drift).
+    pub drift: Option<(RunOrderDrift, TireHistory)>,
 }
 
 /// Loose load control: while the tire slips, FZ swings around its set-point,
@@ -73,6 +78,7 @@ impl Default for Realism {
             measurement_delay_s: 0.0,
             measurement_filter_s: 0.0,
             load_swing: None,
+            drift: None,
         }
     }
 }
@@ -154,6 +160,12 @@ pub struct RunSamples {
     pub dwell: Vec<bool>,
     /// Piece index of the sample.
     pub piece: Vec<u32>,
+    /// The run-order drift's friction and slip stiffness scalings per sample (empty without
+    /// drift).
+    pub drift_scales: Vec<(f64, f64)>,
+    /// The tire's history at the end of the run: the start's (zero without drift) plus the run's
+    /// slip energy and distance.
+    pub history_end: TireHistory,
 }
 
 /// Run `program` on `truth` at `rate_hz`, drawing noise from `rng`.
@@ -192,6 +204,8 @@ pub fn simulate(
         )
     });
     let mut hint = (0usize, 0.0f64);
+    let mut history = realism.drift.map(|d| d.1).unwrap_or_default();
+    let (lkx, lky) = (model.coefs[Coef::LKX], model.coefs[Coef::LKY]);
 
     for k in 0..n {
         let t = k as f64 * dt;
@@ -209,6 +223,14 @@ pub fn simulate(
         };
         model.coefs[Coef::LMUX] = grip_x;
         model.coefs[Coef::LMUY] = grip_y;
+        if let Some((drift, _)) = &realism.drift {
+            let (mu, k) = drift.scales(&history);
+            model.coefs[Coef::LMUX] *= mu;
+            model.coefs[Coef::LMUY] *= mu;
+            model.coefs[Coef::LKX] = lkx * k;
+            model.coefs[Coef::LKY] = lky * k;
+            out.drift_scales.push((mu, k));
+        }
         // An MF 6.x truth sees the true inflation pressure, so the servo's wander is drawn before
         // the forces; a PAC2002 truth has no pressure term and keeps the draw order of older
         // rounds (wander drawn with the pressure channel below).
@@ -225,7 +247,12 @@ pub fn simulate(
             p_true_pa,
             Mode::Limits,
         );
-        let (sigma_kappa, sigma_alpha) = model.relaxation_lengths_at(fz, cmd.gamma_rad, p_true_pa);
+        // The reference tire's relaxation lengths: the drift leaves the relaxation law alone (the
+        // grip scalings do not enter it).
+        let (sigma_kappa, sigma_alpha) =
+            truth
+                .model
+                .relaxation_lengths_at(fz, cmd.gamma_rad, p_true_pa);
         let (tau_x, tau_y) = if realism.lag && v > STANDSTILL_MPS {
             (sigma_kappa / v, sigma_alpha / v)
         } else {
@@ -240,6 +267,8 @@ pub fn simulate(
         let air = realism.ambient_c + ns * air_wander.step(rng);
         let power = slip_power_w(fx, fy, cmd.kappa, cmd.alpha_rad, v);
         tread.step(&realism.thermal, power, fz, v, V_REF_MPS, road, air, dt);
+        history.slip_energy_j += power * dt;
+        history.distance_m += v.abs() * dt;
 
         let rl = truth.vertical.loaded_radius(fz, v);
         let (re, omega, sr) = if v > STANDSTILL_MPS {
@@ -303,6 +332,7 @@ pub fn simulate(
         let _ = re;
     }
     infrared(&mut out, realism, rng);
+    out.history_end = history;
     out
 }
 

@@ -8,6 +8,7 @@
 
 pub mod dat;
 pub mod defects;
+pub mod drift;
 pub mod inertia;
 pub mod machine;
 pub mod noise;

@@ -17,12 +17,17 @@
 //!   off the consortium's list (50/100/150/200/250/350 lb -> 75/125/175/225/275/400 lb).
 //! - **De-identified** (as the consortium publishes example data): commanded slip angles and
 //!   loads multiplied by `sa_scale` and `load_scale`.
+//! - **Run-order drift** (`[synth.quirks.drift]`, [`super::drift`]): friction and slip stiffness
+//!   that settle with the tire's history, so the pressure tested first differs from the others
+//!   by more than pressure; the truth of each pressure is the tire as its block saw it.
 //!
-//! Deliberately not here: physics (the truth models are unchanged), segmentation.
+//! Deliberately not here: physics (the truth models are unchanged; the drift's law and the
+//! truth under it are in [`super::drift`]), segmentation.
 
 use serde::{Deserialize, Serialize};
 
 use super::dat::{ChannelTable, Container, FileStyle, FileUnits};
+use super::drift::RunOrderDrift;
 use super::schedule::Program;
 use super::tires::N_PER_LBF;
 
@@ -43,6 +48,10 @@ pub struct QuirksConfig {
     pub sa_scale: f64,
     /// De-identified data: commanded loads multiplied by this, -.
     pub load_scale: f64,
+    /// Run-order drift of friction and slip stiffness (off by default; not written to
+    /// `round.toml` when off, so a round without it keeps its bytes).
+    #[serde(skip_serializing_if = "RunOrderDrift::is_off")]
+    pub drift: RunOrderDrift,
 }
 
 impl Default for QuirksConfig {
@@ -53,13 +62,15 @@ impl Default for QuirksConfig {
             nonstandard_levels: false,
             sa_scale: 1.0,
             load_scale: 1.0,
+            drift: RunOrderDrift::default(),
         }
     }
 }
 
 impl QuirksConfig {
     /// Every quirk on, with the consortium's de-identification scales seen in published data
-    /// (slip angles x 0.8125: +-12 deg -> +-9.75 deg) and loads x 1.15.
+    /// (slip angles x 0.8125: +-12 deg -> +-9.75 deg) and loads x 1.15, and the typical
+    /// run-order drift ([`RunOrderDrift::typical`]).
     pub fn all() -> QuirksConfig {
         QuirksConfig {
             older_round: true,
@@ -67,6 +78,7 @@ impl QuirksConfig {
             nonstandard_levels: true,
             sa_scale: 0.8125,
             load_scale: 1.15,
+            drift: RunOrderDrift::typical(),
         }
     }
 
@@ -86,7 +98,7 @@ impl QuirksConfig {
         if !in_range(self.load_scale, 0.3, 3.0) {
             return Some(("quirks.load_scale", self.load_scale, "must be in 0.3..3"));
         }
-        None
+        self.drift.invalid()
     }
 
     /// The sample rate of a file of `style`, Hz.

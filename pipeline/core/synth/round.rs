@@ -14,6 +14,12 @@
 //! `truth/tir/<tire>__<rim>in__<P>kPa.tir` (names from [`crate::naming`]), and with
 //! `truth = "mf61"` ([`TruthForm::Mf61`]) `truth/tir/<tire>__<rim>in__mf61.tir` (the one MF 6.1
 //! model of every pressure; the per-pressure files are the same model with `INFLPRES` set).
+//!
+//! With run-order drift ([`super::drift`], `[synth.quirks.drift]`) each run starts from the
+//! history its tire's earlier runs left ([`RunFileSpec::history`], from a noise-free pass in
+//! [`plan_round`], so runs stay independent), and the per-pressure truth files are the tire as
+//! that pressure's block of runs saw it ([`block_truth`]); the MF 6.1 truth file is the settled
+//! tire.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -31,7 +37,8 @@ use super::dat::{
     ChannelTable, Container, FileStyle, HeaderFields, STYLE_CYCLE, channel_table, header_line,
 };
 use super::defects::{DefectKind, DefectRecord, apply_to_table, apply_to_text};
-use super::machine::{LoadSwing, Realism, simulate};
+use super::drift::{BlockDrift, TireHistory};
+use super::machine::{LoadSwing, Realism, RunSamples, simulate};
 use super::noise::Rng;
 use super::physics::ThermalParams;
 use super::quirks::{self, QuirksConfig, UnitErrorRow};
@@ -185,6 +192,7 @@ impl RealismConfig {
             measurement_delay_s: self.measurement_delay_s,
             measurement_filter_s: self.measurement_filter_s,
             load_swing: None,
+            drift: None,
         }
     }
 }
@@ -340,6 +348,8 @@ pub struct RunFileSpec {
     pub file: String,
     /// Defects to inject (empty unless enabled).
     pub defects: Vec<DefectKind>,
+    /// The tire's history at the start of the run (zero without run-order drift).
+    pub history: TireHistory,
 }
 
 /// The round to generate.
@@ -447,6 +457,7 @@ pub fn plan_round(config: &SynthConfig) -> Result<RoundPlan, RoundError> {
                     style,
                     file: style.file_name(config.project, run),
                     defects: Vec::new(),
+                    history: TireHistory::default(),
                 });
             }
         }
@@ -476,7 +487,120 @@ pub fn plan_round(config: &SynthConfig) -> Result<RoundPlan, RoundError> {
             .collect();
         plan.thermal = calibrated;
     }
+    if !plan.config.quirks.drift.is_off() {
+        let histories = plan_histories(&plan);
+        for (spec, h) in plan.runs.iter_mut().zip(histories) {
+            spec.history = h;
+        }
+    }
     Ok(plan)
+}
+
+/// The tire's history at the start of every run (run order), for run-order drift: each
+/// combination's runs simulated noise-free at 50 Hz in run order, each from the history its
+/// predecessors left. The rendered runs add their own (noisy) slip energy live.
+fn plan_histories(plan: &RoundPlan) -> Vec<TireHistory> {
+    let drift = plan.config.quirks.drift;
+    let per_combo: Vec<Vec<(usize, TireHistory)>> = (0..plan.combos.len())
+        .into_par_iter()
+        .map(|ci| {
+            let mut h = TireHistory::default();
+            let mut out = Vec::new();
+            for (i, spec) in plan.runs.iter().enumerate().filter(|(_, s)| s.combo == ci) {
+                out.push((i, h));
+                let realism = Realism {
+                    noise_scale: 0.0,
+                    drift: Some((drift, h)),
+                    ..plan.realism
+                };
+                let mut rng = Rng::for_stream(0, &[]);
+                let truth = plan.truth(ci, spec.pressure_psi);
+                let s = simulate(
+                    &plan.program(spec),
+                    truth,
+                    &plan.thermal[ci],
+                    &realism,
+                    50.0,
+                    &mut rng,
+                );
+                h = s.history_end;
+            }
+            out
+        })
+        .collect();
+    let mut histories = vec![TireHistory::default(); plan.runs.len()];
+    for (i, h) in per_combo.into_iter().flatten() {
+        histories[i] = h;
+    }
+    histories
+}
+
+/// Whether a segment kind is a fitted sweep, and whether lateral (cornering) or longitudinal
+/// (drive/brake, combined).
+fn fitted_sweep(kind: SegmentKind) -> Option<bool> {
+    match kind {
+        SegmentKind::Cornering => Some(true),
+        SegmentKind::DriveBrake | SegmentKind::Combined => Some(false),
+        _ => None,
+    }
+}
+
+/// The drift of a run over its fitted sweeps (`|F|/Fz`-weighted, as the thermal calibration).
+fn block_drift(program: &Program, s: &RunSamples) -> BlockDrift {
+    let mut b = BlockDrift::default();
+    for seg in &program.segments {
+        let Some(lateral) = fitted_sweep(seg.kind) else {
+            continue;
+        };
+        for i in 0..s.et_s.len().min(s.drift_scales.len()) {
+            let p = s.piece[i] as usize;
+            if p >= seg.first_piece && p < seg.end_piece {
+                let w = s.fx_n[i].hypot(s.fy_n[i]) / s.fz_n[i].max(1.0);
+                let (mu, k) = s.drift_scales[i];
+                b.add(lateral, w, mu, k);
+            }
+        }
+    }
+    b
+}
+
+/// The truth of a tested pressure as its block of runs saw it: `t` (the settled tire) with the
+/// run-order drift's mean scalings over the block's fitted sweeps (`runs`: the round's run
+/// summaries) folded into `LMUY`, `LKY` (cornering sweeps) and `LMUX`, `LKX` (drive/brake and
+/// combined sweeps). `t` itself without drift.
+pub fn block_truth(plan: &RoundPlan, runs: &[RunSummary], t: &TruthModel) -> TruthModel {
+    let mut m = t.clone();
+    if let Some(((mu_y, k_y), (mu_x, k_x))) = block_means(plan, runs, t) {
+        m.model.coefs[Coef::LMUY] *= mu_y;
+        m.model.coefs[Coef::LKY] *= k_y;
+        m.model.coefs[Coef::LMUX] *= mu_x;
+        m.model.coefs[Coef::LKX] *= k_x;
+    }
+    m
+}
+
+/// The block means `((mu, k) lateral, (mu, k) longitudinal)` of `t`'s pressure, `None` without
+/// drift.
+fn block_means(
+    plan: &RoundPlan,
+    runs: &[RunSummary],
+    t: &TruthModel,
+) -> Option<((f64, f64), (f64, f64))> {
+    if plan.config.quirks.drift.is_off() {
+        return None;
+    }
+    let mut b = BlockDrift::default();
+    for r in runs {
+        let c = plan.combos[r.spec.combo];
+        if c.tire_index == t.tire_index
+            && (c.rim_in - t.rim_in).abs() < 1e-9
+            && (r.spec.pressure_psi - t.pressure_psi).abs() < 1e-9
+            && let Some(d) = &r.drift
+        {
+            b.merge(d);
+        }
+    }
+    Some(b.means())
 }
 
 /// Peak temperature the calibration starts from, degC.
@@ -593,6 +717,8 @@ pub struct RunSummary {
     pub defects: Vec<DefectRecord>,
     /// Radius channels written in a wrong unit (older-round quirk).
     pub unit_errors: Vec<UnitErrorRow>,
+    /// The run-order drift over the run's fitted sweeps (`None` without drift).
+    pub drift: Option<BlockDrift>,
 }
 
 /// One rendered run file.
@@ -626,7 +752,11 @@ pub fn render_run(plan: &RoundPlan, index: usize) -> Result<RunOutput, RoundErro
             phase_rad: std::f64::consts::TAU * swing_rng.uniform(),
         });
     }
+    if !q.drift.is_off() {
+        realism.drift = Some((q.drift, spec.history));
+    }
     let samples = simulate(&program, truth, thermal, &realism, rate, &mut rng);
+    let drift = realism.drift.map(|_| block_drift(&program, &samples));
 
     let keep: Vec<usize> = (0..samples.et_s.len())
         .filter(|&i| spec.style.raw || !samples.dwell[i])
@@ -683,6 +813,7 @@ pub fn render_run(plan: &RoundPlan, index: usize) -> Result<RunOutput, RoundErro
             segments,
             defects,
             unit_errors,
+            drift,
         },
     })
 }
@@ -877,6 +1008,26 @@ struct PressureTruthToml {
     sigma_alpha_m: BTreeMap<String, f64>,
     /// sigma_kappa at the nominal loads, m.
     sigma_kappa_m: BTreeMap<String, f64>,
+    /// Run-order drift: the block's mean scalings folded into the truth `.tir` (absent without
+    /// drift).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    run_order_drift: Option<BlockDriftToml>,
+}
+
+/// The scalings of a pressure's block (`LMUY`, `LKY` over its cornering sweeps; `LMUX`, `LKX`
+/// over its drive/brake and combined sweeps) and the history its first run started from.
+#[derive(Serialize)]
+struct BlockDriftToml {
+    lmuy: f64,
+    lky: f64,
+    lmux: f64,
+    lkx: f64,
+    /// The tested order of the block's first run among its tire's runs (1 = tested first).
+    first_run_order: usize,
+    /// Slip energy dissipated before the block's first run, kJ.
+    slip_energy_before_kj: f64,
+    /// Distance rolled before the block's first run, km.
+    distance_before_km: f64,
 }
 
 #[derive(Serialize)]
@@ -917,12 +1068,22 @@ struct ThermalToml {
 /// The truth and index files of the round, from the plan and every run's summary.
 pub fn render_truth(plan: &RoundPlan, runs: &[RunSummary]) -> Result<Vec<OutFile>, RoundError> {
     let mut out = Vec::new();
+    let drift = !plan.config.quirks.drift.is_off();
     for t in &plan.truths {
         let combo_name = CATALOGUE[t.tire_index].name;
         let name = tir_file_name(combo_name, t.rim_in, t.pressure_kpa());
         let file = truth_tir(
-            t,
-            &format!("at {:.1} psi ({:.0} kPa)", t.pressure_psi, t.pressure_kpa()),
+            &block_truth(plan, runs, t),
+            &format!(
+                "at {:.1} psi ({:.0} kPa){}",
+                t.pressure_psi,
+                t.pressure_kpa(),
+                if drift {
+                    ", as its block of runs saw it (run-order drift)"
+                } else {
+                    ""
+                }
+            ),
         );
         out.push(render_tir(&file, &name)?);
     }
@@ -938,13 +1099,20 @@ pub fn render_truth(plan: &RoundPlan, runs: &[RunSummary]) -> Result<Vec<OutFile
             let mut model = t.clone();
             model.model.coefs[Coef::INFLPRES] = model.model.coefs[Coef::NOMPRES];
             let name = mf61_tir_file_name(combo.tire(), combo.rim_in);
-            let file = truth_tir(&model, "at every pressure (MF 6.1, INFLPRES = NOMPRES)");
+            let file = truth_tir(
+                &model,
+                if drift {
+                    "at every pressure (MF 6.1, INFLPRES = NOMPRES), settled (no run-order drift)"
+                } else {
+                    "at every pressure (MF 6.1, INFLPRES = NOMPRES)"
+                },
+            );
             out.push(render_tir(&file, &name)?);
         }
     }
     for (ci, combo) in plan.combos.iter().enumerate() {
         let path = format!("truth/{}.toml", tire_rim_stem(combo.tire(), combo.rim_in));
-        let toml = truth_toml(plan, ci);
+        let toml = truth_toml(plan, ci, runs);
         let text = toml::to_string(&toml).map_err(|e| RoundError::Toml {
             file: path.clone(),
             message: e.to_string(),
@@ -1084,7 +1252,7 @@ impl<'a> RoundToml<'a> {
     }
 }
 
-fn truth_toml(plan: &RoundPlan, ci: usize) -> TruthToml {
+fn truth_toml(plan: &RoundPlan, ci: usize, runs: &[RunSummary]) -> TruthToml {
     let combo = plan.combos[ci];
     let mf61 = plan.config.truth == TruthForm::Mf61;
     let th = plan.thermal[ci];
@@ -1131,6 +1299,24 @@ fn truth_toml(plan: &RoundPlan, ci: usize) -> TruthToml {
                 ptx3: pac_coef(Coef::PTX3),
                 sigma_alpha_m: sa,
                 sigma_kappa_m: sk,
+                run_order_drift: block_means(plan, runs, t).map(|((lmuy, lky), (lmux, lkx))| {
+                    let own: Vec<&RunFileSpec> =
+                        plan.runs.iter().filter(|r| r.combo == ci).collect();
+                    let first = own
+                        .iter()
+                        .position(|r| (r.pressure_psi - t.pressure_psi).abs() < 1e-9)
+                        .unwrap_or(0);
+                    let h = own.get(first).map(|r| r.history).unwrap_or_default();
+                    BlockDriftToml {
+                        lmuy,
+                        lky,
+                        lmux,
+                        lkx,
+                        first_run_order: first + 1,
+                        slip_energy_before_kj: h.slip_energy_j / 1e3,
+                        distance_before_km: h.distance_m / 1e3,
+                    }
+                }),
             }
         })
         .collect();

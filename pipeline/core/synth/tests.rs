@@ -702,3 +702,47 @@ fn tires_and_rims_narrow_the_round() {
         "rims_in"
     );
 }
+
+/// Run-order drift: every run starts from the history its tire's earlier runs left (first run
+/// fresh, then growing in run order), the plan tests the middle pressure first, and the first
+/// block's friction and slip stiffness scalings lie above every later block's.
+#[test]
+fn run_order_drift_histories_follow_the_run_order() {
+    let cfg = SynthConfig {
+        size: Size::Full,
+        tires: vec![CATALOGUE[1].name.to_string()],
+        rims_in: vec![7.0],
+        quirks: super::quirks::QuirksConfig {
+            nonstandard_levels: true,
+            drift: super::drift::RunOrderDrift::typical(),
+            ..Default::default()
+        },
+        ..SynthConfig::default()
+    };
+    let plan = plan_round(&cfg).unwrap();
+    let d = cfg.quirks.drift;
+    let mut last = -1.0;
+    for r in &plan.runs {
+        let (mu, k) = d.scales(&r.history);
+        println!(
+            "run {} {:?} {:.0} psi: {:.0} kJ, {:.2} km before: mu x {:.4}, K x {:.4}",
+            r.run,
+            r.kind,
+            r.pressure_psi,
+            r.history.slip_energy_j / 1e3,
+            r.history.distance_m / 1e3,
+            mu,
+            k
+        );
+        assert!(r.history.slip_energy_j > last, "{:?}", r.history);
+        last = r.history.slip_energy_j;
+    }
+    assert_eq!(plan.runs[0].history, Default::default());
+    let order: Vec<f64> = plan.runs.iter().map(|r| r.pressure_psi).collect();
+    let (lo, hi) = order
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(*p), b.max(*p))
+        });
+    assert!(order[0] > lo && order[0] < hi, "{order:?}");
+}

@@ -17,7 +17,7 @@ use crate::fit::pac2002::{self, FitConfig, FitInput, Sweep, SweepKind};
 use crate::fit::segment_data::{MeasuredSegment, TireKey};
 use crate::fit::spring_rate::{self, SpringRateConfig};
 use crate::segment::{self, RunSignals, SegmentConfig};
-use crate::synth::round::{Size, SynthConfig, plan_round, render_run};
+use crate::synth::round::{Size, SynthConfig, block_truth, plan_round, render_run};
 use crate::synth::tires::{CATALOGUE, KPA_PER_PSI, TruthForm, V_REF_MPS};
 use crate::tire_model::{MagicFormula, SlipInput};
 use crate::ttc::read_run;
@@ -27,7 +27,7 @@ pub struct Prepared {
     /// The stage's input (every tested pressure).
     pub input: Mf61Input,
     /// The truth of the tire: its MF 6.1 model (under the default PAC2002 truth: the first
-    /// tested pressure's PAC2002 set).
+    /// tested pressure's PAC2002 set), settled (without run-order drift).
     pub truth: MagicFormula,
     /// The truth model of each tested pressure (kPa, nominal), `INFLPRES` set.
     pub pressure_truths: BTreeMap<i64, MagicFormula>,
@@ -38,22 +38,26 @@ pub struct Prepared {
 }
 
 /// The segments of every run of catalogue tire `tire_index` on rim `rim_in` (that tire and rim
-/// of the full round, truth `form`), keyed by (tire, rim, nominal pressure), and the truth of
-/// each nominal pressure (kPa).
+/// of the full round of `config`), keyed by (tire, rim, nominal pressure), the truth of each
+/// nominal pressure (kPa; under run-order drift the tire as that pressure's block saw it),
+/// each nominal pressure's commanded pressure (kPa) and the settled tire's model (the first
+/// tested pressure's truth without drift).
+#[allow(clippy::type_complexity)]
 fn segments(
     tire_index: usize,
     rim_in: f64,
-    form: TruthForm,
+    config: SynthConfig,
 ) -> (
     BTreeMap<TireKey, Vec<MeasuredSegment>>,
     BTreeMap<i64, MagicFormula>,
+    BTreeMap<i64, f64>,
+    MagicFormula,
 ) {
     let plan = plan_round(&SynthConfig {
         size: Size::Full,
-        truth: form,
         tires: vec![CATALOGUE[tire_index].name.to_string()],
         rims_in: vec![rim_in],
-        ..SynthConfig::default()
+        ..config
     })
     .expect("plan");
     let combo = plan
@@ -62,11 +66,13 @@ fn segments(
         .position(|c| c.tire_index == tire_index && (c.rim_in - rim_in).abs() < 1e-9)
         .expect("the tire and rim are in the full round");
     let mut out: BTreeMap<TireKey, Vec<MeasuredSegment>> = BTreeMap::new();
+    let mut summaries = Vec::new();
     for (index, spec) in plan.runs.iter().enumerate() {
         if spec.combo != combo {
             continue;
         }
         let rendered = render_run(&plan, index).expect("render");
+        summaries.push(rendered.summary.clone());
         let table = read_run(&rendered.file.bytes, &rendered.file.path).expect("read");
         let empty: Vec<f64> = Vec::new();
         let rl = table.loaded_radius_m.as_ref().unwrap_or(&empty);
@@ -98,9 +104,24 @@ fn segments(
         .truths
         .iter()
         .filter(|t| t.tire_index == tire_index && (t.rim_in - rim_in).abs() < 1e-9)
-        .map(|t| (t.pressure_kpa().round() as i64, t.model.clone()))
+        .map(|t| {
+            (
+                t.pressure_kpa().round() as i64,
+                block_truth(&plan, &summaries, t).model,
+            )
+        })
         .collect();
-    (out, truths)
+    let own: Vec<_> = plan
+        .truths
+        .iter()
+        .filter(|t| t.tire_index == tire_index && (t.rim_in - rim_in).abs() < 1e-9)
+        .collect();
+    let commanded = own
+        .iter()
+        .map(|t| (t.pressure_kpa().round() as i64, t.pressure_kpa()))
+        .collect();
+    let settled = own.first().expect("a tested pressure").model.clone();
+    (out, truths, commanded, settled)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -185,22 +206,26 @@ pub fn prepare(tire_index: usize, rim_in: f64) -> Prepared {
 
 /// [`prepare`] with the truth form of the round.
 pub fn prepare_with(tire_index: usize, rim_in: f64, form: TruthForm) -> Prepared {
-    let (per_key, pressure_truths) = segments(tire_index, rim_in, form);
-    let truth = pressure_truths
-        .values()
-        .next()
-        .expect("a tested pressure")
-        .clone();
+    prepare_config(
+        tire_index,
+        rim_in,
+        SynthConfig {
+            truth: form,
+            ..SynthConfig::default()
+        },
+    )
+}
+
+/// [`prepare`] from a round of `config` (its size, tires and rims set to the one tire and rim
+/// of the full round). `truth` is the settled tire's model (the first tested pressure's under a
+/// PAC2002 truth), `pressure_truths` each pressure's block (they differ under run-order drift).
+pub fn prepare_config(tire_index: usize, rim_in: f64, config: SynthConfig) -> Prepared {
+    let (per_key, pressure_truths, commanded_kpa, truth) = segments(tire_index, rim_in, config);
     let mut groups = Vec::new();
     let mut envelopes = BTreeMap::new();
     for (key, segs) in &per_key {
         let (group, env) = pressure_group(key, segs);
-        let commanded = CATALOGUE[tire_index]
-            .pressures_psi
-            .iter()
-            .map(|psi| psi * KPA_PER_PSI)
-            .find(|kpa| kpa.round() as i64 == key.pressure_kpa_nom)
-            .expect("a planned pressure");
+        let commanded = commanded_kpa[&key.pressure_kpa_nom];
         envelopes.insert(key.pressure_kpa_nom, (commanded * 1e3, env));
         groups.push(group);
     }
