@@ -85,7 +85,8 @@ fn realistic() -> &'static Fitted {
 
 /// A demo round with every quirk of real rounds on (`QuirksConfig::all`: older-round files at
 /// 50 Hz with loose load control, SR only and radii in a wrong unit, no channel struct; 16 psi
-/// and loads off the standard list; de-identified slip angles and loads), default realism.
+/// and loads off the standard list; de-identified slip angles and loads; the rig's slip-angle
+/// turnarounds with their ringing), default realism.
 fn quirked() -> &'static Fitted {
     static F: OnceLock<Fitted> = OnceLock::new();
     F.get_or_init(|| {
@@ -94,7 +95,8 @@ fn quirked() -> &'static Fitted {
         std::fs::write(
             &config,
             "[synth.quirks]\nolder_round = true\nload_swing_frac = 0.2\n\
-             nonstandard_levels = true\nsa_scale = 0.8125\nload_scale = 1.15\n",
+             nonstandard_levels = true\nsa_scale = 0.8125\nload_scale = 1.15\n\
+             rig_turnaround = true\n",
         )
         .unwrap();
         prepare(&["--config", p(&config)])

@@ -185,6 +185,7 @@ impl RealismConfig {
             measurement_delay_s: self.measurement_delay_s,
             measurement_filter_s: self.measurement_filter_s,
             load_swing: None,
+            turnaround_ring: None,
         }
     }
 }
@@ -626,6 +627,7 @@ pub fn render_run(plan: &RoundPlan, index: usize) -> Result<RunOutput, RoundErro
             phase_rad: std::f64::consts::TAU * swing_rng.uniform(),
         });
     }
+    realism.turnaround_ring = q.turnaround_ring();
     let samples = simulate(&program, truth, thermal, &realism, rate, &mut rng);
 
     let keep: Vec<usize> = (0..samples.et_s.len())
