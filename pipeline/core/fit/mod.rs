@@ -18,6 +18,7 @@ pub mod segment_data;
 pub mod spring_rate;
 pub mod sweep_folds;
 pub mod thermal;
+mod turnaround;
 
 #[cfg(test)]
 mod testkit;
