@@ -18,7 +18,6 @@ pub mod segment_data;
 pub mod spring_rate;
 pub mod sweep_folds;
 pub mod thermal;
-mod turnaround;
 
 #[cfg(test)]
 mod testkit;

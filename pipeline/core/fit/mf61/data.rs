@@ -6,18 +6,15 @@
 //! mean of the two directions (the lag hysteresis of a sweep run up and down cancels to first
 //! order, a spike cannot move a median), with the bin's mean load, inclination, speed and
 //! pressure; and each point's weight (every sweep counts the same whatever its length, relative
-//! to its own peak). The samples of each reversal's transient ([`crate::fit::turnaround`], the
-//! rule of the PAC2002 collapse) are left out first: the samples carry no time, and a sweep is
-//! evenly sampled, so the sample index serves as the time.
+//! to its own peak).
 //!
 //! Deliberately not here: de-lagging with relaxation lengths (the PAC2002 stage does it; the
 //! up/down average is enough for a model spanning pressures), QC (the caller passes clean
 //! sweeps).
 
 use crate::fit::output::Output;
-use crate::fit::pac2002::{Sweep, SweepKind, local_slope};
+use crate::fit::pac2002::{Sweep, SweepKind};
 use crate::fit::segment_data::MeasuredSegment;
-use crate::fit::turnaround;
 use crate::tire_model::SlipInput;
 
 /// One measured sample, ISO-W, SI. Channels not recorded are NaN.
@@ -164,17 +161,6 @@ fn collapse_sweep(
     index: usize,
     cfg: &CollapseConfig,
 ) -> Vec<Point> {
-    collapse_sweep_with(sweep, group, index, cfg, true)
-}
-
-/// [`collapse_sweep`], the reversal transients left out or (`trim == false`) kept.
-fn collapse_sweep_with(
-    sweep: &Mf61Sweep,
-    group: usize,
-    index: usize,
-    cfg: &CollapseConfig,
-    trim: bool,
-) -> Vec<Point> {
     let along_kappa = sweep.kind != SweepKind::Cornering;
     let slip = |s: &Mf61Sample| if along_kappa { s.kappa } else { s.alpha_rad };
     let bin = if along_kappa {
@@ -204,20 +190,8 @@ fn collapse_sweep_with(
             b >= a
         })
         .collect();
-    // The local slip rate per sample period (3 samples each side, the PAC2002 collapse's
-    // +-0.03 s at 100 Hz).
-    let index_t: Vec<f64> = (0..n).map(|i| i as f64).collect();
-    let x: Vec<f64> = samples.iter().map(|&s| slip(s)).collect();
-    let transient = if trim {
-        turnaround::transients(&index_t, &local_slope(&index_t, &x, 3.0, 1), 3.0)
-    } else {
-        vec![false; n]
-    };
     let mut bins: std::collections::BTreeMap<i64, [Vec<usize>; 2]> = Default::default();
     for (i, s) in samples.iter().enumerate() {
-        if transient[i] {
-            continue;
-        }
         let k = (slip(s) / bin).round() as i64;
         bins.entry(k).or_default()[usize::from(up[i])].push(i);
     }
@@ -370,44 +344,6 @@ mod tests {
             assert!((fy + 20000.0 * p.input.alpha_rad).abs() < tol, "{p:?}");
             assert!(p.value(Output::Fx).is_nan() && p.weights[Output::Fx as usize] == 0.0);
             assert!(p.weights[Output::Fy as usize] > 0.0);
-        }
-    }
-
-    /// The MF 6.1 collapse leaves a reversal's transients out like the PAC2002 one: a sweep
-    /// reversed as a real rig does it with a 50 N ringing ([`turnaround::rig_sweep`]) collapses
-    /// onto the steady state; kept, the ringing reaches the cells near the extremes.
-    #[test]
-    fn turnaround_transients_are_left_out() {
-        let gain = -30000.0;
-        let sweep = Mf61Sweep {
-            id: "s".into(),
-            kind: SweepKind::Cornering,
-            samples: turnaround::rig_sweep()
-                .into_iter()
-                .map(|(_, a, ring)| sample(a, gain * a + 50.0 * ring))
-                .collect(),
-        };
-        let cfg = CollapseConfig {
-            max_points_per_sweep: 1000,
-            ..Default::default()
-        };
-        let worst = |points: &[Point]| {
-            points
-                .iter()
-                .map(|p| (p.value(Output::Fy) - gain * p.input.alpha_rad).abs())
-                .fold(0.0, f64::max)
-        };
-        let kept = collapse_sweep_with(&sweep, 0, 0, &cfg, false);
-        let trimmed = collapse_sweep(&sweep, 0, 0, &cfg);
-        eprintln!("kept {} trimmed {}", worst(&kept), worst(&trimmed));
-        assert!(worst(&kept) > 5.0, "{}", worst(&kept));
-        assert!(worst(&trimmed) < 1.0, "{}", worst(&trimmed));
-        for extreme in [0.2, -0.2] {
-            let nearest = trimmed
-                .iter()
-                .map(|p| (p.input.alpha_rad - extreme).abs())
-                .fold(f64::INFINITY, f64::min);
-            assert!(nearest < 2.5 * cfg.alpha_bin_rad, "{extreme}: {nearest}");
         }
     }
 }

@@ -19,10 +19,7 @@
 //! 4. Collapse: each sample is an up- or down-branch sample by the sign of the local slope of the
 //!    swept slip; within each grid cell the mean of each branch is taken, then the mean of the
 //!    two branch means (one branch only at the extremes). Up/down lag hysteresis cancels to first
-//!    order and the remaining bias is second order in the lag (`tau^2 F''`). The samples of each
-//!    reversal's transient (the steer slowing into it, any creep or jump there, and the return
-//!    pass while a ringing excited there decays: [`crate::fit::turnaround`]) are left out, so
-//!    the cells near the extremes keep the approach pass alone or vanish. The point keeps each
+//!    order and the remaining bias is second order in the lag (`tau^2 F''`). The point keeps each
 //!    branch's mean operating point beside the averaged one ([`BranchInputs`]): the collapsed
 //!    value is the mean of the two branches' values, so the model's prediction of it is the mean
 //!    of the model at the two branches' inputs. The two differ where a loose load control swings
@@ -35,7 +32,6 @@ use std::collections::BTreeMap;
 
 use super::{RelaxationLengths, Sample, Sweep, SweepKind, SweepNominal};
 use crate::fit::output::Output;
-use crate::fit::turnaround;
 use crate::numerics::stats::median;
 use crate::tire_model::SlipInput;
 
@@ -244,7 +240,7 @@ fn despike(samples: &mut [Sample], o: Output, sigmas: f64) -> usize {
 
 /// Local polynomial derivative `d y / d t` at every sample (degree 2, or 1 when `degree == 1`),
 /// over the samples within `half_s` seconds (at least 2 each side where available).
-pub(crate) fn local_slope(t: &[f64], y: &[f64], half_s: f64, degree: usize) -> Vec<f64> {
+fn local_slope(t: &[f64], y: &[f64], half_s: f64, degree: usize) -> Vec<f64> {
     let n = t.len();
     let mut out = vec![0.0; n];
     for i in 0..n {
@@ -347,38 +343,16 @@ impl Acc {
     }
 }
 
-/// Half-width of the window the swept slip's local rate is estimated over, s.
-const SLIP_RATE_HALF_S: f64 = 0.03;
-
-/// Branch means per grid cell, then the mean of the branch means; the samples of the sweep's
-/// reversal transients ([`turnaround::transients`]) left out.
+/// Branch means per grid cell, then the mean of the branch means.
 fn branch_average(kind: SweepKind, samples: &[Sample], bin: f64) -> Vec<CurvePoint> {
-    branch_average_with(kind, samples, bin, true)
-}
-
-/// [`branch_average`], the reversal transients left out or (`trim == false`) kept.
-fn branch_average_with(
-    kind: SweepKind,
-    samples: &[Sample],
-    bin: f64,
-    trim: bool,
-) -> Vec<CurvePoint> {
     let t: Vec<f64> = samples.iter().map(|s| s.et_s).collect();
     let x: Vec<f64> = samples
         .iter()
         .map(|s| swept(kind, &s.slip_input()))
         .collect();
-    let dx = local_slope(&t, &x, SLIP_RATE_HALF_S, 1);
-    let transient = if trim {
-        turnaround::transients(&t, &dx, SLIP_RATE_HALF_S)
-    } else {
-        vec![false; samples.len()]
-    };
+    let dx = local_slope(&t, &x, 0.03, 1);
     let mut cells: BTreeMap<i64, [Acc; 2]> = BTreeMap::new();
     for (k, s) in samples.iter().enumerate() {
-        if transient[k] {
-            continue;
-        }
         let branch = if dx[k] > 0.0 {
             0
         } else if dx[k] < 0.0 {
@@ -615,48 +589,5 @@ mod tests {
             let u = 500.0 * (1.5 * k as f64 * dt).sin();
             assert!((x.fy_n - u).abs() < 0.5, "k {k}: {} vs {u}", x.fy_n);
         }
-    }
-
-    /// A sweep reversed as a real rig does it (deceleration, creep short of the extreme, jump)
-    /// with a 50 N ringing excited as the steer slows and at the jump
-    /// ([`turnaround::rig_sweep`]): kept, the reversal transients put the ringing into the
-    /// cells near the extremes; left out, every cell is the steady state, and the curve still
-    /// reaches within 2.5 cells of the extremes (the approach pass alone there).
-    #[test]
-    fn turnaround_transients_are_left_out() {
-        let gain = -30000.0;
-        let samples: Vec<Sample> = turnaround::rig_sweep()
-            .into_iter()
-            .map(|(t, a, ring)| sample(t, a, gain * a + 50.0 * ring))
-            .collect();
-        let bin = 0.25_f64.to_radians();
-        let worst = |points: &[CurvePoint]| {
-            points
-                .iter()
-                .map(|p| (p.output(Output::Fy) - gain * p.input.alpha_rad).abs())
-                .fold(0.0, f64::max)
-        };
-        let kept = branch_average_with(SweepKind::Cornering, &samples, bin, false);
-        let c = collapse(
-            &sweep(samples),
-            &CollapseSettings {
-                bin,
-                despike_sigmas: 6.0,
-                relaxation: None,
-            },
-        );
-        eprintln!("kept {} trimmed {}", worst(&kept), worst(&c.points));
-        assert_eq!(c.spikes, 0);
-        assert!(worst(&kept) > 5.0, "{}", worst(&kept));
-        assert!(worst(&c.points) < 1.0, "{}", worst(&c.points));
-        for extreme in [0.2, -0.2] {
-            let nearest = c
-                .points
-                .iter()
-                .map(|p| (p.input.alpha_rad - extreme).abs())
-                .fold(f64::INFINITY, f64::min);
-            assert!(nearest < 2.5 * bin, "{extreme}: {nearest}");
-        }
-        assert!(c.points.iter().any(|p| p.input.alpha_rad.abs() < bin / 2.0));
     }
 }

@@ -65,7 +65,6 @@ use crate::numerics::nonlinear_least_squares::{RobustLoss, Termination};
 use crate::tire_model::{Coef, Pac2002, SlipInput};
 
 pub use crate::numerics::nonlinear_least_squares::Identifiability;
-pub(crate) use collapse::local_slope;
 pub use family::Family;
 pub use quality::{OutOfSample, TREND_SUBDIVISIONS, TrendDeviation};
 pub use stage::{fit, middle_nominal_load};
