@@ -86,9 +86,10 @@ fn realistic() -> &'static Fitted {
 /// A demo round with every quirk of real rounds on (`QuirksConfig::all`: older-round files at
 /// 50 Hz with loose load control, SR only and radii in a wrong unit, no channel struct; 16 psi
 /// and loads off the standard list; de-identified slip angles and loads; run-order drift: the
-/// pressure tested first on a fresher, stiffer tire), default realism. Under drift each
-/// pressure's truth `.tir` is the tire as that pressure's block of runs saw it
-/// (`synth::drift`), which is what the per-pressure fits are judged against.
+/// pressure tested first on a fresher, stiffer tire; the rig's slip-angle turnarounds with their
+/// ringing), default realism. Under drift each pressure's truth `.tir` is the tire as that
+/// pressure's block of runs saw it (`synth::drift`), which is what the per-pressure fits are
+/// judged against.
 fn quirked() -> &'static Fitted {
     static F: OnceLock<Fitted> = OnceLock::new();
     F.get_or_init(|| {
@@ -98,6 +99,7 @@ fn quirked() -> &'static Fitted {
             &config,
             "[synth.quirks]\nolder_round = true\nload_swing_frac = 0.2\n\
              nonstandard_levels = true\nsa_scale = 0.8125\nload_scale = 1.15\n\
+             rig_turnaround = true\n\
              [synth.quirks.drift]\nmu_frac = 0.06\nstiffness_frac = 0.06\n",
         )
         .unwrap();

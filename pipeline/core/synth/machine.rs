@@ -50,6 +50,39 @@ pub struct Realism {
     pub load_swing: Option<LoadSwing>,
     /// Run-order drift and the tire's history at the start of the run (`None`: no drift).
     pub drift: Option<(RunOrderDrift, TireHistory)>,
+    /// The ringing of the load cell at the rig's slip-angle turnarounds (`None`: none).
+    pub turnaround_ring: Option<TurnaroundRing>,
+}
+
+/// The rig's structure ringing at a slip-angle turnaround, seen by the load cell: from each of
+/// the program's excitations ([`Program::rings`], `(t0, sign)`) the measured `Mz` and `Fy` get
+/// `sign A exp(-(t - t0) / RING_DECAY_S) sin(2 pi RING_HZ (t - t0))`.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct TurnaroundRing {
+    /// Amplitude on `Mz`, N m.
+    pub mz_nm: f64,
+    /// Amplitude on `Fy`, N.
+    pub fy_n: f64,
+}
+
+/// Frequency of the turnaround ringing, Hz.
+pub const RING_HZ: f64 = 9.0;
+/// Decay time of the turnaround ringing, s.
+pub const RING_DECAY_S: f64 = 0.1;
+
+impl TurnaroundRing {
+    /// The unit ringing (times the amplitudes) at `t_s` of the excitations `rings`.
+    pub fn unit_at(rings: &[(f64, f64)], t_s: f64) -> f64 {
+        rings
+            .iter()
+            .take_while(|(t0, _)| *t0 <= t_s)
+            .filter(|(t0, _)| t_s - t0 < 10.0 * RING_DECAY_S)
+            .map(|(t0, sign)| {
+                let u = t_s - t0;
+                sign * (-u / RING_DECAY_S).exp() * (std::f64::consts::TAU * RING_HZ * u).sin()
+            })
+            .sum()
+    }
 }
 
 /// Loose load control: while the tire slips, FZ swings around its set-point,
@@ -79,6 +112,7 @@ impl Default for Realism {
             measurement_filter_s: 0.0,
             load_swing: None,
             drift: None,
+            turnaround_ring: None,
         }
     }
 }
@@ -303,13 +337,18 @@ pub fn simulate(
         };
         out.p_kpa
             .push(program.pressure_kpa() + wander + rng.gauss(ns * NOISE.pressure_kpa));
-        let [fx_m, fy_m, fz_m, mx_m, mz_m] = [
+        let [fx_m, mut fy_m, fz_m, mx_m, mut mz_m] = [
             chain[0].step(fx),
             chain[1].step(fy),
             chain[2].step(fz),
             chain[3].step(mx),
             chain[4].step(mz),
         ];
+        if let Some(ring) = realism.turnaround_ring {
+            let unit = TurnaroundRing::unit_at(&program.rings, t);
+            fy_m += ring.fy_n * unit;
+            mz_m += ring.mz_nm * unit;
+        }
         out.fx_n.push(fx_m + rng.gauss(ns * NOISE.force_x_n));
         out.fy_n.push(fy_m + rng.gauss(ns * NOISE.force_y_n));
         out.fz_n.push(fz_m + rng.gauss(ns * NOISE.force_z_n));

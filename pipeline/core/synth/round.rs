@@ -193,6 +193,7 @@ impl RealismConfig {
             measurement_filter_s: self.measurement_filter_s,
             load_swing: None,
             drift: None,
+            turnaround_ring: None,
         }
     }
 }
@@ -755,6 +756,7 @@ pub fn render_run(plan: &RoundPlan, index: usize) -> Result<RunOutput, RoundErro
     if !q.drift.is_off() {
         realism.drift = Some((q.drift, spec.history));
     }
+    realism.turnaround_ring = q.turnaround_ring();
     let samples = simulate(&program, truth, thermal, &realism, rate, &mut rng);
     let drift = realism.drift.map(|_| block_drift(&program, &samples));
 

@@ -117,6 +117,9 @@ pub struct Program {
     pub pressure_psi: f64,
     pub pieces: Vec<Piece>,
     pub segments: Vec<SegmentPlan>,
+    /// Where the rig's structure is set ringing (the rig-turnaround quirk,
+    /// [`super::quirks::apply_turnarounds`]): `(t_s, sign)`, in time order; empty otherwise.
+    pub rings: Vec<(f64, f64)>,
 }
 
 impl Program {
@@ -319,6 +322,7 @@ impl Builder {
             pressure_psi,
             pieces: self.pieces,
             segments: self.segments,
+            rings: Vec::new(),
         }
     }
 }
