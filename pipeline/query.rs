@@ -85,6 +85,7 @@ pub fn context(root: &Path) -> Result<SQLContext, QueryError> {
 
     // Only the part files the runs table names are scanned (`store::tables`' live rule).
     let seg_files = tables::live_segment_files(root)?;
+    tables::refuse_old_segment_files(&seg_files)?;
     let segments = if seg_files.is_empty() {
         empty_frame(schema::table(TableName::Segments))
     } else {

@@ -22,9 +22,9 @@
 //! tested level, so no number can mean "swept"); a swept or unlevelled inclination is the hive
 //! null, [`HIVE_NULL`], which polars, pyarrow and Spark read back as a null of the integer
 //! column. Another level that does not apply (a swept load in a spring-rate hold, a pressure not
-//! held) is `-1` ([`SWEPT`]: loads and pressures are never negative), an unknown rim `0`. String values are percent-encoded exactly like polars, pyarrow and DuckDB
-//! expect (`/`, `=`, `%`, `:`, space and control characters), so every hive reader decodes the
-//! original tire name.
+//! held) is `-1` ([`SWEPT`]: loads and pressures are never negative), an unknown rim `0`. String
+//! values are percent-encoded exactly like polars, pyarrow and DuckDB expect (`/`, `=`, `%`, `:`,
+//! space and control characters), so every hive reader decodes the original tire name.
 
 use std::path::{Path, PathBuf};
 

@@ -322,22 +322,27 @@ fn file_name(path: &Path) -> &str {
     path.file_name().and_then(|n| n.to_str()).unwrap_or("")
 }
 
-/// Live files of the segments table, sorted; [`StoreError::OldLayout`] when one of them was
-/// written with the previous inclination key (its samples sit under those partitions too).
+/// Live files of the segments table, sorted.
 pub fn live_segment_files(store: &Path) -> Result<Vec<PathBuf>, StoreError> {
     let live = live_parts(&read_runs(store)?);
-    let files: Vec<PathBuf> = parquet_files_in(&store.join(SEGMENTS_DIR))?
+    Ok(parquet_files_in(&store.join(SEGMENTS_DIR))?
         .into_iter()
         .filter(|p| live.contains(file_name(p)))
-        .collect();
-    for path in &files {
+        .collect())
+}
+
+/// [`StoreError::OldLayout`] when one of the segments `files` was written with the old
+/// inclination key (for readers that scan the files instead of [`read_segment_file`], which
+/// checks its own).
+pub fn refuse_old_segment_files(files: &[PathBuf]) -> Result<(), StoreError> {
+    for path in files {
         let file = fs::File::open(path).map_err(|e| StoreError::io(IoOp::Read, path, e))?;
         let schema = ParquetReader::new(file)
             .schema()
             .map_err(polars_at(IoOp::Read, path))?;
         refuse_old_layout(path, |c| schema.contains(c))?;
     }
-    Ok(files)
+    Ok(())
 }
 
 /// [`StoreError::OldLayout`] when the segments file `path` (whose columns `has` tells) keys the
