@@ -41,6 +41,7 @@ use polars::prelude::*;
 use rayon::prelude::*;
 use tirebase_core::fit::mf61::Mf61Config;
 use tirebase_core::fit::segment_data::TireKey;
+use tirebase_core::fit::sweep_folds::OutOfSampleQuality;
 use tirebase_core::naming::{sanitize_tire, unique_mf61_names, unique_tir_names};
 use tirebase_core::numerics::cpu_clock::thread_cpu_seconds;
 use tirebase_core::tire_model::tir::lint::Severity;
@@ -223,6 +224,33 @@ impl FitFailure {
             reason: reason.replace('\n', " "),
         }
     }
+}
+
+/// The reason of a family's out-of-sample flag row (scoped by
+/// [`crate::store::results::out_of_sample_scope`]), the same for PAC2002 and MF 6.1: it leads
+/// with what raised the flag (the held-out error over the limit, folds that could not determine
+/// the coefficients, or both), then the figures. `check` says how the folds were dealt
+/// (`by sweep`); `limit` is [`OutOfSampleQuality::oos_flagged`]'s.
+fn out_of_sample_reason(q: &impl OutOfSampleQuality, limit: f64, check: &str) -> String {
+    let over = q.oos_ratio_over(limit);
+    let (deficient, folds) = (q.oos_deficient_folds(), q.oos_folds());
+    let undetermined = format!(
+        "{deficient} of {folds} folds could not determine the coefficients without their \
+         held-out sweeps (their held-out error is optimistic)"
+    );
+    let lead = match (over, deficient > 0) {
+        (true, true) => format!("good in sample, bad out of sample, and {undetermined}"),
+        (true, false) => "good in sample, bad out of sample".to_string(),
+        (false, _) => undetermined,
+    };
+    let verdict = if over { "over" } else { "within" };
+    format!(
+        "{lead}: held-out sweeps RMSE {:.4} vs {:.4} in sample ({:.2}x, {verdict} the limit of \
+         {limit}x plus 0.1 % of peak; {folds}-fold {check})",
+        q.oos_rmse().unwrap_or(f64::NAN),
+        q.rmse(),
+        q.oos_ratio(),
+    )
 }
 
 /// Effort of one group (wall time is not deterministic; for reports and benchmarks).
@@ -832,6 +860,81 @@ pub fn write_outcome(outcome: &FitResults, out: &Path) -> Result<(), FitError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A family's quality figures for [`out_of_sample_reason`].
+    struct Figures {
+        oos: f64,
+        folds: usize,
+        deficient: usize,
+    }
+
+    impl OutOfSampleQuality for Figures {
+        fn rmse(&self) -> f64 {
+            10.0
+        }
+        fn rmse_pct_of_peak(&self) -> f64 {
+            1.0
+        }
+        fn oos_rmse(&self) -> Option<f64> {
+            Some(self.oos)
+        }
+        fn oos_folds(&self) -> usize {
+            self.folds
+        }
+        fn oos_deficient_folds(&self) -> usize {
+            self.deficient
+        }
+    }
+
+    /// The flag row's reason leads with what raised the flag: the error over the limit, folds
+    /// that could not determine the coefficients (the error within the limit), or both.
+    #[test]
+    fn out_of_sample_reason_leads_with_what_raised_the_flag() {
+        let over = Figures {
+            oos: 15.0,
+            folds: 5,
+            deficient: 0,
+        };
+        assert!(over.oos_flagged(1.2));
+        assert_eq!(
+            out_of_sample_reason(&over, 1.2, "by sweep"),
+            "good in sample, bad out of sample: held-out sweeps RMSE 15.0000 vs 10.0000 in \
+             sample (1.50x, over the limit of 1.2x plus 0.1 % of peak; 5-fold by sweep)"
+        );
+        let deficient = Figures {
+            oos: 9.2,
+            folds: 5,
+            deficient: 5,
+        };
+        assert!(deficient.oos_flagged(1.2) && !deficient.oos_ratio_over(1.2));
+        assert_eq!(
+            out_of_sample_reason(&deficient, 1.2, "by sweep over every tested pressure"),
+            "5 of 5 folds could not determine the coefficients without their held-out sweeps \
+             (their held-out error is optimistic): held-out sweeps RMSE 9.2000 vs 10.0000 in \
+             sample (0.92x, within the limit of 1.2x plus 0.1 % of peak; 5-fold by sweep over \
+             every tested pressure)"
+        );
+        let both = Figures {
+            oos: 15.0,
+            folds: 5,
+            deficient: 2,
+        };
+        assert_eq!(
+            out_of_sample_reason(&both, 1.2, "by sweep"),
+            "good in sample, bad out of sample, and 2 of 5 folds could not determine the \
+             coefficients without their held-out sweeps (their held-out error is optimistic): \
+             held-out sweeps RMSE 15.0000 vs 10.0000 in sample (1.50x, over the limit of 1.2x \
+             plus 0.1 % of peak; 5-fold by sweep)"
+        );
+        // Over the ratio but within the 0.1 %-of-peak floor (peak 1000, floor 1): not over.
+        let floor = Figures {
+            oos: 12.5,
+            folds: 5,
+            deficient: 1,
+        };
+        assert!(!floor.oos_ratio_over(1.2));
+        assert!(out_of_sample_reason(&floor, 1.2, "by sweep").starts_with("1 of 5 folds"));
+    }
 
     #[test]
     fn a_panicking_group_becomes_a_fatal_failure() {

@@ -893,23 +893,12 @@ fn record_fit_notes(out: &mut GroupResult, fit: &Pac2002Fit, out_of_sample_limit
     }
     let limit = out_of_sample_limit;
     for f in &fit.families {
-        if let Some(q) = f.quality.as_ref().filter(|q| q.oos_flagged(limit))
-            && let Some(o) = &q.out_of_sample
-        {
+        if let Some(q) = f.quality.as_ref().filter(|q| q.oos_flagged(limit)) {
             out.fail(
                 "pac2002",
                 &crate::store::results::out_of_sample_scope(f.family.as_str()),
                 false,
-                format!(
-                    "good in sample, bad out of sample: held-out sweeps RMSE {:.4} vs {:.4} in \
-                     sample ({:.2}x, limit {limit}x; {}-fold by sweep); {} of the folds could not \
-                     determine the coefficients without their held-out sweeps",
-                    o.rmse,
-                    q.rmse,
-                    o.rmse / q.rmse,
-                    o.folds,
-                    o.deficient_folds
-                ),
+                super::out_of_sample_reason(q, limit, "by sweep"),
             );
         }
         if let pac2002::FamilyStatus::Failed { reason } = &f.status {

@@ -214,7 +214,6 @@ pub fn run(tire: &str, rim_in: i64, parts: &[Mf61Part], cfg: &Mf61Config) -> Mf6
 /// rule) as partial failures, one per tested pressure and family, keyed at that pressure.
 fn record_out_of_sample_flags(out: &mut Mf61Outcome, key: &TireKey, fit: &Mf61Fit, limit: f64) {
     for q in fit.family_quality.iter().filter(|q| q.oos_flagged(limit)) {
-        let Some(oos) = q.oos_rmse else { continue };
         let at = TireKey {
             pressure_kpa_nom: q.pressure_kpa_nom,
             ..key.clone()
@@ -225,21 +224,13 @@ fn record_out_of_sample_flags(out: &mut Mf61Outcome, key: &TireKey, fit: &Mf61Fi
                 q.lopo_ratio()
             )
         });
+        let reason = super::out_of_sample_reason(q, limit, "by sweep over every tested pressure");
         out.failures.push(FitFailure::new(
             &at,
             STAGE,
             &crate::store::results::out_of_sample_scope(q.family.as_str()),
             false,
-            format!(
-                "good in sample, bad out of sample: held-out sweeps RMSE {oos:.4} vs {:.4} in \
-                 sample ({:.2}x, limit {limit}x; {}-fold by sweep over every tested pressure); \
-                 {} of the folds could not determine the coefficients without their held-out \
-                 sweeps{lopo}",
-                q.rmse,
-                q.oos_ratio(),
-                q.oos_folds,
-                q.oos_deficient_folds
-            ),
+            format!("{reason}{lopo}"),
         ));
     }
 }

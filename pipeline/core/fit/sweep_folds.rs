@@ -7,15 +7,51 @@
 //! on a load x inclination (x pressure) grid holds at most one sweep of a load at each other
 //! level, never most of a load, inclination or pressure (its prediction would be an
 //! extrapolation), and repeats of a condition are held out together. An empty fold takes a sweep
-//! from the largest one. [`OutOfSampleQuality`]: the ratio and the flag rule read from a
-//! family's in-sample and out-of-sample errors, the same for both models.
+//! from the largest one. [`fold_design`]: whether a fold's training sweeps determine the
+//! family's coefficients (a deficient fold), judged where both models' fold refits start.
+//! [`OutOfSampleQuality`]: the ratio and the flag rule read from a family's in-sample and
+//! out-of-sample errors, the same for both models.
 //!
 //! Deliberately not here: the refits and predictions (each stage's own quality module), where
 //! the levels come from (nominal levels of a segment, or clustered sweep means).
 
+use crate::numerics::nonlinear_least_squares::{
+    Bounds, Evaluated, Identifiability, LeastSquaresProblem,
+};
+
 /// A fold whose training data are this many times worse conditioned than the full fit's is
 /// deficient: its training sweeps do not determine the family's coefficients.
 pub const DEFICIENT_CONDITION: f64 = 1e3;
+
+/// Whether a fold's training data leave the family's coefficients undetermined, judged at the
+/// fold refit's start `at` (the full fit's coefficients, clamped into `bounds`): their data
+/// Jacobian there, over the coefficients off their bounds, is rank-deficient or
+/// [`DEFICIENT_CONDITION`] times worse conditioned than the full fit's (`full`, measured at the
+/// same coefficients). Judged at the start, not where the fold's refit ends: the comparison then
+/// sees only what leaving the held-out sweeps out does to the design, not where a short warm
+/// refit wandered (its end can be far worse conditioned while its training sweeps hold every
+/// level), and a coefficient the training sweeps do not fix, which a refit tends to run onto a
+/// bound, would leave the end point's off-bound set and go unjudged. Also returns the evaluation
+/// at the start, which the refit takes as its first Jacobian.
+pub fn fold_design(
+    problem: &impl LeastSquaresProblem,
+    at: &[f64],
+    bounds: &Bounds,
+    full: &Identifiability,
+) -> (bool, Evaluated) {
+    let (m, n) = (problem.n_residuals(), problem.n_params());
+    let at: Vec<f64> = (0..n)
+        .map(|j| at[j].max(bounds.lower[j]).min(bounds.upper[j]))
+        .collect();
+    let (mut r, mut jac) = (vec![0.0; m], vec![0.0; m * n]);
+    problem.residuals_and_jacobian(&at, &mut r, &mut jac);
+    let off: Vec<usize> = (0..n)
+        .filter(|&j| at[j] > bounds.lower[j] && at[j] < bounds.upper[j])
+        .collect();
+    let id = Identifiability::of(&jac, n, problem.n_data(), &off);
+    let deficient = id.rank < id.n_free || id.condition > DEFICIENT_CONDITION * full.condition;
+    (deficient, Evaluated { at, r, jac })
+}
 
 /// Rank of every value among the distinct values, values equal to `resolution` being one level
 /// (for nominal levels, which repeat exactly).
@@ -85,6 +121,8 @@ pub trait OutOfSampleQuality {
     fn rmse_pct_of_peak(&self) -> f64;
     /// RMSE of the points predicted k-fold by sweep (`None` without the check).
     fn oos_rmse(&self) -> Option<f64>;
+    /// Folds of the check (0 without it).
+    fn oos_folds(&self) -> usize;
     /// Folds whose training sweeps could not determine the family's coefficients (some
     /// coefficient rests on the held-out sweeps alone).
     fn oos_deficient_folds(&self) -> usize;
@@ -103,14 +141,19 @@ pub trait OutOfSampleQuality {
         self.oos_rmse().map_or(f64::NAN, |o| o / self.rmse())
     }
 
-    /// Good in sample, bad out of sample: the out-of-sample RMSE exceeds `limit` times the
-    /// in-sample RMSE plus 0.1 % of the channel's peak (a floor for noise-free data), or some
-    /// fold's training sweeps could not determine the coefficients.
-    fn oos_flagged(&self, limit: f64) -> bool {
+    /// Good in sample, bad out of sample by the error alone: the out-of-sample RMSE exceeds
+    /// `limit` times the in-sample RMSE plus 0.1 % of the channel's peak (a floor for
+    /// noise-free data).
+    fn oos_ratio_over(&self, limit: f64) -> bool {
         let floor = 1e-3 * self.peak();
-        self.oos_rmse().is_some_and(|o| {
-            o > limit * self.rmse() + floor.max(0.0) || self.oos_deficient_folds() > 0
-        })
+        self.oos_rmse()
+            .is_some_and(|o| o > limit * self.rmse() + floor.max(0.0))
+    }
+
+    /// Flagged out of sample: the error is over the limit ([`Self::oos_ratio_over`]), or some
+    /// fold's training sweeps could not determine the coefficients (its error is optimistic).
+    fn oos_flagged(&self, limit: f64) -> bool {
+        self.oos_rmse().is_some() && (self.oos_ratio_over(limit) || self.oos_deficient_folds() > 0)
     }
 }
 
@@ -134,6 +177,58 @@ mod tests {
         );
         assert!(diagonal(&[0], 5).is_none());
         assert!(diagonal(&[0, 1, 2], 1).is_none());
+    }
+
+    /// `y = a + b x` at the points `x`.
+    struct Line(Vec<f64>);
+
+    impl LeastSquaresProblem for Line {
+        fn n_params(&self) -> usize {
+            2
+        }
+        fn n_residuals(&self) -> usize {
+            self.0.len()
+        }
+        fn residuals(&self, p: &[f64], r: &mut [f64]) {
+            for (r, x) in r.iter_mut().zip(&self.0) {
+                *r = p[0] + p[1] * x;
+            }
+        }
+        fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
+            self.residuals(p, r);
+            for (i, x) in self.0.iter().enumerate() {
+                jac[2 * i] = 1.0;
+                jac[2 * i + 1] = *x;
+            }
+        }
+    }
+
+    #[test]
+    fn a_fold_is_deficient_when_its_design_does_not_fix_the_coefficients() {
+        let full = Identifiability {
+            n_free: 2,
+            rank: 2,
+            condition: 3.0,
+        };
+        let bounds = Bounds {
+            lower: vec![-10.0, -10.0],
+            upper: vec![10.0, 10.0],
+        };
+        let at = [1.0, 2.0];
+        // Two distinct x fix both coefficients; the evaluation is at the (clamped) start.
+        let (deficient, e) = fold_design(&Line(vec![0.0, 1.0, 2.0]), &at, &bounds, &full);
+        assert!(!deficient);
+        assert_eq!(e.at, at);
+        assert_eq!(e.r, [1.0, 3.0, 5.0]);
+        // One x: the slope rests on the held-out points alone.
+        assert!(fold_design(&Line(vec![1.0, 1.0]), &at, &bounds, &full).0);
+        // Nearly one x: determined, but far worse conditioned than the full fit.
+        assert!(fold_design(&Line(vec![1.0, 1.0 + 1e-6]), &at, &bounds, &full).0);
+        // A start outside the box is judged where the refit starts, on the bound, and a
+        // coefficient on its bound is not judged (one x then fixes the intercept).
+        let (deficient, e) = fold_design(&Line(vec![1.0, 1.0]), &[1.0, 12.0], &bounds, &full);
+        assert!(!deficient);
+        assert_eq!(e.at, [1.0, 10.0]);
     }
 
     #[test]

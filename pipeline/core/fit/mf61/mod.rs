@@ -505,6 +505,9 @@ impl OutOfSampleQuality for FamilyQuality {
     fn oos_rmse(&self) -> Option<f64> {
         self.oos_rmse
     }
+    fn oos_folds(&self) -> usize {
+        self.oos_folds
+    }
     fn oos_deficient_folds(&self) -> usize {
         self.oos_deficient_folds
     }

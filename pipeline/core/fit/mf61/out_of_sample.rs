@@ -13,14 +13,16 @@
 //!   0.25 deg and 0.5 deg), so every fold keeps sweeps of every tested pressure in training and
 //!   the pressure terms stay identified (holding out a whole pressure of two would leave one
 //!   pressure to fit them from).
-//! - Refit: the family's free coefficients only, refined on the other folds' sweeps from the full
-//!   fit's values with a short budget ([`super::Mf61Config::kfold_iterations`], one robust-loss
-//!   round); every other coefficient keeps its full-fit value. The refit is used whatever its
-//!   plain RMSE on the training sweeps (the solver minimises the weighted robust cost, which
-//!   from the full fit's values may raise the plain RMSE a little; falling back to the full fit
-//!   would predict held-out sweeps with a model that saw them), unless it is not finite. A fold is
-//!   deficient when its refit's data Jacobian is rank-deficient or
-//!   [`DEFICIENT_CONDITION`] times worse conditioned than the full fit's (as for PAC2002).
+//! - Refit: as the PAC2002 folds refit, the family's free coefficients only, refined on the
+//!   other folds' sweeps from the full fit's values with a short budget
+//!   ([`super::Mf61Config::kfold_iterations`], one robust-loss round; the solver's
+//!   [`crate::numerics::nonlinear_least_squares::refit`], parameters only); every other
+//!   coefficient keeps its full-fit value. The refit is used whatever its plain RMSE on the
+//!   training sweeps (the solver minimises the weighted robust cost, which from the full fit's
+//!   values may raise the plain RMSE a little; falling back to the full fit would predict
+//!   held-out sweeps with a model that saw them), unless it is not finite. A fold is deficient
+//!   when its training data leave the coefficients undetermined at the refit's start, the full
+//!   fit's coefficients ([`sweep_folds::fold_design`], the PAC2002 rule and point).
 //! - Prediction: the held-out sweeps' points (those [`super::group_family_quality`] scores in
 //!   sample), so `oos_rmse` and `rmse` are on the same points. The `Mz0` row is scored by the
 //!   joint `Mz` step's refits when that step was kept (it sets the written `Mz0` coefficients
@@ -38,8 +40,8 @@ use super::{
     Family, FamilyOutcome, Mf61Config, Point, PureData, family_data, mz_data, refinement_bounds,
     rmse_of,
 };
-use crate::fit::sweep_folds::{self, DEFICIENT_CONDITION};
-use crate::numerics::nonlinear_least_squares::{Options, minimize};
+use crate::fit::sweep_folds;
+use crate::numerics::nonlinear_least_squares::{Options, refit};
 use crate::tire_model::params::Coef::FNOMIN;
 use crate::tire_model::{MagicFormula, Pressures};
 
@@ -146,7 +148,7 @@ pub fn k_fold(
     let k = fold_of.values().max()? + 1;
     let free = &outcome.free;
     let bounds = refinement_bounds(model, free);
-    // Warm start from the full fit (`minimize` clamps it into the box).
+    // Warm start from the full fit (`refit` clamps it into the box).
     let start: Vec<f64> = free.iter().map(|c| model.coefs[*c]).collect();
     let options = Options::warm_refit(cfg.kfold_iterations, cfg.loss);
     let channel = family.channel();
@@ -162,12 +164,12 @@ pub fn k_fold(
             model.clone()
         } else {
             let problem = Mf61FamilyProblem::new(model, free, channel, &train);
-            let o = minimize(&problem, &start, &bounds, &options);
-            out.evaluations += o.evaluations;
-            let id = &o.identifiability;
-            if id.rank < id.n_free || id.condition > DEFICIENT_CONDITION * full.condition {
-                out.deficient_folds += 1;
-            }
+            let (deficient, at_start) = sweep_folds::fold_design(&problem, &start, &bounds, full);
+            out.deficient_folds += usize::from(deficient);
+            // Only the refit's parameters are used; its first Jacobian is the one just
+            // evaluated at the start.
+            let o = refit(&problem, &start, &bounds, &options, Some(at_start));
+            out.evaluations += o.evaluations + 1;
             let candidate = problem.model_at(&o.params);
             if rmse_of(&candidate, channel, &train).is_finite() {
                 candidate

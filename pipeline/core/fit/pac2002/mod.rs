@@ -484,6 +484,9 @@ impl OutOfSampleQuality for FitQuality {
     fn oos_rmse(&self) -> Option<f64> {
         self.out_of_sample.as_ref().map(|o| o.rmse)
     }
+    fn oos_folds(&self) -> usize {
+        self.out_of_sample.as_ref().map_or(0, |o| o.folds)
+    }
     fn oos_deficient_folds(&self) -> usize {
         self.out_of_sample.as_ref().map_or(0, |o| o.deficient_folds)
     }

@@ -37,9 +37,7 @@ use super::problem::{DataPoint, FIT_MODE, FamilyProblem};
 use super::stage::{Envelope, bounds_of, data_points, output_of, penalties_of};
 use crate::fit::output::Output;
 use crate::fit::sweep_folds;
-use crate::numerics::nonlinear_least_squares::{
-    Evaluated, Identifiability, LeastSquaresProblem, Options, refit,
-};
+use crate::numerics::nonlinear_least_squares::{Identifiability, Options, refit};
 use crate::tire_model::{Coef, Coefs, Evaluation, Pac2002, SlipInput};
 
 /// Interpolation steps between neighbouring collapsed points of the trend check.
@@ -56,15 +54,12 @@ pub struct OutOfSample {
     pub rmse: f64,
     /// Solver evaluations of the refits.
     pub evaluations: usize,
-    /// Folds whose training sweeps do not determine the family's coefficients (their data
-    /// Jacobian at the full fit's coefficients is rank-deficient or [`DEFICIENT_CONDITION`]
-    /// times worse conditioned than the full fit's): the held-out sweeps alone carried that
-    /// information, and the warm start, not the data, set those coefficients, so the fold's
-    /// error is optimistic.
+    /// Folds whose training sweeps do not determine the family's coefficients
+    /// ([`sweep_folds::fold_design`], judged at the refit's start): the held-out sweeps alone
+    /// carried that information, and the warm start, not the data, set those coefficients, so
+    /// the fold's error is optimistic.
     pub deficient_folds: usize,
 }
-
-pub use crate::fit::sweep_folds::DEFICIENT_CONDITION;
 
 /// The largest deviation of the model from the data's local trend along the sweeps.
 #[derive(Clone, Debug, PartialEq)]
@@ -162,10 +157,8 @@ pub fn out_of_sample(
             .collect();
         let points: Vec<DataPoint> = data_points(&train, output, cfg.kfold_points_per_sweep);
         let problem = FamilyProblem::new(c, free, family, &points, &penalties);
-        let (id, at_start) = design_identifiability(&problem, &start, &bounds.lower, &bounds.upper);
-        if id.rank < id.n_free || id.condition > DEFICIENT_CONDITION * full.condition {
-            deficient += 1;
-        }
+        let (is_deficient, at_start) = sweep_folds::fold_design(&problem, &start, &bounds, full);
+        deficient += usize::from(is_deficient);
         // Only the refit's parameters are used: no statistics at its solution, and its first
         // Jacobian is the one just evaluated at the start.
         let outcome = refit(&problem, &start, &bounds, &options, Some(at_start));
@@ -205,35 +198,6 @@ pub fn out_of_sample(
         evaluations,
         deficient_folds: deficient,
     })
-}
-
-/// Identifiability of a fold's training data at the full fit's coefficients `at` (the fold
-/// refit's start), over the coefficients off their bounds there: the same point the full fit's
-/// identifiability is measured at, so the comparison sees only what leaving the held-out sweeps
-/// out does to the design, not where a short warm refit wandered (a refit can end at a point
-/// far worse conditioned than its start while its training sweeps hold every load and
-/// inclination). Also returns the evaluation it was computed from.
-fn design_identifiability(
-    problem: &FamilyProblem<'_>,
-    at: &[f64],
-    lower: &[f64],
-    upper: &[f64],
-) -> (Identifiability, Evaluated) {
-    let (m, n) = (problem.n_residuals(), problem.n_params());
-    let (mut r, mut jac) = (vec![0.0; m], vec![0.0; m * n]);
-    problem.residuals_and_jacobian(at, &mut r, &mut jac);
-    let off: Vec<usize> = (0..n)
-        .filter(|&j| at[j] > lower[j] && at[j] < upper[j])
-        .collect();
-    let id = Identifiability::of(&jac, n, problem.n_data(), &off);
-    (
-        id,
-        Evaluated {
-            at: at.to_vec(),
-            r,
-            jac,
-        },
-    )
 }
 
 fn lerp_input(a: &SlipInput, b: &SlipInput, t: f64) -> SlipInput {
