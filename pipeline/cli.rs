@@ -520,8 +520,12 @@ pub enum TirCommand {
     /// read in SI units (its [UNITS] converted) and ISO-W axes; findings state loads in N and
     /// angles in degrees.
     ///
-    /// Exit code: 0 no errors (warnings printed), 1 lint errors found, 2 the file cannot be
-    /// read (a one-line reason naming the line).
+    /// Several files (e.g. `tirebase tir lint outputs/store/versions/v000001/tir/*.tir`) are
+    /// checked one after the other; a file that cannot be read is reported on stderr and the
+    /// others are still checked.
+    ///
+    /// Exit code: 0 no errors (warnings printed), 1 lint errors found in some file, 2 some file
+    /// cannot be read (a one-line reason naming the line).
     Lint(TirLintArgs),
     /// Rewrite any accepted .tir file as a complete file of its own or another Magic Formula.
     ///
@@ -594,9 +598,9 @@ pub struct TirEvalArgs {
 /// Arguments of `tir lint`.
 #[derive(Debug, Args)]
 pub struct TirLintArgs {
-    /// The .tir property file to check.
-    #[arg(value_name = "FILE")]
-    pub file: PathBuf,
+    /// The .tir property files to check.
+    #[arg(value_name = "FILE", required = true)]
+    pub files: Vec<PathBuf>,
 }
 
 /// Arguments of `tir score`.

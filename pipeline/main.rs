@@ -10,7 +10,7 @@ fn main() -> ExitCode {
     match tirebase::commands::run(cli) {
         Ok(code) => code,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", tirebase::commands::error_line(&err));
             ExitCode::from(2)
         }
     }

@@ -176,7 +176,7 @@ mod tests {
     use super::*;
 
     /// An unwritable root is an `Io` error naming the directory and the action, and the printed
-    /// chain (`{:#}`, as `main` prints it) ends with the OS error.
+    /// line (`commands::error_line`, as `main` prints it) ends with the OS error.
     #[test]
     fn session_under_a_file_is_an_io_error_naming_the_path() {
         let tmp = std::env::temp_dir().join(format!("tirebase-synth-round-{}", std::process::id()));
@@ -190,7 +190,7 @@ mod tests {
             matches!(&err, SynthWriteError::Io { path, action: "cannot create", .. } if *path == dir),
             "{err:?}"
         );
-        let printed = format!("{:#}", anyhow::Error::from(err));
+        let printed = crate::commands::error_line(&anyhow::Error::from(err));
         assert!(
             printed.starts_with(&format!("{}: cannot create: ", dir.display())),
             "{printed}"
@@ -214,7 +214,7 @@ mod tests {
             matches!(&err, SynthWriteError::Io { path, action: "cannot write", .. } if *path == file),
             "{err:?}"
         );
-        let printed = format!("{:#}", anyhow::Error::from(err));
+        let printed = crate::commands::error_line(&anyhow::Error::from(err));
         assert!(
             printed.starts_with(&format!("{}: cannot write: ", file.display())),
             "{printed}"

@@ -450,6 +450,53 @@ fn lint_exit_codes() {
     assert!(err.contains("does_not_exist.tir: cannot read"), "{err}");
 }
 
+/// Several files are linted in one call; the exit code is the worst file's and an unreadable
+/// file does not stop the others.
+#[test]
+fn lint_checks_every_file_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let broken = dir.path().join("negative_cy.tir");
+    let t = std::fs::read_to_string(fixture(FSAE_TIR)).unwrap();
+    std::fs::write(
+        &broken,
+        t.replace("PCY1                     =  1.45", "PCY1 = -1.45"),
+    )
+    .unwrap();
+    let missing = dir.path().join("does_not_exist.tir");
+    let lint = |paths: &[&Path]| {
+        let mut args = vec!["tir", "lint"];
+        args.extend(paths.iter().map(|p| p.to_str().unwrap()));
+        let o = tirebase(&args);
+        (o.status.code(), text(&o.stdout), text(&o.stderr))
+    };
+    let clean = fixture(FSAE_TIR);
+    let mfeval = fixture(MFEVAL_TIR);
+
+    let (code, out, _) = lint(&[&clean, &mfeval]);
+    assert_eq!(code, Some(0), "{out}");
+    assert_eq!(
+        out.matches(" errors, ").count(),
+        2,
+        "one summary per file: {out}"
+    );
+
+    let (code, out, _) = lint(&[&broken, &clean]);
+    assert_eq!(code, Some(1), "{out}");
+    assert!(
+        out.contains("negative_cy.tir: error[shape-factor]"),
+        "{out}"
+    );
+
+    let (code, out, err) = lint(&[&missing, &broken, &clean]);
+    assert_eq!(code, Some(2), "{out}{err}");
+    assert!(err.contains("does_not_exist.tir: cannot read"), "{err}");
+    assert_eq!(
+        out.matches(" errors, ").count(),
+        2,
+        "the readable files: {out}"
+    );
+}
+
 #[test]
 fn convert_round_trip_is_exact_and_idempotent() {
     let dir = tempfile::tempdir().unwrap();

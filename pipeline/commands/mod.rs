@@ -33,3 +33,49 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Synth { what } => synth::run(&what),
     }
 }
+
+/// One line for a failed command: the error and its causes joined by ": ", each cause once.
+///
+/// Many errors carry their source in their own message (`"query failed: {0}"`, `"{path}:
+/// {source}"`) so that `to_string()` alone, as written into manifests, is complete; printing the
+/// whole chain as well would repeat every such cause. A cause whose text the line already ends
+/// with is therefore skipped.
+pub fn error_line(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if line.ends_with(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("query failed: {0}")]
+    struct Wrapping(#[from] std::io::Error);
+
+    #[test]
+    fn error_line_names_a_cause_the_message_already_holds_once() {
+        let io = std::io::Error::other("column \"test\" not found");
+        let err = anyhow::Error::new(Wrapping(io)).context("store outputs/store");
+        assert_eq!(
+            error_line(&err),
+            "store outputs/store: query failed: column \"test\" not found"
+        );
+    }
+
+    #[test]
+    fn error_line_joins_causes_the_message_does_not_hold() {
+        let err = anyhow::anyhow!("disk full").context("cannot write v000002");
+        assert_eq!(error_line(&err), "cannot write v000002: disk full");
+    }
+}

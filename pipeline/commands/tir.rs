@@ -21,7 +21,7 @@ use crate::cli::{EvalMode, TirCommand, TirConvertArgs, TirEvalArgs, TirLintArgs,
 pub fn run(cmd: TirCommand) -> anyhow::Result<ExitCode> {
     match cmd {
         TirCommand::Eval(args) => eval(&args),
-        TirCommand::Lint(args) => lint_file(&args),
+        TirCommand::Lint(args) => lint_files(&args),
         TirCommand::Convert(args) => convert(&args),
         TirCommand::Score(args) => score(&args),
     }
@@ -239,9 +239,42 @@ fn defaulted_ranges(file: &TirFile) -> String {
     }
 }
 
-fn lint_file(args: &TirLintArgs) -> anyhow::Result<ExitCode> {
-    let path = args.file.display();
-    let (file, warnings) = read_tir(&args.file)?;
+/// Lint every file named; an unreadable file is reported and skipped. The exit code is the
+/// worst of the files': 2 unreadable, 1 lint errors, 0 clean.
+fn lint_files(args: &TirLintArgs) -> anyhow::Result<ExitCode> {
+    if let [only] = args.files.as_slice() {
+        return Ok(exit_code(lint_file(only)?));
+    }
+    let mut worst = Linted::Clean;
+    for path in &args.files {
+        let linted = lint_file(path).unwrap_or_else(|err| {
+            eprintln!("error: {}", super::error_line(&err));
+            Linted::Unreadable
+        });
+        worst = worst.max(linted);
+    }
+    Ok(exit_code(worst))
+}
+
+/// The outcome of linting one file, ordered from best to worst.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Linted {
+    Clean,
+    Errors,
+    Unreadable,
+}
+
+fn exit_code(linted: Linted) -> ExitCode {
+    match linted {
+        Linted::Clean => ExitCode::SUCCESS,
+        Linted::Errors => ExitCode::from(1),
+        Linted::Unreadable => ExitCode::from(2),
+    }
+}
+
+fn lint_file(tir: &Path) -> anyhow::Result<Linted> {
+    let path = tir.display();
+    let (file, warnings) = read_tir(tir)?;
     for w in &warnings {
         println!("{path}: warning[read]: {w}");
     }
@@ -284,9 +317,9 @@ fn lint_file(args: &TirLintArgs) -> anyhow::Result<ExitCode> {
         defaulted_ranges(&file)
     );
     Ok(if report.errors() > 0 {
-        ExitCode::from(1)
+        Linted::Errors
     } else {
-        ExitCode::SUCCESS
+        Linted::Clean
     })
 }
 
