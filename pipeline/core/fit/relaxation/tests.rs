@@ -1115,7 +1115,7 @@ fn a_force_that_leads_the_slip_is_reported_as_a_negative_apparent_lag() {
         vertical_stiffness_n_per_m: 137_800.0,
         segments: &segs,
     };
-    let out = run(&[input.clone()], &RelaxationConfig::default());
+    let out = run(std::slice::from_ref(&input), &RelaxationConfig::default());
     assert_eq!(out.rows.len(), 1, "{:?}", out.failures);
     let r = &out.rows[0];
     assert!(
