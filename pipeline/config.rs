@@ -370,6 +370,10 @@ impl FitSettings {
                 "must be [low, high] with 0 < low < high, m",
             );
         }
+        let shift = self.relaxation.apparent_lag_max_s;
+        if !(shift.is_finite() && shift > 0.0) {
+            return bad("relaxation.apparent_lag_max_s", "must be > 0, s");
+        }
         if !ordered(self.relaxation.pty2_range) || self.relaxation.pty2_range.0 <= 0.0 {
             return bad(
                 "relaxation.pty2_range",

@@ -339,6 +339,8 @@ fn real_data_out_of_sample_against_the_authors_fits_issue_18() {
         "speed_kph",
         "sigma_m",
         "at_bound",
+        "scale_drift",
+        "apparent_lag_s",
         "measurement_lag_s",
         "lag_separated",
     ];

@@ -439,7 +439,9 @@ pub fn relaxation(results: &[GroupResult]) -> Result<DataFrame, FitError> {
                 .b("at_bound", row.at_bound)
                 .f("measurement_lag_s", row.measurement_lag_s)
                 .b("lag_separated", row.lag_separated)
-                .s("lag_note", row.lag_note.clone());
+                .s("lag_note", row.lag_note.clone())
+                .f("apparent_lag_s", row.apparent_lag_s)
+                .b("scale_drift", row.scale_drift);
         }
     }
     f.finish()

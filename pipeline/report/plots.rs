@@ -678,10 +678,9 @@ pub fn relaxation(data: &ReportData, tire: &str) -> Vec<Plot> {
             continue;
         };
         let mut series: PointsByGroup = BTreeMap::new();
-        for r in rows
-            .iter()
-            .filter(|r| r.tire == tire && r.direction == direction && r.converged)
-        {
+        for r in rows.iter().filter(|r| {
+            r.tire == tire && r.direction == direction && r.converged && r.sigma_m.is_finite()
+        }) {
             series
                 .entry((r.rim_in, r.pressure_kpa))
                 .or_default()

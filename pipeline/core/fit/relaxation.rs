@@ -114,6 +114,12 @@ pub enum Nuisance {
     Offset,
     /// A scale `s` and an offset `c`.
     ScaleOffset,
+    /// A scale that drifts linearly in time over the segment, `s + d (t - t_mid)`, and an
+    /// offset `c`: the grip a tire loses (or gains) as it heats through a sweep. A drifting
+    /// scale changes the force in proportion to the force, a lag in proportion to its rate of
+    /// change, so the two stay apart; with a constant scale, a return pass weaker than its
+    /// outbound pass reads as the force leading the slip.
+    ScaleDriftOffset,
 }
 
 /// Equation 14's contact half length `a = R0 (q_a1 sqrt(z/R0) + q_a2 z/R0)`.
@@ -160,7 +166,14 @@ pub struct RelaxationConfig {
     pub settle_s: f64,
     /// Search interval of `sigma`, m.
     pub sigma_range_m: (f64, f64),
-    /// Nuisance parameters: `none`, `offset` or `scale_offset`.
+    /// Half width of the search interval of the signed apparent lag (`apparent_lag_s`), s.
+    pub apparent_lag_max_s: f64,
+    /// Also fit each row with a nuisance scale drifting linearly in time within each segment
+    /// (the grip a tire loses as it heats through a sweep) and keep it when it lowers the
+    /// pooled cost by more than 9 effective noise variances per segment (the test of the
+    /// measurement lag, one drift per segment); the row says so in `scale_drift`.
+    pub grip_drift: bool,
+    /// Nuisance parameters: `none`, `offset`, `scale_offset` or `scale_drift_offset`.
     pub nuisance: Nuisance,
     /// Half width of the moving average applied to the measured load before the model, s (noise
     /// on the model's input would favour a longer, smoothing lag).
@@ -296,6 +309,8 @@ impl Default for RelaxationConfig {
             linear_fraction: 0.7,
             settle_s: 0.2,
             sigma_range_m: (0.005, 3.0),
+            apparent_lag_max_s: 0.3,
+            grip_drift: true,
             nuisance: Nuisance::ScaleOffset,
             load_smoothing_half_s: 0.15,
             slip_smoothing_half_s: 0.04,
@@ -404,6 +419,17 @@ pub struct RelaxationRow {
     pub lag_separated: bool,
     /// Why the lag is what it is (see [`MeasurementLagFit::note`]).
     pub lag_note: String,
+    /// Signed time shift that best aligns the measured force with the model's steady-state
+    /// force over the row's segments (the nuisance parameters solved, no relaxation and no
+    /// measurement lag), s: positive when the force lags the slip, negative when it leads it.
+    /// A first-order lag on a slip ramp shows as `sigma / V`, so `V apparent_lag_s` is the
+    /// signed relaxation length the data show; it is what a `sigma_m` on the lower bound of
+    /// its search interval (NaN) measured instead. NaN when the search failed.
+    pub apparent_lag_s: f64,
+    /// True when the nuisance scale drifts linearly in time within each segment
+    /// ([`Nuisance::ScaleDriftOffset`]): configured, or kept by `grip_drift` because the data
+    /// demanded it.
+    pub scale_drift: bool,
 }
 
 /// PAC2002 relaxation coefficients of one tire/rim/pressure, fitted to its rows' `sigma(Fz)`.
@@ -660,6 +686,7 @@ fn role(seg: &MeasuredSegment) -> Option<(Direction, Method)> {
 }
 
 /// The transient problem of one segment: sample times, speeds, steady-state and measured force.
+#[derive(Clone, Debug)]
 pub struct LagProblem {
     /// Sample times, s.
     pub t_s: Vec<f64>,
@@ -694,6 +721,51 @@ pub struct LagFit {
     pub converged: bool,
     /// On a bound of the search interval.
     pub at_bound: bool,
+}
+
+/// `y` on the sample times `t_s` shifted by `shift_s` in time (`y(t - shift)`, linear between
+/// samples, held at the ends): positive delays, negative advances.
+fn shifted(t_s: &[f64], y: &[f64], shift_s: f64) -> Vec<f64> {
+    let n = t_s.len().min(y.len());
+    let mut out = Vec::with_capacity(n);
+    let mut j = 0usize;
+    for &t in &t_s[..n] {
+        let target = t - shift_s;
+        while j + 1 < n && t_s[j + 1] <= target {
+            j += 1;
+        }
+        while j > 0 && t_s[j] > target {
+            j -= 1;
+        }
+        out.push(if target <= t_s[0] {
+            y[0]
+        } else if j + 1 >= n || t_s[j + 1] <= t_s[j] {
+            y[j]
+        } else {
+            let f = (target - t_s[j]) / (t_s[j + 1] - t_s[j]);
+            y[j] + f * (y[j + 1] - y[j])
+        });
+    }
+    out
+}
+
+/// The nuisance map of a modelled force `y` at time `t`: `(scale + drift (t - t_mid)) y + offset`.
+#[derive(Copy, Clone, Debug, PartialEq)]
+struct Affine {
+    /// Scale at `t_mid_s` (the mean scale over the counted samples).
+    scale: f64,
+    /// Change of the scale per second.
+    drift_per_s: f64,
+    /// Mean time of the counted samples, s.
+    t_mid_s: f64,
+    /// Offset, N.
+    offset: f64,
+}
+
+impl Affine {
+    fn at(&self, t_s: f64, y: f64) -> f64 {
+        (self.scale + self.drift_per_s * (t_s - self.t_mid_s)) * y + self.offset
+    }
 }
 
 /// First-order lag `dF/dt = V/sigma (u - F)` of the samples `u`, integrated exactly for an input
@@ -746,51 +818,106 @@ impl LagProblem {
     }
 
     /// The cost and nuisance parameters of the modelled force `y` (through both lags) against
-    /// the measured one.
+    /// the measured one: the residual sum of squares, the mean scale and the offset.
     fn cost_of_modelled(&self, y: &[f64]) -> (f64, f64, f64) {
-        let pts = || {
-            (0..y.len())
-                .filter(|&i| self.counted[i])
-                .map(|i| (y[i], self.f_meas[i]))
-        };
-        let (s, c) = match self.nuisance {
-            Nuisance::None => (1.0, 0.0),
-            Nuisance::Offset => {
-                let (sum, n) = pts().fold((0.0, 0.0), |(a, n), (yy, m)| (a + m - yy, n + 1.0));
-                (1.0, if n > 0.0 { sum / n } else { 0.0 })
-            }
-            Nuisance::ScaleOffset => {
-                let (mut n, mut sy, mut sm, mut syy, mut sym) = (0.0, 0.0, 0.0, 0.0, 0.0);
-                for (yy, m) in pts() {
-                    n += 1.0;
-                    sy += yy;
-                    sm += m;
-                    syy += yy * yy;
-                    sym += yy * m;
-                }
-                let det = n * syy - sy * sy;
-                if n < 2.0 || det.abs() <= 1e-12 * n * syy.max(1e-300) {
-                    (1.0, if n > 0.0 { (sm - sy) / n } else { 0.0 })
-                } else {
-                    let s = (n * sym - sy * sm) / det;
-                    (s, (sm - s * sy) / n)
-                }
-            }
-        };
-        let rss = pts().map(|(yy, m)| (m - s * yy - c).powi(2)).sum();
-        (rss, s, c)
+        let a = self.nuisance_fit(y);
+        let rss = (0..y.len())
+            .filter(|&i| self.counted[i])
+            .map(|i| (self.f_meas[i] - a.at(self.t_s[i], y[i])).powi(2))
+            .sum();
+        (rss, a.scale, a.offset)
     }
 
-    /// Residuals of the measured force against `s F_lag + c` at `sigma` and `lag`, the nuisance
-    /// parameters solved; `None` for a sample the cost does not count.
+    /// The nuisance parameters that best map the modelled force `y` onto the measured one over
+    /// the counted samples, in closed form (linear least squares).
+    fn nuisance_fit(&self, y: &[f64]) -> Affine {
+        let idx = || (0..y.len()).filter(|&i| self.counted[i]);
+        let n = idx().count() as f64;
+        let identity = Affine {
+            scale: 1.0,
+            drift_per_s: 0.0,
+            t_mid_s: 0.0,
+            offset: 0.0,
+        };
+        if n == 0.0 {
+            return identity;
+        }
+        let t_mid_s = idx().map(|i| self.t_s[i]).sum::<f64>() / n;
+        let with_offset = |scale: f64, drift_per_s: f64| {
+            let mean = idx()
+                .map(|i| self.f_meas[i] - (scale + drift_per_s * (self.t_s[i] - t_mid_s)) * y[i])
+                .sum::<f64>()
+                / n;
+            Affine {
+                scale,
+                drift_per_s,
+                t_mid_s,
+                offset: mean,
+            }
+        };
+        // Regressors of the scale (`y`) and of its drift (`(t - t_mid) y`), centred on their
+        // means so that the offset drops out.
+        let basis = |i: usize| [y[i], (self.t_s[i] - t_mid_s) * y[i]];
+        let mean_of = |k: usize| idx().map(|i| basis(i)[k]).sum::<f64>() / n;
+        let means = [mean_of(0), mean_of(1)];
+        let m_mean = idx().map(|i| self.f_meas[i]).sum::<f64>() / n;
+        match self.nuisance {
+            Nuisance::None => identity,
+            Nuisance::Offset => with_offset(1.0, 0.0),
+            Nuisance::ScaleOffset => {
+                let (mut syy, mut sym) = (0.0, 0.0);
+                for i in idx() {
+                    let dy = y[i] - means[0];
+                    syy += dy * dy;
+                    sym += dy * (self.f_meas[i] - m_mean);
+                }
+                if n < 2.0 || syy <= 1e-12 * n * means[0].powi(2).max(1e-300) {
+                    with_offset(1.0, 0.0)
+                } else {
+                    with_offset(sym / syy, 0.0)
+                }
+            }
+            Nuisance::ScaleDriftOffset => {
+                let (mut a00, mut a01, mut a11, mut b0, mut b1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+                for i in idx() {
+                    let [u, v] = basis(i);
+                    let (du, dv) = (u - means[0], v - means[1]);
+                    let dm = self.f_meas[i] - m_mean;
+                    a00 += du * du;
+                    a01 += du * dv;
+                    a11 += dv * dv;
+                    b0 += du * dm;
+                    b1 += dv * dm;
+                }
+                let det = a00 * a11 - a01 * a01;
+                if n < 3.0 || det <= 1e-12 * a00 * a11 {
+                    if a00 > 0.0 {
+                        with_offset(b0 / a00, 0.0)
+                    } else {
+                        with_offset(1.0, 0.0)
+                    }
+                } else {
+                    with_offset((b0 * a11 - b1 * a01) / det, (a00 * b1 - a01 * b0) / det)
+                }
+            }
+        }
+    }
+
+    /// Residuals of the measured force against the nuisance-mapped `F_lag` at `sigma` and
+    /// `lag`, the nuisance parameters solved; `None` for a sample the cost does not count.
     pub fn residuals_with(&self, sigma_m: f64, lag: &MeasurementLag) -> Vec<Option<f64>> {
         let y = lag.apply(&self.t_s, self.tire_lagged(sigma_m));
-        let (_, s, c) = self.cost_of_modelled(&y);
-        y.iter()
-            .zip(&self.f_meas)
-            .zip(&self.counted)
-            .map(|((yy, m), counted)| counted.then(|| m - s * yy - c))
+        let a = self.nuisance_fit(&y);
+        (0..y.len())
+            .map(|i| self.counted[i].then(|| self.f_meas[i] - a.at(self.t_s[i], y[i])))
             .collect()
+    }
+
+    /// Residual sum of squares of the measured force against the steady-state force shifted
+    /// in time by `shift_s` (positive: delayed), with the nuisance parameters solved.
+    pub fn shifted_cost(&self, shift_s: f64) -> f64 {
+        self.cost_of_modelled(&shifted(&self.t_s, &self.f_ss, shift_s))
+            .0
     }
 
     /// Find `sigma` in `range` by grid + Brent.
@@ -883,21 +1010,60 @@ fn group_row(
 ) -> Result<RelaxationRow, RelaxationError> {
     let first = &members[0];
     let (lo, hi) = cfg.sigma_range_m;
-    let pooled = |sigma0: f64| -> f64 {
-        members
+    let pooled_of = |probs: &[&LagProblem], sigma0: f64| -> f64 {
+        probs
             .iter()
-            .map(|m| m.problem.cost(sigma0 * m.factor).0)
+            .zip(members)
+            .map(|(p, m)| p.cost(sigma0 * m.factor).0)
             .sum()
     };
-    let best = scalar::minimize(&pooled, lo, hi, &ScalarOptions::default())?;
+    let base: Vec<&LagProblem> = members.iter().map(|m| &m.problem).collect();
+    let best = scalar::minimize(&|s| pooled_of(&base, s), lo, hi, &ScalarOptions::default())?;
+    // A scale drifting in time is kept only where the data demand it (see `grip_drift`).
+    let drifting: Vec<LagProblem> = if cfg.grip_drift && cfg.nuisance != Nuisance::ScaleDriftOffset
+    {
+        members
+            .iter()
+            .map(|m| LagProblem {
+                nuisance: Nuisance::ScaleDriftOffset,
+                ..m.problem.clone()
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let drift_refs: Vec<&LagProblem> = drifting.iter().collect();
+    let (probs, best, scale_drift) = match drifting.is_empty() {
+        true => (base, best, cfg.nuisance == Nuisance::ScaleDriftOffset),
+        false => {
+            let d = scalar::minimize(
+                &|s| pooled_of(&drift_refs, s),
+                lo,
+                hi,
+                &ScalarOptions::default(),
+            )?;
+            let residuals: Vec<Vec<Option<f64>>> = drift_refs
+                .iter()
+                .zip(members)
+                .map(|(p, m)| p.residuals_with(d.x * m.factor, &p.measurement))
+                .collect();
+            let test = LagTest::new(&residuals, best.cost, d.cost);
+            if test.statistic > LAG_LR_THRESHOLD * members.len() as f64 {
+                (drift_refs, d, true)
+            } else {
+                (base, best, false)
+            }
+        }
+    };
+    let pooled = |s: f64| pooled_of(&probs, s);
     let mut n = 0;
     let (mut rss, mut scale, mut offset) = (0.0, 0.0, 0.0);
-    for m in members {
-        let (r, s, c) = m.problem.cost(best.x * m.factor);
+    for (p, m) in probs.iter().zip(members) {
+        let (r, s, c) = p.cost(best.x * m.factor);
         rss += r;
         scale += s;
         offset += c;
-        n += m.problem.counted.iter().filter(|c| **c).count();
+        n += p.counted.iter().filter(|c| **c).count();
     }
     let k = members.len() as f64;
     let se = {
@@ -912,9 +1078,9 @@ fn group_row(
     };
     // Scatter of the members' own estimates (normalised to IA 0): the row's honest uncertainty.
     let spread = if members.len() >= 2 {
-        let own: Vec<f64> = members
+        let own: Vec<f64> = probs
             .iter()
-            .filter_map(|m| m.problem.fit(cfg.sigma_range_m).ok())
+            .filter_map(|p| p.fit(cfg.sigma_range_m).ok())
             .zip(members)
             .map(|(f, m)| f.sigma_m / m.factor)
             .collect();
@@ -926,6 +1092,18 @@ fn group_row(
     };
     let fz_mean = members.iter().map(|m| m.fz_n_mean).sum::<f64>() / k;
     let speed_kph = members.iter().map(|m| m.speed_kph).sum::<f64>() / k;
+    // The data's own phase, signed: a relaxation length cannot go below 0, so on the lower
+    // bound `sigma` says only that the data show no positive lag; the shift says how far the
+    // force leads (or lags) the slip.
+    let apparent_lag_s = {
+        let half = cfg.apparent_lag_max_s;
+        let pooled_shift = |d: f64| -> f64 { probs.iter().map(|p| p.shifted_cost(d)).sum() };
+        scalar::minimize(&pooled_shift, -half, half, &LAG_SEARCH).map_or(f64::NAN, |m| m.x)
+    };
+    // On the lower bound the row has no relaxation length to report: NaN, `at_bound`, and
+    // `apparent_lag_s` for what the data show.
+    let on_floor = best.at_bound && best.x <= lo + 1e-9 * (hi - lo);
+    let sigma = if on_floor { f64::NAN } else { best.x };
     let stiffness = slip_stiffness(input.model, fz_mean, 0.0, speed_kph / 3.6, first.direction);
     let z = fz_mean / input.vertical_stiffness_n_per_m;
     let a = cfg.contact.half_length_m(z, input.unloaded_radius_m);
@@ -943,8 +1121,8 @@ fn group_row(
         method: first.method,
         slip_rate: members.iter().map(|m| m.slip_rate).sum::<f64>() / k,
         speed_kph,
-        sigma_m: best.x,
-        sigma_row_m: best.x,
+        sigma_m: sigma,
+        sigma_row_m: sigma,
         sigma_spread_m: spread,
         sigma_se_m: se,
         sigma_prior_m: f64::NAN,
@@ -953,7 +1131,7 @@ fn group_row(
         deflection_m: z,
         contact_half_length_m: a,
         slip_stiffness: stiffness,
-        carcass_stiffness_n_per_m: carcass_stiffness(stiffness, best.x, a).unwrap_or(f64::NAN),
+        carcass_stiffness_n_per_m: carcass_stiffness(stiffness, sigma, a).unwrap_or(f64::NAN),
         residual_rms_n: (rss / n.max(1) as f64).sqrt(),
         n,
         n_segments: members.len(),
@@ -964,6 +1142,8 @@ fn group_row(
         measurement_lag_s: first.problem.measurement.lag_s,
         lag_separated: false,
         lag_note: String::new(),
+        apparent_lag_s,
+        scale_drift,
     })
 }
 
