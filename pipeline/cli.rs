@@ -347,7 +347,8 @@ Run one SQL statement (polars SQL) over a store and print the result on stdout.
 
 Tables: samples (every sample: et_s, fx_n, fy_n, fz_n, mx_nm, mz_nm, alpha_rad, kappa,
 gamma_rad, pressure_kpa, speed_kph, ... in SI and ISO-W, plus the partition columns test, tire,
-rim_in, pressure_kpa_nom, ia_cdeg_nom, fz_n_nom), segments (one row per segment: kind, nominal and
+rim_in, pressure_kpa_nom, ia_cdeg_nom, fz_n_nom: null where the level was swept or not held),
+segments (one row per segment: kind, nominal and
 measured levels, ET range, QC flags), runs (one row per raw file: hash, status, error). Published
 result tables (coefficients, fit_quality, spring_rate, thermal, thermal_fit, relaxation,
 inertia) appear with a version column, <table>_latest holds the newest version only, and
@@ -551,7 +552,7 @@ pub enum TirCommand {
     ///
     /// Evaluates the model (combined slip, ISO-W, SI) at every selected sample's measured load,
     /// slip ratio, slip angle, inclination and speed, and prints CSV to stdout: tire, rim_in
-    /// (rim width, in), source_file, pressure_kpa_nom (kPa), n_samples, fx_rmse_n, fy_rmse_n (N), mz_rmse_nm
+    /// (rim width, in), source_file, pressure_kpa_nom (kPa, empty when not held), n_samples, fx_rmse_n, fy_rmse_n (N), mz_rmse_nm
     /// (N m) (empty for a channel the file's USE_MODE does not model: 1 Fx only, 2 Fy and Mz
     /// only), and the RMS of the measured values fx_rms_n, fy_rms_n, mz_rms_nm. Every sample of
     /// the store counts (not only the sweeps a fit used), filtered by --max-alpha-deg,

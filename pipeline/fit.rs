@@ -55,7 +55,6 @@ use crate::progress::Progress;
 use crate::schema::TableName;
 use crate::store::StoreError;
 use crate::store::files::{ensure_dir, sha256_bytes, write_bytes_atomic};
-use crate::store::layout::SWEPT;
 
 /// Store-level errors of the fitting orchestration (per-group problems are data).
 #[derive(Debug, thiserror::Error)]
@@ -397,8 +396,7 @@ pub fn plan_groups(
     let cfg = stage_configs(config);
     let mut groups: BTreeMap<TireKey, Vec<&SegmentRow>> = BTreeMap::new();
     for row in &rows {
-        if row.key.pressure_kpa_nom == SWEPT
-            || !group::used_by(&opts.stages, &cfg, row.kind)
+        if !group::used_by(&opts.stages, &cfg, row.kind)
             || opts
                 .tire
                 .as_deref()

@@ -45,7 +45,7 @@ pub use decide::{Decision, Now, decide};
 use crate::catalog::Catalog;
 use crate::progress::Progress;
 use crate::store::files::{sha256_bytes, sync_filesystem};
-use crate::store::layout::{PartitionKey, SWEPT, source_part_name};
+use crate::store::layout::{PartitionKey, source_part_name};
 use crate::store::lock::{LockWait, StoreLock};
 pub use crate::store::tables::RunRow;
 use crate::store::tables::{
@@ -381,9 +381,10 @@ pub fn segment_config_sha256(segment: &SegmentConfig) -> String {
     sha256_bytes(format!("layout {STORE_LAYOUT}\n{config}").as_bytes())
 }
 
-/// The layout of the stored segments and samples: 2 keys the inclination as `ia_cdeg_nom`
-/// (hundredths of a degree, null when swept), 1 (no tag in the hash) as `ia_deg_nom`.
-pub const STORE_LAYOUT: u32 = 2;
+/// The layout of the stored segments and samples: 3 keys a swept or unheld pressure and load
+/// partition as the hive null, 2 as `-1`; 2 keys the inclination as `ia_cdeg_nom` (hundredths of
+/// a degree, null when swept), 1 (no tag in the hash) as `ia_deg_nom`.
+pub const STORE_LAYOUT: u32 = 3;
 
 /// This tool's version, as the runs table records what computed the stored parts.
 pub const TOOL_VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -1038,14 +1039,13 @@ impl FileContext<'_> {
 
 /// The hive partition of a segment's samples.
 fn partition_of(s: &Segment, id: &Identity) -> PartitionKey {
-    let level = |v: Option<i64>| v.unwrap_or(SWEPT);
     PartitionKey {
         test: s.kind.as_str().to_string(),
         tire: id.tire.clone(),
         rim_in: id.rim_in.unwrap_or(0),
-        pressure_kpa_nom: level(s.nominal.pressure_kpa),
+        pressure_kpa_nom: s.nominal.pressure_kpa,
         ia_cdeg_nom: s.nominal.ia_cdeg,
-        fz_n_nom: level(s.nominal.fz_n),
+        fz_n_nom: s.nominal.fz_n,
     }
 }
 

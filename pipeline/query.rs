@@ -264,7 +264,7 @@ mod tests {
     use std::fs;
 
     use crate::store::files::write_parquet_atomic;
-    use crate::store::layout::{PartitionKey, partition_dir};
+    use crate::store::layout::{self, PartitionKey, partition_dir};
     use crate::store::tables::{RunRow, RunStatus};
 
     /// A two-file store where one file's data is live and the other's was superseded.
@@ -291,9 +291,9 @@ mod tests {
             test: "cornering".into(),
             tire: "Hoosier 20.5x7.0-13 R25B".into(),
             rim_in: 7,
-            pressure_kpa_nom: 83,
+            pressure_kpa_nom: Some(83),
             ia_cdeg_nom: Some(0),
-            fz_n_nom: 1112,
+            fz_n_nom: Some(1112),
         };
         // The live part, and a superseded derivation of the same content.
         for (part, fz) in [("111111111111", 1100.0), ("222222222222", 9999.0)] {
@@ -348,22 +348,33 @@ mod tests {
         );
     }
 
-    /// Every number is a testable camber: a held -1 deg reads back as -100, a swept inclination
-    /// (the hive null) as a null of the integer column, even when no partition holds a number.
+    /// Every number is a held level: a held -1 deg reads back as -100; a swept inclination or
+    /// load and an unheld pressure (the hive null) read back as a null of the integer column, even
+    /// when no partition holds a number.
     #[test]
-    fn swept_inclination_reads_back_as_null_and_negative_camber_as_a_level() {
-        for levels in [vec![Some(-100), None], vec![None]] {
+    fn swept_levels_read_back_as_null_and_negative_camber_as_a_level() {
+        // (pressure_kpa_nom, ia_cdeg_nom, fz_n_nom) of each partition.
+        type Levels = (Option<i64>, Option<i64>, Option<i64>);
+        let cases: [Vec<Levels>; 3] = [
+            vec![
+                (Some(83), Some(-100), Some(1112)),
+                (Some(83), None, Some(1112)),
+            ],
+            vec![(None, None, None)],
+            vec![(Some(83), Some(0), None), (None, Some(160), Some(667))],
+        ];
+        for levels in cases {
             let root = tempfile::tempdir().unwrap();
             tiny_store(root.path());
             fs::remove_dir_all(root.path().join(SAMPLES_DIR)).unwrap();
-            for (k, ia) in levels.iter().enumerate() {
+            for (k, &(p, ia, fz)) in levels.iter().enumerate() {
                 let key = PartitionKey {
                     test: "cornering".into(),
                     tire: "T".into(),
                     rim_in: 7,
-                    pressure_kpa_nom: 83,
-                    ia_cdeg_nom: *ia,
-                    fz_n_nom: 1112,
+                    pressure_kpa_nom: p,
+                    ia_cdeg_nom: ia,
+                    fz_n_nom: fz,
                 };
                 let mut df = df!("fz_n" => [1000.0 + k as f64]).unwrap();
                 let path = root
@@ -372,10 +383,21 @@ mod tests {
                     .join("a_dat-111111111111.parquet");
                 write_parquet_atomic(&path, &mut df).unwrap();
             }
-            let df = run(root.path(), "SELECT ia_cdeg_nom FROM samples ORDER BY fz_n").unwrap();
-            let ia = df.column("ia_cdeg_nom").unwrap();
-            assert_eq!(ia.dtype(), &DataType::Int64, "{df}");
-            let got: Vec<Option<i64>> = ia.i64().unwrap().iter().collect();
+            let df = run(
+                root.path(),
+                "SELECT pressure_kpa_nom, ia_cdeg_nom, fz_n_nom FROM samples ORDER BY fz_n",
+            )
+            .unwrap();
+            let column = |name: &str| -> Vec<Option<i64>> {
+                let c = df.column(name).unwrap();
+                assert_eq!(c.dtype(), &DataType::Int64, "{name}: {df}");
+                c.i64().unwrap().iter().collect()
+            };
+            let got: Vec<Levels> = (column("pressure_kpa_nom").into_iter())
+                .zip(column("ia_cdeg_nom"))
+                .zip(column("fz_n_nom"))
+                .map(|((p, ia), fz)| (p, ia, fz))
+                .collect();
             assert_eq!(got, levels, "{df}");
         }
     }
@@ -396,6 +418,36 @@ mod tests {
             err.contains("ia_deg_nom") && err.contains("tirebase ingest --store"),
             "{err}"
         );
+    }
+
+    /// A store whose samples key a swept load or an unheld pressure `-1` (layout 2) is refused by
+    /// the query and by every reader of the live segments, naming the fix.
+    #[test]
+    fn a_store_with_minus_one_for_swept_is_refused() {
+        for old in layout::OLD_SWEPT_DIRS {
+            let root = tempfile::tempdir().unwrap();
+            tiny_store(root.path());
+            let dir = root
+                .path()
+                .join("samples/test=cornering/tire=T/rim_in=7/pressure_kpa_nom=83/ia_cdeg_nom=0");
+            let dir = if old.starts_with("fz") {
+                dir.join(old)
+            } else {
+                root.path()
+                    .join("samples/test=cornering/tire=T/rim_in=7")
+                    .join(old)
+                    .join("ia_cdeg_nom=0/fz_n_nom=1112")
+            };
+            let mut df = df!("fz_n" => [1000.0]).unwrap();
+            write_parquet_atomic(&dir.join("a_dat-111111111111.parquet"), &mut df).unwrap();
+            let err = run(root.path(), "SELECT 1").unwrap_err().to_string();
+            assert!(
+                err.contains(old) && err.contains("tirebase ingest --store"),
+                "{err}"
+            );
+            let err = tables::live_segments(root.path()).unwrap_err();
+            assert!(matches!(err, StoreError::OldLayout { .. }), "{err}");
+        }
     }
 
     #[test]

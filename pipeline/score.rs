@@ -71,8 +71,8 @@ pub struct ScoreRow {
     pub rim_in: i64,
     /// Source file name.
     pub source_file: String,
-    /// Nominal pressure partition, kPa (-1 when not held).
-    pub pressure_kpa_nom: i64,
+    /// Nominal pressure partition, kPa (`None` when not held: the partition's null).
+    pub pressure_kpa_nom: Option<i64>,
     /// Samples scored.
     pub n_samples: usize,
     /// RMS of (model - measured) Fx, N (NaN when the model has no Fx, see
@@ -234,7 +234,7 @@ fn rms(values: impl Iterator<Item = f64>) -> f64 {
 }
 
 /// (tire, rim width in, source file, nominal pressure kPa).
-type GroupKey = (String, i64, String, i64);
+type GroupKey = (String, i64, String, Option<i64>);
 
 /// The selected samples, grouped by (tire, rim, source file, nominal pressure), each group in
 /// time order of its file.
@@ -290,7 +290,7 @@ fn selected_samples(
             .collect())
     };
     let (tire, file) = (text("tire")?, text("source_file")?);
-    let p_nom = whole("pressure_kpa_nom")?;
+    let p_nom = req_i64(&df, "pressure_kpa_nom", store)?;
     let rim = whole("rim_in")?;
     let [fz, kappa, alpha, gamma, v, p, fx, fy, mz] = MEASURED.map(number);
     let (fz, kappa, alpha, gamma, v, p, fx, fy, mz) =
@@ -313,7 +313,10 @@ fn selected_samples(
         }
         let nominal = p_nom[i];
         // After the decimation: the chosen samples do not depend on the pressure asked for.
-        if selection.pressure_kpa_nom.is_some_and(|p| p != nominal) {
+        if selection
+            .pressure_kpa_nom
+            .is_some_and(|p| Some(p) != nominal)
+        {
             continue;
         }
         groups

@@ -397,7 +397,8 @@ fn score(args: &TirScoreArgs) -> anyhow::Result<ExitCode> {
             r.tire,
             r.rim_in.to_string(),
             r.source_file,
-            r.pressure_kpa_nom.to_string(),
+            r.pressure_kpa_nom
+                .map_or_else(String::new, |p| p.to_string()),
             r.n_samples.to_string(),
             f(r.fx_rmse_n),
             f(r.fy_rmse_n),

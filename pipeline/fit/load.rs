@@ -22,7 +22,6 @@ use tirebase_core::segment::{Level, QcFlag};
 
 use super::FitError;
 use crate::store::columns::{opt_bool, req_bool, req_f64, req_i64, req_str};
-use crate::store::layout::SWEPT;
 use crate::store::tables;
 
 /// One live row of the segments table (`schemas/segments.toml`).
@@ -43,7 +42,7 @@ pub struct SegmentRow {
     pub segment_index: i64,
     /// Segment kind (rows with a kind this build does not know are skipped).
     pub kind: SegmentKind,
-    /// Tire, rim, nominal pressure (`pressure_kpa_nom` = [`SWEPT`] when not held).
+    /// Tire, rim, nominal pressure.
     pub key: TireKey,
     /// Nominal levels.
     pub nominal: NominalLevels,
@@ -132,7 +131,8 @@ pub fn judge_qc(qc_flags: &str) -> (bool, bool) {
 }
 
 /// Every live segment of the store (`store::tables` says what is live), sorted by (tire, rim,
-/// pressure, source file, index). Rows of a kind this build does not know are skipped.
+/// pressure, source file, index). Rows of a kind this build does not know are skipped, and rows
+/// without a held pressure (no tire/rim/pressure group fits them).
 pub fn live_segments(store: &Path) -> Result<Vec<SegmentRow>, FitError> {
     if !tables::has_runs(store) {
         return Err(FitError::NotAStore(store.display().to_string()));
@@ -153,10 +153,10 @@ pub fn live_segments(store: &Path) -> Result<Vec<SegmentRow>, FitError> {
                 key: TireKey {
                     tire: r.tire,
                     rim_in: r.rim_in,
-                    pressure_kpa_nom: r.pressure_kpa_nom,
+                    pressure_kpa_nom: r.pressure_kpa_nom?,
                 },
                 nominal: NominalLevels {
-                    pressure_kpa: (r.pressure_kpa_nom != SWEPT).then_some(r.pressure_kpa_nom),
+                    pressure_kpa: r.pressure_kpa_nom,
                     ia_cdeg: r.ia_cdeg_nom,
                     fz_n: r.fz_n_nom,
                     alpha_deg: r.alpha_deg_nom,

@@ -412,7 +412,7 @@ pub fn relaxation(results: &[GroupResult]) -> Result<DataFrame, FitError> {
     for x in results.iter().filter_map(|r| r.relaxation.as_ref()) {
         for row in &x.rows {
             f.key(&row.key)
-                .i("fz_n_nom", row.fz_n_nom)
+                .oi("fz_n_nom", row.fz_n_nom)
                 .f("fz_n_mean", row.fz_n_mean)
                 .oi("ia_cdeg_nom", row.ia_cdeg_nom)
                 .s("direction", row.direction.as_str())

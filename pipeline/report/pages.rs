@@ -552,12 +552,16 @@ fn tire_page(data: &ReportData, tire: &str, worst: &BTreeSet<usize>) -> (String,
     (out, drawn, missing)
 }
 
-/// Per (rim, pressure): segments by kind and whether a model exists.
+/// Per (rim, pressure): segments by kind and whether a model exists (segments without a held
+/// pressure belong to no group).
 fn group_summary(data: &ReportData, tire: &str) -> String {
     let mut counts: BTreeMap<(i64, i64), BTreeMap<String, usize>> = BTreeMap::new();
     for s in data.segments.iter().filter(|s| s.segment.tire == tire) {
+        let Some(p) = s.segment.pressure_kpa_nom else {
+            continue;
+        };
         *counts
-            .entry((s.segment.rim_in, s.segment.pressure_kpa_nom))
+            .entry((s.segment.rim_in, p))
             .or_default()
             .entry(s.segment.kind.clone())
             .or_default() += 1;
@@ -774,7 +778,7 @@ fn tire_levels(data: &ReportData, tire: &str) -> (BTreeSet<i64>, BTreeSet<i64>) 
     let mut pressures = BTreeSet::new();
     for s in data.segments.iter().filter(|s| s.segment.tire == tire) {
         rims.insert(s.segment.rim_in);
-        pressures.insert(s.segment.pressure_kpa_nom);
+        pressures.extend(s.segment.pressure_kpa_nom);
     }
     for &(r, p) in data.result_groups.get(tire).into_iter().flatten() {
         rims.insert(r);

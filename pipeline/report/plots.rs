@@ -122,7 +122,7 @@ fn ia_label(seg: &PlotSegment) -> i64 {
 const UPRIGHT_CDEG: i64 = 50;
 
 /// The tire's segments of one kind by (rim, nominal pressure, inclination label), then by load
-/// label.
+/// label (segments without a held pressure belong to no group).
 type ByGroupAndLoad<'a> = BTreeMap<(i64, i64, i64), BTreeMap<i64, Vec<&'a PlotSegment>>>;
 
 fn by_group_and_load<'a>(data: &'a ReportData, tire: &str, kind: &str) -> ByGroupAndLoad<'a> {
@@ -132,12 +132,11 @@ fn by_group_and_load<'a>(data: &'a ReportData, tire: &str, kind: &str) -> ByGrou
         .iter()
         .filter(|s| s.segment.tire == tire && s.segment.kind == kind)
     {
+        let Some(p) = seg.segment.pressure_kpa_nom else {
+            continue;
+        };
         groups
-            .entry((
-                seg.segment.rim_in,
-                seg.segment.pressure_kpa_nom,
-                ia_label(seg),
-            ))
+            .entry((seg.segment.rim_in, p, ia_label(seg)))
             .or_default()
             .entry(load_label(seg))
             .or_default()
@@ -328,7 +327,7 @@ pub fn envelope(data: &ReportData, tire: &str) -> Vec<Plot> {
             .filter(|s| {
                 s.segment.tire == tire
                     && s.segment.rim_in == *rim
-                    && s.segment.pressure_kpa_nom == *p
+                    && s.segment.pressure_kpa_nom == Some(*p)
             })
             .flat_map(|s| [s.segment.alpha_deg_min.abs(), s.segment.alpha_deg_max.abs()])
             .filter(|a| a.is_finite())
@@ -449,10 +448,9 @@ pub fn peak_mu_and_stiffness(data: &ReportData, tire: &str) -> Vec<Plot> {
         .iter()
         .filter(|s| s.segment.tire == tire && s.segment.kind == "cornering")
     {
-        groups
-            .entry((seg.segment.rim_in, seg.segment.pressure_kpa_nom))
-            .or_default()
-            .push(seg);
+        if let Some(p) = seg.segment.pressure_kpa_nom {
+            groups.entry((seg.segment.rim_in, p)).or_default().push(seg);
+        }
     }
     // Models without data still get their curves (at 25 % to 175 % of FNOMIN).
     for &(rim, p) in data.result_groups.get(tire).into_iter().flatten() {

@@ -19,10 +19,10 @@
 //!
 //! Partition values are integers or strings (never floats). The inclination is keyed in
 //! hundredths of a degree (`ia_cdeg_nom=160` is 1.6 deg, `-100` is -1 deg: negative camber is a
-//! tested level, so no number can mean "swept"); a swept or unlevelled inclination is the hive
+//! tested level, so no number can mean "swept"). A level that does not apply (a swept or
+//! unlevelled inclination, a swept load in a spring-rate hold, a pressure not held) is the hive
 //! null, [`HIVE_NULL`], which polars, pyarrow and Spark read back as a null of the integer
-//! column. Another level that does not apply (a swept load in a spring-rate hold, a pressure not
-//! held) is `-1` ([`SWEPT`]: loads and pressures are never negative), an unknown rim `0`. String
+//! column; an unknown rim is `0`. String
 //! values are percent-encoded exactly like polars, pyarrow and DuckDB expect (`/`, `=`, `%`, `:`,
 //! space and control characters), so every hive reader decodes the original tire name.
 
@@ -43,12 +43,13 @@ pub const LOCK_FILE: &str = "store.lock";
 /// Suffix of files being written; never matched by `*.parquet` globs.
 pub const TEMP_SUFFIX: &str = ".tmp";
 
-/// Value of a load or pressure partition level that does not apply (the variable was swept).
-pub const SWEPT: i64 = -1;
-
 /// The hive partition value of a null (the Hive convention; polars, pyarrow and Spark read it
-/// as null whatever the column's type): the inclination key of a swept inclination.
+/// as null whatever the column's type): the key of a level that was swept or not held.
 pub const HIVE_NULL: &str = "__HIVE_DEFAULT_PARTITION__";
+
+/// Samples partition directories of the previous layout (store layout 2): a swept or unheld
+/// pressure or load was keyed `-1` instead of [`HIVE_NULL`].
+pub const OLD_SWEPT_DIRS: [&str; 2] = ["pressure_kpa_nom=-1", "fz_n_nom=-1"];
 
 /// The inclination partition key's name. Stores whose samples were keyed `ia_deg_nom` (whole
 /// degrees, `-1` for swept) are an older layout ([`OLD_IA_KEY`]).
@@ -66,12 +67,12 @@ pub struct PartitionKey {
     pub tire: String,
     /// Rim width, whole inches (0 = unknown).
     pub rim_in: i64,
-    /// Nominal inflation pressure, kPa ([`SWEPT`] if not held).
-    pub pressure_kpa_nom: i64,
+    /// Nominal inflation pressure, kPa (`None` if not held: [`HIVE_NULL`]).
+    pub pressure_kpa_nom: Option<i64>,
     /// Nominal inclination angle, hundredths of a degree (`None` if swept: [`HIVE_NULL`]).
     pub ia_cdeg_nom: Option<i64>,
-    /// Nominal vertical load, N ([`SWEPT`] if stepped or swept).
-    pub fz_n_nom: i64,
+    /// Nominal vertical load, N (`None` if stepped or swept: [`HIVE_NULL`]).
+    pub fz_n_nom: Option<i64>,
 }
 
 /// Percent-encode a hive partition value the way polars writes it (and DuckDB, pyarrow and
@@ -101,27 +102,34 @@ pub fn hive_encode(value: &str) -> String {
 /// use tirebase::store::layout::{partition_dir, PartitionKey};
 /// let key = PartitionKey {
 ///     test: "cornering".into(), tire: "Hoosier R25B".into(), rim_in: 7,
-///     pressure_kpa_nom: 83, ia_cdeg_nom: Some(160), fz_n_nom: 1112,
+///     pressure_kpa_nom: Some(83), ia_cdeg_nom: Some(160), fz_n_nom: Some(1112),
 /// };
 /// assert_eq!(
 ///     partition_dir(&key).to_str().unwrap(),
 ///     "samples/test=cornering/tire=Hoosier%20R25B/rim_in=7/pressure_kpa_nom=83/ia_cdeg_nom=160/fz_n_nom=1112"
 /// );
-/// let swept = PartitionKey { ia_cdeg_nom: None, ..key };
-/// assert!(partition_dir(&swept).ends_with("ia_cdeg_nom=__HIVE_DEFAULT_PARTITION__/fz_n_nom=1112"));
+/// let swept = PartitionKey { ia_cdeg_nom: None, fz_n_nom: None, ..key };
+/// assert!(partition_dir(&swept).ends_with(
+///     "pressure_kpa_nom=83/ia_cdeg_nom=__HIVE_DEFAULT_PARTITION__/fz_n_nom=__HIVE_DEFAULT_PARTITION__"
+/// ));
 /// ```
 pub fn partition_dir(key: &PartitionKey) -> PathBuf {
     let mut p = PathBuf::from(SAMPLES_DIR);
     p.push(format!("test={}", hive_encode(&key.test)));
     p.push(format!("tire={}", hive_encode(&key.tire)));
     p.push(format!("rim_in={}", key.rim_in));
-    p.push(format!("pressure_kpa_nom={}", key.pressure_kpa_nom));
-    p.push(match key.ia_cdeg_nom {
-        Some(ia) => format!("{IA_KEY}={ia}"),
-        None => format!("{IA_KEY}={HIVE_NULL}"),
-    });
-    p.push(format!("fz_n_nom={}", key.fz_n_nom));
+    p.push(level_dir("pressure_kpa_nom", key.pressure_kpa_nom));
+    p.push(level_dir(IA_KEY, key.ia_cdeg_nom));
+    p.push(level_dir("fz_n_nom", key.fz_n_nom));
     p
+}
+
+/// `name=value` of an integer level, `name=`[`HIVE_NULL`] when it does not apply.
+fn level_dir(name: &str, value: Option<i64>) -> String {
+    match value {
+        Some(v) => format!("{name}={v}"),
+        None => format!("{name}={HIVE_NULL}"),
+    }
 }
 
 /// File name used for everything one ingested source file contributes: the source's stem

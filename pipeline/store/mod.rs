@@ -53,19 +53,21 @@ pub enum StoreError {
         holder: String,
     },
     /// The store's live parts were written with an older layout: the inclination keyed
-    /// `ia_deg_nom` (rounded whole degrees, `-1` for swept) instead of `ia_cdeg_nom`.
+    /// `ia_deg_nom` (rounded whole degrees, `-1` for swept) instead of `ia_cdeg_nom`, or a swept
+    /// pressure or load keyed `-1` instead of null.
     #[error(
-        "store {root} was written by an older tirebase: its segments and samples key the \
-         inclination as ia_deg_nom (whole degrees, -1 for swept), this version as ia_cdeg_nom \
-         (hundredths of a degree, null for swept; {file}); re-ingest the raw files into it with \
-         `tirebase ingest --store {root} <raw files or directories>` (or `tirebase run --store \
-         {root} --input ROUND`), which segments every file again and removes the old parts"
+        "store {root} was written by an older tirebase: {what} ({file}); re-ingest the raw files \
+         into it with `tirebase ingest --store {root} <raw files or directories>` (or `tirebase \
+         run --store {root} --input ROUND`), which segments every file again and removes the old \
+         parts"
     )]
     OldLayout {
         /// The store root.
         root: PathBuf,
         /// A part file written with the old key.
         file: PathBuf,
+        /// How the old layout differs.
+        what: &'static str,
     },
     /// A table does not have the columns its schema requires.
     #[error("{table}: {message}")]

@@ -27,7 +27,7 @@ use super::files::{
     write_arrow_parquet_atomic_with, write_parquet_atomic_with,
 };
 use super::layout::{
-    PartitionKey, SAMPLES_DIR, SEGMENTS_DIR, SWEPT, TEMP_SUFFIX, partition_dir, runs_file,
+    PartitionKey, SAMPLES_DIR, SEGMENTS_DIR, TEMP_SUFFIX, partition_dir, runs_file,
     source_part_name,
 };
 use super::{IoOp, StoreError, layout};
@@ -358,16 +358,34 @@ fn refuse_old_layout(path: &Path, has: impl Fn(&str) -> bool) -> Result<(), Stor
     Err(StoreError::OldLayout {
         root: root.to_path_buf(),
         file: path.to_path_buf(),
+        what: "its segments and samples key the inclination as ia_deg_nom (whole degrees, -1 for \
+               swept), this version as ia_cdeg_nom (hundredths of a degree, null for swept)",
     })
 }
 
-/// Live files of the samples table (every partition), sorted.
+/// Live files of the samples table (every partition), sorted; [`StoreError::OldLayout`] when
+/// one of them sits in a partition of the previous layout (a swept pressure or load keyed `-1`,
+/// [`layout::OLD_SWEPT_DIRS`]).
 pub fn live_sample_files(store: &Path) -> Result<Vec<PathBuf>, StoreError> {
     let live = live_parts(&read_runs(store)?);
-    Ok(parquet_files_below(&store.join(SAMPLES_DIR))?
+    let files: Vec<PathBuf> = parquet_files_below(&store.join(SAMPLES_DIR))?
         .into_iter()
         .filter(|p| live.contains(file_name(p)))
-        .collect())
+        .collect();
+    let old = files.iter().find(|p| {
+        p.components()
+            .any(|c| layout::OLD_SWEPT_DIRS.iter().any(|d| c.as_os_str() == *d))
+    });
+    match old {
+        Some(file) => Err(StoreError::OldLayout {
+            root: store.to_path_buf(),
+            file: file.clone(),
+            what: "its samples partitions key a swept or unheld pressure or load as -1 \
+                   (pressure_kpa_nom=-1, fz_n_nom=-1), this version as the hive null \
+                   (__HIVE_DEFAULT_PARTITION__)",
+        }),
+        None => Ok(files),
+    }
 }
 
 /// One live row of the segments table, typed (`schemas/segments.toml`), with the name of the
@@ -382,7 +400,8 @@ pub struct SegmentRecord {
     pub kind: String,
     pub tire: String,
     pub rim_in: i64,
-    pub pressure_kpa_nom: i64,
+    /// Nominal pressure, kPa; `None` when not held.
+    pub pressure_kpa_nom: Option<i64>,
     /// Nominal inclination, hundredths of a degree; `None` when swept or unlevelled.
     pub ia_cdeg_nom: Option<i64>,
     pub fz_n_nom: Option<i64>,
@@ -411,7 +430,7 @@ impl SegmentRecord {
             rim_in: self.rim_in,
             pressure_kpa_nom: self.pressure_kpa_nom,
             ia_cdeg_nom: self.ia_cdeg_nom,
-            fz_n_nom: self.fz_n_nom.unwrap_or(SWEPT),
+            fz_n_nom: self.fz_n_nom,
         }
     }
 
@@ -472,7 +491,7 @@ pub fn read_segment_file(path: &Path) -> Result<Vec<SegmentRecord>, StoreError> 
             kind: kind[k].clone().unwrap_or_default(),
             tire: tire[k].clone().unwrap_or_default(),
             rim_in: rim[k].unwrap_or(0),
-            pressure_kpa_nom: p_nom[k].unwrap_or(SWEPT),
+            pressure_kpa_nom: p_nom[k],
             ia_cdeg_nom: ia_nom[k],
             fz_n_nom: fz_nom[k],
             alpha_deg_nom: alpha_nom[k],
@@ -493,8 +512,11 @@ pub fn read_segment_file(path: &Path) -> Result<Vec<SegmentRecord>, StoreError> 
         .collect())
 }
 
-/// Every live segment of the store, in file order (files sorted by name, rows as stored).
+/// Every live segment of the store, in file order (files sorted by name, rows as stored);
+/// [`StoreError::OldLayout`] for a store of an older layout (segments or samples partitions).
 pub fn live_segments(store: &Path) -> Result<Vec<SegmentRecord>, StoreError> {
+    // The segments of layout 2 read the same as layout 3; their samples sit elsewhere.
+    live_sample_files(store)?;
     let mut out = Vec::new();
     for path in live_segment_files(store)? {
         out.extend(read_segment_file(&path)?);

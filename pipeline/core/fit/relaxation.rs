@@ -353,8 +353,8 @@ pub struct RelaxationInput<'a> {
 pub struct RelaxationRow {
     /// Tire, rim, nominal pressure.
     pub key: TireKey,
-    /// Nominal load, N (-1 when not held).
-    pub fz_n_nom: i64,
+    /// Nominal load, N (`None` when not held).
+    pub fz_n_nom: Option<i64>,
     /// Mean measured load, N.
     pub fz_n_mean: f64,
     /// The members' common nominal inclination, hundredths of a degree; `None` when they differ
@@ -573,7 +573,12 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
                 Ok(row) => rows.push(row),
                 Err(reason) => out.failures.push(StageFailure {
                     key: input.key.clone(),
-                    scope: format!("{} {} at {} N", group.0.as_str(), group.1.as_str(), group.2),
+                    scope: format!(
+                        "{} {} at {}",
+                        group.0.as_str(),
+                        group.1.as_str(),
+                        load_text(group.2)
+                    ),
                     reason: reason.to_string(),
                 }),
             }
@@ -621,13 +626,13 @@ pub fn run(inputs: &[RelaxationInput<'_>], cfg: &RelaxationConfig) -> Relaxation
 
 /// Segments pooled into one row: direction, method, nominal load, slip-rate bin, speed bin
 /// (4 km/h: a rig lag in time makes the apparent length depend on speed).
-type GroupKey = (Direction, Method, i64, i64, i64);
+type GroupKey = (Direction, Method, Option<i64>, i64, i64);
 
 /// One segment ready to fit.
 struct Prepared {
     direction: Direction,
     method: Method,
-    fz_n_nom: i64,
+    fz_n_nom: Option<i64>,
     ia_cdeg_nom: Option<i64>,
     fz_n_mean: f64,
     speed_kph: f64,
@@ -992,7 +997,7 @@ fn prepare(
     Ok(Prepared {
         direction,
         method,
-        fz_n_nom: seg.nominal.fz_n.unwrap_or(-1),
+        fz_n_nom: seg.nominal.fz_n,
         ia_cdeg_nom: seg.nominal.ia_cdeg,
         fz_n_mean,
         speed_kph,
@@ -1221,8 +1226,10 @@ fn identify_measurement_lag(
     };
     // Sweep groups by (direction, nominal load): one shared sigma each.
     let mut by_load: BTreeMap<(Direction, i64), Vec<&GroupKey>> = BTreeMap::new();
-    for k in groups.keys().filter(|k| k.1 == Method::Sweep && k.2 > 0) {
-        by_load.entry((k.0, k.2)).or_default().push(k);
+    for k in groups.keys().filter(|k| k.1 == Method::Sweep) {
+        if let Some(fz) = k.2.filter(|&fz| fz > 0) {
+            by_load.entry((k.0, fz)).or_default().push(k);
+        }
     }
     let informative: Vec<Vec<&Prepared>> = by_load
         .values()
@@ -1856,11 +1863,20 @@ fn distinct_loads(fz: impl Iterator<Item = f64>) -> usize {
     count
 }
 
-/// Per-load summary for reports: mean `sigma` (IA 0) by (direction, nominal load).
+/// A nominal load as text: `1112 N`, or `an unheld load`.
+pub fn load_text(fz_n_nom: Option<i64>) -> String {
+    fz_n_nom.map_or_else(|| "an unheld load".to_string(), |fz| format!("{fz} N"))
+}
+
+/// Per-load summary for reports: mean `sigma` (IA 0) by (direction, nominal load); rows without
+/// a held load are left out.
 pub fn sigma_by_load(rows: &[RelaxationRow]) -> BTreeMap<(Direction, i64), f64> {
     let mut acc: BTreeMap<(Direction, i64), (f64, usize)> = BTreeMap::new();
     for r in rows.iter().filter(|r| !r.at_bound) {
-        let e = acc.entry((r.direction, r.fz_n_nom)).or_default();
+        let Some(fz) = r.fz_n_nom else {
+            continue;
+        };
+        let e = acc.entry((r.direction, fz)).or_default();
         e.0 += r.sigma_m;
         e.1 += 1;
     }

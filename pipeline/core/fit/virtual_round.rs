@@ -301,11 +301,11 @@ fn check_round(round: &Round) {
         let e = r.sigma_m / t - 1.0;
         let el = r.sigma_law_m / t - 1.0;
         println!(
-            "relax {} {} {} Fz {:>5} rate {:.3}: sigma {:.4} truth {:.4} ({:+.2} %), own {:+.2} %, prior {:+.2} %, weight {:.2}, law {:+.2} %, spread {:.4}, se {:.4} ({:+.1} se), a {:.4}, c {:.0}, n_seg {}",
+            "relax {} {} {} Fz {:>7} rate {:.3}: sigma {:.4} truth {:.4} ({:+.2} %), own {:+.2} %, prior {:+.2} %, weight {:.2}, law {:+.2} %, spread {:.4}, se {:.4} ({:+.1} se), a {:.4}, c {:.0}, n_seg {}",
             r.key,
             r.direction.as_str(),
             r.method.as_str(),
-            r.fz_n_nom,
+            super::relaxation::load_text(r.fz_n_nom),
             r.slip_rate,
             r.sigma_m,
             t,
@@ -334,7 +334,7 @@ fn check_round(round: &Round) {
                 r.key,
                 r.direction.as_str(),
                 r.method.as_str(),
-                r.fz_n_nom,
+                super::relaxation::load_text(r.fz_n_nom),
                 r.slip_rate,
                 100.0 * e,
                 100.0 * el
@@ -506,11 +506,11 @@ fn demo_round_relaxation_with_the_fitted_pac2002_model() {
         };
         let (e, el) = (r.sigma_m / t - 1.0, r.sigma_law_m / t - 1.0);
         println!(
-            "fitted-model relax {} {} {} Fz {:>5}: sigma {:+.2} %, law {:+.2} %, scale {:.3}",
+            "fitted-model relax {} {} {} Fz {:>7}: sigma {:+.2} %, law {:+.2} %, scale {:.3}",
             r.key,
             r.direction.as_str(),
             r.method.as_str(),
-            r.fz_n_nom,
+            super::relaxation::load_text(r.fz_n_nom),
             100.0 * e,
             100.0 * el,
             r.model_scale

@@ -243,11 +243,10 @@ pub struct LevelConfig {
     pub fz_tol: Tolerance,
     /// A load level within this of a standard load takes its label, N.
     pub fz_label_tol: Tolerance,
-    /// Inclination clustering tolerance, deg (labels are the centres in hundredths of a degree).
+    /// Inclination clustering tolerance, deg. No label tolerance: there is no standard list of
+    /// inclinations, a level's label is its centre rounded to 0.1 deg
+    /// ([`super::ia_cdeg_label`]).
     pub ia_tol: Tolerance,
-    /// Inclination label tolerance, deg (no standard list: labels are the centres rounded to
-    /// 0.1 deg, so it labels nothing).
-    pub ia_label_tol: Tolerance,
     /// Road speed clustering tolerance, km/h.
     pub speed_tol: Tolerance,
     /// A speed level within this of a standard speed takes its label, km/h.
@@ -419,7 +418,6 @@ impl Default for LevelConfig {
                 frac: 0.03,
             },
             ia_tol: Tolerance::fixed(0.5),
-            ia_label_tol: Tolerance::fixed(0.25),
             speed_tol: Tolerance::fixed(4.0),
             speed_label_tol: Tolerance::fixed(2.0),
             alpha_tol: Tolerance::fixed(0.5),
@@ -498,7 +496,6 @@ impl SegmentConfig {
             ("levels.fz_tol", self.levels.fz_tol),
             ("levels.fz_label_tol", self.levels.fz_label_tol),
             ("levels.ia_tol", self.levels.ia_tol),
-            ("levels.ia_label_tol", self.levels.ia_label_tol),
             ("levels.speed_tol", self.levels.speed_tol),
             ("levels.speed_label_tol", self.levels.speed_label_tol),
             ("levels.alpha_tol", self.levels.alpha_tol),

@@ -58,14 +58,20 @@ pub(crate) struct LevelSet {
 }
 
 impl LevelSet {
-    /// Cluster `values` (`(value, weight)`, non-finite values ignored) within `tol` and label each
-    /// cluster with the nearest of `standard` within `label_tol`, else its rounded centre.
+    /// Cluster `values` within `tol` ([`Self::cluster`]) and label each cluster with the nearest
+    /// of `standard` within `label_tol`, else its rounded centre.
     pub fn learn(
         values: &[(f64, f64)],
         tol: Tolerance,
         standard: &[f64],
         label_tol: Tolerance,
     ) -> LevelSet {
+        LevelSet::cluster(values, tol).labelled_by(|centre| label(centre, standard, label_tol))
+    }
+
+    /// Cluster `values` (`(value, weight)`, non-finite values ignored) within `tol`, each cluster
+    /// labelled by its rounded centre until [`Self::labelled_by`] labels it otherwise.
+    pub fn cluster(values: &[(f64, f64)], tol: Tolerance) -> LevelSet {
         let mut v: Vec<(f64, f64)> = values
             .iter()
             .copied()
@@ -75,7 +81,7 @@ impl LevelSet {
         let mut clusters = Vec::new();
         split(&v, tol, &mut clusters);
         for c in &mut clusters {
-            c.label = label(c.centre, standard, label_tol);
+            c.label = c.centre.round() as i64;
         }
         LevelSet {
             clusters,
@@ -102,7 +108,7 @@ impl LevelSet {
 
     /// The same clusters labelled by `label` of their centre (inclination: hundredths of a
     /// degree, so a level tested at 1.6 deg is not labelled 2).
-    pub fn labelled_by(mut self, label: fn(f64) -> i64) -> LevelSet {
+    pub fn labelled_by(mut self, label: impl Fn(f64) -> i64) -> LevelSet {
         for c in &mut self.clusters {
             c.label = label(c.centre);
         }
@@ -195,8 +201,7 @@ impl RunLevels {
                 &kpa,
                 cfg.pressure_label_tol,
             ),
-            ia_deg: LevelSet::learn(&held.ia_deg, cfg.ia_tol, &[], cfg.ia_label_tol)
-                .labelled_by(ia_cdeg_label),
+            ia_deg: LevelSet::cluster(&held.ia_deg, cfg.ia_tol).labelled_by(ia_cdeg_label),
             fz_n: LevelSet::learn(&held.fz_n, cfg.fz_tol, &n, cfg.fz_label_tol),
             speed_kph: LevelSet::learn(&held.speed_kph, cfg.speed_tol, &kph, cfg.speed_label_tol),
             alpha_deg: LevelSet::learn(&held.alpha_deg, cfg.alpha_tol, &[], cfg.alpha_label_tol),

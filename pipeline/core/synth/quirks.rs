@@ -106,42 +106,56 @@ impl QuirksConfig {
         }
     }
 
-    /// The range problem of a value, if any: `(key, message)`.
+    /// The range problem of a value, if any: `(key, value, message)`.
     pub fn invalid(&self) -> Option<(&'static str, f64, &'static str)> {
         let in_range = |v: f64, lo: f64, hi: f64| v.is_finite() && (lo..=hi).contains(&v);
-        if !in_range(self.load_swing_frac, 0.0, 0.5) {
-            return Some((
+        for (key, v, lo, hi, message) in [
+            (
                 "quirks.load_swing_frac",
                 self.load_swing_frac,
+                0.0,
+                0.5,
                 "must be in 0..0.5",
-            ));
-        }
-        if !in_range(self.sa_scale, 0.3, 2.0) {
-            return Some(("quirks.sa_scale", self.sa_scale, "must be in 0.3..2"));
-        }
-        if !in_range(self.load_scale, 0.3, 3.0) {
-            return Some(("quirks.load_scale", self.load_scale, "must be in 0.3..3"));
-        }
-        if !in_range(self.turnaround_dwell_s, 0.0, 2.0) {
-            return Some((
+            ),
+            (
+                "quirks.sa_scale",
+                self.sa_scale,
+                0.3,
+                2.0,
+                "must be in 0.3..2",
+            ),
+            (
+                "quirks.load_scale",
+                self.load_scale,
+                0.3,
+                3.0,
+                "must be in 0.3..3",
+            ),
+            (
                 "quirks.turnaround_dwell_s",
                 self.turnaround_dwell_s,
+                0.0,
+                2.0,
                 "must be in 0..2",
-            ));
-        }
-        if !in_range(self.turnaround_ring_mz_nm, 0.0, 200.0) {
-            return Some((
+            ),
+            (
                 "quirks.turnaround_ring_mz_nm",
                 self.turnaround_ring_mz_nm,
+                0.0,
+                200.0,
                 "must be in 0..200",
-            ));
-        }
-        if !in_range(self.turnaround_ring_fy_n, 0.0, 2000.0) {
-            return Some((
+            ),
+            (
                 "quirks.turnaround_ring_fy_n",
                 self.turnaround_ring_fy_n,
+                0.0,
+                2000.0,
                 "must be in 0..2000",
-            ));
+            ),
+        ] {
+            if !in_range(v, lo, hi) {
+                return Some((key, v, message));
+            }
         }
         self.drift.invalid()
     }

@@ -161,6 +161,19 @@ pub(super) fn hold_weak_groups(
         Family::Mz0 | Family::Mz | Family::Mx => "N m",
         _ => "N",
     };
+    // The family's k-fold figure of one model: its free set, coefficients and in-sample quality.
+    let k_fold = |free: &[Coef], coefs: &Coefs<f64>, quality: &FitQuality, dealing: Dealing| {
+        out_of_sample(
+            family,
+            free,
+            sweeps,
+            env,
+            cfg,
+            coefs,
+            &quality.identifiability,
+            dealing,
+        )
+    };
     let mut evaluations = 0;
     let mut current: Option<OutOfSample> = None;
     let mut held_any = false;
@@ -210,30 +223,12 @@ pub(super) fn hold_weak_groups(
             continue;
         }
         if current.is_none() {
-            current = out_of_sample(
-                family,
-                &fitted.free,
-                sweeps,
-                env,
-                cfg,
-                c,
-                &fitted.quality.identifiability,
-                Dealing::Selection,
-            );
+            current = k_fold(&fitted.free, c, &fitted.quality, Dealing::Selection);
             evaluations += current.as_ref().map_or(0, |o| o.evaluations);
         }
         let (Some(base), Some(held)) = (
             current.as_ref(),
-            out_of_sample(
-                family,
-                &free,
-                sweeps,
-                env,
-                cfg,
-                &trial,
-                &quality.identifiability,
-                Dealing::Selection,
-            ),
+            k_fold(&free, &trial, &quality, Dealing::Selection),
         ) else {
             continue;
         };
@@ -273,17 +268,7 @@ pub(super) fn hold_weak_groups(
         fitted.quality.out_of_sample = current;
         return evaluations;
     }
-    let report = out_of_sample(
-        family,
-        &fitted.free,
-        sweeps,
-        env,
-        cfg,
-        c,
-        &fitted.quality.identifiability,
-        Dealing::Report,
-    );
-    match report {
+    match k_fold(&fitted.free, c, &fitted.quality, Dealing::Report) {
         Some(r) => {
             evaluations += r.evaluations;
             if let Some(sel) = &current {

@@ -270,7 +270,7 @@ fn noisy_round_4_matrix_pools_inclinations_and_stays_within_five_percent() {
         assert_eq!((r.n_segments, r.ia_cdeg_nom), (5, None));
         assert!(
             err.abs() < 0.05,
-            "Fz {}: sigma {:.4} vs {truth:.4} ({err:+.3})",
+            "Fz {:?}: sigma {:.4} vs {truth:.4} ({err:+.3})",
             r.fz_n_nom,
             r.sigma_m
         );
@@ -278,7 +278,7 @@ fn noisy_round_4_matrix_pools_inclinations_and_stays_within_five_percent() {
         let law_err = r.sigma_law_m / truth - 1.0;
         assert!(
             law_err.abs() < 0.03,
-            "Fz {}: law {:.4} vs {truth:.4}",
+            "Fz {:?}: law {:.4} vs {truth:.4}",
             r.fz_n_nom,
             r.sigma_law_m
         );
@@ -288,7 +288,7 @@ fn noisy_round_4_matrix_pools_inclinations_and_stays_within_five_percent() {
         let from_spread = r.sigma_spread_m / (r.n_segments as f64).sqrt();
         assert!(
             r.sigma_se_m > from_spread / 3.0 && r.sigma_se_m < 3.0 * from_spread,
-            "Fz {}: se {:.5} vs spread/sqrt(n) {from_spread:.5}",
+            "Fz {:?}: se {:.5} vs spread/sqrt(n) {from_spread:.5}",
             r.fz_n_nom,
             r.sigma_se_m
         );
@@ -655,7 +655,7 @@ fn thesis_table_16_longitudinal_a_and_cx() {
 fn row_at(direction: Direction, fz: f64, sigma: f64, se_rel: f64) -> RelaxationRow {
     RelaxationRow {
         key: key("T", 83),
-        fz_n_nom: fz.round() as i64,
+        fz_n_nom: Some(fz.round() as i64),
         fz_n_mean: fz,
         ia_cdeg_nom: Some(0),
         direction,
@@ -922,7 +922,7 @@ fn rig_lag_is_separated_from_relaxation_with_two_speeds() {
             assert!(r.lag_separated && r.measurement_lag_s == lag.lag.lag_s);
             assert!(
                 (r.sigma_row_m / truth - 1.0).abs() < 0.05,
-                "{form:?} Fz {} at {:.0} km/h: sigma {:.4} vs {truth:.4}",
+                "{form:?} Fz {:?} at {:.0} km/h: sigma {:.4} vs {truth:.4}",
                 r.fz_n_nom,
                 r.speed_kph,
                 r.sigma_row_m
@@ -948,7 +948,7 @@ fn rig_lag_is_separated_from_relaxation_with_two_speeds() {
             let expected = r.speed_kph / 3.6 * lag_s;
             assert!(
                 (extra / expected - 1.0).abs() < 0.25,
-                "{form:?} Fz {}: sigma {:.4} - truth {truth:.4} vs V lag {expected:.4}",
+                "{form:?} Fz {:?}: sigma {:.4} - truth {truth:.4} vs V lag {expected:.4}",
                 r.fz_n_nom,
                 r.sigma_row_m
             );
