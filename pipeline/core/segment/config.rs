@@ -251,10 +251,9 @@ pub struct LevelConfig {
     pub speed_tol: Tolerance,
     /// A speed level within this of a standard speed takes its label, km/h.
     pub speed_label_tol: Tolerance,
-    /// Held slip angle clustering tolerance (combined sweeps, step steers), deg.
+    /// Held slip angle clustering tolerance (combined sweeps, step steers), deg; a level is
+    /// labelled by its centre rounded to whole degrees (there is no standard list to snap to).
     pub alpha_tol: Tolerance,
-    /// Held slip angle label tolerance, deg (no standard list: labels are the rounded centres).
-    pub alpha_label_tol: Tolerance,
 }
 
 /// QC flag thresholds.
@@ -421,7 +420,6 @@ impl Default for LevelConfig {
             speed_tol: Tolerance::fixed(4.0),
             speed_label_tol: Tolerance::fixed(2.0),
             alpha_tol: Tolerance::fixed(0.5),
-            alpha_label_tol: Tolerance::fixed(0.25),
         }
     }
 }
@@ -499,7 +497,6 @@ impl SegmentConfig {
             ("levels.speed_tol", self.levels.speed_tol),
             ("levels.speed_label_tol", self.levels.speed_label_tol),
             ("levels.alpha_tol", self.levels.alpha_tol),
-            ("levels.alpha_label_tol", self.levels.alpha_label_tol),
             ("qc.load_drift", self.qc.load_drift),
         ];
         for (key, tol) in tolerances {

@@ -204,7 +204,7 @@ impl RunLevels {
             ia_deg: LevelSet::cluster(&held.ia_deg, cfg.ia_tol).labelled_by(ia_cdeg_label),
             fz_n: LevelSet::learn(&held.fz_n, cfg.fz_tol, &n, cfg.fz_label_tol),
             speed_kph: LevelSet::learn(&held.speed_kph, cfg.speed_tol, &kph, cfg.speed_label_tol),
-            alpha_deg: LevelSet::learn(&held.alpha_deg, cfg.alpha_tol, &[], cfg.alpha_label_tol),
+            alpha_deg: LevelSet::cluster(&held.alpha_deg, cfg.alpha_tol),
         }
     }
 
