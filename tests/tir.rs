@@ -396,6 +396,18 @@ fn eval_input_errors_name_the_line() {
     }
 }
 
+/// The demo fixture with a planted shape-factor defect (`PCY1 = -1.45`), written into `dir`.
+fn planted_negative_cy(dir: &Path) -> std::path::PathBuf {
+    let broken = dir.join("negative_cy.tir");
+    let t = std::fs::read_to_string(fixture(FSAE_TIR)).unwrap();
+    std::fs::write(
+        &broken,
+        t.replace("PCY1                     =  1.45", "PCY1 = -1.45"),
+    )
+    .unwrap();
+    broken
+}
+
 #[test]
 fn lint_exit_codes() {
     let run = |path: &Path| {
@@ -416,13 +428,7 @@ fn lint_exit_codes() {
     assert!(out.contains("warning[read]: line "), "{out}");
 
     let dir = tempfile::tempdir().unwrap();
-    let broken = dir.path().join("negative_cy.tir");
-    let t = std::fs::read_to_string(fixture(FSAE_TIR)).unwrap();
-    std::fs::write(
-        &broken,
-        t.replace("PCY1                     =  1.45", "PCY1 = -1.45"),
-    )
-    .unwrap();
+    let broken = planted_negative_cy(dir.path());
     let (code, out, _) = run(&broken);
     assert_eq!(code, Some(1), "{out}");
     assert!(
@@ -455,13 +461,7 @@ fn lint_exit_codes() {
 #[test]
 fn lint_checks_every_file_named() {
     let dir = tempfile::tempdir().unwrap();
-    let broken = dir.path().join("negative_cy.tir");
-    let t = std::fs::read_to_string(fixture(FSAE_TIR)).unwrap();
-    std::fs::write(
-        &broken,
-        t.replace("PCY1                     =  1.45", "PCY1 = -1.45"),
-    )
-    .unwrap();
+    let broken = planted_negative_cy(dir.path());
     let missing = dir.path().join("does_not_exist.tir");
     let lint = |paths: &[&Path]| {
         let mut args = vec!["tir", "lint"];

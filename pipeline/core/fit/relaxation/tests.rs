@@ -1089,7 +1089,7 @@ fn a_force_that_leads_the_slip_is_reported_as_a_negative_apparent_lag() {
     let load = 1112.0;
     let sigma = sigma_alpha(&model, load);
     let late_s = sigma / V_MPS + 0.03;
-    let segs: Vec<MeasuredSegment> = (0..3)
+    let clean: Vec<MeasuredSegment> = (0..3)
         .map(|k| {
             let mut s = measured(
                 &model,
@@ -1103,6 +1103,13 @@ fn a_force_that_leads_the_slip_is_reported_as_a_negative_apparent_lag() {
                 11 + k,
             );
             s.segment_id = format!("seg{k}");
+            s
+        })
+        .collect();
+    let segs: Vec<MeasuredSegment> = clean
+        .iter()
+        .cloned()
+        .map(|mut s| {
             let c = &mut s.channels;
             c.alpha_rad = shifted(&c.et_s, &c.alpha_rad, late_s);
             s
@@ -1129,23 +1136,6 @@ fn a_force_that_leads_the_slip_is_reported_as_a_negative_apparent_lag() {
         r.apparent_lag_s
     );
     // Without the late channel the same rows measure the tire's own lag as a positive shift.
-    let clean: Vec<MeasuredSegment> = (0..3)
-        .map(|k| {
-            let mut s = measured(
-                &model,
-                &sweep_program(),
-                Direction::Lateral,
-                SegmentKind::Cornering,
-                load,
-                100.0,
-                6.0,
-                1.0,
-                11 + k,
-            );
-            s.segment_id = format!("seg{k}");
-            s
-        })
-        .collect();
     let input = RelaxationInput {
         segments: &clean,
         ..input
