@@ -44,6 +44,19 @@ impl Program {
     }
 }
 
+/// The relaxation input of the test tire ("T" at 83 kPa) with `segments` on `model`, at the
+/// model's own unloaded radius and vertical stiffness (`segments` empty: all that pooling rows
+/// needs).
+fn input<'a>(model: &'a Pac2002, segments: &'a [MeasuredSegment]) -> RelaxationInput<'a> {
+    RelaxationInput {
+        key: key("T", 83),
+        model,
+        unloaded_radius_m: model.coefs[Coef::UNLOADED_RADIUS],
+        vertical_stiffness_n_per_m: model.coefs[Coef::VERTICAL_STIFFNESS],
+        segments,
+    }
+}
+
 /// The measured segment of `program` on `truth` (grip scaled by `grip`) at `load`, lagged with
 /// the truth model's own relaxation length, sampled at `hz`, with force noise `noise_n`.
 #[allow(clippy::too_many_arguments)]
@@ -254,14 +267,7 @@ fn noisy_round_4_matrix_pools_inclinations_and_stays_within_five_percent() {
             segs.push(s);
         }
     }
-    let input = RelaxationInput {
-        key: key("T", 83),
-        model: &model,
-        unloaded_radius_m: 0.2612,
-        vertical_stiffness_n_per_m: 137_800.0,
-        segments: &segs,
-    };
-    let out = run(&[input], &cfg);
+    let out = run(&[input(&model, &segs)], &cfg);
     assert!(out.failures.is_empty(), "{:?}", out.failures);
     assert_eq!(out.rows.len(), 5);
     for r in &out.rows {
@@ -424,14 +430,7 @@ fn run_fits_pty_and_ptx_laws_and_eq_14_15_columns() {
         50.0,
         40.0,
     ));
-    let input = RelaxationInput {
-        key: key("T", 83),
-        model: &model,
-        unloaded_radius_m: model.coefs[Coef::UNLOADED_RADIUS],
-        vertical_stiffness_n_per_m: 137_800.0,
-        segments: &segs,
-    };
-    let out = run(&[input], &cfg);
+    let out = run(&[input(&model, &segs)], &cfg);
     assert!(out.failures.is_empty(), "{:?}", out.failures);
     assert_eq!(out.rows.len(), 9);
     for r in &out.rows {
@@ -520,14 +519,7 @@ fn a_bad_segment_fails_alone() {
     short.segment_id = "broken".into();
     short.channels.fy_n.truncate(10);
     let segs = [good, standing, short];
-    let input = RelaxationInput {
-        key: key("T", 83),
-        model: &model,
-        unloaded_radius_m: 0.2612,
-        vertical_stiffness_n_per_m: 137_800.0,
-        segments: &segs,
-    };
-    let out = run(&[input], &RelaxationConfig::default());
+    let out = run(&[input(&model, &segs)], &RelaxationConfig::default());
     assert_eq!(out.rows.len(), 1);
     assert!(
         out.failures
@@ -688,18 +680,6 @@ fn row_at(direction: Direction, fz: f64, sigma: f64, se_rel: f64) -> RelaxationR
     }
 }
 
-/// An input with the model, its `R0` and the vertical stiffness `cz_n_per_m` but no segments:
-/// all that pooling rows needs.
-fn without_segments(model: &Pac2002, cz_n_per_m: f64) -> RelaxationInput<'_> {
-    RelaxationInput {
-        key: key("T", 83),
-        model,
-        unloaded_radius_m: model.coefs[Coef::UNLOADED_RADIUS],
-        vertical_stiffness_n_per_m: cz_n_per_m,
-        segments: &[],
-    }
-}
-
 /// Rows at the round's loads following the model's own laws, each scaled by `factor(direction,
 /// load index)`, with relative standard error `se_rel(direction, load index)`.
 fn law_rows(
@@ -733,7 +713,7 @@ fn law_rows(
 #[test]
 fn a_noisy_row_leans_on_the_law_of_its_neighbours() {
     let model = fsae_model(PT);
-    let input = without_segments(&model, 137_800.0);
+    let input = input(&model, &[]);
     let cfg = RelaxationConfig::default();
     // The lowest lateral load is 6 % low with a 4 % standard error; the rest are exact (0.5 %).
     let mut rows = law_rows(
@@ -805,7 +785,10 @@ fn pooling_keeps_table_15_rows_the_law_cannot_follow() {
     let mut model = fsae_model(PT);
     model.coefs[Coef::FNOMIN] = 1112.0;
     model.coefs[Coef::UNLOADED_RADIUS] = 20.5 * 0.0254 / 2.0;
-    let input = without_segments(&model, 136_200.0);
+    let input = RelaxationInput {
+        vertical_stiffness_n_per_m: 136_200.0,
+        ..input(&model, &[])
+    };
     let mut rows: Vec<RelaxationRow> = TABLE_15
         .iter()
         .map(|&(fz, _, _, _, sigma, _)| {
@@ -857,14 +840,7 @@ fn three_speed_round(model: &Pac2002, rig: &MeasurementLag) -> Vec<MeasuredSegme
 fn no_rig_lag_is_not_separated_from_noise() {
     let model = fsae_model(PT);
     let segs = three_speed_round(&model, &MeasurementLag::NONE);
-    let input = RelaxationInput {
-        key: key("T", 83),
-        model: &model,
-        unloaded_radius_m: 0.2612,
-        vertical_stiffness_n_per_m: 137_800.0,
-        segments: &segs,
-    };
-    let out = run(&[input], &RelaxationConfig::default());
+    let out = run(&[input(&model, &segs)], &RelaxationConfig::default());
     assert!(out.failures.is_empty(), "{:?}", out.failures);
     let lag = &out.measurement_lags[0];
     eprintln!("{}", lag.note);
@@ -886,18 +862,11 @@ fn rig_lag_is_separated_from_relaxation_with_two_speeds() {
     for (form, lag_s) in [(LagForm::Delay, 0.020), (LagForm::FirstOrder, 0.015)] {
         let rig = MeasurementLag { form, lag_s };
         let segs = three_speed_round(&model, &rig);
-        let input = || RelaxationInput {
-            key: key("T", 83),
-            model: &model,
-            unloaded_radius_m: 0.2612,
-            vertical_stiffness_n_per_m: 137_800.0,
-            segments: &segs,
-        };
         let cfg = RelaxationConfig {
             measurement_lag_form: form,
             ..RelaxationConfig::default()
         };
-        let out = run(&[input()], &cfg);
+        let out = run(&[input(&model, &segs)], &cfg);
         assert!(out.failures.is_empty(), "{:?}", out.failures);
         let lag = &out.measurement_lags[0];
         let worst = out
@@ -934,13 +903,7 @@ fn rig_lag_is_separated_from_relaxation_with_two_speeds() {
             .filter(|s| (s.channels.speed_kph[0] - 40.2).abs() < 1.0)
             .cloned()
             .collect();
-        let out = run(
-            &[RelaxationInput {
-                segments: &one_speed,
-                ..input()
-            }],
-            &cfg,
-        );
+        let out = run(&[input(&model, &one_speed)], &cfg);
         assert!(!out.measurement_lags[0].identified);
         for r in &out.rows {
             let truth = sigma_alpha(&model, r.fz_n_mean);
@@ -1115,14 +1078,7 @@ fn a_force_that_leads_the_slip_is_reported_as_a_negative_apparent_lag() {
             s
         })
         .collect();
-    let input = RelaxationInput {
-        key: key("T", 83),
-        model: &model,
-        unloaded_radius_m: model.coefs[Coef::UNLOADED_RADIUS],
-        vertical_stiffness_n_per_m: 137_800.0,
-        segments: &segs,
-    };
-    let out = run(std::slice::from_ref(&input), &RelaxationConfig::default());
+    let out = run(&[input(&model, &segs)], &RelaxationConfig::default());
     assert_eq!(out.rows.len(), 1, "{:?}", out.failures);
     let r = &out.rows[0];
     assert!(
@@ -1136,11 +1092,7 @@ fn a_force_that_leads_the_slip_is_reported_as_a_negative_apparent_lag() {
         r.apparent_lag_s
     );
     // Without the late channel the same rows measure the tire's own lag as a positive shift.
-    let input = RelaxationInput {
-        segments: &clean,
-        ..input
-    };
-    let out = run(&[input], &RelaxationConfig::default());
+    let out = run(&[input(&model, &clean)], &RelaxationConfig::default());
     let r = &out.rows[0];
     assert!(
         !r.at_bound && (r.sigma_row_m / sigma - 1.0).abs() < 0.05,
