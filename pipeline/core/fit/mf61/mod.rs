@@ -19,8 +19,9 @@
 //!    `Fx0` (drive/brake `Fx`), combined `Fx`, `Fy`, then `Mz` (every sweep: the `Mz0`
 //!    coefficients again with the combined-slip arm `SSZ*`), then `Mx`; its free coefficients are
 //!    the family's MF 6.1 coefficients and their pressure terms (linear terms with two pressures,
-//!    quadratic ones with three), camber terms only where the data vary the camber, load terms
-//!    only where they vary the load. `PKY4 = 2`, `PKY5 = PEY5 = 0`, `RBX3 = RBY4 = 0` are held:
+//!    quadratic ones with three), camber terms only where the data vary the camber (`QBZ5`, on
+//!    `|gamma|`, only with inclinations of both signs), load terms only where they vary the
+//!    load. `PKY4 = 2`, `PKY5 = PEY5 = 0`, `RBX3 = RBY4 = 0` are held:
 //!    the PAC2002 fits they start from have no such terms. A family without data keeps its
 //!    lifted values. Shape factors `PCX1`, `PCY1` and peak frictions `|PDX1|`, `|PDY1|` keep the
 //!    PAC2002 stage's boxes (`C` in [1, 2.5], `|mu|` in [0.02, 4]).
@@ -245,6 +246,10 @@ struct Variation {
     pressures: usize,
     loads: bool,
     cambers: usize,
+    /// Inclinations on both sides of zero (beyond the level tolerance): otherwise `|gamma|` is
+    /// `gamma` (or `-gamma`) on every point and `QBZ5` cannot be told from `QBZ4`, the rule
+    /// the PAC2002 stage applies (`pac2002::family::unidentifiable`).
+    camber_both_signs: bool,
 }
 
 /// The free coefficients of a family given what the data vary.
@@ -275,7 +280,8 @@ fn free_coefficients(family: Family, v: Variation) -> Vec<Coef> {
                 true,
             );
             add(&[QBZ2, QBZ3, QDZ2, QDZ7, QEZ2, QEZ3, QHZ2], v.loads);
-            add(&[QBZ4, QBZ5, QDZ3, QDZ4, QDZ8, QEZ5, QHZ3], camber);
+            add(&[QBZ4, QDZ3, QDZ4, QDZ8, QEZ5, QHZ3], camber);
+            add(&[QBZ5], camber && v.camber_both_signs);
             add(&[QDZ9, QHZ4], camber && v.loads);
             add(&[QDZ10], camber2);
             add(&[QDZ11], camber2 && v.loads);
@@ -853,16 +859,16 @@ fn fit_points(
             })
             .map(|p| p.group)
             .collect();
+        let camber_tol = 0.25_f64.to_radians();
         let variation = Variation {
             pressures: levels.len(),
             loads: count_levels(
                 data.inputs.iter().map(|p| p.fz_n),
                 0.1 * model.coefs[FNOMIN],
             ) >= 2,
-            cambers: count_levels(
-                data.inputs.iter().map(|p| p.gamma_rad),
-                0.25_f64.to_radians(),
-            ),
+            cambers: count_levels(data.inputs.iter().map(|p| p.gamma_rad), camber_tol),
+            camber_both_signs: data.inputs.iter().any(|p| p.gamma_rad > camber_tol)
+                && data.inputs.iter().any(|p| p.gamma_rad < -camber_tol),
         };
         let mut free = free_coefficients(family, variation);
         // A pressure term the family's data cannot determine (its sweeps at fewer tested

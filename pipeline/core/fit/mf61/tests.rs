@@ -484,3 +484,26 @@ fn a_pressure_block_out_of_pressure_order_is_noted() {
     );
     assert!(lopo_at_83(&drifted_fit) > 5.0 * lopo_at_83(&clean_fit));
 }
+
+/// Inclinations of one sign make `|gamma|` equal to `gamma` on every point: `QBZ5` stays out of
+/// the trail families and `QBZ4` carries the camber slope (the PAC2002 stage's rule); with both
+/// signs both are free.
+#[test]
+fn qbz5_is_free_only_with_inclinations_of_both_signs() {
+    let one_sign = Variation {
+        pressures: 2,
+        loads: true,
+        cambers: 3,
+        camber_both_signs: false,
+    };
+    let both_signs = Variation {
+        camber_both_signs: true,
+        ..one_sign
+    };
+    for family in [Family::Mz0, Family::Mz] {
+        let free = free_coefficients(family, one_sign);
+        assert!(free.contains(&QBZ4) && !free.contains(&QBZ5), "{free:?}");
+        let free = free_coefficients(family, both_signs);
+        assert!(free.contains(&QBZ4) && free.contains(&QBZ5), "{free:?}");
+    }
+}
