@@ -322,6 +322,8 @@ fn build(
             origin: c.origin.to_string(),
             note: if c.origin == "placeholder" {
                 Some(MY_PLACEHOLDER_NOTE.to_string())
+            } else if c.note.is_some() {
+                c.note.clone()
             } else {
                 c.at_bound
                     .then(|| mf61::bound_note(c.coef, c.value))

@@ -227,6 +227,7 @@ pub fn start(models: &[Pac2002AtPressure], nominal_pa: f64) -> Start {
             models.len()
         ));
     }
+    combined_slip_signs(&mut c);
     Start {
         coefs: c.restricted_to(Version::Mf61),
         reference,
@@ -234,9 +235,89 @@ pub fn start(models: &[Pac2002AtPressure], nominal_pa: f64) -> Start {
     }
 }
 
+/// Brings the combined-slip weighting terms to the signs of the refinement's boxes
+/// (`pac2002::combined_slip_box`: slopes and shape terms >= 0) without changing any force:
+/// the weightings are even in their slopes `Bxa = (RBX1 + RBX3 g^2) cos(atan(RBX2 k))` and
+/// `Byk = (RBY1 + RBY4 g^2) cos(atan(RBY2 (a - RBY3)))`, `cos(atan(.))` is even in `RBX2`,
+/// `RBY2`, `RVY4`, and `SVyk = DVyk sin(RVY5 atan(RVY6 k))` with `DVyk` linear in `RVY1..3` is
+/// unchanged when `RVY6` and `RVY1..3` all change sign. A start outside a box would be clamped
+/// onto its edge, where a zero shape term switches its whole term off (`RVY6 = 0` leaves
+/// `RVY1..5` without effect on any point).
+pub fn combined_slip_signs(c: &mut Coefs<f64>) {
+    for (slope, camber) in [(RBX1, RBX3), (RBY1, RBY4)] {
+        if c[slope] < 0.0 {
+            c[slope] = -c[slope];
+            c[camber] = -c[camber];
+        }
+    }
+    for k in [RBX2, RBY2, RVY4] {
+        c[k] = c[k].abs();
+    }
+    if c[RVY6] < 0.0 {
+        for k in [RVY6, RVY1, RVY2, RVY3] {
+            c[k] = -c[k];
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The sign normalisation leaves every force and moment of a model unchanged.
+    #[test]
+    fn combined_slip_signs_change_no_force() {
+        use crate::tire_model::{Evaluation, Mode, SlipInput};
+        let fsae =
+            include_str!("../../../../tests/fixtures/reference/fsae-demo/fsae_demo_pac2002.tir");
+        let pac = TirFile::parse(fsae).unwrap().0;
+        let mut c = convert::convert(&pac, Version::Mf61, Some(83e3))
+            .unwrap()
+            .file
+            .coefs;
+        c[RBX1] = -c[RBX1];
+        c[RBX3] = 0.5;
+        c[RBY1] = -c[RBY1];
+        c[RBY4] = -0.7;
+        c[RBY2] = -c[RBY2];
+        c[RVY4] = -c[RVY4];
+        assert!(c[RVY6] < 0.0, "the demo tire's RVY6 is negative");
+        let before = MagicFormula::with_version(c.clone(), Version::Mf61);
+        combined_slip_signs(&mut c);
+        let after = MagicFormula::with_version(c.clone(), Version::Mf61);
+        assert!(c[RBX1] > 0.0 && c[RBY1] > 0.0 && c[RBY2] > 0.0 && c[RVY4] > 0.0);
+        assert!(c[RVY6] > 0.0);
+        let mut points = Vec::new();
+        for fz_n in [400.0, 1100.0, 2000.0] {
+            for gamma in [-0.05, 0.0, 0.06] {
+                for i in -6..=6 {
+                    for j in -6..=6 {
+                        points.push(SlipInput {
+                            fz_n,
+                            kappa: 0.03 * i as f64,
+                            alpha_rad: 0.03 * j as f64,
+                            gamma_rad: gamma,
+                            vx_mps: 11.0,
+                        });
+                    }
+                }
+            }
+        }
+        let mut a = vec![Evaluation::default(); points.len()];
+        let mut b = a.clone();
+        before.eval_batch(&points, Mode::Raw, &mut a);
+        after.eval_batch(&points, Mode::Raw, &mut b);
+        for ((p, x), y) in points.iter().zip(&a).zip(&b) {
+            for (u, v) in [
+                (x.fx_n, y.fx_n),
+                (x.fy_n, y.fy_n),
+                (x.mz_nm, y.mz_nm),
+                (x.mx_nm, y.mx_nm),
+            ] {
+                assert!((u - v).abs() <= 1e-9 * (1.0 + u.abs()), "{p:?}: {u} vs {v}");
+            }
+        }
+    }
 
     #[test]
     fn trend_recovers_factors() {

@@ -51,12 +51,13 @@ pub(crate) mod virtual_input;
 #[cfg(test)]
 mod virtual_round;
 
+use std::collections::BTreeMap;
 use std::time::Instant;
 
 use rayon::prelude::*;
 
 use crate::fit::output::Output;
-use crate::fit::pac2002::{Family, SweepKind};
+use crate::fit::pac2002::{self, Family, Levels, SweepKind, combined_slip_box, unidentifiable};
 use crate::fit::sweep_folds::OutOfSampleQuality;
 use crate::numerics::nonlinear_least_squares::{
     Bounds, FitOutcome, Identifiability, Options, RobustLoss, Termination, minimize,
@@ -342,8 +343,12 @@ fn pressure_terms(family: Family) -> &'static [Coef] {
 /// The shape and friction boxes are the PAC2002 stage's: below `C = 1` the curve never reaches
 /// `D` (at `C` it tends to `D sin(C pi / 2)`), so a refinement on sweeps that do not reach the
 /// friction peak trades `C` down against `D` up without bound, and `D` stops being the peak
-/// friction the file claims.
+/// friction the file claims. The combined-slip weighting terms have the PAC2002 stage's boxes
+/// too (`pac2002::combined_slip_box`).
 fn bounds_of(c: Coef, reference: f64) -> (f64, f64) {
+    if let Some((lo, hi, _)) = combined_slip_box(c) {
+        return (lo, hi);
+    }
     let signed = |lo: f64, hi: f64| {
         if reference < 0.0 {
             (-hi, -lo)
@@ -353,7 +358,7 @@ fn bounds_of(c: Coef, reference: f64) -> (f64, f64) {
     };
     match c {
         PCY1 | PCX1 => (1.0, 2.5),
-        QCZ1 | RCX1 | RCY1 => (0.3, 4.0),
+        QCZ1 => (0.3, 4.0),
         PDY1 | PDX1 => signed(MU_MIN, MU_MAX),
         PPX1 | PPX2 | PPX3 | PPX4 | PPY1 | PPY2 | PPY3 | PPY4 | PPY5 | PPZ1 | PPZ2 | PPMX1 => {
             (-5.0, 5.0)
@@ -370,12 +375,13 @@ const MU_MIN: f64 = 0.02;
 pub fn bound_note(c: Coef, value: f64) -> Option<String> {
     let (lo, hi) = bounds_of(c, value);
     let why = match c {
+        _ if combined_slip_box(c).is_some() => combined_slip_box(c)?.2,
         PCY1 | PCX1 => {
             "shape factor C in [1, 2.5]; at 1 the sweeps do not reach the friction peak and D \
              is the force's asymptote (below 1 the peak factor would grow without bound); at \
              2.5 the force reverses after its peak"
         }
-        QCZ1 | RCX1 | RCY1 => "shape factor in [0.3, 4], the refinement's box",
+        QCZ1 => "shape factor in [0.3, 4], the refinement's box",
         PDY1 | PDX1 => {
             "peak friction |mu| at FNOMIN and NOMPRES in [0.02, 4]: beyond 4 not physical (the \
              lint's limit)"
@@ -386,11 +392,7 @@ pub fn bound_note(c: Coef, value: f64) -> Option<String> {
         }
         _ => return None,
     };
-    let lower = (value - lo).abs() <= (hi - value).abs();
-    let (side, bound) = if lower { ("lower", lo) } else { ("upper", hi) };
-    Some(format!(
-        "on its {side} bound {bound} (the data pull it further): {why}"
-    ))
+    Some(pac2002::bound_note(c, value, (lo, hi, why)))
 }
 
 /// Solver facts of one family.
@@ -433,9 +435,13 @@ pub struct Mf61Coefficient {
     pub std_error: Option<f64>,
     /// On a bound of the refinement.
     pub at_bound: bool,
-    /// `fitted`, `start` (from the PAC2002 fits: lifted or their pressure trend, not refined),
-    /// `placeholder` (the rolling resistance terms `QSY1..QSY8`: TTC records no `My`).
+    /// `fitted`, `fixed` (the tested levels cannot determine it: held at its start, `note`
+    /// says why), `start` (from the PAC2002 fits: lifted or their pressure trend, not
+    /// refined), `placeholder` (the rolling resistance terms `QSY1..QSY8`: TTC records no
+    /// `My`).
     pub origin: &'static str,
+    /// Why a `fixed` coefficient is held.
+    pub note: Option<String>,
 }
 
 /// Fit quality at one tested pressure and output.
@@ -574,6 +580,8 @@ struct Fitted {
     model: MagicFormula,
     families: Vec<FamilyOutcome>,
     std_errors: Vec<(Coef, Option<f64>, bool, Family)>,
+    /// Coefficients the data's levels cannot determine, held at their start: why.
+    held: Vec<(Coef, Family, String)>,
     notes: Vec<String>,
 }
 
@@ -784,6 +792,7 @@ fn fit_points(
     let mut notes = start.notes;
     let mut families = Vec::new();
     let mut std_errors = Vec::new();
+    let mut held = Vec::new();
     let pure = PureData::of(points);
     // `My` is not refined: TTC records no rolling resistance moment, so its coefficients keep
     // their lifted values.
@@ -871,6 +880,31 @@ fn fit_points(
                 && data.inputs.iter().any(|p| p.gamma_rad < -camber_tol),
         };
         let mut free = free_coefficients(family, variation);
+        // The PAC2002 stage's rule on what the tested levels cannot determine (a shift of the
+        // combined-slip weighting with slip angles of one sign only, a load curvature from two
+        // loads, ...): such a coefficient keeps its start value, and its row says why.
+        let levels = levels_of(
+            points.iter().filter(|p| {
+                pure.allows(family, p.kind, p.group)
+                    && reads(family, p.kind).is_some_and(|o| {
+                        p.values[o as usize].is_finite() && p.weights[o as usize] > 0.0
+                    })
+            }),
+            points.iter().filter(|p| p.kind != SweepKind::Cornering),
+            0.1 * model.coefs[FNOMIN],
+        );
+        free.retain(|c| match unidentifiable(*c, &levels) {
+            Some(why) => {
+                // Fitted on an earlier family's data, it keeps that fit's value and row.
+                if !std_errors.iter().any(|s: &(Coef, _, _, _)| s.0 == *c)
+                    && !held.iter().any(|h: &(Coef, _, _)| h.0 == *c)
+                {
+                    held.push((*c, family, why));
+                }
+                false
+            }
+            None => true,
+        });
         // A pressure term the family's data cannot determine (its sweeps at fewer tested
         // pressures than the term needs) is 0, not the start's trend: that trend may come from
         // a pressure whose PAC2002 fit had no data for the family (its defaults).
@@ -942,6 +976,7 @@ fn fit_points(
             for (j, c) in free.iter().enumerate() {
                 std_errors.push((*c, outcome.std_errors[j], outcome.at_bounds[j], family));
             }
+            held.retain(|h| !free.contains(&h.0));
         } else {
             notes.push(format!(
                 "{}: refinement rejected (RMSE {rmse:.4} vs start {initial_rmse:.4}); the values \
@@ -967,8 +1002,51 @@ fn fit_points(
         model,
         families,
         std_errors,
+        held,
         notes,
     }
+}
+
+/// The tested levels (`pac2002::Levels`) of a family's points, one level per sweep (its mean
+/// load, inclination and slip angle): loads within `load_tol` N and angles within 0.25 deg are
+/// one level. Slip-angle levels count the slip-ratio sweeps `slip_ratio` (0 included).
+fn levels_of<'a>(
+    family: impl Iterator<Item = &'a Point>,
+    slip_ratio: impl Iterator<Item = &'a Point>,
+    load_tol: f64,
+) -> Levels {
+    let angle_tol = 0.25_f64.to_radians();
+    let own = sweep_means(family);
+    let slips = sweep_means(slip_ratio);
+    let gammas = || own.iter().map(|s| s.1[1]);
+    let combined = || {
+        slips
+            .iter()
+            .filter(|s| s.0 == SweepKind::Combined)
+            .map(|s| s.1[2])
+    };
+    Levels {
+        loads: count_levels(own.iter().map(|s| s.1[0]), load_tol),
+        cambers: count_levels(gammas(), angle_tol),
+        camber_both_signs: gammas().any(|g| g > angle_tol) && gammas().any(|g| g < -angle_tol),
+        alphas: count_levels(slips.iter().map(|s| s.1[2].abs()), angle_tol),
+        alpha_both_signs: combined().any(|a| a > angle_tol) && combined().any(|a| a < -angle_tol),
+    }
+}
+
+/// Per sweep of `points`: its kind and mean `(Fz, gamma, alpha)`.
+fn sweep_means<'a>(points: impl Iterator<Item = &'a Point>) -> Vec<(SweepKind, [f64; 3])> {
+    let mut sums: BTreeMap<usize, (SweepKind, [f64; 3], f64)> = BTreeMap::new();
+    for p in points {
+        let e = sums.entry(p.sweep).or_insert((p.kind, [0.0; 3], 0.0));
+        e.1[0] += p.input.fz_n;
+        e.1[1] += p.input.gamma_rad;
+        e.1[2] += p.input.alpha_rad;
+        e.2 += 1.0;
+    }
+    sums.into_values()
+        .map(|(kind, s, n)| (kind, s.map(|v| v / n)))
+        .collect()
 }
 
 /// Per output at one group: (n, rmse, peak, r2).
@@ -1432,17 +1510,20 @@ fn coefficient_list(f: &Fitted) -> Vec<Mf61Coefficient> {
         .filter(|c| c.carried_by(Version::Mf61))
         .map(|c| {
             let fitted = f.std_errors.iter().rev().find(|s| s.0 == *c);
+            let held = f.held.iter().find(|h| h.0 == *c);
             Mf61Coefficient {
                 coef: *c,
-                family: fitted.map(|s| s.3),
+                family: fitted.map(|s| s.3).or(held.map(|h| h.1)),
                 value: f.model.coefs[*c],
                 std_error: fitted.and_then(|s| if s.2 { None } else { s.1 }),
                 at_bound: fitted.is_some_and(|s| s.2),
-                origin: match fitted {
-                    Some(_) => "fitted",
-                    None if ROLLING.contains(c) => "placeholder",
-                    None => "start",
+                origin: match (fitted, held) {
+                    (_, Some(_)) => "fixed",
+                    (Some(_), None) => "fitted",
+                    (None, None) if ROLLING.contains(c) => "placeholder",
+                    (None, None) => "start",
                 },
+                note: held.map(|h| format!("held ({}): {}", h.1.as_str(), h.2)),
             }
         })
         .collect()

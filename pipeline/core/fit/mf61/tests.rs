@@ -507,3 +507,68 @@ fn qbz5_is_free_only_with_inclinations_of_both_signs() {
         assert!(free.contains(&QBZ4) && free.contains(&QBZ5), "{free:?}");
     }
 }
+
+/// Combined sweeps at slip angles of one sign (TTC's SA -3, -6; here +3, +6 deg) cannot tell
+/// a shift of the combined-slip weighting (`RBY3`, `RHX1`) from its slope: both are held at
+/// their start with a row saying why, as the PAC2002 stage holds them, and the combined
+/// families' Jacobians have full rank (free coefficients the data cannot move would make every
+/// k-fold refit rank-deficient and flag the family). With a third slip angle of the other sign,
+/// both are fitted.
+#[test]
+fn combined_slip_shifts_are_held_with_slip_angles_of_one_sign() {
+    let truth = truth();
+    let cfg = Mf61Config {
+        kfold: 0,
+        ..Mf61Config::default()
+    };
+    let one_sign = fit(&input(&truth, &[69, 83]), &cfg).unwrap();
+    for c in [RBY3, RHX1] {
+        let row = one_sign.coefficients.iter().find(|r| r.coef == c).unwrap();
+        assert_eq!(row.origin, "fixed", "{}", c.name());
+        assert!(
+            row.note.as_deref().is_some_and(|n| n.contains("one sign")),
+            "{row:?}"
+        );
+        assert!(!one_sign.families.iter().any(|f| f.free.contains(&c)));
+    }
+    for f in &one_sign.families {
+        let free = f.free.len();
+        let at_bounds = free - f.identifiability.n_free;
+        assert_eq!(
+            f.identifiability.rank,
+            f.identifiability.n_free,
+            "{}: rank {} of {} free ({at_bounds} on a bound)",
+            f.family.as_str(),
+            f.identifiability.rank,
+            f.identifiability.n_free
+        );
+    }
+
+    let mut both = input(&truth, &[69, 83]);
+    for g in &mut both.groups {
+        let mut other_side = g.sweeps.iter().find(|s| s.id == "x3").unwrap().clone();
+        other_side.id = "x-3".into();
+        for s in &mut other_side.samples {
+            s.alpha_rad = -s.alpha_rad;
+            let at = SlipInput {
+                fz_n: s.fz_n,
+                kappa: s.kappa,
+                alpha_rad: s.alpha_rad,
+                gamma_rad: s.gamma_rad,
+                vx_mps: s.vx_mps,
+            };
+            let e = truth.eval_at(&at, s.p_pa, Mode::Raw);
+            (s.fx_n, s.fy_n, s.mz_nm, s.mx_nm) = (e.fx_n, e.fy_n, e.mz_nm, e.mx_nm);
+        }
+        g.sweeps.push(other_side);
+    }
+    let both_signs = fit(&both, &cfg).unwrap();
+    for c in [RBY3, RHX1] {
+        let row = both_signs
+            .coefficients
+            .iter()
+            .find(|r| r.coef == c)
+            .unwrap();
+        assert_eq!(row.origin, "fitted", "{}", c.name());
+    }
+}

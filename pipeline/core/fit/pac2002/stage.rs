@@ -741,6 +741,9 @@ fn fit_family(
 /// depend on the sign found by the starting values and on the envelope. `why` is what a value
 /// on the bound says about the data (the `note` of its coefficient row).
 pub(super) fn bound_of(coef: Coef, c: &Coefs<f64>, env: &Envelope) -> (f64, f64, &'static str) {
+    if let Some(combined) = combined_slip_box(coef) {
+        return combined;
+    }
     let inf = f64::INFINITY;
     let g = env.gamma_max_abs().max(1e-3);
     let signed = |v: f64, lo: f64, hi: f64| if v < 0.0 { (-hi, -lo) } else { (lo, hi) };
@@ -786,19 +789,47 @@ pub(super) fn bound_of(coef: Coef, c: &Coefs<f64>, env: &Envelope) -> (f64, f64,
             "residual torque peak within 0.2 Fz R0 (a real tire's is ~0.01)",
         ),
         QEZ1 => with((-20.0, 1.0), "trail curvature Et at FNOMIN in [-20, 1]"),
-        RBX1 | RBY1 => with(
-            (0.0, 100.0),
-            "combined-slip weighting slope within 100: steeper drops the force to zero within \
-             0.01 of the other slip",
-        ),
-        RBX2 | RBY2 | RVY4 | RVY6 => with((0.0, 500.0), "combined-slip shape term in [0, 500]"),
-        RCX1 | RCY1 => with((0.3, 2.0), "combined-slip weighting shape in [0.3, 2]"),
-        RHX1 | RBY3 => with((-0.1, 0.1), "combined-slip shift within 0.1 rad"),
-        RHY1 | RHY2 => with((-0.3, 0.3), "combined-slip shift within 0.3"),
-        RVY5 => with((0.0, 3.0), "kappa-induced side force shape in [0, 3]"),
         QSX5 | QSX6 | QSX9 | QSX11 => with((0.0, 100.0), "Mx shape term in [0, 100]"),
         _ => (-inf, inf, "unbounded"),
     }
+}
+
+/// The box of a combined-slip weighting coefficient and what its edges mean, `(lower, upper,
+/// why)`; `None` for other coefficients. PAC2002 and MF 6.x share the weighting functions
+/// (`Gxa`, `Gyk`, `SVyk`), so both fits use these boxes. The shape terms inside `cos(atan(.))`
+/// (`RBX2`, `RBY2`, `RVY4`) act through their magnitude only and have no slope at 0: a start
+/// there stays there unless the box holds it as a bound (then it counts as determined by the
+/// data, not as a free direction of the Jacobian).
+pub(crate) fn combined_slip_box(coef: Coef) -> Option<(f64, f64, &'static str)> {
+    Some(match coef {
+        RBX1 | RBY1 => (
+            0.0,
+            100.0,
+            "combined-slip weighting slope within 100: steeper drops the force to zero within \
+             0.01 of the other slip",
+        ),
+        RBX2 | RBY2 | RVY4 | RVY6 => (0.0, 500.0, "combined-slip shape term in [0, 500]"),
+        RCX1 | RCY1 => (0.3, 2.0, "combined-slip weighting shape in [0.3, 2]"),
+        RHX1 | RBY3 => (-0.1, 0.1, "combined-slip shift within 0.1 rad"),
+        RHY1 | RHY2 => (-0.3, 0.3, "combined-slip shift within 0.3"),
+        RVY5 => (0.0, 3.0, "kappa-induced side force shape in [0, 3]"),
+        _ => return None,
+    })
+}
+
+/// The note of a coefficient at `value` on a bound of its box `(lower, upper, why)`.
+pub(crate) fn bound_note(coef: Coef, value: f64, (lo, hi, why): (f64, f64, &str)) -> String {
+    let lower = (value - lo).abs() <= (hi - value).abs();
+    if lower && lo == 0.0 && matches!(coef, RBX2 | RBY2 | RVY4) {
+        // Even in the coefficient and flat at 0: the data do not push it past 0.
+        return format!(
+            "at 0, where it stops acting (it enters as cos(atan({} x)), flat at 0): the data show \
+             no change of the weighting's width with the other slip; {why}",
+            coef.name()
+        );
+    }
+    let (side, bound) = if lower { ("lower", lo) } else { ("upper", hi) };
+    format!("on its {side} bound {bound} (the data pull it further): {why}")
 }
 
 /// Bounds of the free coefficients ([`bound_of`]).
@@ -1184,19 +1215,7 @@ fn coefficient_list(
                 CoefficientOrigin::Placeholder if *family == Some(Family::My) => {
                     Some(MY_PLACEHOLDER_NOTE.to_string())
                 }
-                _ if at_bound => {
-                    let (lo, hi, why) = bound_of(*coef, c, env);
-                    let v = c[*coef];
-                    let side = if (v - lo).abs() <= (hi - v).abs() {
-                        "lower"
-                    } else {
-                        "upper"
-                    };
-                    let bound = if side == "lower" { lo } else { hi };
-                    Some(format!(
-                        "on its {side} bound {bound} (the data pull it further): {why}"
-                    ))
-                }
+                _ if at_bound => Some(bound_note(*coef, c[*coef], bound_of(*coef, c, env))),
                 _ => None,
             };
             Some(FittedCoefficient {
