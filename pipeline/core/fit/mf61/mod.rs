@@ -1523,7 +1523,7 @@ fn coefficient_list(f: &Fitted) -> Vec<Mf61Coefficient> {
                     (None, None) if ROLLING.contains(c) => "placeholder",
                     (None, None) => "start",
                 },
-                note: held.map(|h| format!("held ({}): {}", h.1.as_str(), h.2)),
+                note: held.map(|h| format!("held: {}", h.2)),
             }
         })
         .collect()

@@ -823,8 +823,8 @@ pub(crate) fn bound_note(coef: Coef, value: f64, (lo, hi, why): (f64, f64, &str)
     if lower && lo == 0.0 && matches!(coef, RBX2 | RBY2 | RVY4) {
         // Even in the coefficient and flat at 0: the data do not push it past 0.
         return format!(
-            "at 0, where it stops acting (it enters as cos(atan({} x)), flat at 0): the data show \
-             no change of the weighting's width with the other slip; {why}",
+            "on its lower bound 0, where it stops acting (it enters as cos(atan({} x)), flat at \
+             0: the data show no change of the weighting's width with the other slip): {why}",
             coef.name()
         );
     }
