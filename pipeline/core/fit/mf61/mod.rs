@@ -858,16 +858,15 @@ fn fit_points(
         // Pressure levels are the tested pressures (groups), not the measured values: a group's
         // measured pressure wanders by a few kPa, which would otherwise count as extra levels
         // and free the quadratic pressure terms on two tested pressures.
-        let levels: std::collections::BTreeSet<usize> = points
-            .iter()
-            .filter(|p| {
-                pure.allows(family, p.kind, p.group)
-                    && reads(family, p.kind).is_some_and(|o| {
-                        p.values[o as usize].is_finite() && p.weights[o as usize] > 0.0
-                    })
-            })
-            .map(|p| p.group)
-            .collect();
+        // The points the family is fitted on.
+        let fitted_on = |p: &&Point| {
+            pure.allows(family, p.kind, p.group)
+                && reads(family, p.kind).is_some_and(|o| {
+                    p.values[o as usize].is_finite() && p.weights[o as usize] > 0.0
+                })
+        };
+        let levels: std::collections::BTreeSet<usize> =
+            points.iter().filter(fitted_on).map(|p| p.group).collect();
         let camber_tol = 0.25_f64.to_radians();
         let variation = Variation {
             pressures: levels.len(),
@@ -883,17 +882,12 @@ fn fit_points(
         // The PAC2002 stage's rule on what the tested levels cannot determine (a shift of the
         // combined-slip weighting with slip angles of one sign only, a load curvature from two
         // loads, ...): such a coefficient keeps its start value, and its row says why.
-        let levels = levels_of(
-            points.iter().filter(|p| {
-                pure.allows(family, p.kind, p.group)
-                    && reads(family, p.kind).is_some_and(|o| {
-                        p.values[o as usize].is_finite() && p.weights[o as usize] > 0.0
-                    })
-            }),
+        let tested = levels_of(
+            points.iter().filter(fitted_on),
             points.iter().filter(|p| p.kind != SweepKind::Cornering),
             0.1 * model.coefs[FNOMIN],
         );
-        free.retain(|c| match unidentifiable(*c, &levels) {
+        free.retain(|c| match unidentifiable(*c, &tested) {
             Some(why) => {
                 // Fitted on an earlier family's data, it keeps that fit's value and row.
                 if !std_errors.iter().any(|s: &(Coef, _, _, _)| s.0 == *c)
