@@ -5,13 +5,15 @@
 //! [`Point`]s: per sweep and slip bin the median of each travel direction's samples, then the
 //! mean of the two directions (the lag hysteresis of a sweep run up and down cancels to first
 //! order, a spike cannot move a median), with the bin's mean load, inclination, speed and
-//! pressure; and each point's weight (every sweep counts the same whatever its length, relative
-//! to its own peak).
+//! pressure; each point's weight (every sweep counts the same whatever its length, relative
+//! to its own peak) and its sweep's high-frequency scatter per channel (the noise level the
+//! `Mz` family weighs sweeps by).
 //!
 //! Deliberately not here: de-lagging with relaxation lengths (the PAC2002 stage does it; the
 //! up/down average is enough for a model spanning pressures), QC (the caller passes clean
 //! sweeps).
 
+use crate::fit::noise_weights::high_frequency_scatter;
 use crate::fit::output::Output;
 use crate::fit::pac2002::{Sweep, SweepKind};
 use crate::fit::segment_data::MeasuredSegment;
@@ -102,6 +104,9 @@ pub struct Point {
     /// Per output: `1 / (sweep peak * sqrt(points of the sweep))`, so every sweep weighs the
     /// same relative to its own peak.
     pub weights: [f64; 4],
+    /// Per output: the sweep's high-frequency scatter in its samples
+    /// ([`high_frequency_scatter`], NaN when too few samples carry the channel).
+    pub scatter: [f64; 4],
 }
 
 impl Point {
@@ -195,6 +200,16 @@ fn collapse_sweep(
         let k = (slip(s) / bin).round() as i64;
         bins.entry(k).or_default()[usize::from(up[i])].push(i);
     }
+    let scatter = [
+        |s: &Mf61Sample| s.fx_n,
+        |s: &Mf61Sample| s.fy_n,
+        |s: &Mf61Sample| s.mz_nm,
+        |s: &Mf61Sample| s.mx_nm,
+    ]
+    .map(|f| {
+        let values: Vec<f64> = samples.iter().map(|s| f(s)).collect();
+        high_frequency_scatter(&values).unwrap_or(f64::NAN)
+    });
     let mut points = Vec::new();
     for branches in bins.values() {
         let used: Vec<&Vec<usize>> = branches.iter().filter(|b| !b.is_empty()).collect();
@@ -247,6 +262,7 @@ fn collapse_sweep(
                 branch_median(&|s| s.mx_nm),
             ],
             weights: [0.0; 4],
+            scatter,
         });
     }
     // Thin evenly along the sweep.

@@ -11,7 +11,8 @@
 //!
 //! Method:
 //! 1. [`data`]: every sweep collapsed onto a slip grid (up/down branch medians averaged), each
-//!    point at its measured pressure, weighted so every sweep counts the same.
+//!    point at its measured pressure, weighted so every sweep counts the same (in the joint `Mz`
+//!    family also by its noise level).
 //! 2. [`initial`]: the PAC2002 model nearest `NOMPRES` lifted into MF 6.1 (exact where the forms
 //!    agree), the pressure terms from the trends of the PAC2002 coefficients across pressures.
 //! 3. [`problem`]: each family refined jointly over all pressures (bounded Levenberg-Marquardt,
@@ -56,6 +57,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use crate::fit::noise_weights::{kind_levels, sweep_factors};
 use crate::fit::output::Output;
 use crate::fit::pac2002::{self, Family, Levels, SweepKind, combined_slip_box, unidentifiable};
 use crate::fit::sweep_folds::OutOfSampleQuality;
@@ -592,16 +594,28 @@ fn family_data(points: &[Point], family: Family, pure: &PureData) -> FamilyData 
 /// The `Mz` family's data with cornering and slip-ratio sweeps weighing the same in total (each
 /// sweep already weighs the same relative to its peak; there are more slip-ratio sweeps than
 /// cornering ones, which would otherwise pull the trail and residual torque away from the
-/// cornering sweeps that `Mz0` was fitted on).
+/// cornering sweeps that `Mz0` was fitted on), and each sweep weighed by its noise
+/// ([`sweep_factors`] of [`kind_levels`] of its Mz scatter: the drive/brake and combined
+/// sweeps of a real round can carry ten times the cornering sweeps' scatter; kinds of equal
+/// noise keep factor 1).
 fn mz_data(points: &[Point], pure: &PureData) -> FamilyData {
     let family = Family::Mz;
+    let mz = Output::Mz as usize;
     let mut sweeps = [
         std::collections::BTreeSet::new(),
         std::collections::BTreeSet::new(),
     ];
+    // Per sweep: its kind and Mz scatter.
+    let mut levels: BTreeMap<usize, (SweepKind, Option<f64>)> = Default::default();
+    let mut peak = 0.0f64;
     for p in points {
         if p.value(Output::Mz).is_finite() && pure.allows(family, p.kind, p.group) {
             sweeps[usize::from(p.kind != SweepKind::Cornering)].insert(p.sweep);
+            levels.insert(
+                p.sweep,
+                (p.kind, Some(p.scatter[mz]).filter(|v| v.is_finite())),
+            );
+            peak = peak.max(p.value(Output::Mz).abs());
         }
     }
     let (cornering, slip_ratio) = (sweeps[0].len() as f64, sweeps[1].len() as f64);
@@ -610,12 +624,19 @@ fn mz_data(points: &[Point], pure: &PureData) -> FamilyData {
     } else {
         1.0
     };
+    let level_list: Vec<(SweepKind, Option<f64>)> = levels.values().copied().collect();
+    let noise: BTreeMap<usize, f64> = levels
+        .keys()
+        .copied()
+        .zip(sweep_factors(&kind_levels(&level_list), peak))
+        .collect();
     family_data_scaled(points, family, pure, |p| {
-        if p.kind == SweepKind::Cornering {
+        let kind = if p.kind == SweepKind::Cornering {
             scale
         } else {
             1.0
-        }
+        };
+        kind * noise.get(&p.sweep).copied().unwrap_or(1.0)
     })
 }
 

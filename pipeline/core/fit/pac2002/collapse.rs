@@ -31,6 +31,7 @@
 use std::collections::BTreeMap;
 
 use super::{RelaxationLengths, Sample, Sweep, SweepKind, SweepNominal};
+use crate::fit::noise_weights::high_frequency_scatter;
 use crate::fit::output::Output;
 use crate::numerics::stats::median;
 use crate::tire_model::SlipInput;
@@ -110,6 +111,11 @@ pub struct CollapsedSweep {
     pub points: Vec<CurvePoint>,
     /// Samples replaced by the despike test.
     pub spikes: usize,
+    /// Per output ([`Output::ALL`] order): the robust standard deviation of its high-frequency
+    /// scatter ([`high_frequency_scatter`]) in the despiked samples before de-lagging (the
+    /// de-lag's time derivative amplifies the noise by the sweep's own relaxation length, which
+    /// says nothing about the sensor); `None` when too few samples carry it.
+    pub scatter: [Option<f64>; 4],
 }
 
 impl CollapsedSweep {
@@ -135,6 +141,11 @@ impl CollapsedSweep {
             .map(|p| p.output(o).abs())
             .filter(|v| v.is_finite())
             .fold(0.0, f64::max)
+    }
+
+    /// One output's noise level ([`CollapsedSweep::scatter`]).
+    pub fn scatter(&self, o: Output) -> Option<f64> {
+        self.scatter[o as usize]
     }
 
     /// The swept slip of a point.
@@ -183,6 +194,10 @@ pub fn collapse(sweep: &Sweep, settings: &CollapseSettings<'_>) -> CollapsedSwee
     for o in Output::ALL {
         spikes += despike(&mut samples, o, settings.despike_sigmas);
     }
+    let scatter = Output::ALL.map(|o| {
+        let values: Vec<f64> = samples.iter().map(|s| s.output(o)).collect();
+        high_frequency_scatter(&values)
+    });
     if let Some(relax) = settings.relaxation {
         delag(&mut samples, relax);
     }
@@ -194,6 +209,7 @@ pub fn collapse(sweep: &Sweep, settings: &CollapseSettings<'_>) -> CollapsedSwee
         samples,
         points,
         spikes,
+        scatter,
     }
 }
 

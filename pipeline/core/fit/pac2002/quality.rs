@@ -155,7 +155,7 @@ pub fn out_of_sample(
             .filter(|(_, g)| **g != f)
             .map(|(s, _)| *s)
             .collect();
-        let points: Vec<DataPoint> = data_points(&train, output, cfg.kfold_points_per_sweep);
+        let points: Vec<DataPoint> = data_points(&train, family, cfg.kfold_points_per_sweep);
         let problem = FamilyProblem::new(c, free, family, &points, &penalties);
         let (is_deficient, at_start) = sweep_folds::fold_design(&problem, &start, &bounds, full);
         deficient += usize::from(is_deficient);
@@ -341,6 +341,7 @@ mod tests {
             samples: Vec::new(),
             points: Vec::new(),
             spikes: 0,
+            scatter: [None; 4],
         };
         let sweeps: Vec<CollapsedSweep> = (0..7).map(|i| mk(&format!("s-{i}"))).collect();
         let refs: Vec<&CollapsedSweep> = sweeps.iter().collect();

@@ -33,7 +33,7 @@
 use super::collapse::CollapsedSweep;
 use super::family::{Family, held_value};
 use super::quality::{Dealing, OutOfSample, out_of_sample};
-use super::stage::{Envelope, data_points, neutral_prior, output_of, refine};
+use super::stage::{Envelope, data_points, neutral_prior, refine};
 use super::{CoefficientOrigin, FitConfig, FitQuality};
 use crate::numerics::nonlinear_least_squares::FitOutcome;
 use crate::tire_model::{Coef, Coef::*, Coefs};
@@ -156,7 +156,7 @@ pub(super) fn hold_weak_groups(
     if cfg.kfold < 2 || sweeps.len() < 2 || groups.clone().next().is_none() {
         return 0;
     }
-    let points = data_points(sweeps, output_of(family), cfg.max_points_per_sweep);
+    let points = data_points(sweeps, family, cfg.max_points_per_sweep);
     let unit = match family {
         Family::Mz0 | Family::Mz | Family::Mx => "N m",
         _ => "N",

@@ -24,6 +24,7 @@ use super::{
     CoefficientOrigin, FamilyFit, FamilyStatus, FitConfig, FitInput, FitQuality, FittedCoefficient,
     MxForm, Pac2002Error, Pac2002Fit, SkippedSweep, SweepKind,
 };
+use crate::fit::noise_weights::{kind_levels, sweep_factors};
 use crate::fit::output::Output;
 use crate::numerics::nonlinear_least_squares::{
     Bounds, FitOutcome, Options, Termination, minimize,
@@ -606,14 +607,29 @@ fn levels_of(sweeps: &[&CollapsedSweep]) -> Levels {
 /// the sweep's peak (floored at 5 % of the largest peak) and divided by the square root of the
 /// sweep's point count and of the number of sweeps.
 ///
+/// The joint `Mz` family's sweeps are also weighed by their kind's noise ([`sweep_factors`] of
+/// [`kind_levels`] of each sweep's Mz scatter): on a real TTC round the drive/brake and
+/// combined sweeps carry ten times the high-frequency Mz scatter of the cornering sweeps, and
+/// weighed alike they pull the trail and residual torque away from the cornering data for no
+/// gain on their own, noise-dominated, Mz. Kinds of equal noise keep the weights above.
+///
 /// A sweep with more than `max_per_sweep` points contributes that many, evenly spaced along the
 /// curve (a deterministic thinning: the collapsed curves are oversampled for fitting purposes).
 pub(super) fn data_points(
     sweeps: &[&CollapsedSweep],
-    output: Output,
+    family: Family,
     max_per_sweep: usize,
 ) -> Vec<DataPoint> {
+    let output = output_of(family);
     let max_peak = sweeps.iter().map(|s| s.peak(output)).fold(0.0, f64::max);
+    let peak_of = |s: &CollapsedSweep| s.peak(output).max(0.05 * max_peak).max(1e-9);
+    let noise = if family == Family::Mz {
+        let levels: Vec<(SweepKind, Option<f64>)> =
+            sweeps.iter().map(|s| (s.kind, s.scatter(output))).collect();
+        sweep_factors(&kind_levels(&levels), max_peak)
+    } else {
+        vec![1.0; sweeps.len()]
+    };
     let mut out = Vec::new();
     for (sweep, s) in sweeps.iter().enumerate() {
         let valid: Vec<_> = s
@@ -626,8 +642,8 @@ pub(super) fn data_points(
             continue;
         }
         let m = n.min(max_per_sweep.max(2));
-        let peak = s.peak(output).max(0.05 * max_peak).max(1e-9);
-        let w = 1.0 / (peak * ((m * sweeps.len()) as f64).sqrt());
+        let peak = peak_of(s);
+        let w = noise[sweep] / (peak * ((m * sweeps.len()) as f64).sqrt());
         out.extend((0..m).map(|k| {
             let i = if m == n {
                 k
@@ -690,7 +706,6 @@ fn fit_family(
         Family::Mx => initial::overturning(sweeps, &setup, c),
         Family::My => unreachable!("My is a placeholder"),
     }
-    let output = output_of(family);
     let mut evals = 0;
     if family == Family::Mz {
         // The s Fx arm alone on the slip-ratio sweeps, then jointly with the Mz0 coefficients
@@ -700,7 +715,7 @@ fn fit_family(
             .copied()
             .filter(|s| s.kind != SweepKind::Cornering)
             .collect();
-        let points = data_points(&slip, output, cfg.max_points_per_sweep);
+        let points = data_points(&slip, family, cfg.max_points_per_sweep);
         let (_, q) = refine(family, &free, &points, &slip, env, cfg, c)?;
         evals += q.evaluations;
         let mz0: &[Coef] = previous
@@ -709,7 +724,7 @@ fn fit_family(
             .map_or(&[], |(_, v)| v.as_slice());
         free = mz0.iter().chain(free.iter()).copied().collect();
     }
-    let points = data_points(sweeps, output, cfg.max_points_per_sweep);
+    let points = data_points(sweeps, family, cfg.max_points_per_sweep);
     let (outcome, mut quality) = refine(family, &free, &points, sweeps, env, cfg, c)?;
     let mut outcome = outcome;
     if family == Family::Mx && cfg.mx_form == MxForm::Auto {
@@ -1006,7 +1021,7 @@ pub(super) fn refine(
     let penalties = penalties_of(family, free, env, cfg);
     let start: Vec<f64> = free.iter().map(|coef| c[*coef]).collect();
     let output = output_of(family);
-    let all_points = data_points(sweeps, output, usize::MAX);
+    let all_points = data_points(sweeps, family, usize::MAX);
     let initial_rmse = rmse_on_points(&all_points, c, family);
     let problem = FamilyProblem::new(c, free, family, points, &penalties);
     let options = Options {
