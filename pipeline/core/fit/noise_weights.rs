@@ -99,19 +99,12 @@ pub fn sweep_factors(levels: &[Option<f64>], peak: f64) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::numerics::random::SplitMix64;
 
-    /// Deterministic white-ish noise of unit standard deviation (sum of 12 uniforms - 6).
+    /// Deterministic white noise of unit standard deviation.
     fn noise(n: usize, seed: u64) -> Vec<f64> {
-        let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-        let mut uniform = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
-        (0..n)
-            .map(|_| (0..12).map(|_| uniform()).sum::<f64>() - 6.0)
-            .collect()
+        let mut rng = SplitMix64::new(seed);
+        (0..n).map(|_| rng.gaussian()).collect()
     }
 
     /// On a curve with a slope and turnarounds plus white noise, the scatter is the noise's
