@@ -622,7 +622,6 @@ pub(super) fn data_points(
 ) -> Vec<DataPoint> {
     let output = output_of(family);
     let max_peak = sweeps.iter().map(|s| s.peak(output)).fold(0.0, f64::max);
-    let peak_of = |s: &CollapsedSweep| s.peak(output).max(0.05 * max_peak).max(1e-9);
     let noise = if family == Family::Mz {
         let levels: Vec<(SweepKind, Option<f64>)> =
             sweeps.iter().map(|s| (s.kind, s.scatter(output))).collect();
@@ -642,7 +641,7 @@ pub(super) fn data_points(
             continue;
         }
         let m = n.min(max_per_sweep.max(2));
-        let peak = peak_of(s);
+        let peak = s.peak(output).max(0.05 * max_peak).max(1e-9);
         let w = noise[sweep] / (peak * ((m * sweeps.len()) as f64).sqrt());
         out.extend((0..m).map(|k| {
             let i = if m == n {
