@@ -6,15 +6,17 @@
 //! `w_i (model_i - measured_i)` and their exact Jacobian, through
 //! [`MagicFormula::jacobian_into_at`] (forward-mode dual numbers, one pressure per point), for
 //! [`crate::numerics::nonlinear_least_squares::minimize`]. The model is evaluated without input
-//! limiting (`Mode::Raw`), as the PAC2002 stage does.
+//! limiting (`Mode::Raw`), as the PAC2002 stage does. After the data rows: penalty rows for
+//! the physical rules the MF 6.1 equations share with PAC2002 ([`physical_penalties`]).
 //!
 //! Deliberately not here: which points and coefficients a family uses (`mod.rs`).
 
 use super::data::Point;
 use crate::fit::output::Output;
+use crate::fit::pac2002::{ConstrainedQuantity, Penalty, penalty_rows};
 use crate::numerics::nonlinear_least_squares::LeastSquaresProblem;
 use crate::tire_model::{
-    Channel, Coef, MagicFormula, Mode, MomentForces, Pressures, SlipInput, moment_split,
+    Channel, Coef, Coef::*, MagicFormula, Mode, MomentForces, Pressures, SlipInput, moment_split,
 };
 
 /// Evaluation mode of the fit.
@@ -77,6 +79,61 @@ pub struct Mf61FamilyProblem<'a> {
     /// The forces an aligning-moment channel reads, computed once from `base` when no free
     /// coefficient changes them ([`moment_split`]).
     forces: Option<Vec<MomentForces>>,
+    /// Penalty rows after the data rows ([`physical_penalties`]).
+    penalties: Vec<Penalty>,
+}
+
+/// Weight of a physical rule's penalty per unit of violation, per sweep of data: as the PAC2002
+/// stage's `constraint_weight` (10), scaled by the square root of the sweeps because each
+/// sweep's weighted squared errors here sum to its own relative mean square error (PAC2002
+/// normalises the whole family to one).
+const CONSTRAINT_WEIGHT: f64 = 10.0;
+
+/// The physical rules of the PAC2002 stage whose quantity the MF 6.1 equations compute the same
+/// way, over the loads of `data`: the longitudinal curvature `Ex <= 1` before clamping (on a
+/// grid of five loads and at the interior maximum of its quadratic in load), when one of its
+/// coefficients is free. Without it the joint refinement over pressures left `Ex` 2.5 % above
+/// 1 between the tested loads of a real round (a lint warning; MFeval clamps it). Other
+/// channels have no rule here: their curvature laws differ from PAC2002's (`PEY5`) or the lint
+/// found no violation.
+pub fn physical_penalties(
+    base: &MagicFormula,
+    free: &[Coef],
+    channel: Channel,
+    data: &FamilyData,
+) -> Vec<Penalty> {
+    let curvature = [PEX1, PEX2, PEX3, PEX4];
+    if channel != Channel::Fx0 || !free.iter().any(|c| curvature.contains(c)) || data.is_empty() {
+        return Vec::new();
+    }
+    let fz0 = base.coefs[FNOMIN] * base.coefs[LFZO];
+    let (fz_lo, fz_hi) = data
+        .inputs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.fz_n), hi.max(p.fz_n))
+        });
+    let (lo, hi) = ((fz_lo - fz0) / fz0, (fz_hi - fz0) / fz0);
+    let sweeps = data
+        .sweeps
+        .iter()
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    let weight = CONSTRAINT_WEIGHT * (sweeps as f64).sqrt();
+    let at_most = |quantity| Penalty::AtMost {
+        quantity,
+        limit: 1.0,
+        weight,
+    };
+    let mut out = Vec::new();
+    for sign in [-1.0, 1.0] {
+        for i in 0..5 {
+            let dfz = lo + (hi - lo) * i as f64 / 4.0;
+            out.push(at_most(ConstrainedQuantity::Ex { dfz, sign }));
+        }
+        out.push(at_most(ConstrainedQuantity::ExPeak { lo, hi, sign }));
+    }
+    out
 }
 
 impl<'a> Mf61FamilyProblem<'a> {
@@ -101,6 +158,7 @@ impl<'a> Mf61FamilyProblem<'a> {
             channel,
             data,
             forces,
+            penalties: physical_penalties(base, free, channel, data),
         }
     }
 
@@ -120,6 +178,10 @@ impl LeastSquaresProblem for Mf61FamilyProblem<'_> {
     }
 
     fn n_residuals(&self) -> usize {
+        self.data.len() + self.penalties.len()
+    }
+
+    fn n_data(&self) -> usize {
         self.data.len()
     }
 
@@ -130,6 +192,8 @@ impl LeastSquaresProblem for Mf61FamilyProblem<'_> {
 
     fn residuals(&self, p: &[f64], r: &mut [f64]) {
         let m = self.model_at(p);
+        let (r, penalties) = r.split_at_mut(self.data.len());
+        penalty_rows(&self.penalties, &m.coefs, self.free, penalties, None);
         m.channel_into_at(
             self.channel,
             &self.data.inputs,
@@ -148,6 +212,16 @@ impl LeastSquaresProblem for Mf61FamilyProblem<'_> {
 
     fn residuals_and_jacobian(&self, p: &[f64], r: &mut [f64], jac: &mut [f64]) {
         let m = self.model_at(p);
+        let n = self.free.len();
+        let (r, penalties) = r.split_at_mut(self.data.len());
+        let (jac, penalty_jac) = jac.split_at_mut(self.data.len() * n);
+        penalty_rows(
+            &self.penalties,
+            &m.coefs,
+            self.free,
+            penalties,
+            Some(penalty_jac),
+        );
         m.jacobian_into_with(
             self.channel,
             self.free,
@@ -158,7 +232,6 @@ impl LeastSquaresProblem for Mf61FamilyProblem<'_> {
             r,
             jac,
         );
-        let n = self.free.len();
         for (i, ((x, y), w)) in r
             .iter_mut()
             .zip(&self.data.measured)

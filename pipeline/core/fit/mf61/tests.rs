@@ -572,3 +572,36 @@ fn combined_slip_shifts_are_held_with_slip_angles_of_one_sign() {
         assert_eq!(row.origin, "fitted", "{}", c.name());
     }
 }
+
+/// A longitudinal curvature that peaks above 1 between the tested loads: the truth's `Ex`
+/// (concave in load, vertex at 0.55 `FNOMIN`, 1.03 there, below 1 at every load of a five-load
+/// grid over the data) fits the noise-free sweeps exactly, but the refinement's physical rule
+/// (`Ex <= 1` before clamping, at the quadratic's interior maximum) keeps the fitted curvature
+/// at or below 1 over the tested loads.
+#[test]
+fn a_longitudinal_curvature_above_one_between_tested_loads_is_held_at_one() {
+    let curved = {
+        let mut m = truth();
+        m.coefs[PEX1] = 0.72625;
+        m.coefs[PEX2] = -1.35;
+        m.coefs[PEX3] = -1.5;
+        m.coefs[PEX4] = 0.0;
+        m
+    };
+    let ex_peak = |m: &MagicFormula| {
+        let c = &m.coefs;
+        (0..=1200)
+            .map(|i| -0.6 + 1.2 * i as f64 / 1200.0)
+            .map(|dfz| {
+                let e = c[PEX1] + c[PEX2] * dfz + c[PEX3] * dfz * dfz;
+                e.max(e * (1.0 - c[PEX4])).max(e * (1.0 + c[PEX4]))
+            })
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    assert!(ex_peak(&curved) > 1.029);
+    let fit = fit(&input(&curved, &[69, 97]), &model_only()).unwrap();
+    print_families(&fit);
+    let peak = ex_peak(&fit.model);
+    println!("fitted Ex peak over the tested loads: {peak:.5}");
+    assert!(peak <= 1.002, "fitted Ex peaks at {peak}");
+}

@@ -60,6 +60,11 @@ pub enum ConstrainedQuantity {
     Ey { dfz: f64, gamma: f64, sign: f64 },
     /// `Ex` at a relative load change and sign of `kappa_x`.
     Ex { dfz: f64, sign: f64 },
+    /// `Ex` of a sign of `kappa_x` at the interior maximum of its quadratic in `dfz` within
+    /// `(lo, hi)`, wherever the coefficients put it; `-inf` (inactive) when the quadratic has no
+    /// interior maximum there. The [`Self::Ex`] rows on a load grid miss a maximum between
+    /// their points: a concave `Ex(dfz)` peaked 2 % above 1 between two of five grid loads.
+    ExPeak { lo: f64, hi: f64, sign: f64 },
     /// `Et` at a relative load change, inclination and value `a` of `(2/pi) atan(Bt Ct alpha_t)`.
     Et { dfz: f64, gamma: f64, a: f64 },
     /// `Exa` at a relative load change.
@@ -81,10 +86,16 @@ impl ConstrainedQuantity {
                 let gy = c[LGAY] * gamma;
                 (c[PEY1] + c[PEY2] * dfz) * (-((c[PEY3] + c[PEY4] * gy) * sign) + 1.0) * c[LEY]
             }
-            ConstrainedQuantity::Ex { dfz, sign } => {
-                (c[PEX1] + c[PEX2] * dfz + c[PEX3] * (dfz * dfz))
-                    * (-(c[PEX4] * sign) + 1.0)
-                    * c[LEX]
+            ConstrainedQuantity::Ex { dfz, sign } => ex_at(c, T::cst(dfz), sign),
+            ConstrainedQuantity::ExPeak { lo, hi, sign } => {
+                let factor = (-(c[PEX4] * sign) + 1.0) * c[LEX];
+                let vertex = -c[PEX2] / (c[PEX3] * 2.0);
+                let concave = (c[PEX3] * factor).value() < 0.0;
+                if concave && vertex.value() > lo && vertex.value() < hi {
+                    ex_at(c, vertex, sign)
+                } else {
+                    T::cst(f64::NEG_INFINITY)
+                }
             }
             ConstrainedQuantity::Et { dfz, gamma, a } => {
                 let gz = c[LGAZ] * gamma;
@@ -111,6 +122,12 @@ impl ConstrainedQuantity {
             }
         }
     }
+}
+
+/// PAC2002's longitudinal curvature `Ex` before clamping at relative load change `dfz` and
+/// sign `sign` of `kappa_x`.
+fn ex_at<T: Real>(c: &Coefs<T>, dfz: T, sign: f64) -> T {
+    (c[PEX1] + c[PEX2] * dfz + c[PEX3] * (dfz * dfz)) * (-(c[PEX4] * sign) + 1.0) * c[LEX]
 }
 
 /// A penalty residual.
@@ -151,6 +168,33 @@ impl Penalty {
                 }
             }
         }
+    }
+}
+
+/// `penalties` at `c` into `r` and, when given, their derivatives with respect to `free` into
+/// `jac` (row-major, `free.len()` per row): one forward-mode pass per free coefficient, which
+/// is cheap for a few penalties and needs no dual width chosen by the number of coefficients.
+pub fn penalty_rows(
+    penalties: &[Penalty],
+    c: &Coefs<f64>,
+    free: &[Coef],
+    r: &mut [f64],
+    jac: Option<&mut [f64]>,
+) {
+    for (ri, pen) in r.iter_mut().zip(penalties) {
+        *ri = pen.residual(c);
+    }
+    let Some(jac) = jac else {
+        return;
+    };
+    let n = free.len();
+    let mut dual: Coefs<Dual<1>> = Coefs(c.0.map(Dual::cst));
+    for (k, coef) in free.iter().enumerate() {
+        dual[*coef] = Dual::var(c[*coef], 0);
+        for (i, pen) in penalties.iter().enumerate() {
+            jac[i * n + k] = pen.residual(&dual).d[0];
+        }
+        dual[*coef] = Dual::cst(c[*coef]);
     }
 }
 
@@ -405,6 +449,74 @@ mod tests {
                     "{family:?} residual {} coef {}: dual {a} vs fd {b}",
                     k / free.len(),
                     free[k % free.len()].name()
+                );
+            }
+        }
+    }
+    /// `ExPeak` is the largest `Ex` over its load interval where the quadratic peaks inside it
+    /// (above every point of the five-load grid), inactive otherwise; its penalty rows'
+    /// derivatives ([`penalty_rows`]) match central differences.
+    #[test]
+    fn ex_peak_is_the_maximum_between_grid_loads() {
+        let mut c = super::super::synthetic::fsae_demo();
+        // Concave in load with its vertex at dfz = -0.45, between grid loads -0.6 and -0.3.
+        c[PEX1] = 0.71625;
+        c[PEX2] = -1.35;
+        c[PEX3] = -1.5;
+        c[PEX4] = -0.005;
+        c[LEX] = 1.0;
+        let (lo, hi) = (-0.6, 0.6);
+        for sign in [-1.0, 1.0] {
+            let dense = (0..=12_000)
+                .map(|i| lo + (hi - lo) * i as f64 / 12_000.0)
+                .map(|dfz| ConstrainedQuantity::Ex { dfz, sign }.value(&c))
+                .fold(f64::NEG_INFINITY, f64::max);
+            let grid = (0..=4)
+                .map(|i| lo + (hi - lo) * i as f64 / 4.0)
+                .map(|dfz| ConstrainedQuantity::Ex { dfz, sign }.value(&c))
+                .fold(f64::NEG_INFINITY, f64::max);
+            let peak = ConstrainedQuantity::ExPeak { lo, hi, sign }.value(&c);
+            assert!((peak - dense).abs() < 1e-6, "peak {peak} vs dense {dense}");
+            assert!(peak > 1.0 && grid < 1.0, "peak {peak}, grid {grid}");
+        }
+        let inactive = |c: &Coefs<f64>, lo, hi| {
+            ConstrainedQuantity::ExPeak { lo, hi, sign: 1.0 }.value(c) == f64::NEG_INFINITY
+        };
+        assert!(inactive(&c, 0.0, 0.6), "vertex below the interval");
+        let mut convex = c.clone();
+        convex[PEX3] = 1.5;
+        assert!(inactive(&convex, lo, hi), "convex quadratic");
+
+        let free = [PEX1, PEX2, PEX3, PEX4];
+        let penalties: Vec<Penalty> = [-1.0, 1.0]
+            .into_iter()
+            .map(|sign| Penalty::AtMost {
+                quantity: ConstrainedQuantity::ExPeak { lo, hi, sign },
+                limit: 1.0,
+                weight: 7.0,
+            })
+            .collect();
+        let mut r = vec![0.0; penalties.len()];
+        let mut jac = vec![0.0; penalties.len() * free.len()];
+        penalty_rows(&penalties, &c, &free, &mut r, Some(&mut jac));
+        assert!(r.iter().all(|v| *v > 0.0), "{r:?}");
+        for (k, coef) in free.iter().enumerate() {
+            let h = 1e-6;
+            let at = |d: f64| {
+                let mut cc = c.clone();
+                cc[*coef] += d;
+                let mut rr = vec![0.0; penalties.len()];
+                penalty_rows(&penalties, &cc, &free, &mut rr, None);
+                rr
+            };
+            let (up, down) = (at(h), at(-h));
+            for i in 0..penalties.len() {
+                let fd = (up[i] - down[i]) / (2.0 * h);
+                let dual = jac[i * free.len() + k];
+                assert!(
+                    (fd - dual).abs() < 1e-5,
+                    "{}: dual {dual} fd {fd}",
+                    coef.name()
                 );
             }
         }

@@ -892,6 +892,10 @@ pub(super) fn penalties_of(
                     out.push(at_most(ConstrainedQuantity::Ex { dfz, sign }, 1.0));
                 }
             }
+            let (lo, hi) = (env.dfz(env.fz.0), env.dfz(env.fz.1));
+            for sign in [-1.0, 1.0] {
+                out.push(at_most(ConstrainedQuantity::ExPeak { lo, hi, sign }, 1.0));
+            }
         }
         Family::Mz0 | Family::Mz if free.iter().any(|c| Family::Mz0.coefficients().contains(c)) => {
             for dfz in env.dfz_grid() {
@@ -1248,7 +1252,54 @@ fn coefficient_list(
 #[cfg(test)]
 mod tests {
     use super::super::family::is_camber_term;
+    use super::super::problem::penalty_rows;
     use super::*;
+
+    /// The `Fx0` rule `Ex <= 1` holds between its grid loads too: with `Ex` concave in load and
+    /// peaked (1.03) midway between the second and third of the five grid loads, below 1 at
+    /// each of them, only the rows at the quadratic's interior maximum are active.
+    #[test]
+    fn fx0_penalties_see_a_curvature_peak_between_grid_loads() {
+        let env = Envelope {
+            fz0: 1100.0,
+            fz: (222.0, 1557.0),
+            kappa: (-0.2, 0.2),
+            alpha: (0.0, 0.0),
+            gamma: (0.0, 0.0),
+            vx: 11.176,
+        };
+        let grid = env.dfz_grid();
+        let vertex = 0.5 * (grid[1] + grid[2]);
+        let mut c = Coefs::<f64>::defaults();
+        c[PEX3] = -1.5;
+        c[PEX2] = 3.0 * vertex;
+        c[PEX1] = 1.03 - 1.5 * vertex * vertex;
+        c[PEX4] = 0.0;
+        c[LEX] = 1.0;
+        let free = [PEX1, PEX2, PEX3, PEX4];
+        let penalties = penalties_of(Family::Fx0, &free, &env, &FitConfig::default());
+        let mut r = vec![0.0; penalties.len()];
+        penalty_rows(&penalties, &c, &free, &mut r, None);
+        let active: Vec<_> = penalties
+            .iter()
+            .zip(&r)
+            .filter(|(_, r)| **r > 0.0)
+            .map(|(p, _)| p)
+            .collect();
+        assert_eq!(active.len(), 2, "{active:?}");
+        for p in active {
+            assert!(
+                matches!(
+                    p,
+                    Penalty::AtMost {
+                        quantity: ConstrainedQuantity::ExPeak { .. },
+                        ..
+                    }
+                ),
+                "{p:?}"
+            );
+        }
+    }
 
     /// With the default configuration the `My` placeholder makes the model's rolling resistance
     /// moment 0 whatever `QSY1` held before (TTC records no `My`, so the model claims no moment
