@@ -92,10 +92,10 @@ const CONSTRAINT_WEIGHT: f64 = 10.0;
 /// The physical rules of the PAC2002 stage whose quantity the MF 6.1 equations compute the same
 /// way, over the loads of `data`: the longitudinal curvature `Ex <= 1` before clamping (on a
 /// grid of five loads and at the interior maximum of its quadratic in load), when one of its
-/// coefficients is free. Without it the joint refinement over pressures left `Ex` 2.5 % above
-/// 1 between the tested loads of a real round (a lint warning; MFeval clamps it). Other
-/// channels have no rule here: their curvature laws differ from PAC2002's (`PEY5`) or the lint
-/// found no violation.
+/// coefficients is free: the joint refinement over pressures is otherwise free to move `Ex`
+/// above 1 between the tested loads, where MFeval clamps it and the lint warns. Other channels
+/// have no rule here: their curvature laws differ from PAC2002's (`PEY5`) or no fit was seen to
+/// break them.
 pub fn physical_penalties(
     base: &MagicFormula,
     free: &[Coef],

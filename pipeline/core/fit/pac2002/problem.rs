@@ -63,7 +63,7 @@ pub enum ConstrainedQuantity {
     /// `Ex` of a sign of `kappa_x` at the interior maximum of its quadratic in `dfz` within
     /// `(lo, hi)`, wherever the coefficients put it; `-inf` (inactive) when the quadratic has no
     /// interior maximum there. The [`Self::Ex`] rows on a load grid miss a maximum between
-    /// their points: a concave `Ex(dfz)` peaked 2 % above 1 between two of five grid loads.
+    /// their points.
     ExPeak { lo: f64, hi: f64, sign: f64 },
     /// `Et` at a relative load change, inclination and value `a` of `(2/pi) atan(Bt Ct alpha_t)`.
     Et { dfz: f64, gamma: f64, a: f64 },
