@@ -25,7 +25,10 @@
 //!    load. `PKY4 = 2`, `PKY5 = PEY5 = 0`, `RBX3 = RBY4 = 0` are held:
 //!    the PAC2002 fits they start from have no such terms. A family without data keeps its
 //!    lifted values. Shape factors `PCX1`, `PCY1` and peak frictions `|PDX1|`, `|PDY1|` keep the
-//!    PAC2002 stage's boxes (`C` in [1, 2.5], `|mu|` in [0.02, 4]).
+//!    PAC2002 stage's boxes (`C` in [1, 2.5], `|mu|` in [0.02, 4]). Every refinement (k-fold
+//!    and left-out-pressure refits included) holds the PAC2002 stage's physical rules (`E <= 1`,
+//!    `Bt > 0`, `Gxa, Gyk > 0`) in MF 6.1's equations over the data's envelope
+//!    ([`problem::physical_penalties`]).
 //! 4. After `Fx0` and `Fy0`: the peak friction evaluated over the tested envelope (loads,
 //!    inclinations, pressures); above the lint's limit (4) the family is refined again with the
 //!    friction's pressure terms, then also its load and camber terms, held at 0, and the first
@@ -69,12 +72,11 @@ use crate::tire_model::factors::slip_factors;
 use crate::tire_model::pac2002::load_with;
 use crate::tire_model::params::{Coef, Coef::*};
 use crate::tire_model::tir::lint::MU_MAX;
-use crate::tire_model::tir::units::PLACEHOLDER;
 use crate::tire_model::{Channel, Evaluation, MagicFormula, Pressures, SlipInput, Version};
 
 pub use data::{CollapseConfig, Mf61Sample, Mf61Sweep, Point};
 pub use initial::Pac2002AtPressure;
-use problem::{FIT_MODE, FamilyData, Mf61FamilyProblem};
+use problem::{FIT_MODE, FamilyData, Mf61FamilyProblem, Span};
 
 /// One tested pressure.
 #[derive(Clone, Debug, PartialEq)]
@@ -722,44 +724,16 @@ fn neutral_friction_terms(family: Family) -> [&'static [Coef]; 2] {
 }
 
 /// Where the peak friction of `family` (`mu_x` for `Fx0`, `mu_y` for `Fy0`) exceeds the lint's
-/// [`MU_MAX`] over the envelope the family's data span (their loads, inclinations and measured
-/// pressures, each widened to the model's declared range where set, as the lint samples it;
+/// [`MU_MAX`] over the envelope the family's data span ([`Span`]: loads, inclinations and
+/// measured pressures widened to the model's declared ranges, as the lint samples them;
 /// 9 x 3 x 3 points, corners included): the worst, described; `None` when it stays within it
 /// or for other families.
 fn friction_above_limit(model: &MagicFormula, family: Family, data: &FamilyData) -> Option<String> {
-    if !matches!(family, Family::Fx0 | Family::Fy0) || data.is_empty() {
+    if !matches!(family, Family::Fx0 | Family::Fy0) {
         return None;
     }
-    let range = |v: &mut dyn Iterator<Item = f64>| {
-        v.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-            (lo.min(x), hi.max(x))
-        })
-    };
-    // The data's span, widened to the ranges the model declares where they are set (the lint
-    // samples those: loads capped to [0.05, 4] FNOMIN).
-    let c = &model.coefs;
-    let widen = |r: (f64, f64), lo: f64, hi: f64| {
-        if lo.is_finite() && hi.is_finite() && lo < hi && hi.abs() < PLACEHOLDER {
-            (r.0.min(lo), r.1.max(hi))
-        } else {
-            r
-        }
-    };
-    let fz = widen(
-        range(&mut data.inputs.iter().map(|p| p.fz_n)),
-        c[FZMIN].max(0.05 * c[FNOMIN]),
-        c[FZMAX].min(4.0 * c[FNOMIN]),
-    );
-    let gamma = widen(
-        range(&mut data.inputs.iter().map(|p| p.gamma_rad)),
-        c[CAMMIN],
-        c[CAMMAX],
-    );
-    let p = widen(
-        range(&mut data.pressures.iter().copied()),
-        c[PRESMIN],
-        c[PRESMAX],
-    );
+    let span = Span::of(model, data)?;
+    let (fz, gamma, p) = (span.fz, span.gamma, span.p);
     let at = |r: (f64, f64), i: usize, n: usize| r.0 + (r.1 - r.0) * i as f64 / (n - 1) as f64;
     let mut worst: Option<(f64, f64, f64, f64)> = None;
     for i in 0..9 {
@@ -770,7 +744,7 @@ fn friction_above_limit(model: &MagicFormula, family: Family, data: &FamilyData)
                     kappa: 0.0,
                     alpha_rad: 0.0,
                     gamma_rad: at(gamma, j, 3),
-                    vx_mps: data.inputs[0].vx_mps,
+                    vx_mps: span.vx,
                 };
                 let p_pa = at(p, k, 3);
                 let l = load_with(&model.coefs, &input, FIT_MODE, Version::Mf61, p_pa);

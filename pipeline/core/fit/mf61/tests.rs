@@ -605,3 +605,223 @@ fn a_longitudinal_curvature_above_one_between_tested_loads_is_held_at_one() {
     println!("fitted Ex peak over the tested loads: {peak:.5}");
     assert!(peak <= 1.002, "fitted Ex peaks at {peak}");
 }
+
+/// Every physical rule the MF 6.1 refinement holds (`problem::physical_penalties`) evaluates
+/// the quantity MF 6.1's equations compute, at each of its rows: `Ey`, `Exa`, `Eyk` as
+/// `slip_factors` (and `Ey` also by hand from MFeval's `Solver.m` (4.E24), with `PEY5`), `Gxa`
+/// and `Gyk` as the evaluator's `Fx / Fx0` and `Fy / Fy0` (`SVyk` zeroed; with `RBX3`, `RBY4`),
+/// `Bt` and `Et` as its trail terms (`Et` at `alpha_t` large enough that the `atan` term is
+/// +-1 to 1e-7). The camber terms the fit holds at 0 (`PEY5`, `RBX3`, `RBY4`) are non-zero here
+/// and the data span inclinations of both signs and three pressures.
+#[test]
+fn mf61_rules_evaluate_mf61_quantities() {
+    use crate::fit::pac2002::{ConstrainedQuantity, Penalty};
+    use crate::tire_model::pac2002::{load_with, pure_fy0, trail_terms};
+    use crate::tire_model::{Pressures, TrailPeak};
+    use problem::physical_penalties;
+
+    let mut m = truth();
+    m.coefs[PEY5] = -3.0;
+    m.coefs[RBX3] = 40.0;
+    m.coefs[RBY4] = 30.0;
+    for c in [RVY1, RVY2, RVY3] {
+        m.coefs[c] = 0.0;
+    }
+    let c = &m.coefs;
+    let fz0 = c[FNOMIN] * c[LFZO];
+    let mut data = FamilyData::default();
+    for (i, (fz_n, gamma_deg, p_pa)) in [
+        (300.0, -4.0_f64, 69e3),
+        (1100.0, 0.0, 83e3),
+        (2000.0, 3.0, 97e3),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        data.inputs.push(SlipInput {
+            fz_n,
+            kappa: 0.05 * (i as f64 - 1.0),
+            alpha_rad: 0.1 * (1.0 - i as f64),
+            gamma_rad: gamma_deg.to_radians(),
+            vx_mps: 11.176,
+        });
+        data.pressures.push(p_pa);
+        data.measured.push(0.0);
+        data.weights.push(1.0);
+        data.sweeps.push(i);
+        data.groups.push(i);
+    }
+    let close = |a: f64, b: f64, what: &str| {
+        assert!(
+            (a - b).abs() <= 1e-6 * (1.0 + b.abs()),
+            "{what}: rule {a} vs evaluator {b}"
+        );
+    };
+    let point = |fz_n: f64, gamma_rad: f64, kappa: f64, alpha_rad: f64| SlipInput {
+        fz_n,
+        kappa,
+        alpha_rad,
+        gamma_rad,
+        vx_mps: 11.176,
+    };
+    let mut seen = std::collections::BTreeSet::new();
+    for channel in [
+        Channel::Fy0,
+        Channel::Mz0,
+        Channel::Mz,
+        Channel::Fx,
+        Channel::Fy,
+    ] {
+        // Combined Mz refines the Mz0 coefficients again (`free_coefficients`).
+        let free = if channel == Channel::Mz {
+            Channel::Mz0.family()
+        } else {
+            channel.family()
+        };
+        let penalties = physical_penalties(&m, free, channel, &data);
+        assert!(!penalties.is_empty(), "{channel:?} has no rules");
+        for pen in &penalties {
+            let Penalty::AtMost { quantity, .. } = pen else {
+                panic!("{channel:?}: a prior among the rules");
+            };
+            let rule = quantity.value(c);
+            for p_pa in [69e3, 83e3, 97e3] {
+                let factors = |input: &SlipInput| {
+                    slip_factors(c, &load_with(c, input, Mode::Raw, Version::Mf61, p_pa))
+                };
+                let ratio = |num: Channel, den: Channel, input: SlipInput| {
+                    let mut v = [0.0; 2];
+                    for (k, ch) in [num, den].into_iter().enumerate() {
+                        m.channel_into_at(
+                            ch,
+                            &[input],
+                            Pressures::Uniform(p_pa),
+                            Mode::Raw,
+                            &mut v[k..k + 1],
+                        );
+                    }
+                    v[0] / v[1]
+                };
+                let trail = |input: SlipInput| {
+                    let l = load_with(c, &input, Mode::Raw, Version::Mf61, p_pa);
+                    trail_terms(c, &l, &pure_fy0(c, &l), TrailPeak::Standard)
+                };
+                match *quantity {
+                    ConstrainedQuantity::Ey {
+                        dfz, gamma, sign, ..
+                    } => {
+                        let fz = fz0 * (1.0 + dfz);
+                        let sh = factors(&point(fz, gamma, 0.0, 0.0)).fy0.sh;
+                        let at = point(fz, gamma, 0.0, sign * 0.1 - sh);
+                        close(rule, factors(&at).fy0.e, "Ey");
+                        let hand = (c[PEY1] + c[PEY2] * dfz)
+                            * (1.0 + c[PEY5] * gamma * gamma - (c[PEY3] + c[PEY4] * gamma) * sign)
+                            * c[LEY];
+                        close(rule, hand, "Ey by Solver.m (4.E24)");
+                        seen.insert("Ey");
+                    }
+                    ConstrainedQuantity::Et { dfz, gamma, a } => {
+                        let at = point(fz0 * (1.0 + dfz), gamma, 0.0, a * 1e9);
+                        close(rule, trail(at).et, "Et");
+                        seen.insert("Et");
+                    }
+                    ConstrainedQuantity::NegBt { dfz, gamma } => {
+                        close(
+                            rule,
+                            -trail(point(fz0 * (1.0 + dfz), gamma, 0.0, 0.1)).bt,
+                            "Bt",
+                        );
+                        seen.insert("Bt");
+                    }
+                    ConstrainedQuantity::Exa { dfz } => {
+                        close(
+                            rule,
+                            factors(&point(fz0 * (1.0 + dfz), 0.0, 0.0, 0.0)).gxa.e,
+                            "Exa",
+                        );
+                        seen.insert("Exa");
+                    }
+                    ConstrainedQuantity::Eyk { dfz } => {
+                        close(
+                            rule,
+                            factors(&point(fz0 * (1.0 + dfz), 0.0, 0.0, 0.0)).gyk.e,
+                            "Eyk",
+                        );
+                        seen.insert("Eyk");
+                    }
+                    ConstrainedQuantity::NegGxa { input, .. } => {
+                        close(rule, -ratio(Channel::Fx, Channel::Fx0, input), "Gxa");
+                        close(rule, -factors(&input).gxa.g, "Gxa factors");
+                        seen.insert("Gxa");
+                    }
+                    ConstrainedQuantity::NegGyk { input, .. } => {
+                        close(rule, -ratio(Channel::Fy, Channel::Fy0, input), "Gyk");
+                        close(rule, -factors(&input).gyk.g, "Gyk factors");
+                        seen.insert("Gyk");
+                    }
+                    q => panic!("{channel:?}: unexpected rule {q:?}"),
+                }
+            }
+        }
+    }
+    assert_eq!(seen.len(), 7, "{seen:?}");
+}
+
+/// A trail curvature above 1 beyond the tested loads: the truth's `Et` (`QEZ3` = 1.5) is below
+/// 1 over the data's loads (0.4 to 1.6 `FNOMIN`) but reaches 2.6 at the file's `FZMAX` (2.27
+/// `FNOMIN`), where MFeval clamps it and `Mz` bends. The sweeps fit such a truth exactly, but
+/// the refinement's rule (`Et <= 1` before clamping over the data's envelope widened to the
+/// declared ranges, in both `Mz0` and the joint `Mz`) keeps the fitted curvature at or below 1.
+#[test]
+fn a_trail_curvature_above_one_beyond_the_tested_loads_is_held_at_one() {
+    use crate::fit::pac2002::ConstrainedQuantity;
+    let curved = {
+        let mut m = truth();
+        m.coefs[QEZ3] = 1.5;
+        m
+    };
+    let et_peak = |m: &MagicFormula| {
+        let c = &m.coefs;
+        let fz0 = c[FNOMIN] * c[LFZO];
+        let (lo, hi) = ((c[FZMIN] - fz0) / fz0, (c[FZMAX] - fz0) / fz0);
+        let mut peak = f64::NEG_INFINITY;
+        for i in 0..=400 {
+            let dfz = lo + (hi - lo) * i as f64 / 400.0;
+            for gamma in [c[CAMMIN], 0.0, c[CAMMAX]] {
+                for a in [-1.0, 1.0] {
+                    peak = peak.max(ConstrainedQuantity::Et { dfz, gamma, a }.value(c));
+                }
+            }
+        }
+        peak
+    };
+    let in_data = |m: &MagicFormula| {
+        let mut peak = f64::NEG_INFINITY;
+        for i in 0..=120 {
+            let dfz = -0.6 + 1.2 * i as f64 / 120.0;
+            for gamma in [0.0, 4f64.to_radians()] {
+                for a in [-1.0, 1.0] {
+                    peak = peak.max(ConstrainedQuantity::Et { dfz, gamma, a }.value(&m.coefs));
+                }
+            }
+        }
+        peak
+    };
+    assert!(in_data(&curved) < 1.0, "{}", in_data(&curved));
+    assert!(et_peak(&curved) > 2.5, "{}", et_peak(&curved));
+    let fit = fit(&input(&curved, &[69, 97]), &model_only()).unwrap();
+    print_families(&fit);
+    let peak = et_peak(&fit.model);
+    let e = envelope_error(&fit.model, &curved, 83e3);
+    println!(
+        "fitted Et peak over the declared loads: {peak:.5}; QEZ1..3 {:.4} {:.4} {:.4}; envelope \
+         error Fx {:.3} % Fy {:.3} % Mz {:.3} %",
+        fit.model.coefs[QEZ1],
+        fit.model.coefs[QEZ2],
+        fit.model.coefs[QEZ3],
+        100.0 * e[0],
+        100.0 * e[1],
+        100.0 * e[2]
+    );
+    assert!(peak <= 1.01, "fitted Et peaks at {peak}");
+}

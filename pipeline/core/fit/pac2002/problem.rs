@@ -18,10 +18,10 @@
 use crate::numerics::nonlinear_least_squares::LeastSquaresProblem;
 use crate::tire_model::jacobian::{self, moment_from_forces};
 use crate::tire_model::pac2002::{
-    Mode, PureFy, TrailPeak, combined_fx, combined_fy, gxa, load, overturning_mx, pure_fx0,
-    pure_fy0, weighting,
+    Load, Mode, PureFy, TrailPeak, combined_fx, combined_fy, gxa, gyk, load, load_with,
+    overturning_mx, pure_fx0, pure_fy0,
 };
-use crate::tire_model::{Coef, Coef::*, Coefs, Dual, MomentForces, Real, SlipInput};
+use crate::tire_model::{Coef, Coef::*, Coefs, Dual, MomentForces, Real, SlipInput, Version};
 
 use super::collapse::BranchInputs;
 use super::family::Family;
@@ -53,11 +53,21 @@ pub struct DataPoint {
     pub sweep: usize,
 }
 
-/// A quantity of the model that a constraint bounds from above.
+/// A quantity of the model that a constraint bounds from above. Where PAC2002 and MF 6.x
+/// compute a quantity differently, it carries the [`Version`] whose equations it follows
+/// (`Ex`, `Et`, `Bt`, `Exa` and `Eyk` have one form in both: MFeval's `Solver.m` evaluates
+/// MF 6.x's `Bt` by the paper's (A58), with `QBZ4`, not the book's (4.E40) with `QBZ6`).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub enum ConstrainedQuantity {
-    /// `Ey` at a relative load change, inclination and sign of `alpha_y`.
-    Ey { dfz: f64, gamma: f64, sign: f64 },
+    /// `Ey` at a relative load change, inclination and sign of `alpha_y`: PAC2002
+    /// `(PEY1 + PEY2 dfz)(1 - (PEY3 + PEY4 gamma_y) sgn) LEY`, MF 6.x
+    /// `(PEY1 + PEY2 dfz)(1 + PEY5 gamma^2 - (PEY3 + PEY4 gamma) sgn) LEY`.
+    Ey {
+        dfz: f64,
+        gamma: f64,
+        sign: f64,
+        version: Version,
+    },
     /// `Ex` at a relative load change and sign of `kappa_x`.
     Ex { dfz: f64, sign: f64 },
     /// `Ex` of a sign of `kappa_x` at the interior maximum of its quadratic in `dfz` within
@@ -71,20 +81,30 @@ pub enum ConstrainedQuantity {
     Exa { dfz: f64 },
     /// `Eyk` at a relative load change.
     Eyk { dfz: f64 },
-    /// `-Gxa` at an operating point.
-    NegGxa { input: SlipInput },
-    /// `-Gyk` at an operating point.
-    NegGyk { input: SlipInput },
+    /// `-Gxa` at an operating point (MF 6.x: `RBX3 gamma^2` in `Bxa`).
+    NegGxa { input: SlipInput, version: Version },
+    /// `-Gyk` at an operating point (MF 6.x: `RBY4 gamma^2` in `Byk`).
+    NegGyk { input: SlipInput, version: Version },
     /// `-Bt` at a relative load change and inclination.
     NegBt { dfz: f64, gamma: f64 },
 }
 
 impl ConstrainedQuantity {
-    fn value<T: Real>(&self, c: &Coefs<T>) -> T {
+    /// The quantity at coefficients `c`.
+    pub(crate) fn value<T: Real>(&self, c: &Coefs<T>) -> T {
         match *self {
-            ConstrainedQuantity::Ey { dfz, gamma, sign } => {
-                let gy = c[LGAY] * gamma;
-                (c[PEY1] + c[PEY2] * dfz) * (-((c[PEY3] + c[PEY4] * gy) * sign) + 1.0) * c[LEY]
+            ConstrainedQuantity::Ey {
+                dfz,
+                gamma,
+                sign,
+                version,
+            } => {
+                let camber = if version.is_mf6() {
+                    c[PEY5] * (gamma * gamma) + 1.0 - (c[PEY3] + c[PEY4] * gamma) * sign
+                } else {
+                    -((c[PEY3] + c[PEY4] * (c[LGAY] * gamma)) * sign) + 1.0
+                };
+                (c[PEY1] + c[PEY2] * dfz) * camber * c[LEY]
             }
             ConstrainedQuantity::Ex { dfz, sign } => ex_at(c, T::cst(dfz), sign),
             ConstrainedQuantity::ExPeak { lo, hi, sign } => {
@@ -104,16 +124,11 @@ impl ConstrainedQuantity {
             }
             ConstrainedQuantity::Exa { dfz } => c[REX1] + c[REX2] * dfz,
             ConstrainedQuantity::Eyk { dfz } => c[REY1] + c[REY2] * dfz,
-            ConstrainedQuantity::NegGxa { input } => {
-                let l = load(c, &input, FIT_MODE);
-                -gxa(c, &l)
+            ConstrainedQuantity::NegGxa { input, version } => {
+                -gxa(c, &weight_load(c, &input, version))
             }
-            ConstrainedQuantity::NegGyk { input } => {
-                let l = load(c, &input, FIT_MODE);
-                let byk = c[RBY1] * (c[RBY2] * (l.alpha - c[RBY3])).cos_atan() * c[LYKA];
-                let eyk = c[REY1] + c[REY2] * l.dfz;
-                let shyk = c[RHY1] + c[RHY2] * l.dfz;
-                -(weighting(byk, c[RCY1], eyk, l.kappa + shyk) / weighting(byk, c[RCY1], eyk, shyk))
+            ConstrainedQuantity::NegGyk { input, version } => {
+                -gyk(c, &weight_load(c, &input, version))
             }
             ConstrainedQuantity::NegBt { dfz, gamma } => {
                 let gz = c[LGAZ] * gamma;
@@ -122,6 +137,12 @@ impl ConstrainedQuantity {
             }
         }
     }
+}
+
+/// The load quantities of the combined-slip weights `Gxa`, `Gyk` at `input` for `version`: no
+/// pressure term enters them, so MF 6.x's are taken at `NOMPRES`.
+fn weight_load<T: Real>(c: &Coefs<T>, input: &SlipInput, version: Version) -> Load<T> {
+    load_with(c, input, FIT_MODE, version, c[NOMPRES].value())
 }
 
 /// PAC2002's longitudinal curvature `Ex` before clamping at relative load change `dfz` and

@@ -30,7 +30,7 @@ use crate::numerics::nonlinear_least_squares::{
     Bounds, FitOutcome, Options, Termination, minimize,
 };
 use crate::numerics::stats::count_levels;
-use crate::tire_model::{Coef, Coef::*, Coefs, Pac2002, SlipInput};
+use crate::tire_model::{Coef, Coef::*, Coefs, Pac2002, SlipInput, Version};
 
 /// The tested envelope: ranges of the data and the nominal load.
 #[derive(Copy, Clone, Debug)]
@@ -881,7 +881,14 @@ pub(super) fn penalties_of(
             for dfz in env.dfz_grid() {
                 for gamma in gammas {
                     for sign in [-1.0, 1.0] {
-                        out.push(at_most(ConstrainedQuantity::Ey { dfz, gamma, sign }, 1.0));
+                        let version = Version::Pac2002;
+                        let q = ConstrainedQuantity::Ey {
+                            dfz,
+                            gamma,
+                            sign,
+                            version,
+                        };
+                        out.push(at_most(q, 1.0));
                     }
                 }
             }
@@ -918,9 +925,15 @@ pub(super) fn penalties_of(
             }
             for input in envelope_grid(env) {
                 let q = if family == Family::Fx {
-                    ConstrainedQuantity::NegGxa { input }
+                    ConstrainedQuantity::NegGxa {
+                        input,
+                        version: Version::Pac2002,
+                    }
                 } else {
-                    ConstrainedQuantity::NegGyk { input }
+                    ConstrainedQuantity::NegGyk {
+                        input,
+                        version: Version::Pac2002,
+                    }
                 };
                 out.push(at_most(q, -0.01));
             }
