@@ -12,9 +12,11 @@
 //! Branches become lane selects (`sgn`, the `E <= 1` clamp, `Fz == 0`, `Vx < 0`, `Vx == 0`,
 //! the `FZMIN` tapers, `kappa == 0` in combined `Mz`). Points in MFeval's low-speed blend
 //! (limits mode, `|Vx| <= VXLOW`) are rare and are re-evaluated by the scalar path; a last block
-//! shorter than [`LANES`] is padded. The machine code is built three times (baseline x86-64,
-//! AVX2, AVX-512F) and picked at run time; all execute the same IEEE operations (no fused
-//! multiply-add), so results are bit-identical whichever runs.
+//! shorter than [`LANES`] is padded. The machine code is built twice (baseline x86-64 and
+//! AVX2) and picked at run time; both execute the same IEEE operations (no fused multiply-add),
+//! so results are bit-identical whichever runs. No AVX-512 build: each build of these
+//! equations is a large share of the crate's compile time, and AVX2 already holds a lane pack
+//! in few registers.
 //!
 //! MF 6.x's `(Fz/Fz0)^QSY7 (p/p0)^QSY8` in `My` uses the standard library's `powf` lane by
 //! lane (as `exp`).
@@ -42,11 +44,6 @@ pub(crate) fn eval_batch(
 ) {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F (checked just above).
-            unsafe { eval_batch_avx512(c, trail_peak, version, inputs, pressures, mode, out) };
-            return;
-        }
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2 (checked just above).
             unsafe { eval_batch_avx2(c, trail_peak, version, inputs, pressures, mode, out) };
@@ -60,21 +57,6 @@ pub(crate) fn eval_batch(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn eval_batch_avx2(
-    c: &Coefs<f64>,
-    trail_peak: TrailPeak,
-    version: Version,
-    inputs: &[SlipInput],
-    pressures: Pressures<'_>,
-    mode: Mode,
-    out: &mut [Evaluation<f64>],
-) {
-    eval_batch_lanes(c, trail_peak, version, inputs, pressures, mode, out);
-}
-
-/// [`eval_batch_lanes`] compiled with AVX-512F enabled (one register per lane pack).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn eval_batch_avx512(
     c: &Coefs<f64>,
     trail_peak: TrailPeak,
     version: Version,
@@ -643,7 +625,7 @@ mod tests {
         }
     }
 
-    /// The baseline, AVX2 and AVX-512F builds give the same bits (no fused multiply-add).
+    /// The baseline and AVX2 builds give the same bits (no fused multiply-add).
     #[test]
     fn every_instruction_set_gives_the_same_bits() {
         let tire = Pac2002::new(coefs_from_tir(MFEVAL_SAMPLE_TIR));
@@ -682,21 +664,6 @@ mod tests {
                     )
                 });
                 assert!(base == avx2, "AVX2 build differs from baseline");
-            }
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: AVX-512F present (checked).
-                let avx512 = run(&|o| unsafe {
-                    eval_batch_avx512(
-                        &tire.coefs,
-                        tire.trail_peak,
-                        tire.version,
-                        &points,
-                        Pressures::Uniform(tire.default_pressure_pa()),
-                        Mode::Limits,
-                        o,
-                    )
-                });
-                assert!(base == avx512, "AVX-512F build differs from baseline");
             }
         }
     }

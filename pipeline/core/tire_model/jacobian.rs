@@ -11,7 +11,9 @@
 //! the `f64` evaluation, so they are exact up to round-off and follow the branch the value takes
 //! (a clamped `E` has zero derivative, `kappa == 0` in combined `Mz` uses `alpha_eq = alpha`).
 //! `N` is a compile-time width: the free list is cut into blocks of at most [`MAX_BLOCK`]
-//! coefficients and each block runs on the narrowest of `Dual<4|8|16|24|32>` that holds it.
+//! coefficients and each block runs on the narrowest of `Dual<8|16|32>` that holds it (each
+//! width is another copy of the model's equations for the compiler: few widths keep the
+//! release build short, at the price of some unused derivative lanes).
 //! Only the families a channel needs are evaluated (an `Fy0` Jacobian never touches `Mz`).
 //!
 //! Deliberately not here: the solver, residual weighting, and derivatives with respect to the
@@ -476,18 +478,16 @@ impl MagicFormula {
                 n_free,
             };
             match block.len() {
-                1..=4 => self.jacobian_block::<4>(channel, cols, rows, mode, values, jac),
-                5..=8 => self.jacobian_block::<8>(channel, cols, rows, mode, values, jac),
+                1..=8 => self.jacobian_block::<8>(channel, cols, rows, mode, values, jac),
                 9..=16 => self.jacobian_block::<16>(channel, cols, rows, mode, values, jac),
-                17..=24 => self.jacobian_block::<24>(channel, cols, rows, mode, values, jac),
                 _ => self.jacobian_block::<MAX_BLOCK>(channel, cols, rows, mode, values, jac),
             }
         }
     }
 
-    /// [`Self::jacobian_block_inline`], in the widest instruction set the CPU has (the dual
-    /// numbers' derivative arrays are where the time goes; no fused multiply-add is enabled, so
-    /// every build gives the same bits).
+    /// [`Self::jacobian_block_inline`] in AVX2 where the CPU has it, else the baseline build
+    /// (the dual numbers' derivative arrays are where the time goes; no fused multiply-add is
+    /// enabled, so both builds give the same bits).
     fn jacobian_block<const N: usize>(
         &self,
         channel: Channel,
@@ -499,32 +499,12 @@ impl MagicFormula {
     ) {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU supports AVX-512F (checked just above).
-                unsafe { self.jacobian_block_avx512::<N>(channel, cols, rows, mode, values, jac) };
-                return;
-            }
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2 (checked just above).
                 unsafe { self.jacobian_block_avx2::<N>(channel, cols, rows, mode, values, jac) };
                 return;
             }
         }
-        self.jacobian_block_inline::<N>(channel, cols, rows, mode, values, jac);
-    }
-
-    /// [`Self::jacobian_block_inline`] compiled with AVX-512F.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn jacobian_block_avx512<const N: usize>(
-        &self,
-        channel: Channel,
-        cols: Columns<'_>,
-        rows: Rows<'_>,
-        mode: Mode,
-        values: &mut [f64],
-        jac: &mut [f64],
-    ) {
         self.jacobian_block_inline::<N>(channel, cols, rows, mode, values, jac);
     }
 
@@ -968,7 +948,7 @@ mod tests {
         }
     }
 
-    /// The dispatched (AVX2/AVX-512F) Jacobian equals the baseline build bit for bit.
+    /// The dispatched (AVX2) Jacobian equals the baseline build bit for bit.
     #[test]
     fn every_instruction_set_gives_the_same_bits() {
         let tire = tire(1);
