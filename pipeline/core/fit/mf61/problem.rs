@@ -14,7 +14,7 @@
 
 use super::data::Point;
 use crate::fit::output::Output;
-use crate::fit::pac2002::{ConstrainedQuantity, Penalty, penalty_rows};
+use crate::fit::pac2002::{ConstrainedQuantity, Penalty, ey_rules, penalty_rows, trail_rules};
 use crate::numerics::nonlinear_least_squares::LeastSquaresProblem;
 use std::f64::consts::PI;
 
@@ -255,19 +255,8 @@ pub fn physical_penalties(
     let mut out = Vec::new();
     match channel {
         Channel::Fy0 => {
-            for dfz in dfzs {
-                for gamma in span.gammas() {
-                    for sign in [-1.0, 1.0] {
-                        let q = ConstrainedQuantity::Ey {
-                            dfz,
-                            gamma,
-                            sign,
-                            version,
-                        };
-                        out.push(at_most(q, 1.0));
-                    }
-                }
-            }
+            let rules = ey_rules(&dfzs, &span.gammas(), version);
+            out.extend(rules.into_iter().map(|(q, limit)| at_most(q, limit)));
         }
         Channel::Fx0 => {
             let (lo, hi) = (dfzs[0], dfzs[4]);
@@ -279,14 +268,8 @@ pub fn physical_penalties(
             }
         }
         Channel::Mz0 | Channel::Mz => {
-            for dfz in dfzs {
-                for gamma in span.gammas() {
-                    for a in [-1.0, 1.0] {
-                        out.push(at_most(ConstrainedQuantity::Et { dfz, gamma, a }, 1.0));
-                    }
-                    out.push(at_most(ConstrainedQuantity::NegBt { dfz, gamma }, -0.1));
-                }
-            }
+            let rules = trail_rules(&dfzs, &span.gammas());
+            out.extend(rules.into_iter().map(|(q, limit)| at_most(q, limit)));
         }
         Channel::Fx | Channel::Fy => {
             for dfz in dfzs {

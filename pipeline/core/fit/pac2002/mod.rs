@@ -67,7 +67,7 @@ use crate::tire_model::{Coef, Pac2002, SlipInput};
 pub use crate::numerics::nonlinear_least_squares::Identifiability;
 pub use family::Family;
 pub(crate) use family::{Levels, unidentifiable};
-pub(crate) use problem::{ConstrainedQuantity, Penalty, penalty_rows};
+pub(crate) use problem::{ConstrainedQuantity, Penalty, ey_rules, penalty_rows, trail_rules};
 pub use quality::{OutOfSample, TREND_SUBDIVISIONS, TrendDeviation};
 pub(crate) use stage::{bound_note, combined_slip_box};
 pub use stage::{fit, middle_nominal_load};

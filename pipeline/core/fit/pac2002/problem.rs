@@ -139,6 +139,46 @@ impl ConstrainedQuantity {
     }
 }
 
+/// The lateral curvature rules `Ey <= 1`, as (quantity, limit): at every load change of `dfzs`,
+/// inclination of `gammas` and both signs of `alpha_y`, in `version`'s equations.
+pub(crate) fn ey_rules(
+    dfzs: &[f64],
+    gammas: &[f64],
+    version: Version,
+) -> Vec<(ConstrainedQuantity, f64)> {
+    let mut out = Vec::new();
+    for &dfz in dfzs {
+        for &gamma in gammas {
+            for sign in [-1.0, 1.0] {
+                let q = ConstrainedQuantity::Ey {
+                    dfz,
+                    gamma,
+                    sign,
+                    version,
+                };
+                out.push((q, 1.0));
+            }
+        }
+    }
+    out
+}
+
+/// The aligning-moment trail rules, as (quantity, limit): `Et <= 1` at both ends of
+/// `(2/pi) atan(Bt Ct alpha_t)` and `Bt >= 0.1`, at every load change of `dfzs` and inclination
+/// of `gammas` (one form in PAC2002 and MF 6.x).
+pub(crate) fn trail_rules(dfzs: &[f64], gammas: &[f64]) -> Vec<(ConstrainedQuantity, f64)> {
+    let mut out = Vec::new();
+    for &dfz in dfzs {
+        for &gamma in gammas {
+            for a in [-1.0, 1.0] {
+                out.push((ConstrainedQuantity::Et { dfz, gamma, a }, 1.0));
+            }
+            out.push((ConstrainedQuantity::NegBt { dfz, gamma }, -0.1));
+        }
+    }
+    out
+}
+
 /// The load quantities of the combined-slip weights `Gxa`, `Gyk` at `input` for `version`: no
 /// pressure term enters them, so MF 6.x's are taken at `NOMPRES`.
 fn weight_load<T: Real>(c: &Coefs<T>, input: &SlipInput, version: Version) -> Load<T> {

@@ -17,7 +17,9 @@ use std::time::Instant;
 use super::collapse::{CollapseSettings, CollapsedSweep, collapse};
 use super::family::{Family, Levels, held_value, unidentifiable};
 use super::initial::{self, NoSweepCurve, Setup};
-use super::problem::{ConstrainedQuantity, DataPoint, FamilyProblem, Penalty, channel_value};
+use super::problem::{
+    ConstrainedQuantity, DataPoint, FamilyProblem, Penalty, channel_value, ey_rules, trail_rules,
+};
 use super::quality;
 use super::select::{FittedFamily, hold_weak_groups};
 use super::{
@@ -878,20 +880,8 @@ pub(super) fn penalties_of(
     let mut out = Vec::new();
     match family {
         Family::Fy0 => {
-            for dfz in env.dfz_grid() {
-                for gamma in gammas {
-                    for sign in [-1.0, 1.0] {
-                        let version = Version::Pac2002;
-                        let q = ConstrainedQuantity::Ey {
-                            dfz,
-                            gamma,
-                            sign,
-                            version,
-                        };
-                        out.push(at_most(q, 1.0));
-                    }
-                }
-            }
+            let rules = ey_rules(&env.dfz_grid(), &gammas, Version::Pac2002);
+            out.extend(rules.into_iter().map(|(q, limit)| at_most(q, limit)));
         }
         Family::Fx0 => {
             for dfz in env.dfz_grid() {
@@ -905,14 +895,8 @@ pub(super) fn penalties_of(
             }
         }
         Family::Mz0 | Family::Mz if free.iter().any(|c| Family::Mz0.coefficients().contains(c)) => {
-            for dfz in env.dfz_grid() {
-                for gamma in gammas {
-                    for a in [-1.0, 1.0] {
-                        out.push(at_most(ConstrainedQuantity::Et { dfz, gamma, a }, 1.0));
-                    }
-                    out.push(at_most(ConstrainedQuantity::NegBt { dfz, gamma }, -0.1));
-                }
-            }
+            let rules = trail_rules(&env.dfz_grid(), &gammas);
+            out.extend(rules.into_iter().map(|(q, limit)| at_most(q, limit)));
         }
         Family::Fx | Family::Fy => {
             for dfz in env.dfz_grid() {
