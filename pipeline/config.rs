@@ -197,7 +197,7 @@ pub struct Mf61Settings {
     pub max_iterations: usize,
     /// A family refinement stops when an accepted step lowers its cost by less than this fraction, -.
     pub ftol: f64,
-    /// With three or more tested pressures, also rerun the whole fit with each pressure left out and score that pressure (fit_quality lopo_rmse, lopo_ratio): one more whole fit per tested pressure.
+    /// With three or more tested pressures, also rerun the whole fit with each pressure left out and score that pressure (fit_quality lopo_rmse, lopo_ratio): one more whole fit per tested pressure, stopping at ftol 1e-5 (or ftol if larger): a check, not the model.
     pub leave_one_pressure_out: bool,
 }
 

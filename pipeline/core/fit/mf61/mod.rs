@@ -169,6 +169,11 @@ impl Default for Mf61Config {
     }
 }
 
+/// Relative cost change per accepted step below which a left-out-pressure refit stops: it is
+/// a check, whose RMSE needs no more digits than its ratio to the model's (the model's joint
+/// `Mz` step crawls on at 1e-6, moving its RMSE by well under 1 %).
+const CHECK_FTOL: f64 = 1e-5;
+
 /// The measured output `family` is fitted to on sweeps of `kind`, `None` for sweeps it does
 /// not read. `Mz` reads every sweep: the `Mz0` coefficients (trail, residual torque, `PPZ*`)
 /// and the arm `SSZ*` of combined slip are refined jointly.
@@ -1333,7 +1338,11 @@ pub fn fit_collapsed(
                 let rest: Vec<usize> = all.iter().copied().filter(|x| *x != g).collect();
                 // The left-out pressure must be evaluated as such, not clipped to the others'
                 // range.
-                let mut held = fit_points(&models, &training, nominal_pa, range_of(&rest), cfg);
+                let check = Mf61Config {
+                    ftol: cfg.ftol.max(CHECK_FTOL),
+                    ..*cfg
+                };
+                let mut held = fit_points(&models, &training, nominal_pa, range_of(&rest), &check);
                 held.model.coefs[PRESMIN] = PRESMIN.default_value();
                 held.model.coefs[PRESMAX] = PRESMAX.default_value();
                 Some((g, held))
