@@ -273,8 +273,11 @@ fn fit_is_deterministic() {
 /// Issue 5 speed target: a full fit (all families) of one tire and pressure under 2 s on one
 /// core, measured as the CPU time of the fitting thread in the test profile (the core crate is
 /// built at opt-level 3 in every profile). `cargo bench -p tirebase-core --bench fit_pac2002`
-/// gives the release wall-clock figure.
+/// gives the release wall-clock figure. A timing, not a check of behaviour: it runs on request
+/// (`--ignored`), since a loaded or slower machine fails it with correct code (the speed target
+/// lives in that bench).
 #[test]
+#[ignore = "timing: cargo test -p tirebase-core --lib full_fit_takes -- --ignored --nocapture"]
 fn full_fit_takes_under_two_seconds() {
     let input = ttc_round(&fsae_demo(), &RoundSpec::realistic(13));
     let samples: usize = input.sweeps.iter().map(|s| s.samples.len()).sum();
